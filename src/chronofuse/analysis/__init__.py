@@ -1,0 +1,1 @@
+"""Analysis of clock data: stability statistics, time-error metrics and masks."""

@@ -1,0 +1,52 @@
+"""Conversions between phase and fractional-frequency records, and gap handling."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from chronofuse.validation import check_array, check_scalar
+
+
+def frequency_to_phase(y: np.ndarray, rate_hz: float) -> np.ndarray:
+    """Integrate fractional frequency ``y`` (N,) into phase ``x`` (N+1,) in seconds, ``x[0] = 0``.
+
+    ``x[i+1] = x[i] + y[i] / rate_hz`` (NIST SP 1065 eq. 4 inverted). A NaN frequency sample is
+    integrated as the record's mean frequency and the phase at its end is marked NaN, so statistics
+    that skip gaps skip the terms that touch it.
+    """
+    y = check_array(y, "y", allow_nan=True)
+    check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
+    tau0 = 1.0 / rate_hz
+    gaps = np.isnan(y)
+    filled = np.where(gaps, np.nanmean(y) if (~gaps).any() else 0.0, y)
+    x = np.concatenate(([0.0], np.cumsum(filled) * tau0))
+    # A missing frequency sample makes the phase at its end unknown.
+    x[1:][gaps] = np.nan
+    return x
+
+
+def phase_to_frequency(x: np.ndarray, rate_hz: float) -> np.ndarray:
+    """First difference of phase over the sample interval: ``y[i] = (x[i+1] - x[i]) * rate_hz``."""
+    x = check_array(x, "x", allow_nan=True)
+    check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
+    return np.diff(x) * rate_hz
+
+
+def fill_gaps(x: np.ndarray) -> tuple[np.ndarray, int]:
+    """Linearly interpolate NaN runs inside ``x``; leading/trailing NaN are trimmed.
+
+    Returns the filled copy and the number of samples filled (interior) plus trimmed (ends).
+    """
+    x = np.asarray(x, dtype=float)
+    nan = np.isnan(x)
+    if not nan.any():
+        return x, 0
+    valid = np.flatnonzero(~nan)
+    if valid.size == 0:
+        raise ValueError("x contains only NaN")
+    trimmed = x[valid[0] : valid[-1] + 1]
+    nan_t = np.isnan(trimmed)
+    idx = np.arange(trimmed.size)
+    out = trimmed.copy()
+    out[nan_t] = np.interp(idx[nan_t], idx[~nan_t], trimmed[~nan_t])
+    return out, int(nan.sum())

@@ -1,0 +1,75 @@
+"""The one result type every stability statistic returns."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """A stability statistic evaluated at a set of averaging times.
+
+    All arrays have shape ``(k,)``, one entry per averaging time.
+
+    Attributes
+    ----------
+    statistic : str
+        Name of the statistic (``"adev"``, ``"mtie"``, ...).
+    tau_s : ndarray of shape (k,)
+        Averaging (observation) times in seconds.
+    dev : ndarray of shape (k,)
+        The deviation (seconds for TDEV/TTOTDEV/TIE rms/MTIE, dimensionless otherwise), bias-corrected
+        where the statistic has a correction and ``bias_corrected`` is true.
+    n : ndarray of int of shape (k,)
+        Number of terms averaged (Stable32's ``#`` column).
+    alpha : ndarray of int of shape (k,)
+        Identified power-law noise exponent of fractional frequency, ``S_y(f) ~ f**alpha``, in -2..2
+        (Stable32's ``Alpha`` column); used for the EDF and bias correction.
+    edf : ndarray of shape (k,)
+        Equivalent degrees of freedom (NaN where the statistic has no chi-square interval, e.g. MTIE).
+    lo, hi : ndarray of shape (k,)
+        Confidence interval bounds on ``dev`` at confidence ``ci`` (NaN where ``edf`` is NaN).
+    ci : float
+        Confidence factor of the interval (0.683 is Stable32's default, "1 sigma").
+    bias_corrected : bool
+        Whether the total-deviation bias correction was applied.
+    filled : int
+        Number of missing (NaN) phase samples filled by interpolation before computing, for
+        statistics that cannot skip gaps; 0 otherwise.
+    skipped : int
+        Number of missing (NaN) phase samples whose terms were skipped.
+    """
+
+    statistic: str
+    tau_s: np.ndarray
+    dev: np.ndarray
+    n: np.ndarray
+    alpha: np.ndarray
+    edf: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+    ci: float = 0.683
+    bias_corrected: bool = False
+    filled: int = 0
+    skipped: int = 0
+
+    def to_dict(self) -> dict:
+        """JSON-ready dict: ``{"tau": [...], "dev": [...], "lo": [...], "hi": [...], ...}`` (NaN -> None)."""
+
+        def clean(a):
+            return [None if (isinstance(v, float) and not np.isfinite(v)) else v for v in np.asarray(a).tolist()]
+
+        return {
+            "tau": clean(self.tau_s),
+            "dev": clean(self.dev),
+            "lo": clean(self.lo),
+            "hi": clean(self.hi),
+            "n": clean(self.n),
+            "alpha": clean(self.alpha),
+            "edf": clean(self.edf),
+            "bias_corrected": self.bias_corrected,
+            "filled": self.filled,
+            "skipped": self.skipped,
+        }

@@ -1,0 +1,1 @@
+"""The ``chronofuse`` command line: a thin layer over library calls."""
