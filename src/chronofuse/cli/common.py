@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import json
-import math
 import sys
 from contextlib import contextmanager
-from pathlib import Path
 
-import numpy as np
 import typer
 from rich.console import Console
+from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+from chronofuse.report.jsonio import dumps
 from chronofuse.validation import ChronofuseError
 
 # Human output goes to stderr when --json owns stdout; otherwise to stdout.
@@ -21,28 +19,9 @@ err_console = Console(stderr=True, highlight=False)
 EXIT_BAD_INPUT = 2
 
 
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (np.floating, float)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
-
-
 def print_json(doc: dict) -> None:
     """Print one JSON document on stdout (NaN/inf become null) and nothing else."""
-    sys.stdout.write(json.dumps(_jsonable(doc), indent=2) + "\n")
+    sys.stdout.write(dumps(doc) + "\n")
     sys.stdout.flush()
 
 
@@ -65,3 +44,20 @@ def user_errors():
 def human_console(json_mode: bool) -> Console:
     """The console for human-readable output: stderr when stdout carries JSON."""
     return err_console if json_mode else console
+
+
+@contextmanager
+def progress_reporter(label: str):
+    """A rich progress display on stderr for work that takes more than a second.
+
+    Yields ``say(message)``, which moves the display to the next stage; the display is transient and
+    never touches stdout, so ``--json`` output stays clean.
+    """
+    columns = (SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=err_console, transient=True) as bar:
+        task = bar.add_task(label, total=None)
+
+        def say(message: str) -> None:
+            bar.update(task, description=f"{label}: {message}")
+
+        yield say

@@ -1,0 +1,111 @@
+"""Scenario files: TOML, validated by pydantic, with units in every key name.
+
+A wrong key, a wrong type or a value out of range raises :class:`ScenarioError` naming the key and the
+file, e.g. ``scenarios/x.toml: oscillator.duration: unknown key (known: preset, h0, ...)``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import tomllib
+from pathlib import Path
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from chronofuse.validation import InputDataError
+
+DEFAULT_SCENARIO = Path(__file__).resolve().parent / "default.toml"
+
+
+class ScenarioError(InputDataError):
+    """A scenario file that does not validate; names the file and the key."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class OscillatorSection(_Strict):
+    """The free-running oscillator: a preset, optionally with h-coefficient and drift overrides."""
+
+    preset: Literal["tcxo", "ocxo", "rb", "csac"] = "ocxo"
+    h2: float | None = Field(None, ge=0)
+    h1: float | None = Field(None, ge=0)
+    h0: float | None = Field(None, ge=0)
+    hm1: float | None = Field(None, ge=0)
+    hm2: float | None = Field(None, ge=0)
+    drift_per_s: float | None = None
+
+
+class ReceiversSection(_Strict):
+    """The GNSS timing receivers: scenario name and how many, with independent errors."""
+
+    scenario: Literal["open-sky", "urban-canyon", "jamming", "spoofing"] = "urban-canyon"
+    count: int = Field(3, ge=1, le=64)
+
+
+class AnalysisSection(_Strict):
+    """What the report computes."""
+
+    deviations: list[Literal["adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev", "mtie", "tie_rms"]] = [
+        "oadev",
+        "tdev",
+        "mtie",
+    ]
+    taus: Literal["octave", "decade"] = "decade"
+    mask: Literal["prtc-a", "prtc-b", "g811"] | None = "prtc-a"
+
+
+class Scenario(_Strict):
+    """A whole run: duration, sample rate, seed, and the sections above."""
+
+    name: str = "default"
+    description: str = ""
+    duration_s: float = Field(86_400.0, gt=0, le=10 * 86_400)
+    rate_hz: float = Field(1.0, gt=0, le=1_000)
+    seed: int = Field(20_261_124, ge=0)
+    oscillator: OscillatorSection = OscillatorSection()
+    receivers: ReceiversSection = ReceiversSection()
+    analysis: AnalysisSection = AnalysisSection()
+
+
+def _known_keys(model: type[BaseModel], loc: tuple) -> list[str]:
+    for part in loc[:-1]:
+        field = model.model_fields.get(str(part))
+        if field is None or not isinstance(field.annotation, type) or not issubclass(field.annotation, BaseModel):
+            return []
+        model = field.annotation
+    return list(model.model_fields)
+
+
+def _describe(exc: ValidationError, source: str) -> ScenarioError:
+    err = exc.errors()[0]
+    key = ".".join(str(p) for p in err["loc"])
+    if err["type"] == "extra_forbidden":
+        known = _known_keys(Scenario, err["loc"])
+        hint = difflib.get_close_matches(str(err["loc"][-1]), known, n=1)
+        msg = f"{key}: unknown key" + (f" (did you mean {hint[0]!r}?)" if hint else "") + f"; known keys: {known}"
+    else:
+        msg = f"{key}: {err['msg']} (got {err.get('input')!r})"
+    return ScenarioError(msg, source)
+
+
+def parse_scenario(text: str, source: str = "<string>") -> Scenario:
+    """Parse and validate scenario TOML text."""
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"not valid TOML: {exc}", source) from exc
+    try:
+        return Scenario.model_validate(raw)
+    except ValidationError as exc:
+        raise _describe(exc, source) from exc
+
+
+def load_scenario(path: str | Path | None = None) -> Scenario:
+    """Load a scenario file; ``None`` gives the built-in default scenario."""
+    path = Path(path) if path is not None else DEFAULT_SCENARIO
+    if not path.is_file():
+        raise ScenarioError("no such scenario file", str(path))
+    return parse_scenario(path.read_text(encoding="utf-8"), str(path))

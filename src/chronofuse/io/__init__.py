@@ -1,0 +1,1 @@
+"""Real data in: receiver logs (NMEA, UBX), RINEX, and phase/frequency records."""

@@ -1,0 +1,50 @@
+"""Scenario files: the shipped ones validate, and mistakes are named by key and file."""
+
+from pathlib import Path
+
+import pytest
+
+from chronofuse.experiments.scenario import DEFAULT_SCENARIO, ScenarioError, load_scenario, parse_scenario
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def test_the_built_in_default_is_an_ocxo_and_three_urban_canyon_receivers_for_a_day():
+    scn = load_scenario()
+    assert (scn.oscillator.preset, scn.receivers.scenario, scn.receivers.count) == ("ocxo", "urban-canyon", 3)
+    assert scn.duration_s == 86_400
+
+
+def test_the_shipped_default_file_equals_the_built_in_default():
+    assert load_scenario(REPO / "scenarios/default.toml") == load_scenario(DEFAULT_SCENARIO)
+
+
+@pytest.mark.parametrize("path", sorted((REPO / "scenarios").glob("*.toml")), ids=lambda p: p.name)
+def test_every_shipped_scenario_validates(path):
+    assert load_scenario(path).name
+
+
+def test_an_unknown_key_names_itself_the_file_and_a_close_match():
+    with pytest.raises(ScenarioError, match=r"my.toml: duration_ms: unknown key \(did you mean 'duration_s'\?\)"):
+        parse_scenario("duration_ms = 5000\n", "my.toml")
+
+
+def test_an_unknown_key_in_a_section_is_named_with_its_section():
+    with pytest.raises(ScenarioError, match=r"receivers.scenaro: unknown key"):
+        parse_scenario('[receivers]\nscenaro = "open-sky"\n', "my.toml")
+
+
+def test_a_value_of_the_wrong_unit_or_range_names_the_key():
+    with pytest.raises(ScenarioError, match=r"my.toml: rate_hz: .*greater than 0"):
+        parse_scenario("rate_hz = -1\n", "my.toml")
+    with pytest.raises(ScenarioError, match=r"duration_s: .*got '1 day'"):
+        parse_scenario('duration_s = "1 day"\n', "my.toml")
+    with pytest.raises(ScenarioError, match=r"receivers.scenario"):
+        parse_scenario('[receivers]\nscenario = "moon"\n', "my.toml")
+
+
+def test_broken_toml_and_missing_files_are_named():
+    with pytest.raises(ScenarioError, match="my.toml: not valid TOML"):
+        parse_scenario("duration_s = \n", "my.toml")
+    with pytest.raises(ScenarioError, match="no such scenario file"):
+        load_scenario("does/not/exist.toml")
