@@ -1,0 +1,216 @@
+"""Power-law noise identification, as Stable32 does it.
+
+For each averaging factor ``m`` the dominant power-law exponent ``alpha`` of the fractional-frequency
+spectrum, ``S_y(f) ~ f**alpha``, is identified as an integer in -2..2 (Stable32's ``Alpha`` column):
+
+1. **Lag-1 autocorrelation** (W. J. Riley and C. A. Greenhall, "Power law noise identification using
+   the lag 1 autocorrelation", Proc. 18th EFTF, 2004), used when the record holds at least
+   ``MIN_ACF_POINTS`` (30) frequency averages at this ``m``. The phase is turned into its ``m``-sample
+   frequency averages ``z[k] = (x[(k+1)m] - x[km]) / (m tau0)`` (non-overlapped), a linear frequency
+   drift is removed, and the series is differenced ``d`` times until ``delta = r1 / (1 + r1) < 0.25``
+   (stationary) or ``d`` reaches ``dmax`` (2 for the Allan family, 3 for the Hadamard family);
+   then ``alpha = -2 (delta + d)`` (frequency data, theta = 0), rounded to the nearest integer
+   (Riley & Greenhall eqs. (2)-(6)).
+2. **B1 ratio with R(n)** (J. A. Barnes, "Tables of bias functions B1 and B2", NBS TN 375, 1969;
+   D. A. Howe et al., SP 1065 section 5.6), the fallback for shorter records: ``B1 = s**2 / AVAR``
+   (classical variance of the ``m``-averages over the non-overlapped Allan variance) is compared with
+   its expectation ``B1(N, mu)`` for each noise type, the boundaries being geometric means of
+   neighbouring expectations; B1 cannot tell white from flicker PM (both ``mu = -2``), so R(n) =
+   MVAR / AVAR decides between them.
+
+Reproduction of Stable32 (tests/analysis/test_noise_id.py): every ``Alpha`` entry of every Stable32
+table in ``shared/data/stability`` whose row has at least 30 frequency averages is reproduced exactly
+(phasedat, ocxo, gps and Cs5071A, all statistics of the Allan, Hadamard and total families). Working on
+frequency averages with a linear detrend matters: identifying on the decimated phase with a quadratic
+detrend (allantools' choice) gives alpha = 2 instead of Stable32's 0 at m = 10000 of the Cs5071A record.
+The B1/R(n) rows (fewer than 30 averages) are not all reproduced: Stable32's small-sample procedure is
+not documented beyond "B1 and R(n)", and its answers even differ between ADEV and OADEV at the same
+``m`` of the same record (ocxo m = 1024: -2 and -1), which no single B1 rule gives. The Cs5071A TOTDEV
+table reports alpha = 0 at every row (also where ADEV on the same data reports 2 and 1), and the
+PHASE.DAT HTOTDEV "nobias" table reports 2 everywhere: both look like a fixed alpha chosen in
+Stable32, not an identification, and are not reproduced.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from chronofuse.analysis.stability.kernels_allan import adev_raw, mdev_raw, oadev_raw
+
+__all__ = [
+    "MIN_ACF_POINTS",
+    "frequency_averages",
+    "lag1_autocorrelation",
+    "acf_noise_id",
+    "b1_noise_id",
+    "b1_expected",
+    "identify_noise",
+]
+
+# Riley & Greenhall (2004): the lag-1 ACF method needs about 30 points; Stable32 uses B1/R(n) below.
+MIN_ACF_POINTS = 30
+# Stationarity threshold of the fractionally integrated noise, delta < 1/4 (Riley & Greenhall eq. (5)).
+_DELTA_STATIONARY = 0.25
+
+
+def frequency_averages(x: np.ndarray, m: int) -> np.ndarray:
+    """Non-overlapped ``m``-sample frequency averages of phase ``x`` (N,), in units of 1/tau0.
+
+    ``z[k] = (x[(k+1) m] - x[k m]) / m`` for ``k = 0 .. floor((N-1)/m) - 1`` (the mean of ``m``
+    consecutive first differences; the 1/tau0 scale does not matter to any ratio used here).
+    """
+    xd = x[::m]
+    return np.diff(xd) / m
+
+
+def lag1_autocorrelation(z: np.ndarray) -> float:
+    """Lag-1 autocorrelation ``r1 = sum (z_i - zbar)(z_{i+1} - zbar) / sum (z_i - zbar)**2``.
+
+    Riley & Greenhall (2004) eq. (2); ``z`` of shape (n,), n >= 2.
+    """
+    zc = z - z.mean()
+    den = float(np.dot(zc, zc))
+    if den == 0.0:
+        return 0.0
+    return float(np.dot(zc[:-1], zc[1:])) / den
+
+
+def _remove_linear(z: np.ndarray) -> np.ndarray:
+    """Residual of ``z`` (n,) after a least-squares straight line (frequency offset and drift)."""
+    t = np.arange(z.size, dtype=float)
+    coef = np.polyfit(t, z, 1)
+    return z - np.polyval(coef, t)
+
+
+def acf_noise_id(x: np.ndarray, m: int, dmax: int) -> int | None:
+    """Lag-1 autocorrelation noise identification at averaging factor ``m``.
+
+    Parameters
+    ----------
+    x : ndarray of shape (N,)
+        Gap-free phase.
+    m : int
+        Averaging factor.
+    dmax : int
+        Largest number of differences (2: Allan family, 3: Hadamard family).
+
+    Returns
+    -------
+    int or None
+        ``alpha`` rounded to an integer (not yet clipped to -2..2), or None when there are fewer than
+        ``MIN_ACF_POINTS`` frequency averages.
+    """
+    z = frequency_averages(x, m)
+    if z.size < MIN_ACF_POINTS:
+        return None
+    z = _remove_linear(z)
+    d = 0
+    while True:
+        r1 = lag1_autocorrelation(z)
+        delta = r1 / (1.0 + r1)
+        if delta < _DELTA_STATIONARY or d >= dmax:
+            # p = -2 (delta + d) is the spectral exponent of frequency data: alpha = p (theta = 0).
+            return int(-np.round(2.0 * delta)) - 2 * d
+        z = np.diff(z)
+        d += 1
+
+
+def b1_expected(n: int, mu: int) -> float:
+    """Expected B1 ratio for ``n`` frequency averages and AVAR tau-exponent ``mu``.
+
+    Barnes (1969); D. A. Howe, "The total deviation approach to long-term characterization of frequency
+    stability", IEEE UFFC 47 (2000), Table 3: ``B1 = n (1 - n**mu) / (2 (n-1) (1 - 2**mu))``, whose
+    ``mu -> 0`` limit is ``n ln n / (2 (n-1) ln 2)`` (it gives 1 at ``mu = -1``, ``n/2`` at ``mu = 1``).
+    """
+    n = float(n)
+    if mu == 0:
+        return n * np.log(n) / (2.0 * (n - 1.0) * np.log(2.0))
+    return n * (1.0 - n**mu) / (2.0 * (n - 1.0) * (1.0 - 2.0**mu))
+
+
+def _rn_expected(m: int, alpha: int) -> float:
+    """Expected R(n) = MVAR / AVAR at averaging factor ``m`` (SP 1065 section 5.6; IEEE 1139-2008).
+
+    White PM: ``1/m``; flicker PM: ratio of the flicker-PM MVAR and AVAR coefficients with the
+    measurement bandwidth ``f_h = 1/(2 tau0)``.
+    """
+    if alpha == 2:
+        return 1.0 / m
+    avar = (1.038 + 3.0 * np.log(2.0 * np.pi * 0.5 * m)) / (4.0 * np.pi**2)
+    mvar = 3.0 * np.log(256.0 / 27.0) / (8.0 * np.pi**2)
+    return mvar / avar
+
+
+def b1_noise_id(x: np.ndarray, m: int) -> int | None:
+    """B1-ratio noise identification with R(n) to separate white and flicker PM.
+
+    ``x`` (N,) gap-free phase; returns ``alpha`` in -2..2, or None when fewer than 2 frequency averages
+    (or no Allan term) exist at this ``m``.
+    """
+    z = frequency_averages(x, m)
+    n = z.size
+    if n < 3:
+        return None
+    mm = np.array([m], dtype=np.int64)
+    avar = float(adev_raw(x, mm, 1.0)[0][0]) ** 2
+    if not np.isfinite(avar) or avar == 0.0:
+        return None
+    b1 = float(np.var(z, ddof=1)) / avar
+    # (AVAR tau-exponent mu, alpha), SP 1065 Table 3: white/flicker PM (-2, decided below by R(n)),
+    # white FM (-1), flicker FM (0), random walk FM (1).
+    candidates = [(-2, None), (-1, 0), (0, -1), (1, -2)]
+    expected = [b1_expected(n, mu) for mu, _ in candidates]
+    chosen = 0
+    for k in range(1, len(candidates)):
+        if b1 > np.sqrt(expected[k - 1] * expected[k]):
+            chosen = k
+    alpha = candidates[chosen][1]
+    if alpha is not None:
+        return alpha
+    # mu == -2: white (alpha 2) or flicker (alpha 1) PM, told apart by R(n) = MVAR / OAVAR.
+    if 3 * m > x.size - 1:
+        return 2
+    mvar = float(mdev_raw(x, mm, 1.0)[0][0]) ** 2
+    oavar = float(oadev_raw(x, mm, 1.0)[0][0]) ** 2
+    rn = mvar / oavar
+    return 1 if rn > np.sqrt(_rn_expected(m, 2) * _rn_expected(m, 1)) else 2
+
+
+def identify_noise(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> np.ndarray:
+    """Identify the power-law noise ``alpha`` (integer, -2..2) at each averaging factor.
+
+    Parameters
+    ----------
+    x : ndarray of shape (N,)
+        Gap-free phase (the engine fills gaps before identifying).
+    m : ndarray of int of shape (k,)
+        Averaging factors.
+    dmax : int
+        2 for the Allan and total families, 3 for the Hadamard family.
+
+    Returns
+    -------
+    ndarray of int64 of shape (k,)
+        Lag-1 ACF where at least 30 frequency averages exist, else B1/R(n). Where neither applies
+        (fewer than 3 averages, e.g. MTIE windows near the record length), the value identified at
+        the largest identifiable averaging factor is held (0, white FM, if there is none).
+    """
+    m = np.asarray(m, dtype=np.int64)
+    alpha = np.zeros(m.size, dtype=np.int64)
+    known = np.zeros(m.size, dtype=bool)
+    for j, mj in enumerate(m):
+        a = acf_noise_id(x, int(mj), dmax)
+        if a is None:
+            a = b1_noise_id(x, int(mj))
+        if a is not None:
+            alpha[j] = int(np.clip(a, -2, 2))
+            known[j] = True
+    if not known.all():
+        held = 0
+        order = np.argsort(m, kind="stable")
+        for j in order:
+            if known[j]:
+                held = alpha[j]
+            else:
+                alpha[j] = held
+    return alpha
