@@ -1,0 +1,1 @@
+"""Physical truth models (SPEC section 2): oscillators and their noise."""
