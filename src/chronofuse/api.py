@@ -1,0 +1,85 @@
+"""The public surface of chronofuse, in one place: ``from chronofuse.api import ...``.
+
+Truth models -> measurements -> analysis -> report, in the order data flows.
+"""
+
+from __future__ import annotations
+
+from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.stability import (
+    STATISTICS,
+    Deviation,
+    adev,
+    compute,
+    frequency_to_phase,
+    hdev,
+    htotdev,
+    mdev,
+    mtie,
+    mtotdev,
+    oadev,
+    ohdev,
+    phase_to_frequency,
+    tdev,
+    theo1,
+    tie_rms,
+    totdev,
+    ttotdev,
+)
+from chronofuse.analysis.stability.taus import averaging_factors
+from chronofuse.analysis.theory import adev_theory, avar_components
+from chronofuse.experiments.main_job import run_scenario
+from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
+from chronofuse.io.records import ClockRecord, read_record
+from chronofuse.models.noise import power_law_noise
+from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
+from chronofuse.models.receiver import SCENARIOS, ReceiverModel, scenario, simulate_receivers
+from chronofuse.validation import ChronofuseError, InputDataError
+
+__all__ = [
+    # truth models
+    "PowerLaw",
+    "OscillatorModel",
+    "PRESETS",
+    "preset",
+    "simulate_oscillator",
+    "power_law_noise",
+    "ReceiverModel",
+    "SCENARIOS",
+    "scenario",
+    "simulate_receivers",
+    # real data in
+    "ClockRecord",
+    "read_record",
+    # analysis
+    "Deviation",
+    "STATISTICS",
+    "compute",
+    "adev",
+    "oadev",
+    "mdev",
+    "tdev",
+    "hdev",
+    "ohdev",
+    "totdev",
+    "mtotdev",
+    "htotdev",
+    "ttotdev",
+    "theo1",
+    "tie_rms",
+    "mtie",
+    "frequency_to_phase",
+    "phase_to_frequency",
+    "averaging_factors",
+    "adev_theory",
+    "avar_components",
+    "MASKS",
+    # experiments
+    "Scenario",
+    "load_scenario",
+    "parse_scenario",
+    "run_scenario",
+    # errors
+    "ChronofuseError",
+    "InputDataError",
+]

@@ -1,0 +1,95 @@
+"""``chronofuse stability FILE``: stability statistics of a phase or frequency record."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from chronofuse.analysis import stability as st
+from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.stability.taus import parse_taus
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.io.records import read_record
+from chronofuse.report.figures import plot_deviations
+
+_UNITS_S = {"tdev", "ttotdev", "tie_rms", "mtie"}
+
+
+def register(app: typer.Typer) -> None:
+    app.command("stability")(stability)
+
+
+def stability(
+    file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, .gz ok."),
+    kind: str = typer.Option("phase", "--kind", help="phase (seconds) or freq (fractional frequency)."),
+    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column)."),
+    dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(st.STATISTICS)}."),
+    taus: str = typer.Option("octave", "--taus", help="octave, decade, all, or comma-separated seconds."),
+    mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASKS)}."),
+    plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of the deviations."),
+    column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
+    nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For absolute frequency in Hz: the nominal frequency."),
+    ci: float = typer.Option(0.683, "--ci", help="Confidence factor of the intervals."),
+    no_bias_correction: bool = typer.Option(False, "--no-bias-correction", help="Report total deviations without bias correction."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+) -> None:
+    """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TIE rms and MTIE, with confidence intervals."""
+    names = [d.strip().lower() for d in dev.split(",") if d.strip()]
+    unknown = [d for d in names if d not in st.STATISTICS]
+    if unknown or not names:
+        fail(f"--dev {dev!r}: unknown statistic {unknown}; choose from {', '.join(st.STATISTICS)}")
+    if mask is not None and mask not in MASKS:
+        fail(f"--mask {mask!r}: choose from {', '.join(MASKS)}")
+    with user_errors():
+        record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz)
+        tau_spec = parse_taus(taus, record.rate_hz)
+        x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
+        results = {}
+        with progress_reporter("stability") as say:
+            for name in names:
+                say(name)
+                results[name] = st.compute(name, x, record.rate_hz, tau_spec, ci=ci,
+                                           bias_correction=not no_bias_correction)
+            verdict = None
+            if mask is not None:
+                say(f"mask {mask}")
+                verdict = MASKS[mask].check(x, record.rate_hz)
+        if plot is not None:
+            dimensionless = {k: v for k, v in results.items() if k not in _UNITS_S}
+            seconds = {k: v for k, v in results.items() if k in _UNITS_S}
+            plot.parent.mkdir(parents=True, exist_ok=True)
+            chosen = dimensionless or seconds
+            plot_deviations(chosen, plot, ylabel="deviation" if dimensionless else "seconds",
+                            title=f"{file.name} ({record.values.size:,} points, {record.rate_hz:g} Hz)")
+    doc = {
+        "file": str(file),
+        "n": int(record.values.size),
+        "rate": record.rate_hz,
+        "kind": kind,
+        "gaps": record.n_gaps,
+        "deviations": {name: res.to_dict() for name, res in results.items()},
+        "mask": verdict.to_dict() if verdict is not None else None,
+        "plot": str(plot) if plot is not None else None,
+    }
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    con.print(f"[bold]{file}[/bold]: {record.values.size:,} {kind} points at {record.rate_hz:g} Hz, {record.n_gaps} missing")
+    for name, res in results.items():
+        table = Table("tau (s)", "n", "alpha", "lo", name.upper(), "hi", title=name.upper())
+        for k in range(res.tau_s.size):
+            table.add_row(f"{res.tau_s[k]:g}", str(res.n[k]), str(res.alpha[k]), _fmt(res.lo[k]), _fmt(res.dev[k]),
+                          _fmt(res.hi[k]))
+        con.print(table)
+    if verdict is not None:
+        con.print(f"mask {mask}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'}")
+    if plot is not None:
+        con.print(f"plot -> {plot}")
+
+
+def _fmt(value: float) -> str:
+    return "-" if not np.isfinite(value) else f"{value:.4e}"

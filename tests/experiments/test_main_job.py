@@ -1,0 +1,59 @@
+"""The main job: a report folder whose numbers agree with the models and the analysis."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from chronofuse.cli.main import app
+from chronofuse.experiments.main_job import run_scenario
+from chronofuse.experiments.scenario import parse_scenario
+
+SHORT = """
+name = "short"
+duration_s = 7200
+seed = 11
+[receivers]
+scenario = "open-sky"
+count = 2
+"""
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    return run_scenario(parse_scenario(SHORT, "short.toml"), tmp_path_factory.mktemp("run"))
+
+
+def test_the_report_folder_holds_json_csv_and_plots(report):
+    names = {p.name for p in report.out_dir.iterdir()}
+    assert {"summary.json", "timeseries.csv", "stability.csv", "time_error.png", "adev.png", "mtie.png"} <= names
+    summary = json.loads((report.out_dir / "summary.json").read_text())
+    assert set(summary["receivers"]) == {"rx1", "rx2"}
+    assert summary["mask"]["name"] == "prtc-a"
+
+
+def test_the_oscillator_in_the_report_agrees_with_its_theory_at_99_percent_confidence(report):
+    import pandas as pd
+
+    from chronofuse.analysis import stability
+
+    osc = report.summary["oscillator"]
+    x_s = pd.read_csv(report.out_dir / "timeseries.csv")["oscillator_x_ns"].to_numpy() * 1e-9
+    dev = stability.oadev(x_s, 1.0, "decade", ci=0.99)
+    theory = np.interp(np.log(dev.tau_s), np.log(osc["theory"]["tau"]), osc["theory"]["adev"])
+    inside = (theory >= dev.lo) & (theory <= dev.hi)
+    assert inside[dev.tau_s <= 200].all(), (dev.tau_s, dev.lo, theory, dev.hi)
+
+
+def test_the_same_scenario_and_seed_give_the_same_report(report, tmp_path):
+    again = run_scenario(parse_scenario(SHORT, "short.toml"), tmp_path)
+    assert (again.out_dir / "timeseries.csv").read_bytes() == (report.out_dir / "timeseries.csv").read_bytes()
+
+
+def test_chronofuse_run_with_a_bad_scenario_names_the_key_and_exits_2(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("duration = 10\n")
+    result = CliRunner().invoke(app, ["run", str(bad), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2
+    assert "bad.toml: duration: unknown key" in result.stderr
