@@ -33,7 +33,10 @@ def write_table(columns: dict[str, np.ndarray], out: Path) -> None:
     if out.suffix == ".parquet":
         pq.write_table(table, out)
     else:
-        pacsv.write_csv(table, out, pacsv.WriteOptions(quoting_style="none"))
+        # A plain header line (pyarrow would quote the names), then the rows.
+        with open(out, "wb") as fh:
+            fh.write((",".join(columns) + "\n").encode())
+            pacsv.write_csv(table, fh, pacsv.WriteOptions(include_header=False, quoting_style="none"))
 
 
 @simulate_app.command("oscillator")
