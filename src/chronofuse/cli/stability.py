@@ -86,9 +86,22 @@ def stability(
                           _fmt(res.hi[k]))
         con.print(table)
     if verdict is not None:
-        con.print(f"mask {mask}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'}")
+        con.print(f"mask {mask}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} ({verdict_details(verdict)})")
     if plot is not None:
         con.print(f"plot -> {plot}")
+
+
+def verdict_details(verdict) -> str:
+    """One line saying which of MTIE, TDEV and max |TE| failed, and where."""
+    parts = []
+    for res in (verdict.mtie, verdict.tdev):
+        bad = res.evaluated & ~res.passed_each
+        where = f" at tau {', '.join(f'{t:g}' for t in res.tau_s[bad][:4])} s" if bad.any() else ""
+        parts.append(f"{res.metric.upper()} {'pass' if res.passed else 'fail'}{where}")
+    if verdict.time_error is not None:
+        te = verdict.time_error
+        parts.append(f"max |TE| {te.max_abs_te_s * 1e9:.1f} ns {'<=' if te.passed else '>'} {te.limit_s * 1e9:.0f} ns")
+    return "; ".join(parts)
 
 
 def _fmt(value: float) -> str:
