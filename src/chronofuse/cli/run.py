@@ -35,7 +35,7 @@ def run(
     con.print(f"[bold]{scn.name}[/bold]: {scn.description}")
     con.print(f"oscillator {osc['model']}: free-run phase after {scn.duration_s:g} s = "
               f"{osc['free_run']['max_abs_ns']:.1f} ns max |x|")
-    table = Table("receiver", "1PPS rms (ns)", "peak-to-peak (ns)", "missing", "fix", "GDOP > 5",
+    table = Table("receiver", "1PPS rms (ns)", "peak-to-peak (ns)", "missing", "fix", "GDOP > 5 (with fix)",
                   title=f"Receivers ({scn.receivers.scenario}), 1PPS after qErr correction")
     for label, rx in s["receivers"].items():
         pe = rx["pps_error"]

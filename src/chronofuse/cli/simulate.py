@@ -15,6 +15,7 @@ from rich.table import Table
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.experiments.main_job import gdop_over_5_fraction
 from chronofuse.models.oscillator import PRESETS, preset, simulate_oscillator
 from chronofuse.models.receiver import SCENARIOS, simulate_receivers
 
@@ -107,14 +108,14 @@ def receiver(
             "receiver": r + 1,
             "pps_rms_ns": float(np.sqrt(np.mean(valid**2)) * 1e9) if valid.size else None,
             "fix_fraction": float(np.mean(truth.fix[0, r])),
-            "gdop_over_5_fraction": float(np.mean(np.nan_to_num(truth.gdop[0, r], nan=99.0) > 5)),
+            "gdop_over_5_fraction": gdop_over_5_fraction(truth.gdop[0, r]),
         })
     if json_out:
         print_json({"scenario": scenario, "receivers": receivers, "duration_s": duration, "out": str(out),
                     "summary": rows})
         return
     con = human_console(False)
-    table = Table("receiver", "1PPS rms after qErr (ns)", "fix", "GDOP > 5", title=f"{scenario}, {duration:,} s -> {out}")
+    table = Table("receiver", "1PPS rms after qErr (ns)", "fix", "GDOP > 5 (with fix)", title=f"{scenario}, {duration:,} s -> {out}")
     for row in rows:
         rms = "-" if row["pps_rms_ns"] is None else f"{row['pps_rms_ns']:.2f}"
         table.add_row(str(row["receiver"]), rms, f"{row['fix_fraction']:.1%}", f"{row['gdop_over_5_fraction']:.1%}")

@@ -48,6 +48,12 @@ def _oscillator_model(scn: Scenario):
     return model
 
 
+def gdop_over_5_fraction(gdop: np.ndarray) -> float:
+    """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (SPEC 3.1's usability limit)."""
+    with_fix = gdop[np.isfinite(gdop)]
+    return float(np.mean(with_fix > 5)) if with_fix.size else float("nan")
+
+
 def _series_summary(x_s: np.ndarray) -> dict:
     valid = x_s[np.isfinite(x_s)]
     if valid.size == 0:
@@ -155,7 +161,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
             label: {
                 "pps_error": _series_summary(series),
                 "fix_fraction": float(np.mean(rx.fix[0, i, :n])),
-                "gdop_over_5_fraction": float(np.mean(np.nan_to_num(rx.gdop[0, i, :n], nan=99.0) > 5)),
+                "gdop_over_5_fraction": gdop_over_5_fraction(rx.gdop[0, i, :n]),
                 "deviations": {stat: dev.to_dict() for stat, dev in rx_devs[label].items()},
             }
             for i, (label, series) in enumerate(zip(labels, pps[:, :n]))
