@@ -1,0 +1,416 @@
+"""Validation figures for docs/: the stability engine and the truth models against outside references.
+
+``write_validation_figures(out_dir, data_dir)`` writes PNGs and ``validation.json`` (the numbers
+plotted) into ``out_dir``:
+
+1. ``gps_deviations.png``, ``gps_tdev.png``: ADEV (decade grid), MDEV, MTOTDEV and TDEV (octave grid)
+   of the real GPS 1PPS-vs-H-maser record (``stability/gps``) with Stable32's tables overlaid
+   (Stable32 has no MTOTDEV table for this record: MTOTDEV is plotted alone).
+2. ``receiver_calibration.png``: ADEV of the simulated open-sky receiver's qErr-corrected 1PPS
+   (``pps_error_s + qerr_s``), of its raw ``pps_error_s`` (48 MHz sawtooth left in) and the analytic
+   :func:`~chronofuse.models.receiver.corrected_pps_adev`, against Stable32's ADEV table of that record;
+   the record's statistics behind the calibration are re-measured (:func:`record_statistics`).
+3. ``oscillator_<preset>.png``: simulated OADEV (independent trials pooled) with its confidence
+   interval against :func:`~chronofuse.analysis.theory.adev_theory` (noise and drift), per preset.
+4. ``cs5071a_mtie.png``, ``cs5071a_tdev.png``: MTIE and TDEV of the Cs 5071A record against the
+   PRTC-A, PRTC-B and G.811 masks, with Stable32's MTIE and TDEV tables overlaid.
+
+Run as ``python -m chronofuse.experiments.validation --data DIR --out docs/figures`` (``--quick``:
+shorter simulations and a shorter MTOTDEV range, for tests).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import scipy.signal  # noqa: E402
+import scipy.stats  # noqa: E402
+
+import chronofuse.analysis.stability as st  # noqa: E402
+from chronofuse.analysis.masks import MASKS  # noqa: E402
+from chronofuse.analysis.stability.edf import chi2_interval  # noqa: E402
+from chronofuse.analysis.theory import adev_theory  # noqa: E402
+from chronofuse.models.oscillator import PRESETS, simulate_oscillator  # noqa: E402
+from chronofuse.models.receiver import corrected_pps_adev, scenario, simulate_receivers  # noqa: E402
+from chronofuse.report.figures import plot_deviations  # noqa: E402
+from chronofuse.report.jsonio import dumps  # noqa: E402
+from chronofuse.validation import check_scalar  # noqa: E402
+
+__all__ = [
+    "ValidationSettings",
+    "FULL",
+    "QUICK",
+    "write_validation_figures",
+    "read_stable32_columns",
+    "pooled_oadev",
+    "record_statistics",
+    "main",
+]
+
+#: Root seed of every simulation here (one SeedSequence per experiment, SPEC section 1).
+SEED = 20261124
+
+
+@dataclass(frozen=True)
+class ValidationSettings:
+    """Sizes of the validation runs.
+
+    Attributes
+    ----------
+    receiver_duration_s : int
+        Length of the simulated open-sky receiver run, s (1 Hz).
+    oscillator_duration_s : float
+        Length of each simulated oscillator run, s (1 Hz).
+    oscillator_trials : int
+        Independent realisations of each oscillator preset, pooled (mean Allan variance).
+    mtotdev_max_tau_s : float
+        Largest MTOTDEV averaging time on the GPS record, s (its cost grows as N m per factor).
+    """
+
+    receiver_duration_s: int
+    oscillator_duration_s: float
+    oscillator_trials: int
+    mtotdev_max_tau_s: float
+
+    def __post_init__(self):
+        check_scalar(self.receiver_duration_s, "receiver_duration_s", min_val=1000, integer=True)
+        check_scalar(self.oscillator_duration_s, "oscillator_duration_s", min_val=1000.0)
+        check_scalar(self.oscillator_trials, "oscillator_trials", min_val=1, integer=True)
+        check_scalar(self.mtotdev_max_tau_s, "mtotdev_max_tau_s", min_val=1.0)
+
+
+#: The run behind docs/figures: the receiver as long as the GPS record, 8 x 2e5 s per oscillator preset.
+FULL = ValidationSettings(
+    receiver_duration_s=241_218, oscillator_duration_s=200_000.0, oscillator_trials=8, mtotdev_max_tau_s=65536.0
+)
+#: A smoke run for tests.
+QUICK = ValidationSettings(
+    receiver_duration_s=20_000, oscillator_duration_s=20_000.0, oscillator_trials=2, mtotdev_max_tau_s=256.0
+)
+
+
+def read_stable32_columns(path: Path) -> dict[str, np.ndarray]:
+    """Columns of a Stable32 table ``AF Tau # [Alpha Min Sigma Max] | Value`` (rows starting '#' skipped).
+
+    Returns ``tau`` (k,), ``n`` (k,) and ``dev`` (k,) (the Sigma or Value column), plus ``lo``, ``hi``
+    (k,) for 7-column tables.
+    """
+    lines = Path(path).read_text().splitlines()
+    rows = [line.split() for line in lines if line.strip() and not line.lstrip().startswith("#")]
+    arr = np.array(rows, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] not in (4, 7):
+        raise ValueError(f"{path}: table has shape {arr.shape}, must have 4 or 7 columns")
+    out = {"tau": arr[:, 1], "n": arr[:, 2].astype(np.int64)}
+    if arr.shape[1] == 7:
+        out.update(lo=arr[:, 4], dev=arr[:, 5], hi=arr[:, 6])
+    else:
+        out["dev"] = arr[:, 3]
+    return out
+
+
+def _load_phase(path: Path) -> np.ndarray:
+    """Phase record (N,) in seconds, one value per line, '#' comments."""
+    return np.loadtxt(path, comments="#", dtype=np.float64)
+
+
+def _max_rel_diff(ours: np.ndarray, table: np.ndarray) -> float:
+    return float(np.max(np.abs(ours / table - 1.0)))
+
+
+def _gps_figures(out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationSettings) -> tuple[list[Path], dict]:
+    tables = {
+        "adev": read_stable32_columns(stab / "gps" / "stable32_ADEV_decade.txt"),
+        "mdev": read_stable32_columns(stab / "gps" / "stable32_MDEV_octave.txt"),
+        "tdev": read_stable32_columns(stab / "gps" / "stable32_TDEV_octave.txt"),
+    }
+    ours = {name: st.compute(name, x, 1.0, tables[name]["tau"]) for name in tables}
+    octave_tau_s = st.averaging_factors(st.STATISTICS["mtotdev"].max_m(x.size), "octave").astype(float)
+    mtot_tau = octave_tau_s[octave_tau_s <= settings.mtotdev_max_tau_s]
+    ours["mtotdev"] = st.mtotdev(x, 1.0, mtot_tau)
+    paths = [
+        _plot_with_references(
+            {"ADEV (ours)": ours["adev"], "MDEV (ours)": ours["mdev"], "MTOTDEV (ours)": ours["mtotdev"]},
+            {"ADEV, Stable32 table": (tables["adev"]["tau"], tables["adev"]["dev"]),
+             "MDEV, Stable32 table": (tables["mdev"]["tau"], tables["mdev"]["dev"])},
+            out_dir / "gps_deviations.png",
+            ylabel="deviation",
+            title=f"GPS 1PPS vs H-maser ({x.size} s): ours (68.3 % CI) and Stable32",
+        ),
+        _plot_with_references(
+            {"TDEV (ours)": ours["tdev"]},
+            {"TDEV, Stable32 table": (tables["tdev"]["tau"], tables["tdev"]["dev"])},
+            out_dir / "gps_tdev.png",
+            ylabel="TDEV (s)",
+            title="GPS 1PPS vs H-maser: TDEV, ours and Stable32",
+        ),
+    ]
+    numbers = {
+        "n_points": int(x.size),
+        "ours": {name: dev.to_dict() for name, dev in ours.items()},
+        "stable32": {
+            name: {key: t[key] for key in ("tau", "dev", "n", "lo", "hi")} for name, t in tables.items()
+        },
+        "max_rel_diff_to_stable32": {name: _max_rel_diff(ours[name].dev, tables[name]["dev"]) for name in tables},
+        "n_equal_to_stable32": {name: bool(np.array_equal(ours[name].n, tables[name]["n"])) for name in tables},
+    }
+    return paths, numbers
+
+
+def record_statistics(x_s: np.ndarray, oadev_table: dict[str, np.ndarray], max_tau_s: float = 8192.0) -> dict:
+    """The statistics behind the open-sky calibration (``chronofuse.models.receiver`` docstring), re-measured.
+
+    ``x_s`` (N,) the 1 Hz GPS-vs-maser phase in seconds; ``oadev_table`` Stable32's OADEV octave table
+    (:func:`read_stable32_columns`). Returns the Pearson kurtosis of the second difference, the largest
+    first difference in units of its standard deviation, the lag-1 correlation of the first difference,
+    the median one-sided phase PSD above 0.1 Hz (Welch, 4096-point segments, s^2/Hz) and the white
+    sigma it implies (``sqrt(level f_h)``, f_h = 0.5 Hz), and the worst misfit ``|ln(model/table)|`` of
+    :func:`~chronofuse.models.receiver.corrected_pps_adev` of the open-sky preset up to ``max_tau_s``.
+    """
+    d1 = np.diff(x_s)
+    d2 = np.diff(x_s, 2)
+    centred = d1 - d1.mean()
+    freq, psd = scipy.signal.welch(x_s - x_s.mean(), fs=1.0, nperseg=4096)
+    level = float(np.median(psd[freq > 0.1]))
+    keep = oadev_table["tau"] <= max_tau_s
+    ratio = corrected_pps_adev(scenario("open-sky").model, oadev_table["tau"][keep]) / oadev_table["dev"][keep]
+    return {
+        "kurtosis_second_difference": float(scipy.stats.kurtosis(d2, fisher=False)),
+        "max_first_difference_s": float(np.abs(centred).max()),
+        "max_first_difference_sigmas": float(np.abs(centred).max() / centred.std()),
+        "lag1_correlation_first_difference": float(np.corrcoef(d1[:-1], d1[1:])[0, 1]),
+        "phase_psd_above_0p1_hz_s2_per_hz": level,
+        "white_sigma_from_psd_s": float(np.sqrt(level * 0.5)),
+        "analytic_to_oadev_table_tau": oadev_table["tau"][keep],
+        "analytic_to_oadev_table_ratio": ratio,
+        "analytic_worst_misfit": float(np.abs(np.log(ratio)).max()),
+    }
+
+
+def _receiver_figure(
+    out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationSettings, seed: int
+) -> tuple[list[Path], dict]:
+    table = read_stable32_columns(stab / "gps" / "stable32_ADEV_decade.txt")
+    truth = simulate_receivers("open-sky", settings.receiver_duration_s, 1, np.random.SeedSequence([seed, 2]))
+    corrected = truth.pps_error_s[0, 0] + truth.qerr_s[0, 0]
+    raw = np.array(truth.pps_error_s[0, 0])
+    tau = table["tau"][table["tau"] <= st.STATISTICS["adev"].max_m(corrected.size)]
+    with np.errstate(all="ignore"):
+        sim = st.adev(corrected, 1.0, tau)
+        sim_raw = st.adev(raw, 1.0, tau)
+    analytic = corrected_pps_adev(scenario("open-sky").model, table["tau"])
+    path = plot_deviations(
+        {"simulated open sky, pps_error_s + qerr_s": sim, "simulated open sky, raw pps_error_s": sim_raw},
+        out_dir / "receiver_calibration.png",
+        theory={"corrected_pps_adev (analytic)": (table["tau"], analytic)},
+        limits={"GPS 1PPS vs H-maser, Stable32 ADEV": (table["tau"], table["dev"])},
+        ylabel="ADEV",
+        title=f"Receiver model calibration ({settings.receiver_duration_s} s simulated)",
+    )
+    keep = np.isin(table["tau"], sim.tau_s)
+    numbers = {
+        "duration_s": settings.receiver_duration_s,
+        "seed": [seed, 2],
+        "tau": sim.tau_s,
+        "sim_corrected_adev": sim.dev,
+        "sim_raw_adev": sim_raw.dev,
+        "analytic_adev": analytic[keep],
+        "stable32_adev": table["dev"][keep],
+        "ratio_sim_to_stable32": sim.dev / table["dev"][keep],
+        "ratio_raw_to_corrected": sim_raw.dev / sim.dev,
+        "ratio_analytic_to_stable32": analytic[keep] / table["dev"][keep],
+        "record": record_statistics(x, read_stable32_columns(stab / "gps" / "stable32_OADEV_octave.txt")),
+    }
+    return [path], numbers
+
+
+def pooled_oadev(x_s: np.ndarray, rate_hz: float, ci: float = 0.683) -> st.Deviation:
+    """OADEV of independent trials pooled: mean AVAR, EDF = trials x one trial's EDF.
+
+    ``x_s`` (trials, N) phase in seconds. The trials are independent, so the mean of their Allan
+    variances has the sum of their EDFs (chi-square interval of NIST SP 1065 eq. (45) on that EDF);
+    ``n`` is the total number of terms. Returns a :class:`Deviation` on the octave grid.
+    """
+    if x_s.ndim != 2:
+        raise ValueError(f"x_s has shape {x_s.shape}, must be (trials, N)")
+    per_trial = [st.oadev(row, rate_hz, "octave", ci=ci) for row in x_s]
+    avar = np.mean([d.dev**2 for d in per_trial], axis=0)
+    edf = x_s.shape[0] * np.asarray(per_trial[0].edf)
+    dev = np.sqrt(avar)
+    lo, hi = chi2_interval(dev, edf, ci)
+    return dataclasses.replace(
+        per_trial[0], dev=dev, edf=edf, lo=lo, hi=hi, n=np.sum([d.n for d in per_trial], axis=0)
+    )
+
+
+def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) -> tuple[list[Path], dict]:
+    paths, numbers = [], {}
+    for i, (name, model) in enumerate(sorted(PRESETS.items())):
+        truth = simulate_oscillator(
+            model, settings.oscillator_duration_s, 1.0, np.random.SeedSequence([seed, 3, i]),
+            trials=settings.oscillator_trials,
+        )
+        dev = pooled_oadev(truth.x_s, 1.0)
+        theory = adev_theory(model.h, dev.tau_s, 1.0, model.drift_per_s)
+        paths.append(
+            plot_deviations(
+                {f"{name}: simulated OADEV, {settings.oscillator_trials} trials pooled (68.3 % CI)": dev},
+                out_dir / f"oscillator_{name}.png",
+                theory={"adev_theory (h-coefficients + drift)": (dev.tau_s, theory)},
+                ylabel="Allan deviation",
+                title=f"{name} preset: {settings.oscillator_trials} x {settings.oscillator_duration_s:.0f} s at 1 Hz",
+            )
+        )
+        inside = (theory >= dev.lo) & (theory <= dev.hi)
+        numbers[name] = {
+            "seed": [seed, 3, i],
+            "trials": settings.oscillator_trials,
+            "tau": dev.tau_s,
+            "oadev": dev.dev,
+            "lo": dev.lo,
+            "hi": dev.hi,
+            "edf": dev.edf,
+            "alpha": dev.alpha,
+            "theory": theory,
+            "ratio_sim_to_theory": dev.dev / theory,
+            "theory_inside_ci": inside,
+            "source": model.source,
+        }
+    return paths, numbers
+
+
+_MASK_STYLES = {"prtc-a": ("k", "-"), "prtc-b": ("tab:red", "--"), "g811": ("tab:purple", ":")}
+_MASK_LABELS = {"prtc-a": "PRTC-A (G.8272)", "prtc-b": "PRTC-B (G.8272)", "g811": "PRC (G.811)"}
+
+
+def _plot_with_references(deviations: dict, references: dict, path: Path, *, ylabel: str, title: str,
+                          masks: dict | None = None) -> Path:
+    """Log-log plot of our curves (points, CI bars), published values (crosses) and masks (lines).
+
+    ``deviations``: label -> :class:`Deviation`; ``references``: label -> ``(tau_s, value)`` drawn as
+    crosses in the colour of the same-index curve; ``masks``: clock name -> ``(tau_s, limit)``.
+    ``plot_deviations`` draws references as dashed lines hidden under equal points, and every limit
+    in one style, hence this variant.
+    """
+    fig, ax = plt.subplots(figsize=(7.5, 5), constrained_layout=True)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, (label, dev) in enumerate(deviations.items()):
+        yerr = np.vstack([dev.dev - dev.lo, dev.hi - dev.dev])
+        yerr = np.where(np.isfinite(yerr), yerr, 0.0)
+        ax.errorbar(dev.tau_s, dev.dev, yerr=yerr, fmt="o-", ms=3, lw=1, capsize=2, color=colors[i], label=label)
+    for i, (label, (tau, value)) in enumerate(references.items()):
+        ax.plot(tau, value, "x", ms=8, mew=1.5, color="k" if i >= len(colors) else colors[(i + 3) % len(colors)],
+                label=label)
+    for clock, (tau, limit) in (masks or {}).items():
+        color, style = _MASK_STYLES.get(clock, ("gray", "-"))
+        ax.plot(tau, limit, color=color, ls=style, lw=1.6, label=f"{_MASK_LABELS.get(clock, clock)} mask")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("tau (s)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _cs_figures(out_dir: Path, stab: Path) -> tuple[list[Path], dict]:
+    x = _load_phase(stab / "Cs5071A" / "5071A_phase.txt.gz")
+    paths, numbers = [], {"n_points": int(x.size)}
+    cases = (("mtie", "mtie_decade.txt", "MTIE (s)"), ("tdev", "tdev_decade.txt", "TDEV (s)"))
+    for metric, table_name, ylabel in cases:
+        table = read_stable32_columns(stab / "Cs5071A" / table_name)
+        dev = st.compute(metric, x, 1.0, table["tau"])
+        grid = np.logspace(np.log10(0.11), np.log10(max(1e5, float(dev.tau_s[-1]))), 400)
+        paths.append(
+            _plot_with_references(
+                {f"Cs 5071A {metric.upper()} (ours)": dev},
+                {f"{metric.upper()}, Stable32 table": (table["tau"], table["dev"])},
+                out_dir / f"cs5071a_{metric}.png",
+                ylabel=ylabel,
+                title=f"Cs 5071A vs H-maser ({x.size} s): {metric.upper()} against ITU-T masks",
+                masks={clock: (grid, MASKS[clock].limit_s(metric, grid)) for clock in MASKS},
+            )
+        )
+        checks = {clock: MASKS[clock].check(dev) for clock in MASKS}
+        numbers[metric] = {
+            "ours": dev.to_dict(),
+            "stable32": {"tau": table["tau"], "dev": table["dev"], "n": table["n"]},
+            "max_rel_diff_to_stable32": _max_rel_diff(dev.dev, table["dev"]),
+            "masks": {
+                clock: {"limit": r.limit_s, "passed": r.passed, "worst_margin_s": r.worst_margin_s,
+                        "failed_tau": r.tau_s[r.evaluated & ~r.passed_each]}
+                for clock, r in checks.items()
+            },
+        }
+    return paths, numbers
+
+
+def write_validation_figures(out_dir, data_dir, *, quick: bool = False, seed: int = SEED) -> list[Path]:
+    """Write the validation PNGs and ``validation.json`` into ``out_dir``; return their paths.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        Output folder (created if missing).
+    data_dir : str or Path
+        The project's real data (holding ``stability/gps`` and ``stability/Cs5071A``).
+    quick : bool
+        Use :data:`QUICK` sizes instead of :data:`FULL`.
+    seed : int
+        Root seed of the simulations.
+    """
+    out_dir, data_dir = Path(out_dir), Path(data_dir)
+    stab = data_dir / "stability"
+    if not (stab / "gps").is_dir() or not (stab / "Cs5071A").is_dir():
+        raise FileNotFoundError(f"data_dir == {str(data_dir)!r}, must hold stability/gps and stability/Cs5071A")
+    check_scalar(seed, "seed", min_val=0, integer=True)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    settings = QUICK if quick else FULL
+    timings, paths, numbers = {}, [], {"settings": settings.__dict__, "quick": bool(quick), "seed": seed}
+    gps_x = _load_phase(stab / "gps" / "gps_1pps_phase_data.txt.gz")
+    for key, run in (
+        ("gps", lambda: _gps_figures(out_dir, stab, gps_x, settings)),
+        ("receiver", lambda: _receiver_figure(out_dir, stab, gps_x, settings, seed)),
+        ("oscillators", lambda: _oscillator_figures(out_dir, settings, seed)),
+        ("cs5071a", lambda: _cs_figures(out_dir, stab)),
+    ):
+        start = time.perf_counter()
+        new_paths, numbers[key] = run()
+        timings[key] = time.perf_counter() - start
+        paths.extend(new_paths)
+    numbers["seconds"] = timings
+    json_path = out_dir / "validation.json"
+    json_path.write_text(dumps(numbers) + "\n")
+    paths.append(json_path)
+    return paths
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: ``python -m chronofuse.experiments.validation --data DIR --out DIR [--quick]``."""
+    parser = argparse.ArgumentParser(description="Write the validation figures and validation.json.")
+    parser.add_argument("--data", required=True, help="real data folder (holding stability/)")
+    parser.add_argument("--out", default="docs/figures", help="output folder")
+    parser.add_argument("--quick", action="store_true", help="short simulations (smoke run)")
+    parser.add_argument("--seed", type=int, default=SEED)
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+    paths = write_validation_figures(args.out, args.data, quick=args.quick, seed=args.seed)
+    for path in paths:
+        print(path)
+    print(f"done in {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
