@@ -1,0 +1,86 @@
+"""Receiver clock-bias truth under H0 from the detector's own noise model (SPEC 4), batched and seeded.
+
+The receiver clock is the two-state model (phase ``x``, fractional frequency ``y``) driven by white FM
+(``q1 = h0/2``) and random-walk FM (``q2 = 2 pi^2 h_-2``), discretised exactly (Brown & Hwang,
+"Introduction to Random Signals and Applied Kalman Filtering", 4th ed., sec. 9.3)::
+
+    y(k+1) = y(k) + w_y(k)
+    x(k+1) = x(k) + y(k) t_s + w_x(k)
+    Q = [[q1 t_s + q2 t_s^3 / 3, q2 t_s^2 / 2],
+         [q2 t_s^2 / 2,          q2 t_s      ]]
+
+and the measured clock bias adds white noise of variance ``s2 = sigma_rho^2 / c^2``. The second difference
+of this measured bias has exactly the ``r(0..2)`` of :func:`chronofuse.integrity.detector.difference_autocorrelation`.
+The noise is drawn without a Cholesky factor so that any intensity may be zero::
+
+    w_y = sqrt(q2 t_s) z2
+    w_x = sqrt(q1 t_s) z1 + sqrt(q2) t_s^1.5 (z2 / 2 + z3 / sqrt(12))
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from chronofuse.integrity.detector import noise_intensities
+from chronofuse.validation import check_scalar
+
+
+@dataclass(frozen=True)
+class ClockNoise:
+    """Noise of a receiver clock bias: white FM ``h0`` (s), random-walk FM ``hm2`` (1/s), ``sigma_rho_m`` (m)."""
+
+    h0: float
+    hm2: float
+    sigma_rho_m: float
+
+    def __post_init__(self):
+        for name in ("h0", "hm2", "sigma_rho_m"):
+            check_scalar(getattr(self, name), name, min_val=0.0)
+
+
+@dataclass(frozen=True)
+class ClockBiasSimulation:
+    """Simulated clock biases, shape (trials, steps): ``truth_s`` (the clock) and ``measured_s`` (+ noise)."""
+
+    truth_s: np.ndarray
+    measured_s: np.ndarray
+    interval_s: float
+
+    @property
+    def t_s(self) -> np.ndarray:
+        """Epoch times (s) from the first epoch, shape (steps,)."""
+        return np.arange(self.truth_s.shape[-1]) * self.interval_s
+
+
+def simulate_clock_bias(
+    noise: ClockNoise, *, interval_s: float, steps: int, trials: int, seed: int | np.random.SeedSequence
+) -> ClockBiasSimulation:
+    """Simulate ``trials`` independent clock-bias records of ``steps`` epochs under H0.
+
+    One ``SeedSequence`` (from ``seed``) is spawned per trial, so trial ``i`` is the same whatever
+    ``trials`` is. The clock starts at phase 0 and frequency 0.
+    """
+    check_scalar(interval_s, "interval_s", min_val=0.0, include_min=False)
+    check_scalar(steps, "steps", min_val=3, integer=True)
+    check_scalar(trials, "trials", min_val=1, integer=True)
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    q1, q2, s2 = noise_intensities(noise.h0, noise.hm2, noise.sigma_rho_m)
+    ts = float(interval_s)
+    truth = np.empty((trials, steps))
+    measured = np.empty((trials, steps))
+    a1 = math.sqrt(q1 * ts)
+    ay = math.sqrt(q2 * ts)
+    ax = math.sqrt(q2) * ts**1.5
+    sig = math.sqrt(s2)
+    for i, child in enumerate(ss.spawn(trials)):
+        z = np.random.default_rng(child).standard_normal((4, steps))
+        w_y = ay * z[1, :-1]
+        w_x = a1 * z[0, :-1] + ax * (0.5 * z[1, :-1] + z[2, :-1] / math.sqrt(12.0))
+        y = np.concatenate(([0.0], np.cumsum(w_y)))
+        x = np.concatenate(([0.0], np.cumsum(y[:-1] * ts + w_x)))
+        truth[i] = x
+        measured[i] = x + sig * z[3]
+    return ClockBiasSimulation(truth_s=truth, measured_s=measured, interval_s=ts)
