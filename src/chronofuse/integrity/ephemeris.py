@@ -1,0 +1,202 @@
+"""GPS broadcast ephemeris: satellite positions and clocks, vectorised over (epochs, sats).
+
+IS-GPS-200 (rev. N) section 20.3.3.4.3, Table 20-IV (user algorithm for ephemeris determination): Kepler
+propagation from ``toe`` with the mean-motion correction ``delta_n``, the second-harmonic corrections
+(``Cuc, Cus, Crc, Crs, Cic, Cis``), the rate of inclination and of right ascension, Earth rotation to ECEF
+(WGS 84). Section 20.3.3.3.3.1 (satellite clock): ``dt_sv = af0 + af1 (t - toc) + af2 (t - toc)^2 + dt_r``,
+relativistic ``dt_r = F e sqrt(A) sin(E_k)`` with ``F = -2 sqrt(mu) / c^2``, and ``- T_GD`` for an L1-only
+user (20.3.3.3.3.2).
+
+Times are GPS time; absolute epochs are int64 ns since 1980-01-06 (``*_gps_ns``) and offsets from them are
+float seconds (``*_s``), so no absolute epoch is ever one float64.
+
+Signal transit. The emission time is either solved from the pseudorange (the satellite time of emission is
+``t_rx_tag - rho / c``, exact whatever the receiver clock, then the satellite clock is removed) or by the
+light-time iteration ``tau = |R3(omega_e tau) r_sat(t_rx - tau) - r_rx| / c`` for a known true receive time.
+Either way the satellite position is rotated by ``omega_e tau`` (Earth rotation during transit, the Sagnac
+correction), so the range is computed in the ECEF frame of the receive time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from chronofuse.io.rinex import NS_PER_S, GpsNavigation
+
+SPEED_OF_LIGHT_M_PER_S = 299_792_458.0
+GM_M3_PER_S2 = 3.986005e14  # WGS 84 value of IS-GPS-200
+OMEGA_EARTH_RAD_PER_S = 7.2921151467e-5  # WGS 84 Earth rotation rate
+RELATIVISTIC_F_S_PER_SQRT_M = -4.442807633e-10  # F = -2 sqrt(mu) / c^2 (IS-GPS-200 20.3.3.3.3.1)
+SECONDS_PER_WEEK = 604_800
+
+_KEPLER_ITERATIONS = 10
+_LIGHT_TIME_ITERATIONS = 6
+
+
+@dataclass(frozen=True)
+class BroadcastEphemeris:
+    """Broadcast parameters chosen per (epoch, satellite); every array has shape (epochs, sats).
+
+    ``params`` holds the fields of :class:`chronofuse.io.rinex.GpsNavigation` (NaN where no usable record),
+    ``toe_gps_ns`` and ``toc_gps_ns`` the absolute reference times (int64 ns, 0 where none), ``valid`` (bool)
+    whether a healthy record within ``max_age_s`` of the epoch was found.
+    """
+
+    params: dict[str, np.ndarray]
+    toe_gps_ns: np.ndarray
+    toc_gps_ns: np.ndarray
+    valid: np.ndarray
+
+
+def _week_time(seconds: np.ndarray) -> np.ndarray:
+    """Fold a time difference into (-half week, half week] (IS-GPS-200 20.3.3.4.3, the ``tk`` rule)."""
+    return seconds - SECONDS_PER_WEEK * np.round(seconds / SECONDS_PER_WEEK)
+
+
+def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float = 4 * 3600.0) -> BroadcastEphemeris:
+    """For each epoch (``gps_ns``, int64 (epochs,)) and satellite (names, (sats,)) the healthy record with
+    the nearest ``toe``; not valid when none is within ``max_age_s``."""
+    gps_ns = np.asarray(gps_ns, dtype=np.int64)
+    epochs, sats = gps_ns.size, len(satellites)
+    p = nav.params
+    toe_ns = (p["week"].astype(np.int64) * SECONDS_PER_WEEK * NS_PER_S
+              + np.round(p["toe_s"] * NS_PER_S).astype(np.int64))
+    healthy = (p["health"] == 0) & np.isfinite(p["sqrt_a_sqrt_m"])
+    index = np.full((epochs, sats), -1, dtype=np.int64)
+    names = np.asarray(nav.satellites)
+    for j, sat in enumerate(satellites):
+        rows = np.flatnonzero((names == sat) & healthy)
+        if rows.size == 0:
+            continue
+        age_s = np.abs(gps_ns[:, None] - toe_ns[rows][None, :]) / NS_PER_S
+        best = np.argmin(age_s, axis=1)
+        ok = age_s[np.arange(epochs), best] <= max_age_s
+        index[ok, j] = rows[best[ok]]
+    valid = index >= 0
+    safe = np.where(valid, index, 0)
+    params = {k: np.where(valid, v[safe], np.nan) for k, v in p.items()}
+    return BroadcastEphemeris(
+        params=params,
+        toe_gps_ns=np.where(valid, toe_ns[safe], 0),
+        toc_gps_ns=np.where(valid, nav.toc_gps_ns[safe], 0),
+        valid=valid,
+    )
+
+
+def _eccentric_anomaly(eph: BroadcastEphemeris, tk_s: np.ndarray) -> np.ndarray:
+    """``E_k`` from Kepler's equation ``M_k = E_k - e sin E_k`` (fixed-point iteration, converged to 1e-15)."""
+    p = eph.params
+    a = p["sqrt_a_sqrt_m"] ** 2
+    n = np.sqrt(GM_M3_PER_S2 / a**3) + p["delta_n_rad_per_s"]
+    mk = p["m0_rad"] + n * tk_s
+    ek = mk.copy()
+    for _ in range(_KEPLER_ITERATIONS):
+        ek = mk + p["eccentricity"] * np.sin(ek)
+    return ek
+
+
+def satellite_position_ecef(eph: BroadcastEphemeris, gps_ns, offset_s=0.0) -> np.ndarray:
+    """ECEF position (m) at ``gps_ns + offset_s`` (GPS time): IS-GPS-200 Table 20-IV.
+
+    ``gps_ns`` int64 (epochs,); ``offset_s`` float, scalar or (epochs, sats). Returns (epochs, sats, 3), NaN
+    where the ephemeris is not valid.
+    """
+    p = eph.params
+    tk = _week_time((np.asarray(gps_ns, dtype=np.int64)[:, None] - eph.toe_gps_ns) / NS_PER_S + offset_s)
+    a = p["sqrt_a_sqrt_m"] ** 2
+    e = p["eccentricity"]
+    ek = _eccentric_anomaly(eph, tk)
+    nu = np.arctan2(np.sqrt(1.0 - e**2) * np.sin(ek), np.cos(ek) - e)  # true anomaly
+    phi = nu + p["omega_rad"]  # argument of latitude
+    s2, c2 = np.sin(2.0 * phi), np.cos(2.0 * phi)
+    u = phi + p["cus_rad"] * s2 + p["cuc_rad"] * c2
+    r = a * (1.0 - e * np.cos(ek)) + p["crs_m"] * s2 + p["crc_m"] * c2
+    i = p["i0_rad"] + p["idot_rad_per_s"] * tk + p["cis_rad"] * s2 + p["cic_rad"] * c2
+    x_orb, y_orb = r * np.cos(u), r * np.sin(u)
+    toe = p["toe_s"]
+    omega = p["omega0_rad"] + (p["omega_dot_rad_per_s"] - OMEGA_EARTH_RAD_PER_S) * tk - OMEGA_EARTH_RAD_PER_S * toe
+    co, so, ci = np.cos(omega), np.sin(omega), np.cos(i)
+    return np.stack(
+        [x_orb * co - y_orb * ci * so, x_orb * so + y_orb * ci * co, y_orb * np.sin(i)], axis=-1
+    )
+
+
+def satellite_clock_s(eph: BroadcastEphemeris, gps_ns, offset_s=0.0, *, l1_tgd: bool = True) -> np.ndarray:
+    """Satellite clock offset ``dt_sv`` (s) at ``gps_ns + offset_s``: polynomial + relativistic ``- T_GD``.
+
+    IS-GPS-200 20.3.3.3.3.1 (``dt_sv = af0 + af1 dt + af2 dt^2 + F e sqrt(A) sin E_k``) and 20.3.3.3.3.2
+    (``(dt_sv)_L1 = dt_sv - T_GD``, applied when ``l1_tgd``). Shape (epochs, sats).
+    """
+    p = eph.params
+    ref = np.asarray(gps_ns, dtype=np.int64)[:, None]
+    dt = _week_time((ref - eph.toc_gps_ns) / NS_PER_S + offset_s)
+    tk = _week_time((ref - eph.toe_gps_ns) / NS_PER_S + offset_s)
+    ek = _eccentric_anomaly(eph, tk)
+    rel = RELATIVISTIC_F_S_PER_SQRT_M * p["eccentricity"] * p["sqrt_a_sqrt_m"] * np.sin(ek)
+    clock = p["af0_s"] + p["af1_s_per_s"] * dt + p["af2_s_per_s2"] * dt**2 + rel
+    return clock - p["tgd_s"] if l1_tgd else clock
+
+
+def rotate_earth(position_m: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+    """Rotate ECEF positions (..., 3) about the z axis by ``-angle`` (R3(omega_e tau)): the emission-time
+    ECEF frame expressed in the receive-time ECEF frame (Sagnac correction)."""
+    c, s = np.cos(angle_rad), np.sin(angle_rad)
+    x, y, z = position_m[..., 0], position_m[..., 1], position_m[..., 2]
+    return np.stack([c * x + s * y, -s * x + c * y, z], axis=-1)
+
+
+@dataclass(frozen=True)
+class SignalGeometry:
+    """Satellite-to-receiver geometry per (epoch, sat): ``satellite_m`` (epochs, sats, 3) at emission in the
+    receive-time ECEF frame, ``range_m`` geometric range, ``transit_s`` light time, ``clock_s`` satellite
+    clock offset (L1, with T_GD), ``emission_offset_s`` emission time minus the epoch tag (s)."""
+
+    satellite_m: np.ndarray
+    range_m: np.ndarray
+    transit_s: np.ndarray
+    clock_s: np.ndarray
+    emission_offset_s: np.ndarray
+
+
+def _transit(eph, gps_ns, offset_s, receiver_m) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Satellite position rotated by the light time from its emission at ``gps_ns + offset_s`` to the receiver."""
+    sat = satellite_position_ecef(eph, gps_ns, offset_s)
+    tau = np.linalg.norm(sat - receiver_m, axis=-1) / SPEED_OF_LIGHT_M_PER_S
+    for _ in range(_LIGHT_TIME_ITERATIONS):
+        rotated = rotate_earth(sat, OMEGA_EARTH_RAD_PER_S * tau)
+        tau = np.linalg.norm(rotated - receiver_m, axis=-1) / SPEED_OF_LIGHT_M_PER_S
+    rotated = rotate_earth(sat, OMEGA_EARTH_RAD_PER_S * tau)
+    return rotated, np.linalg.norm(rotated - receiver_m, axis=-1), tau
+
+
+def geometry_from_pseudorange(eph: BroadcastEphemeris, gps_ns, pseudorange_m, receiver_m) -> SignalGeometry:
+    """Geometry with the emission time from the pseudorange (exact for any receiver clock error).
+
+    The satellite's time of emission is ``t_tag - rho / c``; GPS time of emission is that minus ``dt_sv``
+    (evaluated there; a second pass makes it self-consistent to < 1e-15 s). ``gps_ns`` int64 (epochs,),
+    ``pseudorange_m`` (epochs, sats), ``receiver_m`` (3,).
+    """
+    receiver_m = np.asarray(receiver_m, dtype=np.float64)
+    sv_time_offset = -np.asarray(pseudorange_m, dtype=np.float64) / SPEED_OF_LIGHT_M_PER_S
+    clock = satellite_clock_s(eph, gps_ns, sv_time_offset)
+    clock = satellite_clock_s(eph, gps_ns, sv_time_offset - clock)
+    offset = sv_time_offset - clock
+    sat, rng, tau = _transit(eph, gps_ns, offset, receiver_m)
+    return SignalGeometry(sat, rng, tau, clock, offset)
+
+
+def geometry_from_light_time(eph: BroadcastEphemeris, gps_ns, receiver_m) -> SignalGeometry:
+    """Geometry for a known true receive time ``gps_ns``: the light-time iteration
+    ``tau_{i+1} = |R3(omega_e tau_i) r_sat(t - tau_i) - r_rx| / c`` (converges to < 1e-12 s in a few steps)."""
+    receiver_m = np.asarray(receiver_m, dtype=np.float64)
+    gps_ns = np.asarray(gps_ns, dtype=np.int64)
+    tau = np.full(eph.valid.shape, 0.075)
+    for _ in range(_LIGHT_TIME_ITERATIONS):
+        sat = rotate_earth(satellite_position_ecef(eph, gps_ns, -tau), OMEGA_EARTH_RAD_PER_S * tau)
+        tau = np.linalg.norm(sat - receiver_m, axis=-1) / SPEED_OF_LIGHT_M_PER_S
+    sat = rotate_earth(satellite_position_ecef(eph, gps_ns, -tau), OMEGA_EARTH_RAD_PER_S * tau)
+    rng = np.linalg.norm(sat - receiver_m, axis=-1)
+    clock = satellite_clock_s(eph, gps_ns, -tau)
+    return SignalGeometry(sat, rng, tau, clock, -tau)
