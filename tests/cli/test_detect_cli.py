@@ -1,0 +1,275 @@
+"""`chronofuse detect`: detection on CSV and UBX, the JSON document, and clear errors on bad input."""
+
+import json
+
+import numpy as np
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from chronofuse.cli import detect as detect_cli
+from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+
+runner = CliRunner()
+app = typer.Typer()
+detect_cli.register(app)
+
+
+@app.callback()
+def _root() -> None:
+    """Local app holding only the command under test."""
+
+
+NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
+MODEL = ["--h0", "2e-18", "--hm2", "1e-22", "--sigma-rho", "1.0"]
+KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped"}
+
+
+def _bias(steps=1500, seed=1, anomaly=None):
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=steps, trials=1, seed=seed).measured_s[0]
+    return inject(x, anomaly, 1.0) if anomaly is not None else x
+
+
+def _write_csv(path, t, x, names=("t_s", "clock_bias_s"), scale=1.0):
+    lines = [",".join(names)]
+    lines += [f"{float(ti)!r},{'nan' if np.isnan(xi) else repr(float(xi) * scale)}" for ti, xi in zip(t, x)]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _invoke(*args):
+    return runner.invoke(app, ["detect", *map(str, args)])
+
+
+def _one_line_error(result, *fragments):
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+    assert "Traceback" not in result.output
+
+
+def test_json_document_has_exactly_the_documented_keys_and_finds_a_drag_off(tmp_path):
+    t = 1000.0 + np.arange(1500)
+    accel = 0.5 * np.sqrt(6) * NOISE.sigma_rho_m / 299_792_458.0  # df shift 0.5 sigma_df
+    path = _write_csv(tmp_path / "bias.csv", t, _bias(anomaly=Anomaly("drag", 1000.0, accel)))
+    result = _invoke(path, "--rate", 1, *MODEL, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert set(doc) == KEYS
+    assert doc["mode"] == "detection" and doc["n_epochs"] == 1500 and doc["window"] == 20 and doc["pfa"] == 1e-3
+    assert doc["n_alarms"] == len(doc["alarms"]) and doc["n_skipped"] == 0
+    alarm_t = np.array([a["t"] for a in doc["alarms"]])
+    assert set(doc["alarms"][0]) == {"t", "statistic", "channel"}
+    assert (alarm_t >= 2000.0).sum() > 400  # times on the file's time axis, from the onset on
+    assert 2000.0 <= alarm_t[alarm_t >= 2000.0].min() <= 2020.0
+    assert (alarm_t < 2000.0).sum() <= 5  # false alarms before onset at P_fa = 1e-3
+    assert all(a["statistic"] > doc["threshold"] for a in doc["alarms"])
+
+
+def test_nanosecond_columns_and_column_choice_give_the_same_alarms(tmp_path):
+    t = np.arange(800.0)
+    x = _bias(steps=800, anomaly=Anomaly("step", 400.0, 4e-8))
+    base = json.loads(_invoke(_write_csv(tmp_path / "s.csv", t, x), "--rate", 1, *MODEL, "--json").stdout)
+    ns = tmp_path / "ns.csv"
+    ns.write_text("t_s,other_ns,clock_bias_ns\n" + "".join(f"{float(ti)},{1.0},{float(xi) * 1e9!r}\n" for ti, xi in zip(t, x)))
+    result = _invoke(ns, "--rate", 1, *MODEL, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert [a["t"] for a in doc["alarms"]] == [a["t"] for a in base["alarms"]]
+    np.testing.assert_allclose([a["statistic"] for a in doc["alarms"]], [a["statistic"] for a in base["alarms"]],
+                               rtol=1e-6)
+    picked = json.loads(_invoke(ns, "--rate", 1, "--column", "clock_bias_ns", *MODEL, "--json").stdout)
+    assert [a["t"] for a in picked["alarms"]] == [a["t"] for a in base["alarms"]]
+    assert any(400 <= a["t"] <= 402 for a in base["alarms"])
+
+
+def test_missing_clock_biases_and_time_gaps_are_skipped_and_counted(tmp_path):
+    t = np.arange(600.0)
+    x = _bias(steps=600)
+    x[[100, 101, 350]] = np.nan
+    keep = np.ones(600, bool)
+    keep[200:205] = False  # five epochs absent from the time column
+    path = _write_csv(tmp_path / "gaps.csv", t[keep], x[keep])
+    result = _invoke(path, "--rate", 1, *MODEL, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["n_skipped"] == 8 and doc["n_epochs"] == 600
+
+
+def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path):
+    t = np.arange(6000.0)
+    path = _write_csv(tmp_path / "b.csv", t, _bias(steps=6000, seed=4, anomaly=Anomaly("step", 5000.0, 1e-7)))
+    result = _invoke(path, "--rate", 1, "--train", 4000, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    times = [a["t"] for a in doc["alarms"]]
+    assert any(5000 <= ti <= 5002 for ti in times)
+    assert sum(ti < 5000 for ti in times) <= 15
+
+
+def test_human_output_is_a_table_of_alarms(tmp_path):
+    path = _write_csv(tmp_path / "b.csv", np.arange(500.0), _bias(steps=500, anomaly=Anomaly("step", 300.0, 1e-7)))
+    result = _invoke(path, "--rate", 1, *MODEL)
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.stdout.split())
+    assert "alarm(s)" in text and "detection mode" in text and "300.000" in text
+
+
+@pytest.mark.parametrize(
+    "content, extra, fragments",
+    [
+        ("", [], ["empty.csv", "empty"]),
+        ("t_s,clock_bias_s\n0,1e-6\n1,1e-6\n2,1e-6\n", [], ["bad.csv", "window 20 is longer than the data"]),
+        ("t_s,clock_bias_s\n" + "".join(f"{k},{k * 1e-9}\n" for k in (0, 1, 2, 1, 4)) + "".join(
+            f"{k},0\n" for k in range(5, 40)), [], ["bad.csv:5", "not increasing"]),
+        ("t_s,clock_bias_s\n" + "".join(f"{k},0\n" for k in range(30)) + "30.5,0\n", [],
+         ["bad.csv", "not a whole number"]),
+        ("t_s,clock_bias_s\n" + "".join(f"{k},0\n" for k in range(30)), ["--column", "bias_ns"],
+         ["bad.csv", "'bias_ns' not found"]),
+        ("t_s,clock_bias_s\n" + "".join(f"{k},0\n" for k in range(5)) + "5,abc\n", [],
+         ["bad.csv:7", "'abc'"]),
+    ],
+)
+def test_bad_csv_input_gives_a_one_line_error_naming_the_file(tmp_path, content, extra, fragments):
+    name = "empty.csv" if not content else "bad.csv"
+    path = tmp_path / name
+    path.write_text(content)
+    _one_line_error(_invoke(path, "--rate", 1, *MODEL, *extra, "--json"), *fragments)
+
+
+def test_missing_noise_model_and_bad_options_are_refused(tmp_path):
+    path = _write_csv(tmp_path / "b.csv", np.arange(100.0), _bias(steps=100))
+    _one_line_error(_invoke(path, "--rate", 1, "--h0", "1e-18"), "--train")
+    _one_line_error(_invoke(path, "--rate", 0, *MODEL), "--rate")
+    _one_line_error(_invoke(path, "--rate", 1, *MODEL, "--pfa", 2), "--pfa")
+    _one_line_error(_invoke(path, "--rate", 1, *MODEL, "--position", "1,2,3"), "RINEX")
+
+
+def _nav_clock_offsets(blob: bytes) -> list[int]:
+    offsets, start = [], 0
+    while (k := blob.find(b"\xb5\x62\x01\x22", start)) >= 0:
+        offsets.append(k)
+        start = k + 1
+    return offsets
+
+
+def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, data_dir):
+    pytest.importorskip("chronofuse.io.ubx")
+    real = data_dir / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log"
+    clean = _invoke(real, "--rate", 1, "--train", 300, "--json")
+    assert clean.exit_code == 0, clean.output
+    clean_doc = json.loads(clean.stdout)
+    blob = bytearray(real.read_bytes())
+    frames = _nav_clock_offsets(bytes(blob))
+    blob[frames[300] + 10] ^= 0xFF  # a payload byte of one NAV-CLOCK frame: bad checksum
+    cut = frames[-1] + 12  # the last NAV-CLOCK frame cut short
+    corrupt = tmp_path / "corrupt.ubx"
+    corrupt.write_bytes(bytes(blob[:cut]))
+    result = _invoke(corrupt, "--rate", 1, "--train", 300, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    # one epoch lost in the middle (its frame and its grid epoch), one lost at the end (frame only)
+    assert doc["n_epochs"] == clean_doc["n_epochs"] - 1
+    assert doc["n_skipped"] >= clean_doc["n_skipped"] + 2
+
+
+@pytest.mark.parametrize("name, fragment", [("pygpsdata-BADCK2.log", "longer than the data"),
+                                            ("pygpsdata-BADEOF1.log", "no UBX NAV-CLOCK")])
+def test_broken_ubx_captures_give_one_line_errors(data_dir, name, fragment):
+    pytest.importorskip("chronofuse.io.ubx")
+    _one_line_error(_invoke(data_dir / "receivers" / "ubx" / name, "--rate", 1, *MODEL, "--json"), name, fragment)
+
+
+def test_rinex_input_needs_nav_and_position_and_a_nav_file_is_not_observations(data_dir):
+    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+    _one_line_error(_invoke(rtk / "07590920.05o", "--rate", 1 / 30, *MODEL), "07590920.05o", "--nav")
+    _one_line_error(_invoke(rtk / "07590920.05n", "--rate", 1 / 30, *MODEL), "navigation file")
+
+
+def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch2: float) -> str:
+    """Add a quadratic drag-off (metres) to the C1 and P2 pseudoranges of ``sat`` in a RINEX 2.10 obs file
+    with 4 observation types (one line per satellite), from epoch ``onset`` on."""
+    lines = text.splitlines()
+    k = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
+    epoch = 0
+    while k < len(lines):
+        head = lines[k]
+        nsat = int(head[29:32])
+        if head[28] not in "01":  # event flag with special records (comments): not an epoch
+            k += 1 + nsat
+            continue
+        sats = head[32:68]
+        k += 1
+        while len(sats) < 3 * nsat:
+            sats += lines[k][32:68]
+            k += 1
+        names = [sats[3 * i : 3 * i + 3].replace(" ", "0") for i in range(nsat)]
+        for j, name in enumerate(names):
+            if name == sat and epoch >= onset:
+                row = lines[k + j].ljust(64)
+                extra = 0.5 * metres_per_epoch2 * (epoch - onset) ** 2
+                for field in (1, 3):
+                    value = float(row[16 * field : 16 * field + 14]) + extra
+                    row = row[: 16 * field] + f"{value:14.3f}" + row[16 * field + 14 :]
+                lines[k + j] = row.rstrip()
+        k += nsat
+        epoch += 1
+    return "\n".join(lines) + "\n"
+
+
+def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_real_rinex(tmp_path, data_dir):
+    pytest.importorskip("chronofuse.integrity.identification")
+    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+    clean_obs = tmp_path / "clean.05o"
+    clean_obs.write_text((rtk / "07590920.05o").read_text())
+    obs = tmp_path / "07590920.05o"
+    obs.write_text(_inject_rinex2_pseudorange(clean_obs.read_text(), "G20", 80, 1.0))
+    args = ["--rate", 1 / 30, "--nav", rtk / "07590920.05n", "--position", "-3976219.5082,3382372.5671,3652512.9849",
+            "--train", 1200, "--window", 10, "--json"]
+    clean = _invoke(clean_obs, *args)
+    assert clean.exit_code == 0, clean.output
+    faulty = _invoke(obs, *args)
+    assert faulty.exit_code == 0, faulty.output
+    doc = json.loads(faulty.stdout)
+    assert set(doc) == KEYS | {"faulty"} and doc["mode"] == "identification" and doc["n_epochs"] == 120
+    assert [f["channel"] for f in doc["faulty"]] == ["G20"] and 80 * 30 <= doc["faulty"][0]["t"] <= 90 * 30
+    late = [a for a in doc["alarms"] if a["t"] >= 80 * 30]
+    assert late and {a["channel"] for a in late} == {"G20"}
+    assert late[0]["t"] <= 90 * 30  # found within ten 30 s epochs of the onset
+    before = {a["channel"] for a in json.loads(clean.stdout)["alarms"] if a["t"] >= 80 * 30}
+    assert "G20" not in before
+
+
+def _drop_rinex2_epochs(text: str, drop: set[int]) -> str:
+    """Remove whole epoch records (header line and satellite lines) of a 4-type RINEX 2 obs file."""
+    lines = text.splitlines()
+    k = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
+    out = lines[:k]
+    epoch = 0
+    while k < len(lines):
+        nsat = int(lines[k][29:32])
+        if lines[k][28] not in "01":
+            out += lines[k : k + 1 + nsat]
+            k += 1 + nsat
+            continue
+        extra = (nsat - 1) // 12
+        if epoch not in drop:
+            out += lines[k : k + 1 + extra + nsat]
+        k += 1 + extra + nsat
+        epoch += 1
+    return "\n".join(out) + "\n"
+
+
+def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, data_dir):
+    pytest.importorskip("chronofuse.integrity.identification")
+    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+    obs = tmp_path / "gappy.05o"
+    obs.write_text(_drop_rinex2_epochs((rtk / "07590920.05o").read_text(), {50, 51, 90}))
+    result = _invoke(obs, "--rate", 1 / 30, "--nav", rtk / "07590920.05n", "--position",
+                     "-3976219.5082,3382372.5671,3652512.9849", "--train", 1200, "--window", 10, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["n_epochs"] == 120 and doc["n_skipped"] == 3
