@@ -52,7 +52,7 @@ def test_frequency_records_with_a_mask_and_a_plot(data_dir, tmp_path):
     [
         ("", ("--rate", 1), "bad.txt: no data lines"),
         ("abc\ndef\n", ("--rate", 1), "bad.txt:2: cannot read 'def' as a number"),
-        ("0 1e-9\n1 nan\n2 nan\n3 nan\n4 nan\n5 nan\n6 1e-9\n", ("--rate", 1), "bad.txt: 5 of 7 samples are missing"),
+        ("0 1e-9\n1 nan\n2 nan\n3 nan\n4 nan\n5 nan\n6 1e-9\n", ("--rate", 1), "bad.txt:2: 5 of 7 samples are missing"),
         ("0 1e-9\n2 2e-9\n1 3e-9\n", ("--rate", 0.5), "bad.txt:3: time is not increasing"),
         ("0 1e-9\n10 2e-9\n20 3e-9\n", ("--rate", 1), "bad.txt:2: rate 1 Hz does not match the time column"),
     ],

@@ -55,7 +55,9 @@ def test_a_time_gap_of_whole_intervals_becomes_missing_samples(tmp_path):
         ("0 1e-9\n1 2e-9\n1 3e-9\n", "time is not increasing", 3),
         ("0 1e-9\n2 2e-9\n1 3e-9\n", "time is not increasing", 3),
         ("0 1e-9\n1 2e-9 5\n", "3 values on this line, expected 2", 2),
-        ("nan\nnan\nnan\n1e-9\n", "missing", None),
+        ("nan\nnan\nnan\n1e-9\n", "3 of 4 samples are missing .*the longest, 3 samples", 1),
+        ("1e-9\nnan\n2e-9\nnan\nnan\nnan\n", "4 of 6 samples are missing .*the longest, 3 samples", 4),
+        ("0 1e-9\n1 2e-9\n9 3e-9\n", "7 of 10 samples are missing .*the longest, 7 samples", 2),
         ("0 1e-9\n1 2e-9\n2.5 3e-9\n", "not a whole number", 3),
     ],
 )

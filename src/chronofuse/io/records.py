@@ -133,6 +133,15 @@ def _pick_columns(header, header_line: int, rows, path: Path, column: str | None
     return time_idx, value_idx, names[value_idx], time_scale, _unit_scale(names[value_idx])
 
 
+def _longest_nan_run(values: np.ndarray) -> tuple[int, int]:
+    """(start index, length) of the longest run of NaN in ``values`` (which has at least one)."""
+    nan = np.concatenate(([False], np.isnan(values), [False])).astype(np.int8)
+    edges = np.diff(nan)
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    k = int(np.argmax(ends - starts))
+    return int(starts[k]), int(ends[k] - starts[k])
+
+
 def read_record(
     path: str | Path,
     *,
@@ -200,6 +209,7 @@ def read_record(
         raise InputDataError("infinite value", str(path), lineno)
     values = values * v_scale
 
+    sample_line = np.array([lineno for lineno, _ in rows])  # file line of each sample (-1: inserted gap)
     t_out = None
     if times is not None:
         times = times * t_scale
@@ -237,6 +247,8 @@ def read_record(
             full = np.full(index[-1] + 1, np.nan)
             full[index] = values
             values = full
+            sample_line = np.full(values.size, -1)
+            sample_line[index] = [lineno for lineno, _ in rows]
             t_out = times[0] + np.arange(values.size) / rate_hz
         else:
             t_out = times
@@ -260,8 +272,13 @@ def read_record(
     if n_gaps == values.size:
         raise InputDataError("every value is missing (NaN)", str(path), rows[0][0])
     if n_gaps > max_gap_fraction * values.size:
+        start, length = _longest_nan_run(values)
+        line = sample_line[start] if sample_line[start] >= 0 else sample_line[max(start - 1, 0)]
         raise InputDataError(
-            f"{n_gaps} of {values.size} samples are missing (NaN runs or time gaps); too little data", str(path)
+            f"{n_gaps} of {values.size} samples are missing (NaN runs or time gaps; the longest, {length} samples, "
+            f"starts here); too little data",
+            str(path),
+            int(line),
         )
     return ClockRecord(
         values=values,
