@@ -15,7 +15,7 @@ from chronofuse.integrity.ephemeris import (
     satellite_position_ecef,
     select_ephemeris,
 )
-from chronofuse.integrity.identification import single_point_position
+from chronofuse.integrity.positioning import single_point_position
 from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
 
 

@@ -13,8 +13,8 @@ from chronofuse.integrity.identification import (
     channel_residuals,
     identify,
     simulate_channel_biases,
-    single_point_position,
 )
+from chronofuse.integrity.positioning import single_point_position
 from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
 
 STATIONS = ("07590920", "30400920")
