@@ -29,8 +29,14 @@ from chronofuse.analysis.stability import (
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory, avar_components
 from chronofuse.experiments.main_job import run_scenario
+from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
+from chronofuse.integrity.detector import DetectionResult, HodDetector
+from chronofuse.integrity.identification import channel_clock_biases, identify
+from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
 from chronofuse.io.records import ClockRecord, read_record
+from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
+from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
 from chronofuse.models.receiver import SCENARIOS, ReceiverModel, scenario, simulate_receivers
@@ -51,6 +57,9 @@ __all__ = [
     # real data in
     "ClockRecord",
     "read_record",
+    "read_nav_clock",
+    "read_gps_observations",
+    "read_gps_navigation",
     # analysis
     "Deviation",
     "STATISTICS",
@@ -74,6 +83,16 @@ __all__ = [
     "adev_theory",
     "avar_components",
     "MASKS",
+    # integrity
+    "HodDetector",
+    "DetectionResult",
+    "SingleEpochDetector",
+    "CusumDetector",
+    "ReferenceClockDetector",
+    "Anomaly",
+    "inject",
+    "channel_clock_biases",
+    "identify",
     # experiments
     "Scenario",
     "load_scenario",
