@@ -127,18 +127,6 @@ def test_chi2_interval_is_sp1065_eq45():
     assert (lo[0], hi[0]) == pytest.approx(ref, rel=1e-12)
 
 
-@pytest.fixture(scope="module")
-def records(data_dir):
-    stab = data_dir / "stability"
-    f_hz = np.loadtxt(stab / "ocxo" / "ocxo_frequency.txt")
-    return {
-        "phasedat": np.loadtxt(stab / "phasedat" / "PHASE.DAT"),
-        "ocxo": st.frequency_to_phase((f_hz - f_hz.mean()) / f_hz.mean(), 1.0),
-        "gps": np.loadtxt(stab / "gps" / "gps_1pps_phase_data.txt.gz"),
-        "Cs5071A": np.loadtxt(stab / "Cs5071A" / "5071A_phase.txt.gz"),
-    }
-
-
 # (data set, table, statistic, largest averaging factor whose bounds are reproducible)
 BOUND_TABLES = [
     ("phasedat", "phase_dat_adev_octave.txt", "adev", None),

@@ -53,17 +53,6 @@ def ocxo_normalised_frequency(data_dir) -> np.ndarray:
     return f_hz / 1e7
 
 
-def nbs14_1000_phase() -> np.ndarray:
-    """NIST SP 1065's 1000-point test data (p. 107): LCG n_{i+1} = 16807 n_i mod 2147483647, n_0 = 1234567890,
-    y_i = n_i / 2147483647 as fractional frequency, integrated to 1001 phase points at tau0 = 1 s."""
-    n = np.empty(1000, dtype=np.int64)
-    n[0] = 1234567890
-    for i in range(999):
-        n[i + 1] = (16807 * n[i]) % 2147483647
-    assert n[1:4].tolist() == [395529916, 1209410747, 633705974]  # the first values SP 1065 prints
-    return frequency_to_phase(n / 2147483647.0, 1.0)
-
-
 @pytest.mark.parametrize(("dataset", "statistic"), sorted(TABLES))
 def test_raw_deviation_and_term_count_equal_stable32_table(data_dir, dataset, statistic):
     path, _ = TABLES[(dataset, statistic)]
@@ -117,8 +106,8 @@ NBS14_1000 = {
 
 
 @pytest.mark.parametrize("statistic", STATISTICS)
-def test_raw_deviation_equals_nist_sp1065_1000_point_test_values(statistic):
-    dev, _ = getattr(ka, f"{statistic}_raw")(nbs14_1000_phase(), np.array([1, 10, 100]), 1.0)
+def test_raw_deviation_equals_nist_sp1065_1000_point_test_values(statistic, nbs14_phase):
+    dev, _ = getattr(ka, f"{statistic}_raw")(nbs14_phase, np.array([1, 10, 100]), 1.0)
     published = np.array(NBS14_1000[statistic])
     # One unit in the 7th printed digit: the table truncates (HDEV(100 s) = 0.03910860560 prints 3.910860e-02).
     unit = 10.0 ** (np.floor(np.log10(published)) - 6)

@@ -16,26 +16,11 @@ from chronofuse.analysis.stability.taus import averaging_factors
 
 
 @pytest.fixture(scope="module")
-def phase_dat(data_dir) -> np.ndarray:
-    return np.loadtxt(data_dir / "stability" / "phasedat" / "PHASE.DAT")
-
-
-@pytest.fixture(scope="module")
 def gps_slice(data_dir) -> np.ndarray:
     """The first 600 s of the GPS 1PPS-vs-H-maser record (phase in s, 1 Hz)."""
     with gzip.open(data_dir / "stability" / "gps" / "gps_1pps_phase_data.txt.gz", "rt") as f:
         values = (line for line in f if line.strip() and not line.startswith("#"))
         return np.array([float(v) for v in itertools.islice(values, 600)])
-
-
-@pytest.fixture(scope="module")
-def nbs14_phase() -> np.ndarray:
-    """NIST SP 1065's 1000-point test set (portable generator, p. 107), integrated to 1001 phase points."""
-    n = [1234567890]
-    for _ in range(999):
-        n.append((16807 * n[-1]) % 2147483647)
-    y = np.array(n) / 2147483647.0
-    return np.concatenate(([0.0], np.cumsum(y)))
 
 
 def _even_octaves(n_points: int) -> np.ndarray:

@@ -42,29 +42,11 @@ def read_table_with_marked_rows(path: Path) -> dict[str, np.ndarray]:
 
 
 @pytest.fixture(scope="module")
-def phase_dat(data_dir) -> np.ndarray:
-    return np.loadtxt(data_dir / "stability" / "phasedat" / "PHASE.DAT")
-
-
-@pytest.fixture(scope="module")
 def gps_slice(data_dir) -> np.ndarray:
     """The first 700 s of the GPS 1PPS-vs-H-maser record (phase in s, 1 Hz)."""
     with gzip.open(data_dir / "stability" / "gps" / "gps_1pps_phase_data.txt.gz", "rt") as f:
         values = (line for line in f if line.strip() and not line.startswith("#"))
         return np.array([float(v) for v in itertools.islice(values, 700)])
-
-
-@pytest.fixture(scope="module")
-def nbs14_phase() -> np.ndarray:
-    """NIST SP 1065's 1000-point test set (section 12.1, p. 107): the portable generator
-    n_{i+1} = 16807 n_i mod 2147483647, n_0 = 1234567890, scaled to [0, 1] as fractional frequency,
-    integrated to 1001 phase points at tau0 = 1 s."""
-    n = [1234567890]
-    for _ in range(999):
-        n.append((16807 * n[-1]) % 2147483647)
-    assert n[1:4] == [395529916, 1209410747, 633705974]  # the values SP 1065 prints
-    y = np.array(n) / 2147483647.0
-    return np.concatenate(([0.0], np.cumsum(y)))
 
 
 def _allantools(name: str, x: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -26,18 +26,6 @@ from chronofuse.analysis.stability.noise_id import (
 )
 
 
-@pytest.fixture(scope="module")
-def records(data_dir):
-    stab = data_dir / "stability"
-    f_hz = np.loadtxt(stab / "ocxo" / "ocxo_frequency.txt")
-    return {
-        "phasedat": np.loadtxt(stab / "phasedat" / "PHASE.DAT"),
-        "ocxo": st.frequency_to_phase((f_hz - f_hz.mean()) / f_hz.mean(), 1.0),
-        "gps": np.loadtxt(stab / "gps" / "gps_1pps_phase_data.txt.gz"),
-        "Cs5071A": np.loadtxt(stab / "Cs5071A" / "5071A_phase.txt.gz"),
-    }
-
-
 # (data set, table, statistic, averaging factors of the B1 rows whose alpha Stable32 and we agree on)
 TABLES = [
     ("phasedat", "phase_dat_adev_octave.txt", "adev", [64]),

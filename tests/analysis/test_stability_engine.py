@@ -27,22 +27,6 @@ from chronofuse.analysis.stability.kernels_allan import adev_raw
 from chronofuse.analysis.stability.kernels_total import totdev_raw
 
 
-@pytest.fixture(scope="module")
-def records(data_dir):
-    """Phase records (seconds, 1 Hz) of the four data sets, as Stable32 analysed them."""
-    stab = data_dir / "stability"
-    f_hz = np.loadtxt(stab / "ocxo" / "ocxo_frequency.txt")
-    # Stable32's header says the average is 1.0: it analysed f / mean(f); the fractional frequency
-    # (f - mean f) / mean f differs from it by a constant, which no statistic sees.
-    y = (f_hz - f_hz.mean()) / f_hz.mean()
-    return {
-        "phasedat": np.loadtxt(stab / "phasedat" / "PHASE.DAT"),
-        "ocxo": st.frequency_to_phase(y, 1.0),
-        "gps": np.loadtxt(stab / "gps" / "gps_1pps_phase_data.txt.gz"),
-        "Cs5071A": np.loadtxt(stab / "Cs5071A" / "5071A_phase.txt.gz"),
-    }
-
-
 # (data set, table file, statistic, bias_correction, relative tolerance or None for printed precision)
 TABLES = [
     ("phasedat", "phase_dat_adev_octave.txt", "adev", True, None),
