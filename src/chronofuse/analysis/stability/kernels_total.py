@@ -44,6 +44,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, sum_of_squares
+
 __all__ = [
     "totdev_raw",
     "mtotdev_raw",
@@ -71,23 +73,12 @@ def check_total_inputs(x, m, tau0_s, max_m: int, name: str) -> tuple[np.ndarray,
     Nothing is reshaped: ``x`` must be 1-D and finite (these kernels take gap-free phase), ``m`` 1-D
     integers within ``1 <= m <= max_m``, ``tau0_s > 0``.
     """
-    x = np.asarray(x, dtype=np.float64)
-    m_arr = np.asarray(m)
-    if x.ndim != 1:
-        raise ValueError(f"x.shape == {x.shape}, must be (N,)")
+    x, m_arr, tau0_s = check_kernel_inputs(x, m, tau0_s)
     if not np.all(np.isfinite(x)):
         raise ValueError(f"x contains NaN or Inf; {name} needs gap-free phase (fill gaps first)")
-    if m_arr.ndim != 1:
-        raise ValueError(f"m.shape == {m_arr.shape}, must be (k,)")
-    if m_arr.size and not np.issubdtype(m_arr.dtype, np.integer):
-        raise ValueError(f"m.dtype == {m_arr.dtype}, must be an integer type")
-    m_arr = m_arr.astype(np.int64)
-    bad = (m_arr < 1) | (m_arr > max_m)
-    if bad.any():
-        raise ValueError(f"m == {m_arr[bad].tolist()}, must be within 1..{max_m} for {name} of {x.size} points")
-    tau0_s = float(tau0_s)
-    if not (np.isfinite(tau0_s) and tau0_s > 0):
-        raise ValueError(f"tau0_s == {tau0_s}, must be > 0")
+    too_large = m_arr > max_m
+    if too_large.any():
+        raise ValueError(f"m == {m_arr[too_large].tolist()}, must be within 1..{max_m} for {name} of {x.size} points")
     return x, m_arr, tau0_s
 
 
@@ -148,7 +139,7 @@ def totdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray,
     dev = np.empty(m.size)
     for k, mk in enumerate(m):
         d = xs[centre - mk] - 2.0 * xs[centre] + xs[centre + mk]
-        dev[k] = np.sqrt(np.dot(d, d) / (2.0 * (mk * tau0_s) ** 2 * (n_points - 2)))
+        dev[k] = np.sqrt(sum_of_squares(d) / (2.0 * (mk * tau0_s) ** 2 * (n_points - 2)))
     return dev, np.full(m.size, n_points - 2, dtype=np.int64)
 
 
@@ -484,7 +475,7 @@ def ttotdev_numpy(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarr
 def _overlapping_hadamard(x: np.ndarray, tau0_s: float) -> tuple[float, int]:
     """Overlapping Hadamard deviation at m = 1, NIST SP 1065 (overlapping Hadamard variance): N - 3 terms."""
     d = x[3:] - 3.0 * x[2:-1] + 3.0 * x[1:-2] - x[:-3]
-    return float(np.sqrt(np.dot(d, d) / (6.0 * d.size)) / tau0_s), d.size
+    return float(np.sqrt(sum_of_squares(d) / (6.0 * d.size)) / tau0_s), d.size
 
 
 def htotdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
