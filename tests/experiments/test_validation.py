@@ -7,11 +7,13 @@ import json
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 from _helpers import assert_close_printed, read_stable32_table
 
 import chronofuse.analysis.stability as st
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.theory import adev_theory
+from chronofuse.cli.main import app
 from chronofuse.experiments import validation
 from chronofuse.models.oscillator import PRESETS
 
@@ -28,7 +30,8 @@ PNGS = [
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory, data_dir):
     out = tmp_path_factory.mktemp("validation")
-    assert validation.main(["--data", str(data_dir), "--out", str(out), "--quick"]) == 0
+    result = CliRunner().invoke(app, ["validate", "--data", str(data_dir), "--out", str(out), "--quick"])
+    assert result.exit_code == 0, result.output
     return out, json.loads((out / "validation.json").read_text())
 
 
@@ -130,3 +133,8 @@ def test_pooled_oadev_of_one_trial_is_plain_oadev_and_pooling_adds_degrees_of_fr
 def test_missing_data_folder_is_named_in_the_error(tmp_path):
     with pytest.raises(FileNotFoundError, match="data_dir"):
         validation.write_validation_figures(tmp_path / "out", tmp_path / "nowhere")
+
+
+def test_validate_without_the_data_folder_is_a_one_line_error(tmp_path):
+    result = CliRunner().invoke(app, ["validate", "--data", str(tmp_path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "no stability/ folder" in result.stderr

@@ -15,13 +15,12 @@ plotted) into ``out_dir``:
 4. ``cs5071a_mtie.png``, ``cs5071a_tdev.png``: MTIE and TDEV of the Cs 5071A record against the
    PRTC-A, PRTC-B and G.811 masks, with Stable32's MTIE and TDEV tables overlaid.
 
-Run as ``python -m chronofuse.experiments.validation --data DIR --out docs/figures`` (``--quick``:
-shorter simulations and a shorter MTOTDEV range, for tests).
+Run as ``chronofuse validate --data DIR --out docs/figures`` (``--quick``: shorter simulations and a
+shorter MTOTDEV range, for tests).
 """
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import time
 from dataclasses import dataclass
@@ -395,22 +394,3 @@ def write_validation_figures(out_dir, data_dir, *, quick: bool = False, seed: in
     paths.append(json_path)
     return paths
 
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: ``python -m chronofuse.experiments.validation --data DIR --out DIR [--quick]``."""
-    parser = argparse.ArgumentParser(description="Write the validation figures and validation.json.")
-    parser.add_argument("--data", required=True, help="real data folder (holding stability/)")
-    parser.add_argument("--out", default="docs/figures", help="output folder")
-    parser.add_argument("--quick", action="store_true", help="short simulations (smoke run)")
-    parser.add_argument("--seed", type=int, default=SEED)
-    args = parser.parse_args(argv)
-    start = time.perf_counter()
-    paths = write_validation_figures(args.out, args.data, quick=args.quick, seed=args.seed)
-    for path in paths:
-        print(path)
-    print(f"done in {time.perf_counter() - start:.1f} s")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
