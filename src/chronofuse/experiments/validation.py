@@ -52,7 +52,6 @@ __all__ = [
     "read_stable32_columns",
     "pooled_oadev",
     "record_statistics",
-    "main",
 ]
 
 #: Root seed of every simulation here (one SeedSequence per experiment, SPEC section 1).
