@@ -37,3 +37,15 @@ def test_simulated_clock_adev_matches_the_white_fm_and_random_walk_fm_theory(h0,
 def test_negative_noise_is_rejected_by_name():
     with pytest.raises(ValueError, match="sigma_rho_m"):
         ClockNoise(1e-18, 0.0, -1.0)
+
+
+def test_a_seed_sequence_passed_in_is_not_mutated_so_two_calls_agree():
+    import numpy as np
+
+    from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+
+    ss = np.random.SeedSequence(5)
+    noise = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
+    a = simulate_clock_bias(noise, interval_s=1.0, steps=50, trials=2, seed=ss)
+    b = simulate_clock_bias(noise, interval_s=1.0, steps=50, trials=2, seed=ss)
+    np.testing.assert_array_equal(a.measured_s, b.measured_s)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.integrity.detector import noise_intensities
+from chronofuse.seeding import child_rng, root_seed
 from chronofuse.validation import check_scalar
 
 
@@ -60,13 +61,13 @@ def simulate_clock_bias(
 ) -> ClockBiasSimulation:
     """Simulate ``trials`` independent clock-bias records of ``steps`` epochs under H0.
 
-    One ``SeedSequence`` (from ``seed``) is spawned per trial, so trial ``i`` is the same whatever
-    ``trials`` is. The clock starts at phase 0 and frequency 0.
+    Trial ``i`` draws from the child ``spawn_key + (i,)`` of ``seed`` (see :mod:`chronofuse.seeding`), so it
+    is the same whatever ``trials`` is, and a SeedSequence passed in is not mutated. The clock starts at phase 0 and frequency 0.
     """
     check_scalar(interval_s, "interval_s", min_val=0.0, include_min=False)
     check_scalar(steps, "steps", min_val=3, integer=True)
     check_scalar(trials, "trials", min_val=1, integer=True)
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    ss = root_seed(seed)
     q1, q2, s2 = noise_intensities(noise.h0, noise.hm2, noise.sigma_rho_m)
     ts = float(interval_s)
     truth = np.empty((trials, steps))
@@ -75,8 +76,8 @@ def simulate_clock_bias(
     ay = math.sqrt(q2 * ts)
     ax = math.sqrt(q2) * ts**1.5
     sig = math.sqrt(s2)
-    for i, child in enumerate(ss.spawn(trials)):
-        z = np.random.default_rng(child).standard_normal((4, steps))
+    for i in range(trials):
+        z = child_rng(ss, i).standard_normal((4, steps))
         w_y = ay * z[1, :-1]
         w_x = a1 * z[0, :-1] + ax * (0.5 * z[1, :-1] + z[2, :-1] / math.sqrt(12.0))
         y = np.concatenate(([0.0], np.cumsum(w_y)))

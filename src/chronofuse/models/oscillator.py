@@ -49,6 +49,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from chronofuse.models.noise import KasdinWalterFilter, flicker_fm_gain, flicker_pm_gain, tabulated_gain
+from chronofuse.seeding import child_rng, root_seed
 from chronofuse.validation import check_array, check_scalar
 
 __all__ = [
@@ -321,13 +322,8 @@ def dac_quantize(volts, bits: int, range_V: float) -> np.ndarray:
     return np.clip(np.rint(volts / step), -half, half - 1.0) * step
 
 
-def _child_seed(base: np.random.SeedSequence, *key: int) -> np.random.SeedSequence:
-    """The SeedSequence ``base.spawn`` would give at ``key``, without mutating ``base``."""
-    return np.random.SeedSequence(base.entropy, spawn_key=tuple(base.spawn_key) + key, pool_size=base.pool_size)
-
-
 def _component_rng(base: np.random.SeedSequence, trial: int, component: str) -> np.random.Generator:
-    return np.random.default_rng(_child_seed(base, trial, _COMPONENT_KEYS[component]))
+    return child_rng(base, trial, _COMPONENT_KEYS[component])
 
 
 def _per_trial_profile(values, name: str, trials: int, steps: int) -> np.ndarray:
@@ -379,12 +375,7 @@ def simulate_oscillator(
     steps = int(round(duration_s * rate_hz))
     if steps < 2:
         raise ValueError(f"duration_s * rate_hz == {duration_s * rate_hz}, must round to at least 2 steps")
-    if isinstance(seed, np.random.SeedSequence):
-        base = seed
-    elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-        base = np.random.SeedSequence(int(seed))
-    else:
-        raise TypeError(f"seed == {seed!r}, must be an int or numpy.random.SeedSequence")
+    base = root_seed(seed)
     temperature = None if temperature_K is None else _per_trial_profile(temperature_K, "temperature_K", trials, steps)
     efc = None if efc_V is None else _per_trial_profile(efc_V, "efc_V", trials, steps)
 

@@ -94,6 +94,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
+from chronofuse.seeding import child_rng, root_seed
 from chronofuse.validation import check_choice, check_scalar
 
 __all__ = [
@@ -392,13 +393,10 @@ class ReceiverTruth:
 
 
 def _root_seed(seed) -> np.random.SeedSequence:
-    if isinstance(seed, np.random.SeedSequence):
-        return seed
+    # A Generator stands for its original SeedSequence (not its current state), as documented.
     if isinstance(seed, np.random.Generator):
         return seed.bit_generator.seed_seq
-    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
-        return np.random.SeedSequence(int(seed))
-    raise TypeError(f"seed == {seed!r}, must be a non-negative int, a SeedSequence or a Generator")
+    return root_seed(seed)
 
 
 #: The random numbers of one (trial, receiver) stream, drawn in this order whatever the model (so that
@@ -432,8 +430,7 @@ def _draw(root: np.random.SeedSequence, trials: int, receivers: int, steps: int,
     p_geometric = min(1.0, 1.0 / outage_mean_steps)
     for i in range(trials):
         for j in range(receivers):
-            rng = np.random.default_rng(np.random.SeedSequence(
-                root.entropy, spawn_key=tuple(root.spawn_key) + (i, j), pool_size=root.pool_size))
+            rng = child_rng(root, i, j)
             for name, law, _ in _STREAM_LAYOUT:
                 out = draw[name][i, j]
                 if law == "normal":
