@@ -97,3 +97,21 @@ def test_missing_file_and_directory_are_named(tmp_path):
         read_record(tmp_path / "nope.txt", rate_hz=1.0)
     with pytest.raises(InputDataError, match="is a directory"):
         read_record(tmp_path, rate_hz=1.0)
+
+
+def test_an_mjd_time_column_is_read_in_days(tmp_path):
+    path = tmp_path / "daily.txt"
+    path.write_text("mjd value\n60000 1e-9\n60001 2e-9\n60003 4e-9\n")
+    rec = read_record(path)
+    assert rec.rate_hz == pytest.approx(1 / 86_400)
+    assert rec.values.size == 4 and rec.n_gaps == 1
+    assert rec.t_s[0] == pytest.approx(60000 * 86_400.0)
+
+
+def test_a_column_number_picks_the_column_even_with_a_header(tmp_path):
+    path = tmp_path / "te.csv"
+    path.write_text("t_s,a_ns,b_ns\n0,1,10\n1,2,20\n2,3,30\n")
+    rec = read_record(path, column="3")
+    np.testing.assert_allclose(rec.values, [10e-9, 20e-9, 30e-9])
+    with pytest.raises(InputDataError, match=r"column '4' not found"):
+        read_record(path, column="4")

@@ -2,7 +2,8 @@
 
 A record file holds one column (values at a known rate) or two columns (time in seconds, value),
 separated by commas or white space; ``#`` (and ``;``) start comments; a first line of names is a
-header, and a name's unit suffix (``_s``, ``_ms``, ``_us``, ``_ns``) scales that column to SI.
+header, and a name's unit suffix (``_s``, ``_ms``, ``_us``, ``_ns``) scales that column to SI; a time
+column named ``mjd`` is in days (converted to seconds).
 ``.gz`` files are read transparently. ``nan`` marks a missing sample (a gap), and so does a step of
 the time column that is a whole multiple of the sample interval.
 
@@ -25,6 +26,7 @@ KINDS = ("phase", "freq")
 
 _UNIT_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12}
 _SPLIT = re.compile(r"[,\s;]+")
+_SECONDS_PER_DAY = 86_400.0
 _TIME_NAMES = {"t", "time", "mjd", "epoch", "t_s", "time_s"}
 
 
@@ -118,9 +120,13 @@ def _pick_columns(header, header_line: int, rows, path: Path, column: str | None
         lowered = [n.lower() for n in names]
         time_idx = next((i for i, n in enumerate(lowered) if n in _TIME_NAMES or n.startswith("t_")), 0)
     if column is not None:
-        if column not in names:
-            raise InputDataError(f"column {column!r} not found; columns are {names}", str(path), header_line or rows[0][0])
-        value_idx = names.index(column)
+        if column in names:
+            value_idx = names.index(column)
+        elif column.isdigit() and 1 <= int(column) <= width:
+            value_idx = int(column) - 1
+        else:
+            raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{width})", str(path),
+                                 header_line or rows[0][0])
     elif width == 1:
         value_idx = 0
     elif width == 2:
@@ -129,7 +135,9 @@ def _pick_columns(header, header_line: int, rows, path: Path, column: str | None
         raise InputDataError(f"{width} columns {names}: choose the value column with --column", str(path), rows[0][0])
     if value_idx == time_idx:
         time_idx = None
-    time_scale = _unit_scale(names[time_idx]) if time_idx is not None else 1.0
+    time_scale = 1.0
+    if time_idx is not None:
+        time_scale = _SECONDS_PER_DAY if names[time_idx].lower() == "mjd" else _unit_scale(names[time_idx])
     return time_idx, value_idx, names[value_idx], time_scale, _unit_scale(names[value_idx])
 
 
@@ -212,15 +220,16 @@ def read_record(
     sample_line = np.array([lineno for lineno, _ in rows])  # file line of each sample (-1: inserted gap)
     t_out = None
     if times is not None:
-        times = times * t_scale
         if np.isnan(times).any():
             lineno = rows[int(np.flatnonzero(np.isnan(times))[0])][0]
             raise InputDataError("missing time value", str(path), lineno)
+        t0_s = times[0] * t_scale
+        times = (times - times[0]) * t_scale  # relative first: MJD days * 86400 keep their precision
         steps = np.diff(times)
         if (steps <= 0).any():
             k = int(np.flatnonzero(steps <= 0)[0]) + 1
             raise InputDataError(
-                f"time is not increasing ({times[k - 1]:g} s then {times[k]:g} s)", str(path), rows[k][0]
+                f"time is not increasing ({t0_s + times[k - 1]:g} s then {t0_s + times[k]:g} s)", str(path), rows[k][0]
             )
         if steps.size:
             interval = float(np.min(steps))
@@ -249,9 +258,9 @@ def read_record(
             values = full
             sample_line = np.full(values.size, -1)
             sample_line[index] = [lineno for lineno, _ in rows]
-            t_out = times[0] + np.arange(values.size) / rate_hz
+            t_out = t0_s + np.arange(values.size) / rate_hz
         else:
-            t_out = times
+            t_out = t0_s + times
     if rate_hz is None:
         raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
 
