@@ -234,11 +234,12 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     faulty = _invoke(obs, *args)
     assert faulty.exit_code == 0, faulty.output
     doc = json.loads(faulty.stdout)
-    assert set(doc) == KEYS | {"faulty"} and doc["mode"] == "identification" and doc["n_epochs"] == 120
+    assert set(doc) == KEYS | {"faulty", "untested"} and doc["mode"] == "identification" and doc["n_epochs"] == 120
     assert [f["channel"] for f in doc["faulty"]] == ["G20"] and 80 * 30 <= doc["faulty"][0]["t"] <= 90 * 30
     late = [a for a in doc["alarms"] if a["t"] >= 80 * 30]
     assert late and {a["channel"] for a in late} == {"G20"}
     assert late[0]["t"] <= 90 * 30  # found within ten 30 s epochs of the onset
+    assert "G08" in json.loads(clean.stdout)["untested"]  # 36 epochs above the 15 deg mask: fewer than train
     before = {a["channel"] for a in json.loads(clean.stdout)["alarms"] if a["t"] >= 80 * 30}
     assert "G20" not in before
 
@@ -273,3 +274,11 @@ def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, data_dir):
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     assert doc["n_epochs"] == 120 and doc["n_skipped"] == 3
+
+
+@pytest.mark.parametrize("position", ["1,2,3", "48.1,11.6,520", "-3976.2195,3382.3726,3652.5130"])
+def test_a_position_that_is_not_ecef_metres_on_the_earth_is_refused(tmp_path, data_dir, position):
+    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+    result = _invoke(rtk / "07590920.05o", "--rate", 1 / 30, "--nav", rtk / "07590920.05n", f"--position={position}",
+                     "--train", 1200, "--json")
+    assert result.exit_code == 2 and "from the Earth's centre" in result.stderr

@@ -165,6 +165,11 @@ def _fit(det: HodDetector, bias_s: np.ndarray, t: np.ndarray, train_s: float | N
     return det.fit(training)
 
 
+# Geocentric radius of a static receiver: the WGS 84 polar radius minus the Dead Sea shore, to the
+# equatorial radius plus a high mountain (metres).
+_EARTH_SURFACE_M = (6_350_000.0, 6_390_000.0)
+
+
 def _parse_position(text: str) -> np.ndarray:
     try:
         xyz = np.array([float(v) for v in text.split(",")])
@@ -172,6 +177,11 @@ def _parse_position(text: str) -> np.ndarray:
         raise InputDataError(f"--position {text!r}: expected X,Y,Z in ECEF metres") from None
     if xyz.shape != (3,) or not np.isfinite(xyz).all():
         raise InputDataError(f"--position {text!r}: expected three finite numbers X,Y,Z (ECEF metres)")
+    radius_m = float(np.linalg.norm(xyz))
+    if not _EARTH_SURFACE_M[0] <= radius_m <= _EARTH_SURFACE_M[1]:
+        raise InputDataError(f"--position {text!r}: {radius_m / 1e3:.1f} km from the Earth's centre, must be a static "
+                             f"receiver near the surface ({_EARTH_SURFACE_M[0] / 1e3:.0f}..{_EARTH_SURFACE_M[1] / 1e3:.0f} km; "
+                             "ECEF metres, not degrees or km)")
     return xyz
 
 
@@ -252,10 +262,11 @@ def _identification(obs: Path, nav: Path | None, position: str | None, det: HodD
         # each channel's noise fitted on its own first valid epochs of the training length
         options["train_epochs"] = max(3, int(round(train / interval)))
     result = identify(biases, det, **options)
-    n_skipped = int(result.n_skipped_epochs) + int(getattr(biases, "n_unreadable_epochs", 0))
+    n_skipped = int(result.n_skipped_epochs)  # grid epochs not read, unreadable ones included
     doc = _document("identification", n_epochs, det, result.alarms, n_skipped)
     doc["faulty"] = [{"channel": ch, "t": float(result.first_blame_s[result.satellites.index(ch)])}
                      for ch in result.faulty]
+    doc["untested"] = result.untested
     return doc
 
 
@@ -276,6 +287,10 @@ def _print_human(file: Path, doc: dict) -> None:
     con = human_console(False)
     con.print(f"[bold]{file}[/bold]: {doc['mode']} mode, {doc['n_epochs']:,} epochs ({doc['n_skipped']} skipped), "
               f"window {doc['window']}, P_fa {doc['pfa']:g}, threshold {doc['threshold']:.3f}")
+    if doc.get("untested"):
+        con.print(f"not tested (too few epochs above the elevation mask): {', '.join(doc['untested'])}")
+    if doc.get("faulty"):
+        con.print("faulty: " + ", ".join(f"{f['channel']} (from t = {f['t']:g} s)" for f in doc["faulty"]))
     if not doc["alarms"]:
         con.print("[green]no alarm[/green]")
         return

@@ -268,6 +268,11 @@ class IdentificationResult:
     detectors: list[HodDetector] = field(default_factory=list)
 
     @property
+    def untested(self) -> list[str]:
+        """Channels never tested (too few valid epochs above the mask to learn their noise or fill a window)."""
+        return [sat for sat, res in zip(self.satellites, self.results) if not (res.dof > 0).any()]
+
+    @property
     def alarms(self) -> list[dict]:
         """Every alarm as ``{"t": s since first epoch, "statistic": T, "channel": name}``, in time order."""
         out = []
