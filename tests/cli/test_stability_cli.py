@@ -63,7 +63,7 @@ def test_bad_input_is_a_one_line_error_naming_file_and_line_with_exit_code_2(tmp
     result = invoke("stability", path, *args, "--json")
     assert result.exit_code == 2
     assert result.stdout == ""
-    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    lines = result.stderr.splitlines()
     assert len(lines) == 1 and expected in lines[0], result.stderr
 
 
@@ -71,3 +71,13 @@ def test_an_unknown_statistic_or_mask_is_refused_with_exit_code_2(data_dir):
     path = data_dir / "stability/phasedat/PHASE.DAT"
     assert invoke("stability", path, "--rate", 1, "--dev", "adevv").exit_code == 2
     assert invoke("stability", path, "--rate", 1, "--mask", "prtc-z").exit_code == 2
+
+
+def test_taus_beyond_the_record_are_dropped_with_a_one_line_warning_in_the_json(tmp_path):
+    path = tmp_path / "short.txt"
+    path.write_text("\n".join(f"{k}e-9" for k in range(12)) + "\n")
+    result = invoke("stability", path, "--rate", 1, "--dev", "adev", "--taus", "1,1000", "--json")
+    assert result.exit_code == 0 and result.stderr == ""
+    doc = json.loads(result.stdout)
+    assert doc["deviations"]["adev"]["tau"] == [1.0]
+    assert len(doc["warnings"]) == 1 and "tau_s [1000.0] s dropped" in doc["warnings"][0]

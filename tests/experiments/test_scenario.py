@@ -39,6 +39,10 @@ def test_a_value_of_the_wrong_unit_or_range_names_the_key():
         parse_scenario("rate_hz = -1\n", "my.toml")
     with pytest.raises(ScenarioError, match=r"duration_s: .*got '1 day'"):
         parse_scenario('duration_s = "1 day"\n', "my.toml")
+    with pytest.raises(ScenarioError, match=r"my.toml: rate_hz: .*less than or equal to 1"):
+        parse_scenario("rate_hz = 2\n", "my.toml")
+    with pytest.raises(ScenarioError, match=r"my.toml: rate_hz: .*whole seconds"):
+        parse_scenario("rate_hz = 0.3\n", "my.toml")
     with pytest.raises(ScenarioError, match=r"receivers.scenario"):
         parse_scenario('[receivers]\nscenario = "moon"\n', "my.toml")
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import warnings
 from contextlib import contextmanager
 
 import typer
@@ -54,10 +55,22 @@ def progress_reporter(label: str):
     never touches stdout, so ``--json`` output stays clean.
     """
     columns = (SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=err_console, transient=True) as bar:
+    # Off when stderr is not a terminal: a non-terminal progress display leaves a blank line behind.
+    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
         task = bar.add_task(label, total=None)
 
         def say(message: str) -> None:
             bar.update(task, description=f"{label}: {message}")
 
         yield say
+
+
+@contextmanager
+def collected_warnings():
+    """Collect the library's warnings (e.g. taus dropped beyond a statistic's range) into a list of
+    one-line messages, instead of Python's two-line warning output; the command reports them."""
+    messages: list[str] = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        yield messages
+    messages.extend(str(w.message).splitlines()[0] for w in caught)

@@ -11,7 +11,7 @@ from rich.table import Table
 from chronofuse.analysis import stability as st
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.stability.taus import parse_taus
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
 from chronofuse.io.records import read_record
 from chronofuse.report.figures import plot_deviations
 
@@ -48,7 +48,7 @@ def stability(
         tau_spec = parse_taus(taus, record.rate_hz)
         x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
         results = {}
-        with progress_reporter("stability") as say:
+        with collected_warnings() as notes, progress_reporter("stability") as say:
             for name in names:
                 say(name)
                 results[name] = st.compute(name, x, record.rate_hz, tau_spec, ci=ci,
@@ -73,12 +73,15 @@ def stability(
         "deviations": {name: res.to_dict() for name, res in results.items()},
         "mask": verdict.to_dict() if verdict is not None else None,
         "plot": str(plot) if plot is not None else None,
+        "warnings": notes,
     }
     if json_out:
         print_json(doc)
         return
     con = human_console(False)
     con.print(f"[bold]{file}[/bold]: {record.values.size:,} {kind} points at {record.rate_hz:g} Hz, {record.n_gaps} missing")
+    for note in notes:
+        con.print(f"warning: {note}", markup=False)
     for name, res in results.items():
         table = Table("tau (s)", "n", "alpha", "lo", name.upper(), "hi", title=name.upper())
         for k in range(res.tau_s.size):

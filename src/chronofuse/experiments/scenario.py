@@ -11,7 +11,7 @@ import tomllib
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from chronofuse.validation import InputDataError
 
@@ -63,11 +63,20 @@ class Scenario(_Strict):
     name: str = "default"
     description: str = ""
     duration_s: float = Field(86_400.0, gt=0, le=10 * 86_400)
-    rate_hz: float = Field(1.0, gt=0, le=1_000)
+    rate_hz: float = Field(1.0, gt=0, le=1.0)
     seed: int = Field(20_261_124, ge=0)
     oscillator: OscillatorSection = OscillatorSection()
     receivers: ReceiversSection = ReceiversSection()
     analysis: AnalysisSection = AnalysisSection()
+
+    @field_validator("rate_hz")
+    @classmethod
+    def _whole_second_period(cls, rate_hz: float) -> float:
+        # The receivers emit one 1PPS per second: the sample period must be whole seconds.
+        period_s = 1.0 / rate_hz
+        if abs(period_s - round(period_s)) > 1e-9 * period_s:
+            raise ValueError(f"must be 1 / (whole seconds), e.g. 1, 0.5, 0.1; got a period of {period_s:g} s")
+        return rate_hz
 
 
 def _known_keys(model: type[BaseModel], loc: tuple) -> list[str]:
