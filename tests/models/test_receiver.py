@@ -218,7 +218,7 @@ def test_to_frame_is_tidy_with_nanoseconds_at_the_edge():
     assert len(frame) == 3 * 700
     assert list(frame.columns[:11]) == ["t_s", "receiver", "pps_error_ns", "qerr_ns", "fix", "n_sats", "gdop",
                                         "utc_s", "leap_s", "leap_pending", "clock_bias_ns"]
-    row = frame[(frame.receiver == 2) & (frame.t_s == 5.0)].iloc[0]
+    row = frame[(frame.receiver == 3) & (frame.t_s == 5.0)].iloc[0]  # 1-based: array index 2
     assert row.pps_error_ns == pytest.approx(truth.pps_error_s[1, 2, 5] * 1e9)
     assert row.utc_s == truth.utc_s[5]
     assert frame.loc[frame.t_s >= 600, "pps_error_ns"].isna().all()

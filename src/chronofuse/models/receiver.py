@@ -365,8 +365,8 @@ class ReceiverTruth:
     def to_frame(self, trial: int = 0) -> pd.DataFrame:
         """Tidy table of one trial: one row per (receiver, step), nanoseconds in ``*_ns`` columns.
 
-        Columns: t_s, receiver, pps_error_ns, qerr_ns, fix, n_sats, gdop, utc_s, leap_s, leap_pending,
-        clock_bias_ns, gps_s, spoof_offset_ns.
+        Columns: t_s, receiver (1-based: receiver ``j`` of the arrays is ``j + 1``), pps_error_ns, qerr_ns,
+        fix, n_sats, gdop, utc_s, leap_s, leap_pending, clock_bias_ns, gps_s, spoof_offset_ns.
         """
         check_scalar(trial, "trial", min_val=0, max_val=self.pps_error_s.shape[0] - 1, integer=True)
         trial = int(trial)
@@ -377,7 +377,7 @@ class ReceiverTruth:
 
         return pd.DataFrame({
             "t_s": per_step(self.t_s),
-            "receiver": np.repeat(np.arange(receivers), steps),
+            "receiver": np.repeat(np.arange(1, receivers + 1), steps),  # 1-based, as every report names them
             "pps_error_ns": self.pps_error_s[trial].reshape(-1) * 1e9,
             "qerr_ns": self.qerr_s[trial].reshape(-1) * 1e9,
             "fix": self.fix[trial].reshape(-1),
