@@ -47,9 +47,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy import linalg, optimize, stats
 
+from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.validation import check_array, check_choice, check_scalar
-
-SPEED_OF_LIGHT_M_PER_S = 299_792_458.0
 
 # Windows per matrix product in the batch path: 2**15 windows of n = 20 is 5 MiB per chunk.
 _CHUNK_WINDOWS = 1 << 15
@@ -63,6 +62,16 @@ _CHUNK_WINDOWS = 1 << 15
 def noise_intensities(h0: float, hm2: float, sigma_rho_m: float) -> tuple[float, float, float]:
     """``(q1, q2, s2)`` of SPEC 4: ``q1 = h0/2`` (s), ``q2 = 2 pi^2 h_-2`` (1/s), ``s2 = sigma_rho^2/c^2`` (s^2)."""
     return 0.5 * h0, 2.0 * math.pi**2 * hm2, (sigma_rho_m / SPEED_OF_LIGHT_M_PER_S) ** 2
+
+
+def _parameters_from_intensities(q, h0, hm2, sigma_rho_m) -> tuple[float, float, float]:
+    """Invert :func:`noise_intensities` for the parameters that were not given (None)."""
+    q1, q2, s2 = q
+    return (
+        float(2.0 * q1) if h0 is None else float(h0),
+        float(q2 / (2.0 * math.pi**2)) if hm2 is None else float(hm2),
+        float(math.sqrt(s2) * SPEED_OF_LIGHT_M_PER_S) if sigma_rho_m is None else float(sigma_rho_m),
+    )
 
 
 def difference_autocorrelation(h0: float, hm2: float, sigma_rho_m: float, interval_s: float) -> np.ndarray:
@@ -129,12 +138,7 @@ def fit_noise(
         scale = np.abs(rhs).max() or 1.0
         sol, _ = optimize.nnls(cols / norms, rhs / scale)
         q[free] = sol * scale / norms
-    q1, q2, s2 = q
-    return (
-        float(2.0 * q1) if h0 is None else float(h0),
-        float(q2 / (2.0 * math.pi**2)) if hm2 is None else float(hm2),
-        float(math.sqrt(s2) * SPEED_OF_LIGHT_M_PER_S) if sigma_rho_m is None else float(sigma_rho_m),
-    )
+    return _parameters_from_intensities(q, h0, hm2, sigma_rho_m)
 
 
 def _contiguous_runs(df: np.ndarray, min_length: int) -> list[np.ndarray]:
@@ -218,12 +222,7 @@ def fit_noise_whittle(
         raise ValueError("the Whittle fit found no noise model for the training data")
     q = q_fixed.copy()
     q[free] = np.exp(best.x) / share
-    q1, q2, s2 = q
-    return (
-        float(2.0 * q1) if h0 is None else float(h0),
-        float(q2 / (2.0 * math.pi**2)) if hm2 is None else float(hm2),
-        float(math.sqrt(s2) * SPEED_OF_LIGHT_M_PER_S) if sigma_rho_m is None else float(sigma_rho_m),
-    )
+    return _parameters_from_intensities(q, h0, hm2, sigma_rho_m)
 
 
 # ---------------------------------------------------------------------------------------------------------

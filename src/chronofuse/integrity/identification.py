@@ -42,8 +42,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.integrity.detector import DetectionResult, HodDetector
-from chronofuse.integrity.ephemeris import SPEED_OF_LIGHT_M_PER_S, select_ephemeris
+from chronofuse.integrity.ephemeris import select_ephemeris
 from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.integrity.positioning import corrected_ranges
 from chronofuse.io.rinex import NS_PER_S, read_gps_navigation, read_gps_observations

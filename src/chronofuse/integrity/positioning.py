@@ -13,10 +13,10 @@ import math
 
 import numpy as np
 
+from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.integrity.ephemeris import (
     SECONDS_PER_WEEK,
     BroadcastEphemeris,
-    SPEED_OF_LIGHT_M_PER_S,
     geometry_from_pseudorange,
     select_ephemeris,
 )
