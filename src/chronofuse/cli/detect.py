@@ -35,6 +35,7 @@ from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, user_errors
 from chronofuse.integrity.detector import HodDetector, chi2_thresholds
+from chronofuse.io.grid import grid_slots, place_on_grid
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputDataError
 
@@ -114,19 +115,14 @@ def regular_grid(t_s: np.ndarray, values: np.ndarray, interval_s: float, source:
     if (steps <= 0).any():
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise InputDataError(f"epoch {k + 1}: time is not increasing ({t_s[k - 1]:g} s then {t_s[k]:g} s)", source)
-    ratio = steps / interval_s
-    whole = np.rint(ratio)
-    off = (np.abs(ratio - whole) > tolerance * np.maximum(whole, 1)) | (whole < 1)
-    if off.any():
-        k = int(np.flatnonzero(off)[0]) + 1
+    slots, bad = grid_slots(t_s - t_s[0], interval_s, tolerance)
+    if bad >= 0:
         raise InputDataError(
-            f"epoch {k + 1}: time step {steps[k - 1]:g} s is not a whole number of {interval_s:g} s intervals "
+            f"epoch {bad + 1}: time step {steps[bad - 1]:g} s is not a whole number of {interval_s:g} s intervals "
             "(the sampling interval changed: a new interval needs a new detector, check --rate)",
             source,
         )
-    index = np.concatenate(([0], np.cumsum(whole.astype(np.int64))))
-    grid = np.full(index[-1] + 1, np.nan)
-    grid[index] = values
+    grid = place_on_grid(slots, values)
     return t_s[0] + np.arange(grid.size) * interval_s, grid
 
 

@@ -47,6 +47,7 @@ from chronofuse.integrity.detector import DetectionResult, HodDetector
 from chronofuse.integrity.ephemeris import select_ephemeris
 from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.integrity.positioning import corrected_ranges
+from chronofuse.io.grid import grid_slots
 from chronofuse.io.rinex import NS_PER_S, read_gps_navigation, read_gps_observations
 from chronofuse.validation import InputDataError, check_array, check_choice, check_scalar
 
@@ -148,12 +149,8 @@ def channel_clock_biases(
                              str(obs_path))
     # Receivers that steer their clock in millisecond steps tag epochs a few ms off the nominal grid
     # (the Trimble 5700 files here): snap to the nearest grid slot, keep the true tag for the geometry.
-    offsets = gps - gps[0]
-    index = np.round(offsets / step_ns).astype(np.int64)
-    off_grid = np.abs(offsets - index * step_ns) > _GRID_TOLERANCE * step_ns
-    repeated = np.r_[False, np.diff(index) <= 0]
-    if off_grid.any() or repeated.any():
-        bad = int(np.flatnonzero(off_grid | repeated)[0])
+    index, bad = grid_slots((gps - gps[0]).astype(np.float64), float(step_ns), _GRID_TOLERANCE)
+    if bad >= 0:
         raise InputDataError(f"epoch {bad + 1} is not on the {step_ns / NS_PER_S:g} s grid (or not increasing)",
                              str(obs_path))
     epochs = int(index[-1]) + 1

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from chronofuse.io.grid import grid_slots, place_on_grid
 from chronofuse.validation import InputDataError, check_choice, check_scalar
 
 KINDS = ("phase", "freq")
@@ -242,20 +243,14 @@ def read_record(
                     rows[int(np.argmin(steps)) + 1][0],
                 )
             rate_hz = derived
-            ratio = steps * rate_hz
-            whole = np.rint(ratio)
-            off = np.abs(ratio - whole) > 1e-6 * np.maximum(whole, 1)
-            if off.any():
-                k = int(np.flatnonzero(off)[0]) + 1
+            index, bad = grid_slots(times, interval, 1e-6)
+            if bad >= 0:
                 raise InputDataError(
-                    f"time step {steps[k - 1]:g} s is not a whole number of {interval:g} s sample intervals",
+                    f"time step {steps[bad - 1]:g} s is not a whole number of {interval:g} s sample intervals",
                     str(path),
-                    rows[k][0],
+                    rows[bad][0],
                 )
-            index = np.concatenate(([0], np.cumsum(whole.astype(np.int64))))
-            full = np.full(index[-1] + 1, np.nan)
-            full[index] = values
-            values = full
+            values = place_on_grid(index, values)
             sample_line = np.full(values.size, -1)
             sample_line[index] = [lineno for lineno, _ in rows]
             t_out = t0_s + np.arange(values.size) / rate_hz
