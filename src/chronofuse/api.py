@@ -39,7 +39,8 @@ from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
-from chronofuse.models.receiver import SCENARIOS, ReceiverModel, scenario, simulate_receivers
+from chronofuse.models.receiver import SCENARIOS, ReceiverModel, simulate_receivers
+from chronofuse.models.receiver import scenario as receiver_scenario
 from chronofuse.validation import ChronofuseError, InputDataError
 
 __all__ = [
@@ -52,7 +53,7 @@ __all__ = [
     "power_law_noise",
     "ReceiverModel",
     "SCENARIOS",
-    "scenario",
+    "receiver_scenario",
     "simulate_receivers",
     # real data in
     "ClockRecord",
