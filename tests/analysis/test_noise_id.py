@@ -152,3 +152,13 @@ def test_unidentifiable_factors_hold_the_last_identified_alpha():
     alpha = identify_noise(x, np.array([150, 1, 90, 4], dtype=np.int64), 2)
     assert alpha[1] == -2
     assert alpha[0] == alpha[2] == alpha[3]  # held from m = 4, the largest identifiable factor
+
+
+def test_the_method_of_each_alpha_is_reported_acf_from_30_averages_b1_below(records):
+    import chronofuse.analysis.stability as stab
+
+    dev = stab.adev(records["phasedat"], 1.0)  # 1001 points: m = 32 has 31 averages, m = 64 has 15
+    m = np.rint(dev.tau_s).astype(int)
+    assert (dev.alpha_method[m <= 32] == "acf").all()
+    assert (dev.alpha_method[m >= 64] == "b1").all()
+    assert dev.to_dict()["alpha_method"] == [str(v) for v in dev.alpha_method]

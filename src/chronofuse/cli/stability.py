@@ -85,7 +85,7 @@ def stability(
     for name, res in results.items():
         table = Table("tau (s)", "n", "alpha", "lo", name.upper(), "hi", title=name.upper())
         for k in range(res.tau_s.size):
-            table.add_row(f"{res.tau_s[k]:g}", str(res.n[k]), str(res.alpha[k]), _fmt(res.lo[k]), _fmt(res.dev[k]),
+            table.add_row(f"{res.tau_s[k]:g}", str(res.n[k]), _alpha_label(res, k), _fmt(res.lo[k]), _fmt(res.dev[k]),
                           _fmt(res.hi[k]))
         con.print(table)
     if verdict is not None:
@@ -105,6 +105,12 @@ def verdict_details(verdict) -> str:
         te = verdict.time_error
         parts.append(f"max |TE| {te.max_abs_te_s * 1e9:.1f} ns {'<=' if te.passed else '>'} {te.limit_s * 1e9:.0f} ns")
     return "; ".join(parts)
+
+
+def _alpha_label(res, k: int) -> str:
+    """The noise type, marked when it came from the B1 fallback or was held (a less certain interval)."""
+    method = "acf" if res.alpha_method is None else str(res.alpha_method[k])
+    return str(res.alpha[k]) if method == "acf" else f"{res.alpha[k]} ({method})"
 
 
 def _fmt(value: float) -> str:

@@ -53,7 +53,7 @@ from chronofuse.analysis.stability.kernels_total import (
     totdev_raw,
     ttotdev_raw,
 )
-from chronofuse.analysis.stability.noise_id import identify_noise
+from chronofuse.analysis.stability.noise_id import identify_noise_methods
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.analysis.stability.taus import SPACINGS, averaging_factors, taus_to_factors
 from chronofuse.validation import check_array, check_choice, check_scalar
@@ -248,7 +248,7 @@ def compute(
     dev = np.asarray(dev, dtype=float)
     n = np.asarray(n, dtype=np.int64)
 
-    alpha = identify_noise(x_id, m, spec.noise_dmax)
+    alpha, alpha_method = identify_noise_methods(x_id, m, spec.noise_dmax)
     corrected = bool(bias_correction and spec.bias is not None)
     if corrected:
         dev = dev * spec.bias(alpha, m, n_points)
@@ -261,6 +261,7 @@ def compute(
         dev=dev,
         n=n,
         alpha=alpha,
+        alpha_method=alpha_method,
         edf=edf,
         lo=lo,
         hi=hi,

@@ -45,6 +45,7 @@ __all__ = [
     "b1_noise_id",
     "b1_expected",
     "identify_noise",
+    "identify_noise_methods",
 ]
 
 # Riley & Greenhall (2004): the lag-1 ACF method needs about 30 points; Stable32 uses B1/R(n) below.
@@ -176,7 +177,7 @@ def b1_noise_id(x: np.ndarray, m: int) -> int | None:
     return 1 if rn > np.sqrt(_rn_expected(m, 2) * _rn_expected(m, 1)) else 2
 
 
-def identify_noise(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> np.ndarray:
+def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """Identify the power-law noise ``alpha`` (integer, -2..2) at each averaging factor.
 
     Parameters
@@ -190,21 +191,28 @@ def identify_noise(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> np.ndarray:
 
     Returns
     -------
-    ndarray of int64 of shape (k,)
+    alpha : ndarray of int64 of shape (k,)
         Lag-1 ACF where at least 30 frequency averages exist, else B1/R(n). Where neither applies
         (fewer than 3 averages, e.g. MTIE windows near the record length), the value identified at
         the largest identifiable averaging factor is held (0, white FM, if there is none).
+    method : ndarray of str of shape (k,)
+        How each alpha was found: ``"acf"``, ``"b1"`` or ``"held"``. Stable32 agrees with ``"acf"`` rows;
+        its B1 rows are not always reproducible (see the tests), so intervals there are less certain.
     """
     m = np.asarray(m, dtype=np.int64)
     alpha = np.zeros(m.size, dtype=np.int64)
-    known = np.zeros(m.size, dtype=bool)
+    method = np.full(m.size, "held", dtype="<U4")
     for j, mj in enumerate(m):
         a = acf_noise_id(x, int(mj), dmax)
-        if a is None:
+        if a is not None:
+            method[j] = "acf"
+        else:
             a = b1_noise_id(x, int(mj))
+            if a is not None:
+                method[j] = "b1"
         if a is not None:
             alpha[j] = int(np.clip(a, -2, 2))
-            known[j] = True
+    known = method != "held"
     if not known.all():
         held = 0
         order = np.argsort(m, kind="stable")
@@ -213,4 +221,9 @@ def identify_noise(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> np.ndarray:
                 held = alpha[j]
             else:
                 alpha[j] = held
-    return alpha
+    return alpha, method
+
+
+def identify_noise(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> np.ndarray:
+    """The ``alpha`` of :func:`identify_noise_methods` (int64, shape (k,))."""
+    return identify_noise_methods(x, m, dmax)[0]

@@ -31,6 +31,10 @@ class Deviation:
         Equivalent degrees of freedom (NaN where the statistic has no chi-square interval, e.g. MTIE).
     lo, hi : ndarray of shape (k,)
         Confidence interval bounds on ``dev`` at confidence ``ci`` (NaN where ``edf`` is NaN).
+    alpha_method : ndarray of str of shape (k,)
+        How ``alpha`` was identified at each tau: ``"acf"`` (lag-1 autocorrelation, 30 or more frequency
+        averages), ``"b1"`` (B1/R(n) ratio, fewer averages: less certain, and the EDF and interval with
+        it) or ``"held"`` (too few averages: the alpha of the nearest identified tau).
     ci : float
         Confidence factor of the interval (0.683 is Stable32's default, "1 sigma").
     bias_corrected : bool
@@ -50,6 +54,7 @@ class Deviation:
     edf: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
+    alpha_method: np.ndarray | None = None
     ci: float = 0.683
     bias_corrected: bool = False
     filled: int = 0
@@ -68,6 +73,7 @@ class Deviation:
             "hi": clean(self.hi),
             "n": clean(self.n),
             "alpha": clean(self.alpha),
+            "alpha_method": None if self.alpha_method is None else [str(v) for v in self.alpha_method],
             "edf": clean(self.edf),
             "bias_corrected": self.bias_corrected,
             "filled": self.filled,
