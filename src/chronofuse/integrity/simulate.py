@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.integrity.detector import noise_intensities
+from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.seeding import child_rng, root_seed
 from chronofuse.validation import check_scalar
 
@@ -61,27 +62,21 @@ def simulate_clock_bias(
 ) -> ClockBiasSimulation:
     """Simulate ``trials`` independent clock-bias records of ``steps`` epochs under H0.
 
-    Trial ``i`` draws from the child ``spawn_key + (i,)`` of ``seed`` (see :mod:`chronofuse.seeding`), so it
-    is the same whatever ``trials`` is, and a SeedSequence passed in is not mutated. The clock starts at phase 0 and frequency 0.
+    The clock is :func:`~chronofuse.models.clock.two_state_clock_phase_s`, starting at phase 0 and
+    frequency 0; the measurement adds white noise of ``sigma_rho / c``. Trial ``i`` draws from the child
+    ``spawn_key + (i,)`` of ``seed`` (:mod:`chronofuse.seeding`), so it is the same whatever ``trials``
+    is, and a SeedSequence passed in is not mutated.
     """
     check_scalar(interval_s, "interval_s", min_val=0.0, include_min=False)
     check_scalar(steps, "steps", min_val=3, integer=True)
     check_scalar(trials, "trials", min_val=1, integer=True)
     ss = root_seed(seed)
-    q1, q2, s2 = noise_intensities(noise.h0, noise.hm2, noise.sigma_rho_m)
-    ts = float(interval_s)
+    sig = math.sqrt(noise_intensities(noise.h0, noise.hm2, noise.sigma_rho_m)[2])
     truth = np.empty((trials, steps))
     measured = np.empty((trials, steps))
-    a1 = math.sqrt(q1 * ts)
-    ay = math.sqrt(q2 * ts)
-    ax = math.sqrt(q2) * ts**1.5
-    sig = math.sqrt(s2)
     for i in range(trials):
         z = child_rng(ss, i).standard_normal((4, steps))
-        w_y = ay * z[1, :-1]
-        w_x = a1 * z[0, :-1] + ax * (0.5 * z[1, :-1] + z[2, :-1] / math.sqrt(12.0))
-        y = np.concatenate(([0.0], np.cumsum(w_y)))
-        x = np.concatenate(([0.0], np.cumsum(y[:-1] * ts + w_x)))
+        x = two_state_clock_phase_s(z[0], z[1], z[2], h0=noise.h0, hm2=noise.hm2, dt_s=float(interval_s))
         truth[i] = x
         measured[i] = x + sig * z[3]
-    return ClockBiasSimulation(truth_s=truth, measured_s=measured, interval_s=ts)
+    return ClockBiasSimulation(truth_s=truth, measured_s=measured, interval_s=float(interval_s))

@@ -94,6 +94,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import lfilter
 
+from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.seeding import child_rng, root_seed
 from chronofuse.validation import check_choice, check_scalar
 
@@ -496,23 +497,15 @@ def _solution_error(model: ReceiverModel, draw: dict[str, np.ndarray], geometry_
 def _oscillator_bias_s(model: ReceiverModel, draw: dict[str, np.ndarray], t_s: np.ndarray, dt: float) -> np.ndarray:
     """True bias ``b`` of the free-running receiver oscillator, shape (trials, receivers, steps), seconds.
 
-    ``b = b0 + y0 t`` plus white FM and random-walk FM, sampled exactly: per step the white-FM phase
-    increment is N(0, h0 dt / 2); the random-walk frequency increment is ``dy ~ N(0, q2 dt)``,
-    ``q2 = 2 pi^2 h_-2``, and the phase it adds within the step is ``dy dt / 2 + N(0, q2 dt^3 / 12)``,
-    so that (phase, frequency) increments have the covariance ``q2 [[dt^3/3, dt^2/2], [dt^2/2, dt]]``
-    of the two-state clock model (the discrete Q of Van Dierendonck et al. and Brown and Hwang). The
-    second difference then has SPEC section 4's autocorrelation. Pops its noise entries of ``draw``.
+    ``b = b0 + y0 t`` plus white FM and random-walk FM, sampled exactly by
+    :func:`~chronofuse.models.clock.two_state_clock_phase_s`, so that its second difference has SPEC
+    section 4's autocorrelation. Pops its noise entries of ``draw``.
     """
     const = draw["clock_const"]
     y0 = model.clock_freq_offset_max * (2.0 * const[..., 0] - 1.0)
     b0 = model.clock_initial_bias_max_s * (2.0 * const[..., 1] - 1.0)
-    q2 = 2.0 * np.pi**2 * model.clock_hm2
-    dx_wfm = np.sqrt(model.clock_h0 / 2.0 * dt) * draw.pop("clock_wfm")
-    dy = np.sqrt(q2 * dt) * draw.pop("clock_rwfm")
-    dx_rw = dy * dt / 2.0 + np.sqrt(q2 * dt**3 / 12.0) * draw.pop("clock_rwfm_phase")
-    y_before = np.cumsum(dy, axis=-1) - dy  # random-walk frequency at the start of each step
-    dx = dx_wfm + y_before * dt + dx_rw
-    noise = np.concatenate([np.zeros(dx.shape[:-1] + (1,)), np.cumsum(dx[..., :-1], axis=-1)], axis=-1)
+    noise = two_state_clock_phase_s(draw.pop("clock_wfm"), draw.pop("clock_rwfm"), draw.pop("clock_rwfm_phase"),
+                                    h0=model.clock_h0, hm2=model.clock_hm2, dt_s=dt)
     return b0[..., None] + y0[..., None] * t_s + noise
 
 
