@@ -7,10 +7,10 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
+from chronofuse.analysis.metrics import clopper_pearson
 from chronofuse.cli import reproduce as reproduce_cli
 from chronofuse.experiments.integrity import (
     IntegrityConfig,
-    clopper_pearson,
     independent_epochs,
     run_integrity,
 )

@@ -12,6 +12,7 @@ from _helpers import assert_close_printed, read_stable32_table
 
 import chronofuse.analysis.stability as st
 from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.main import app
 from chronofuse.experiments import validation
@@ -118,16 +119,16 @@ def test_cs5071a_mask_limits_and_verdicts_are_the_library_ones(quick_run, data_d
 def test_pooled_oadev_of_one_trial_is_plain_oadev_and_pooling_adds_degrees_of_freedom():
     rng = np.random.default_rng(5)
     x = np.cumsum(rng.standard_normal((3, 4000)), axis=1) * 1e-9
-    one = validation.pooled_oadev(x[:1], 1.0)
+    one = pooled_oadev(x[:1], 1.0)
     plain = st.oadev(x[0], 1.0)
     np.testing.assert_allclose(one.dev, plain.dev, rtol=1e-14)
     np.testing.assert_allclose(one.lo, plain.lo, rtol=1e-12)
-    pooled = validation.pooled_oadev(x, 1.0)
+    pooled = pooled_oadev(x, 1.0)
     per_trial = np.array([st.oadev(row, 1.0).dev ** 2 for row in x])
     np.testing.assert_allclose(pooled.dev, np.sqrt(per_trial.mean(axis=0)), rtol=1e-14)
     np.testing.assert_allclose(pooled.edf, 3 * st.oadev(x[0], 1.0).edf, rtol=1e-14)
     with pytest.raises(ValueError, match="x_s has shape"):
-        validation.pooled_oadev(x[0], 1.0)
+        pooled_oadev(x[0], 1.0)
 
 
 def test_missing_data_folder_is_named_in_the_error(tmp_path):

@@ -10,12 +10,12 @@ import pytest
 
 from chronofuse.integrity.identification import channel_clock_biases
 from chronofuse.io.rinex import (
-    GPS_EPOCH,
     count_epoch_records,
     read_gps_navigation,
     read_gps_observations,
     to_gps_ns,
 )
+from chronofuse.timescale import GPS_EPOCH
 from chronofuse.validation import InputDataError
 
 EPOCH2 = re.compile(r"^ \d\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d\.\d{7}  \d")

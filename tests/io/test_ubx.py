@@ -8,7 +8,8 @@ from datetime import datetime, timezone
 import numpy as np
 import pytest
 
-from chronofuse.io.ubx import WEEK_MS, read_nav_clock, unwrap_itow_ms
+from chronofuse.io.ubx import read_nav_clock, unwrap_itow_ms
+from chronofuse.timescale import MS_PER_WEEK as WEEK_MS
 from chronofuse.validation import InputDataError
 
 GPS_EPOCH = datetime(1980, 1, 6, tzinfo=timezone.utc)

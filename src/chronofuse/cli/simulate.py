@@ -15,7 +15,7 @@ from rich.table import Table
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
-from chronofuse.experiments.main_job import gdop_over_5_fraction
+from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.models.oscillator import PRESETS, preset, simulate_oscillator
 from chronofuse.models.receiver import SCENARIOS, simulate_receivers
 

@@ -32,6 +32,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 from scipy import stats  # noqa: E402
 
+from chronofuse.analysis.metrics import clopper_pearson  # noqa: E402
 from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector  # noqa: E402
 from chronofuse.integrity.detector import HodDetector, noise_intensities  # noqa: E402
 from chronofuse.integrity.inject import KINDS, Anomaly, inject  # noqa: E402
@@ -94,14 +95,6 @@ def _simulate(cfg: IntegrityConfig, trials: int, steps: int, seed: np.random.See
     rng = np.random.default_rng(ref_seed)
     reference = sim.truth_s + cfg.sigma_reference_s * rng.standard_normal(sim.truth_s.shape)
     return sim, reference
-
-
-def clopper_pearson(k: int, n: int, level: float = 0.99) -> tuple[float, float]:
-    """Exact binomial confidence interval of ``k`` successes in ``n`` trials (Clopper & Pearson 1934)."""
-    a = 1.0 - level
-    lo = stats.beta.ppf(a / 2, k, n - k + 1) if k > 0 else 0.0
-    hi = stats.beta.ppf(1 - a / 2, k + 1, n - k) if k < n else 1.0
-    return float(lo), float(hi)
 
 
 def independent_epochs(steps: int, window: int, start: int) -> np.ndarray:

@@ -19,6 +19,7 @@ import pandas as pd
 
 from chronofuse.analysis import stability
 from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.experiments.scenario import Scenario
 from chronofuse.models.oscillator import preset, simulate_oscillator
@@ -46,12 +47,6 @@ def _oscillator_model(scn: Scenario):
     if scn.oscillator.drift_per_s is not None:
         model = dataclasses.replace(model, drift_per_s=scn.oscillator.drift_per_s)
     return model
-
-
-def gdop_over_5_fraction(gdop: np.ndarray) -> float:
-    """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (SPEC 3.1's usability limit)."""
-    with_fix = gdop[np.isfinite(gdop)]
-    return float(np.mean(with_fix > 5)) if with_fix.size else float("nan")
 
 
 def _series_summary(x_s: np.ndarray) -> dict:

@@ -36,6 +36,7 @@ import scipy.stats  # noqa: E402
 
 import chronofuse.analysis.stability as st  # noqa: E402
 from chronofuse.analysis.masks import MASKS  # noqa: E402
+from chronofuse.analysis.metrics import pooled_oadev  # noqa: E402
 from chronofuse.analysis.stability.edf import chi2_interval  # noqa: E402
 from chronofuse.analysis.theory import adev_theory  # noqa: E402
 from chronofuse.models.oscillator import PRESETS, simulate_oscillator  # noqa: E402
@@ -50,7 +51,6 @@ __all__ = [
     "QUICK",
     "write_validation_figures",
     "read_stable32_columns",
-    "pooled_oadev",
     "record_statistics",
 ]
 
@@ -228,25 +228,6 @@ def _receiver_figure(
         "record": record_statistics(x, read_stable32_columns(stab / "gps" / "stable32_OADEV_octave.txt")),
     }
     return [path], numbers
-
-
-def pooled_oadev(x_s: np.ndarray, rate_hz: float, ci: float = 0.683) -> st.Deviation:
-    """OADEV of independent trials pooled: mean AVAR, EDF = trials x one trial's EDF.
-
-    ``x_s`` (trials, N) phase in seconds. The trials are independent, so the mean of their Allan
-    variances has the sum of their EDFs (chi-square interval of NIST SP 1065 eq. (45) on that EDF);
-    ``n`` is the total number of terms. Returns a :class:`Deviation` on the octave grid.
-    """
-    if x_s.ndim != 2:
-        raise ValueError(f"x_s has shape {x_s.shape}, must be (trials, N)")
-    per_trial = [st.oadev(row, rate_hz, "octave", ci=ci) for row in x_s]
-    avar = np.mean([d.dev**2 for d in per_trial], axis=0)
-    edf = x_s.shape[0] * np.asarray(per_trial[0].edf)
-    dev = np.sqrt(avar)
-    lo, hi = chi2_interval(dev, edf, ci)
-    return dataclasses.replace(
-        per_trial[0], dev=dev, edf=edf, lo=lo, hi=hi, n=np.sum([d.n for d in per_trial], axis=0)
-    )
 
 
 def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) -> tuple[list[Path], dict]:

@@ -24,12 +24,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
-from chronofuse.io.rinex import NS_PER_S, GpsNavigation
+from chronofuse.io.rinex import GpsNavigation
+from chronofuse.timescale import NS_PER_S, SECONDS_PER_WEEK
 
 GM_M3_PER_S2 = 3.986005e14  # WGS 84 value of IS-GPS-200
 OMEGA_EARTH_RAD_PER_S = 7.2921151467e-5  # WGS 84 Earth rotation rate
 RELATIVISTIC_F_S_PER_SQRT_M = -4.442807633e-10  # F = -2 sqrt(mu) / c^2 (IS-GPS-200 20.3.3.3.3.1)
-SECONDS_PER_WEEK = 604_800
 
 _KEPLER_ITERATIONS = 10
 _LIGHT_TIME_ITERATIONS = 6

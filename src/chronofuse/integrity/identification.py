@@ -48,7 +48,8 @@ from chronofuse.integrity.ephemeris import select_ephemeris
 from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.integrity.positioning import corrected_ranges
 from chronofuse.io.grid import grid_slots
-from chronofuse.io.rinex import NS_PER_S, read_gps_navigation, read_gps_observations
+from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
+from chronofuse.timescale import NS_PER_S
 from chronofuse.validation import InputDataError, check_array, check_choice, check_scalar
 
 # An epoch tag may be this fraction of the interval off its grid slot (receiver clock steering).

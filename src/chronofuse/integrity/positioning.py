@@ -14,13 +14,8 @@ import math
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
-from chronofuse.integrity.ephemeris import (
-    SECONDS_PER_WEEK,
-    BroadcastEphemeris,
-    geometry_from_pseudorange,
-    select_ephemeris,
-)
-from chronofuse.io.rinex import NS_PER_S
+from chronofuse.integrity.ephemeris import BroadcastEphemeris, geometry_from_pseudorange, select_ephemeris
+from chronofuse.timescale import NS_PER_S, SECONDS_PER_WEEK
 
 # WGS 84 ellipsoid
 _A_M = 6_378_137.0

@@ -22,10 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
+from chronofuse.timescale import datetime64_to_gps_ns
 from chronofuse.validation import InputDataError
 
-GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
-NS_PER_S = 1_000_000_000
 
 # Preferred L1 pseudorange codes, best first (RINEX 3 C1C, RINEX 2 C1, then P1 codes).
 L1_PSEUDORANGE_CODES = ("C1C", "C1", "C1W", "C1P", "P1")
@@ -116,8 +115,7 @@ class GpsNavigation:
 
 def to_gps_ns(times) -> np.ndarray:
     """GPS-time labels (``datetime64``) -> int64 ns since the GPS epoch; no leap seconds (GPS scale)."""
-    t = np.asarray(times).astype("datetime64[ns]")
-    return (t - GPS_EPOCH).astype("timedelta64[ns]").astype(np.int64)
+    return datetime64_to_gps_ns(times)
 
 
 class _LogCollector(logging.Handler):

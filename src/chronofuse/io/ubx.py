@@ -19,10 +19,9 @@ from pathlib import Path
 import numpy as np
 from pyubx2 import ERR_LOG, UBX_PROTOCOL, UBXReader
 
+from chronofuse.timescale import MS_PER_WEEK
 from chronofuse.validation import InputDataError
 
-# One GPS week in milliseconds: iTOW wraps from this back to 0 at the week rollover.
-WEEK_MS = 7 * 86_400 * 1000
 
 _NS = 1e-9
 
@@ -80,8 +79,8 @@ def unwrap_itow_ms(itow_ms: np.ndarray) -> np.ndarray:
     if itow.size == 0:
         return itow.copy()
     step = np.diff(itow)
-    weeks = np.concatenate(([0], np.cumsum(step < -WEEK_MS // 2)))
-    return itow - itow[0] + weeks * WEEK_MS
+    weeks = np.concatenate(([0], np.cumsum(step < -MS_PER_WEEK // 2)))
+    return itow - itow[0] + weeks * MS_PER_WEEK
 
 
 def read_nav_clock(path) -> NavClockRecord:

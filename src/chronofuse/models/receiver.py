@@ -96,6 +96,7 @@ from scipy.signal import lfilter
 
 from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.seeding import child_rng, root_seed
+from chronofuse.timescale import NS_PER_S, gps_minus_utc_s, utc_to_gps_ns
 from chronofuse.validation import check_choice, check_scalar
 
 __all__ = [
@@ -113,9 +114,9 @@ __all__ = [
 ]
 
 #: 2025-01-01T00:00:00 UTC in GPS seconds since 1980-01-06 (16,432 days plus 18 leap seconds).
-DEFAULT_START_GPS_S = 1_419_724_818
-#: GPS - UTC in seconds since 2017-01-01.
-GPS_MINUS_UTC_S = 18
+DEFAULT_START_GPS_S = int(utc_to_gps_ns(np.datetime64("2025-01-01T00:00:00")) // NS_PER_S)
+#: GPS - UTC in seconds at the default start (18 s since 2017-01-01), from the leap-second table.
+GPS_MINUS_UTC_S = int(gps_minus_utc_s(DEFAULT_START_GPS_S * NS_PER_S))
 
 SPOOF_SHAPES = ("ramp", "quadratic")
 
