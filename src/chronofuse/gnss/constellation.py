@@ -5,7 +5,7 @@ For simulation where no broadcast ephemeris is given (real navigation files go t
 time ``t_s`` in seconds from the scenario start, when ECI and ECEF coincide:
 
 * **GPS**: the nominal 24-slot constellation as a Walker 24/6/1 delta pattern (6 planes 60 deg apart in
-  right ascension, 4 satellites each, inclination 55 deg, semi-major axis 26,559.7 km: half a sidereal day;
+  right ascension, 4 satellites each, inclination 55 deg, period half a sidereal day (26,562 km);
   the GPS SPS Performance Standard (2020), section 3.2, gives 6 planes at 55 deg and 24 slots).
 * **BDS-3**: 24 MEO as a Walker 24/3/1 pattern (inclination 55 deg, semi-major axis 27,906.1 km), 3 GEO at
   80, 110.5 and 140 deg E, and 3 IGSO (inclination 55 deg, geosynchronous, one ground track crossing the
@@ -30,7 +30,15 @@ __all__ = ["Constellation", "CONSTELLATIONS", "constellation", "walker", "satell
 
 MU_GPS_M3_PER_S2 = 3.986005e14  # IS-GPS-200 value of GM
 OMEGA_E_RAD_PER_S = 7.2921151467e-5  # WGS-84 rotation rate
-_GEO_A_M = 42_164_200.0
+SIDEREAL_DAY_S = 86_164.0905
+
+
+def _semi_major_axis_m(period_s: float) -> float:
+    """Kepler's third law: the circular orbit of the given period."""
+    return (MU_GPS_M3_PER_S2 * (period_s / (2 * math.pi)) ** 2) ** (1.0 / 3.0)
+
+
+_GEO_A_M = _semi_major_axis_m(SIDEREAL_DAY_S)  # 42,164 km
 
 
 @dataclass(frozen=True)
@@ -62,7 +70,7 @@ def walker(total: int, planes: int, phasing: int, semi_major_axis_m: float, incl
 
 
 def _gps() -> Constellation:
-    a, i, raan, u = walker(24, 6, 1, 26_559_700.0, 55.0)
+    a, i, raan, u = walker(24, 6, 1, _semi_major_axis_m(SIDEREAL_DAY_S / 2), 55.0)  # 26,562 km
     return Constellation("gps", tuple(f"G{k + 1:02d}" for k in range(24)), a, i, raan, u)
 
 
