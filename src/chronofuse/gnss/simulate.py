@@ -67,8 +67,8 @@ class SignalEnvironment:
 
 ENVIRONMENTS: dict[str, SignalEnvironment] = {
     "open-sky": SignalEnvironment("open-sky"),
-    # Street canyon: 30 m buildings on a 20 m street (mask 56 deg across the street), multipath 3 m.
-    "urban-canyon": SignalEnvironment("urban-canyon", building_height_m=30.0, street_width_m=20.0,
+    # Street canyon: 15 m buildings on a 30 m street (mask 45 deg across the street), multipath 3 m.
+    "urban-canyon": SignalEnvironment("urban-canyon", building_height_m=15.0, street_width_m=30.0,
                                       multipath_sigma_m=3.0, multipath_tau_s=10.0),
     # Open road with tunnels: 60 s without any satellite every 10 minutes, from 300 s on.
     "tunnel": SignalEnvironment("tunnel", outages_s=tuple((300.0 + 600.0 * j, 360.0 + 600.0 * j) for j in range(24))),
