@@ -68,6 +68,20 @@ def test_the_bias_instability_floor_is_0_664_b_where_it_dominates():
     assert adev == pytest.approx(math.sqrt(2 * math.log(2) / math.pi) * 1e-3, rel=0.1)
 
 
+def test_a_held_slow_bias_keeps_the_floor_from_a_few_bias_intervals_on():
+    err = SensorErrors(white_density=1e-6, bias_instability=1e-3)
+    model = ImuModel("floor", gyro=err, accel=SensorErrors(white_density=0.0), source="test")
+    zero = np.zeros((40_000, 3))
+    held = simulate_imu(model, zero, zero, RATE_HZ, trials=4, seed=3, bias_rate_hz=1.0)
+    adev, _ = _pooled_adev(held.gyro_rad_per_s, np.array([1.0, 10.0, 50.0]))
+    floor = math.sqrt(2 * math.log(2) / math.pi) * 1e-3
+    assert adev[1:] == pytest.approx(floor, rel=0.1)
+    # At one bias interval the overlapping averages straddle the holds and see less of it.
+    assert 0.6 * floor < adev[0] < floor
+    with pytest.raises(ValueError, match="bias_rate_hz"):
+        simulate_imu(model, zero, zero, RATE_HZ, bias_rate_hz=30.0)
+
+
 def test_scale_factor_and_misalignment_act_on_the_true_motion():
     err = SensorErrors(white_density=0.0, scale_factor=1e-2, misalignment_rad=1e-3)
     model = ImuModel("matrix", gyro=err, accel=err, source="test")

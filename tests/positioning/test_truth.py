@@ -9,7 +9,7 @@ import pytest
 
 from chronofuse.models.kinematics import manoeuvre
 from chronofuse.positioning.ins import InsState, _rodrigues, propagate
-from chronofuse.positioning.truth import dcm_log, imu_truth, navigation_truth
+from chronofuse.positioning.truth import _integrate_lat_lon, dcm_log, imu_truth, integrate_lat_lon_reference, navigation_truth
 
 ORIGIN = np.array([math.radians(30.5), math.radians(114.3), 30.0])
 
@@ -52,3 +52,14 @@ def test_the_matrix_log_inverts_rodrigues():
 def test_an_origin_at_the_pole_is_refused():
     with pytest.raises(ValueError, match="origin_lat_lon_h"):
         navigation_truth(_drive(), [math.pi / 2, 0, 0], 10.0, 10.0)
+
+
+def test_the_position_kernel_equals_its_numpy_twin():
+    truth = navigation_truth(_drive(), ORIGIN, 30.0, 50.0)
+    fast = truth.lat_lon_h.copy()
+    slow = truth.lat_lon_h.copy()
+    fast[:, 1:, :2] = slow[:, 1:, :2] = 0.0
+    v = np.ascontiguousarray(truth.v_ned_m_per_s)
+    _integrate_lat_lon(fast, v, 1 / 50.0)
+    integrate_lat_lon_reference(slow, v, 1 / 50.0)
+    assert np.allclose(fast, slow, rtol=0, atol=1e-15)

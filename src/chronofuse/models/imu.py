@@ -185,7 +185,7 @@ class ImuTruth:
 
 
 def _bias_series(err: SensorErrors, trials: int, steps: int, dt_s: float, base: np.random.SeedSequence,
-                 sensor: int) -> np.ndarray:
+                 sensor: int, hold: int) -> np.ndarray:
     """Time-varying bias + white noise of three axes, (trials, steps, 3), interval-averaged."""
     out = np.zeros((trials, 3, steps))
     h0, hm2 = 2.0 * err.white_density**2, err.bias_random_walk**2 / (2.0 * math.pi**2)
@@ -196,11 +196,17 @@ def _bias_series(err: SensorErrors, trials: int, steps: int, dt_s: float, base: 
             phase = two_state_clock_phase_s(z[0], z[1], z[2], h0=h0, hm2=hm2, dt_s=dt_s)
             out[i] = np.diff(phase, axis=-1) / dt_s
     if err.bias_instability > 0.0:
-        kw = KasdinWalterFilter(-1.0, steps, gain=tabulated_gain(flicker_fm_gain))
+        # Flicker at the bias rate (every ``hold`` samples), held: averages over whole bias intervals are
+        # those of interval-averaged flicker, so the Allan floor holds from a few bias intervals on.
+        slow = -(-steps // hold)
+        kw = KasdinWalterFilter(-1.0, slow, gain=tabulated_gain(flicker_fm_gain))
+        row = np.empty(slow)
         for i in range(trials):
             rng = child_rng(base, i, sensor, _TERM_KEYS["flicker"])
             for axis in range(3):
-                kw.add_row(out[i, axis], rng, err.bias_instability)  # sqrt(pi h_-1) = B
+                row[:] = 0.0
+                kw.add_row(row, rng, err.bias_instability)  # sqrt(pi h_-1) = B
+                out[i, axis] += np.repeat(row, hold)[:steps]
     return np.moveaxis(out, 1, 2)
 
 
@@ -219,7 +225,7 @@ def _constants(err: SensorErrors, trials: int, base: np.random.SeedSequence, sen
 
 
 def simulate_imu(model: ImuModel, angular_rate_rad_per_s, specific_force_m_per_s2, rate_hz: float, *,
-                 trials: int = 1, seed=0) -> ImuTruth:
+                 trials: int = 1, seed=0, bias_rate_hz: float | None = None) -> ImuTruth:
     """Measurements of an IMU following the true motion, shape (trials, steps, 3) each.
 
     Parameters
@@ -234,6 +240,11 @@ def simulate_imu(model: ImuModel, angular_rate_rad_per_s, specific_force_m_per_s
         Independent realisations of the errors (the truth is shared when it has shape (steps, 3)).
     seed : int or numpy.random.SeedSequence
         Trial ``i`` draws from ``child_seed(seed, i, ...)``: it does not depend on ``trials``.
+    bias_rate_hz : float, optional
+        Rate at which the bias-instability (flicker) process is generated and then held; ``rate_hz / bias_rate_hz``
+        must be a whole number. Default: ``rate_hz`` (exact at every tau). A slower rate (1 Hz for a 100 Hz
+        IMU) costs a hundredth of the time and keeps the Allan floor from a few ``1 / bias_rate_hz`` on, where the
+        bias instability shows (below it the white noise dominates).
     """
     check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
     check_scalar(trials, "trials", min_val=1, integer=True)
@@ -245,11 +256,14 @@ def simulate_imu(model: ImuModel, angular_rate_rad_per_s, specific_force_m_per_s
     if omega.shape[-2] != force.shape[-2]:
         raise ValueError(f"angular rate has {omega.shape[-2]} steps and specific force {force.shape[-2]}")
     steps, dt = omega.shape[-2], 1.0 / rate_hz
+    hold = 1 if bias_rate_hz is None else int(round(rate_hz / bias_rate_hz))
+    if bias_rate_hz is not None and (hold < 1 or abs(hold * bias_rate_hz - rate_hz) > 1e-9 * rate_hz):
+        raise ValueError(f"bias_rate_hz == {bias_rate_hz}, must divide rate_hz == {rate_hz} a whole number of times")
     base = root_seed(seed)
     sensors = []
     for k, (err, truth) in enumerate(((model.gyro, omega), (model.accel, force))):
         turn_on, matrix = _constants(err, trials, base, k)
-        bias = _bias_series(err, trials, steps, dt, base, k) + turn_on[:, None, :]
+        bias = _bias_series(err, trials, steps, dt, base, k, hold) + turn_on[:, None, :]
         if truth.ndim == 2:  # one truth shared by every trial
             measured = np.einsum("nij,tj->nti", matrix, truth)
         else:

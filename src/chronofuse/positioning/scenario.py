@@ -94,7 +94,7 @@ def simulate_drive(scenario: str, systems: str, imu: str, duration_s: float, tri
     accel = np.empty_like(gyro)
     for i in range(trials):
         meas = simulate_imu(imu_grade(imu), gyro_true[0], accel_true[0], imu_rate_hz,
-                            seed=child_seed(base, first_trial + i, 0))
+                            seed=child_seed(base, first_trial + i, 0), bias_rate_hz=1.0)
         gyro[i] = meas.gyro_rad_per_s[0].reshape(epochs, samples, 3)
         accel[i] = meas.accel_m_per_s2[0].reshape(epochs, samples, 3)
     at_epochs = slice(samples, None, samples)  # the state at the end of each IMU block

@@ -19,14 +19,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from chronofuse.models.kinematics import Trajectory
 from chronofuse.positioning.earth import earth_rate_ned, normal_gravity_m_per_s2, radii_of_curvature_m, transport_rate_ned
-from chronofuse.positioning.ins import _rodrigues, euler_to_dcm
+from chronofuse.positioning.ins import _radii, _rodrigues, euler_to_dcm
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["NavigationTruth", "navigation_truth", "imu_truth", "dcm_log"]
+__all__ = ["NavigationTruth", "navigation_truth", "imu_truth", "dcm_log", "integrate_lat_lon_reference"]
 
 
 @dataclass(frozen=True)
@@ -49,11 +50,11 @@ def _attitude(v_ned: np.ndarray) -> np.ndarray:
     horizontal = np.hypot(v_ned[..., 0], v_ned[..., 1])
     yaw = np.arctan2(v_ned[..., 1], v_ned[..., 0])
     pitch = np.arctan2(-v_ned[..., 2], horizontal)
-    stopped = horizontal < 0.1
-    for k in range(1, yaw.shape[1]):  # hold the heading while (nearly) at rest
-        yaw[:, k] = np.where(stopped[:, k], yaw[:, k - 1], yaw[:, k])
-        pitch[:, k] = np.where(stopped[:, k], pitch[:, k - 1], pitch[:, k])
-    return euler_to_dcm(np.zeros_like(yaw), pitch, yaw)
+    # Hold the heading while (nearly) at rest: each epoch takes the angles of the last moving one.
+    moving = horizontal >= 0.1
+    last = np.maximum.accumulate(np.where(moving, np.arange(yaw.shape[1]), 0), axis=1)
+    rows = np.arange(yaw.shape[0])[:, None]
+    return euler_to_dcm(np.zeros_like(yaw), pitch[rows, last], yaw[rows, last])
 
 
 def navigation_truth(trajectory: Trajectory, origin_lat_lon_h, duration_s: float, rate_hz: float) -> NavigationTruth:
@@ -79,17 +80,40 @@ def navigation_truth(trajectory: Trajectory, origin_lat_lon_h, duration_s: float
     pos[:, 0, 1] = origin[1] + r0[:, 1] / ((r_e0 + origin[2]) * math.cos(origin[0]))
     h = pos[:, 0, 2] - 0.5 * dt * np.cumsum(v[:, :-1, 2] + v[:, 1:, 2], axis=1)
     pos[:, 1:, 2] = h
+    _integrate_lat_lon(pos, np.ascontiguousarray(v), dt)
+    return NavigationTruth(t_s=t, lat_lon_h=pos, v_ned_m_per_s=v, c_bn=_attitude(v), rate_hz=float(rate_hz))
+
+
+def integrate_lat_lon_reference(pos: np.ndarray, v: np.ndarray, dt: float) -> None:
+    """The numpy twin of :func:`_integrate_lat_lon`: fill ``pos[:, 1:, :2]`` (trials, steps + 1, 3) in place from
+    the start ``pos[:, 0]``, the heights ``pos[..., 2]`` and velocities ``v`` (trials, steps + 1, 3), by the
+    mechanization's trapezoid rule with its own choice of radii."""
     lat, lon = pos[:, 0, 0].copy(), pos[:, 0, 1].copy()
-    h_all = pos[:, :, 2]
-    for k in range(steps):  # the mechanization's trapezoid rule, with its own choice of radii
+    h = pos[:, :, 2]
+    for k in range(v.shape[1] - 1):
         r_n, r_e = radii_of_curvature_m(lat)
-        lat_new = lat + 0.5 * (v[:, k, 0] / (r_n + h_all[:, k]) + v[:, k + 1, 0] / (r_n + h_all[:, k + 1])) * dt
+        lat_new = lat + 0.5 * (v[:, k, 0] / (r_n + h[:, k]) + v[:, k + 1, 0] / (r_n + h[:, k + 1])) * dt
         _, r_e_new = radii_of_curvature_m(lat_new)
-        lon = lon + 0.5 * (v[:, k, 1] / ((r_e + h_all[:, k]) * np.cos(lat))
-                           + v[:, k + 1, 1] / ((r_e_new + h_all[:, k + 1]) * np.cos(lat_new))) * dt
+        lon = lon + 0.5 * (v[:, k, 1] / ((r_e + h[:, k]) * np.cos(lat))
+                           + v[:, k + 1, 1] / ((r_e_new + h[:, k + 1]) * np.cos(lat_new))) * dt
         lat = lat_new
         pos[:, k + 1, 0], pos[:, k + 1, 1] = lat, lon
-    return NavigationTruth(t_s=t, lat_lon_h=pos, v_ned_m_per_s=v, c_bn=_attitude(v), rate_hz=float(rate_hz))
+
+
+@numba.njit(cache=True)
+def _integrate_lat_lon(pos, v, dt):
+    """Numba kernel of :func:`integrate_lat_lon_reference` (the same recurrence, a sequential loop)."""
+    for i in range(pos.shape[0]):
+        lat, lon = pos[i, 0, 0], pos[i, 0, 1]
+        for k in range(v.shape[1] - 1):
+            r_n, r_e = _radii(lat)
+            h0, h1 = pos[i, k, 2], pos[i, k + 1, 2]
+            lat_new = lat + 0.5 * (v[i, k, 0] / (r_n + h0) + v[i, k + 1, 0] / (r_n + h1)) * dt
+            r_e_new = _radii(lat_new)[1]
+            lon = lon + 0.5 * (v[i, k, 1] / ((r_e + h0) * math.cos(lat))
+                               + v[i, k + 1, 1] / ((r_e_new + h1) * math.cos(lat_new))) * dt
+            lat = lat_new
+            pos[i, k + 1, 0], pos[i, k + 1, 1] = lat, lon
 
 
 def dcm_log(m: np.ndarray) -> np.ndarray:
