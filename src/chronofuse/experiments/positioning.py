@@ -16,7 +16,7 @@ import numpy as np
 
 from chronofuse.analysis.metrics import horizontal_cep_m, outage_bridging_s, vertical_95_m
 from chronofuse.gnss.simulate import ENVIRONMENTS
-from chronofuse.models.imu import IMU_GRADES, imu_grade
+from chronofuse.models.imu import IMU_GRADES, ImuModel, imu_grade
 from chronofuse.positioning.errors import ned_difference_m
 from chronofuse.positioning.loose import LooselyCoupled, smooth
 from chronofuse.positioning.scenario import SYSTEMS, simulate_drive
@@ -45,6 +45,8 @@ class PositioningConfig:
     seed: int = 0
     imu_rate_hz: float = 100.0
     speed_m_per_s: float = 12.0
+    #: An IMU error model to use instead of the named grade (e.g. an error-free one for the physical floor).
+    imu_model: ImuModel | None = None
 
     def __post_init__(self):
         check_choice(self.scenario, "scenario", ENVIRONMENTS)
@@ -70,8 +72,8 @@ def solution_metrics(errors_ned_m: np.ndarray, gdop: np.ndarray, outage: np.ndar
 
 
 def _chunk(cfg: PositioningConfig, first: int, trials: int) -> dict[str, np.ndarray]:
-    grade = cfg.ins if cfg.ins != "none" else "industrial"
-    drive = simulate_drive(cfg.scenario, cfg.systems, grade, cfg.duration_s, trials, seed=cfg.seed,
+    imu = cfg.imu_model or imu_grade(cfg.ins if cfg.ins != "none" else "industrial")
+    drive = simulate_drive(cfg.scenario, cfg.systems, imu, cfg.duration_s, trials, seed=cfg.seed,
                            imu_rate_hz=cfg.imu_rate_hz, speed_m_per_s=cfg.speed_m_per_s, first_trial=first)
     truth = np.broadcast_to(drive.truth.lat_lon_h[:, 1:], drive.fix_lat_lon_h.shape)
     out = {"gnss": ned_difference_m(drive.fix_lat_lon_h, truth), "gdop": drive.gdop,
@@ -79,7 +81,7 @@ def _chunk(cfg: PositioningConfig, first: int, trials: int) -> dict[str, np.ndar
     if cfg.ins != "none":
         t = drive.truth
         # The drive starts at a surveyed point, standing still: the INS is aligned there.
-        filt = LooselyCoupled(imu_grade(cfg.ins), t.lat_lon_h[0, 0], t.v_ned_m_per_s[0, 0], t.c_bn[0, 0],
+        filt = LooselyCoupled(imu, t.lat_lon_h[0, 0], t.v_ned_m_per_s[0, 0], t.c_bn[0, 0],
                               cfg.imu_rate_hz, sigma_r_m=1.0, sigma_v_m_per_s=0.1, sigma_psi_rad=0.01).fit()
         result = filt.run(drive.fix_lat_lon_h, gyro_rad_per_s=drive.gyro_rad_per_s,
                           accel_m_per_s2=drive.accel_m_per_s2, fix_cov_ned_m2=drive.fix_cov_ned_m2)

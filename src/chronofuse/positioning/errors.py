@@ -48,7 +48,10 @@ class ErrorModel:
     def from_imu(cls, imu: ImuModel, tau_b_s: float = 300.0) -> ErrorModel:
         """Densities from the datasheet terms; the bias 1-sigma covers the turn-on bias and the in-run terms."""
         def sigma_b(err):
-            return float(np.sqrt(err.turn_on_bias**2 + err.bias_instability**2 + err.bias_random_walk**2 * tau_b_s))
+            # A bias state of zero variance would make every covariance singular (and the RTS gain undefined):
+            # 1e-12 of the measured unit keeps it invertible without changing any result.
+            return max(float(np.sqrt(err.turn_on_bias**2 + err.bias_instability**2
+                                     + err.bias_random_walk**2 * tau_b_s)), 1e-12)
         return cls(vrw=imu.accel.white_density, arw=imu.gyro.white_density, sigma_ba=sigma_b(imu.accel),
                    sigma_bg=sigma_b(imu.gyro), tau_b_s=tau_b_s)
 

@@ -17,7 +17,7 @@ import pymap3d
 
 from chronofuse.gnss.lsq_position import least_squares_position
 from chronofuse.gnss.simulate import ENVIRONMENTS, simulate_pseudoranges
-from chronofuse.models.imu import imu_grade, simulate_imu
+from chronofuse.models.imu import ImuModel, imu_grade, simulate_imu
 from chronofuse.models.kinematics import Trajectory, manoeuvre
 from chronofuse.positioning.truth import NavigationTruth, imu_truth, navigation_truth
 from chronofuse.seeding import child_seed, root_seed
@@ -72,10 +72,11 @@ class DriveData:
     imu_rate_hz: float
 
 
-def simulate_drive(scenario: str, systems: str, imu: str, duration_s: float, trials: int, *, seed=0,
+def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s: float, trials: int, *, seed=0,
                    imu_rate_hz: float = 100.0, speed_m_per_s: float = 12.0, first_trial: int = 0) -> DriveData:
     """Simulate ``trials`` drives of ``duration_s`` in ``scenario`` (a key of
-    :data:`chronofuse.gnss.simulate.ENVIRONMENTS`) with ``systems`` ("gps" or "gps+bds") and IMU grade ``imu``.
+    :data:`chronofuse.gnss.simulate.ENVIRONMENTS`) with ``systems`` ("gps" or "gps+bds") and the IMU ``imu`` (a
+    grade name or an :class:`~chronofuse.models.imu.ImuModel`).
 
     Trial ``i`` draws from ``child_seed(seed, first_trial + i, ...)``, so a run split into chunks of trials gives
     the same numbers as one run.
@@ -89,11 +90,12 @@ def simulate_drive(scenario: str, systems: str, imu: str, duration_s: float, tri
     epochs = int(duration_s)
     nav = navigation_truth(city_loop(duration_s, speed_m_per_s), DEFAULT_ORIGIN, float(epochs), imu_rate_hz)
     gyro_true, accel_true = imu_truth(nav)
+    model = imu if isinstance(imu, ImuModel) else imu_grade(imu)
     base = root_seed(seed)
     gyro = np.empty((trials, epochs, samples, 3))
     accel = np.empty_like(gyro)
     for i in range(trials):
-        meas = simulate_imu(imu_grade(imu), gyro_true[0], accel_true[0], imu_rate_hz,
+        meas = simulate_imu(model, gyro_true[0], accel_true[0], imu_rate_hz,
                             seed=child_seed(base, first_trial + i, 0), bias_rate_hz=1.0)
         gyro[i] = meas.gyro_rad_per_s[0].reshape(epochs, samples, 3)
         accel[i] = meas.accel_m_per_s2[0].reshape(epochs, samples, 3)
