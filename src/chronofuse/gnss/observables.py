@@ -57,10 +57,11 @@ class ChannelClockBiases:
     elevation_rad: np.ndarray | None = None
 
 
-def corrected_ranges(eph, gps_ns, pseudorange_m, receiver_m, alpha, beta, elevation_mask_rad):
+def corrected_ranges(eph, gps_ns, pseudorange_m, receiver_m, alpha, beta, elevation_mask_rad, *, geometry=None):
     """``(rho - |r_sat - r_rx| + c dt_sat - I - T)`` (m), shape (epochs, sats), NaN below the mask or
-    without ephemeris; with the elevation (rad). ``alpha``/``beta`` None: no ionosphere correction."""
-    geo = geometry_from_pseudorange(eph, gps_ns, pseudorange_m, receiver_m)
+    without ephemeris; with the elevation (rad). ``alpha``/``beta`` None: no ionosphere correction.
+    ``geometry``: the :func:`geometry_from_pseudorange` of these arguments when the caller has it already."""
+    geo = geometry_from_pseudorange(eph, gps_ns, pseudorange_m, receiver_m) if geometry is None else geometry
     el, az = elevation_azimuth(receiver_m, geo.satellite_m)
     iono_m = 0.0
     if alpha is not None and beta is not None:

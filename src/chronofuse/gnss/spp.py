@@ -40,12 +40,12 @@ def single_point_position(obs, nav: GpsNavigation, *, elevation_mask_deg: float 
         rho = obs.pseudorange_m[sel]
         x = np.zeros(4)
         ok = np.zeros(len(sats), dtype=bool)
-        for it in range(iterations):
+        for _ in range(iterations):
             near = np.linalg.norm(x[:3]) > 1e6 and abs(ecef_to_geodetic(x[:3])[2]) < 1e5
             geo = geometry_from_pseudorange(sub, obs.gps_ns[sel], rho, x[:3])
             if near:
-                res, el = corrected_ranges(sub, obs.gps_ns[sel], rho, x[:3], nav.klobuchar_alpha, nav.klobuchar_beta,
-                                           mask)
+                res, _ = corrected_ranges(sub, obs.gps_ns[sel], rho, x[:3], nav.klobuchar_alpha, nav.klobuchar_beta,
+                                          mask, geometry=geo)
                 res = res[0]
             else:
                 res = (rho - geo.range_m + SPEED_OF_LIGHT_M_PER_S * geo.clock_s)[0]
