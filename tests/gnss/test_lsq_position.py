@@ -11,7 +11,7 @@ from scipy import stats
 
 from chronofuse.gnss.constellation import constellation, satellite_positions_ecef
 from chronofuse.gnss.lsq_position import least_squares_position
-from chronofuse.gnss.simulate import ENVIRONMENTS, simulate_pseudoranges
+from chronofuse.gnss.simulate import ENVIRONMENTS, model_satellites, simulate_pseudoranges
 
 RX = np.array(pymap3d.geodetic2ecef(30.5, 114.3, 30.0))
 
@@ -77,9 +77,10 @@ def test_a_canyon_hides_satellites_across_the_street_and_a_tunnel_hides_all():
     receiver = np.broadcast_to(RX, (2, 400, 3))
     heading = np.zeros((2, 400))
     t = np.arange(400.0)
-    open_sky = simulate_pseudoranges(receiver, heading, t, ("gps", "bds"), ENVIRONMENTS["open-sky"], seed=3)
-    canyon = simulate_pseudoranges(receiver, heading, t, ("gps", "bds"), ENVIRONMENTS["urban-canyon"], seed=3)
-    tunnel = simulate_pseudoranges(receiver, heading, t, ("gps", "bds"), ENVIRONMENTS["tunnel"], seed=3)
+    sats = model_satellites(("gps", "bds"), t)
+    open_sky = simulate_pseudoranges(receiver, heading, t, sats, ENVIRONMENTS["open-sky"], seed=3)
+    canyon = simulate_pseudoranges(receiver, heading, t, sats, ENVIRONMENTS["urban-canyon"], seed=3)
+    tunnel = simulate_pseudoranges(receiver, heading, t, sats, ENVIRONMENTS["tunnel"], seed=3)
     seen = lambda obs: np.isfinite(obs.pseudorange_m).sum(-1)  # noqa: E731
     assert (seen(canyon) < seen(open_sky)).all()
     assert (seen(tunnel)[:, 300:360] == 0).all() and (seen(tunnel)[:, :300] == seen(open_sky)[:, :300]).all()
@@ -88,7 +89,8 @@ def test_a_canyon_hides_satellites_across_the_street_and_a_tunnel_hides_all():
 def test_simulated_open_sky_fixes_scatter_as_sigma_times_pdop_says():
     receiver = np.broadcast_to(RX, (20, 300, 3))
     env = ENVIRONMENTS["open-sky"]
-    obs = simulate_pseudoranges(receiver, np.zeros((20, 300)), np.arange(300.0), ("gps", "bds"), env, seed=5)
+    t = np.arange(300.0)
+    obs = simulate_pseudoranges(receiver, np.zeros((20, 300)), t, model_satellites(("gps", "bds"), t), env, seed=5)
     fix = least_squares_position(obs.satellite_m, obs.pseudorange_m, obs.sigma_m, obs.system, RX + 1e4)
     err = np.linalg.norm(fix.position_m - RX, axis=-1)
     assert np.isfinite(err).all()

@@ -37,6 +37,8 @@ def position(
     seed: int = typer.Option(0, "--seed", help="Seed of the run."),
     imu_rate: float = typer.Option(100.0, "--imu-rate", help="IMU rate in Hz (at least 10)."),
     speed: float = typer.Option(12.0, "--speed", help=f"Vehicle speed in m/s (at most {MAX_SPEED_M_PER_S:g})."),
+    nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file: GPS orbits from its broadcast "
+                                    "ephemeris (the drive starts at its first record) instead of the model."),
     out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json and PNG figures."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
@@ -49,7 +51,7 @@ def position(
         fail(f"--speed == {speed:g}, must be in (0, {MAX_SPEED_M_PER_S:g}] m/s (the scenarios' road vehicle)")
     with user_errors():
         cfg = PositioningConfig(scenario=scenario, systems=systems, ins=ins, smooth=smooth, duration_s=duration,
-                                trials=trials, seed=seed, imu_rate_hz=imu_rate, speed_m_per_s=speed)
+                                trials=trials, seed=seed, imu_rate_hz=imu_rate, speed_m_per_s=speed, nav=nav)
         with progress_reporter("position") as say:
             run = run_positioning(cfg, progress=say)
             files = write_report(run, out) if out is not None else []

@@ -16,6 +16,7 @@ import numpy as np
 
 from chronofuse.analysis.metrics import horizontal_cep_m, outage_bridging_s, vertical_95_m
 from chronofuse.gnss.simulate import ENVIRONMENTS
+from chronofuse.io.rinex import read_gps_navigation
 from chronofuse.models.imu import IMU_GRADES, ImuModel, imu_grade
 from chronofuse.positioning.errors import ned_difference_m
 from chronofuse.positioning.loose import LooselyCoupled, smooth
@@ -47,6 +48,8 @@ class PositioningConfig:
     speed_m_per_s: float = 12.0
     #: An IMU error model to use instead of the named grade (e.g. an error-free one for the physical floor).
     imu_model: ImuModel | None = None
+    #: A RINEX navigation file: GPS satellites from its broadcast ephemeris instead of the constellation model.
+    nav: str | Path | None = None
 
     def __post_init__(self):
         check_choice(self.scenario, "scenario", ENVIRONMENTS)
@@ -71,10 +74,10 @@ def solution_metrics(errors_ned_m: np.ndarray, gdop: np.ndarray, outage: np.ndar
     }
 
 
-def _chunk(cfg: PositioningConfig, first: int, trials: int) -> dict[str, np.ndarray]:
+def _chunk(cfg: PositioningConfig, first: int, trials: int, nav) -> dict[str, np.ndarray]:
     imu = cfg.imu_model or imu_grade(cfg.ins if cfg.ins != "none" else "industrial")
     drive = simulate_drive(cfg.scenario, cfg.systems, imu, cfg.duration_s, trials, seed=cfg.seed,
-                           imu_rate_hz=cfg.imu_rate_hz, speed_m_per_s=cfg.speed_m_per_s, first_trial=first)
+                           imu_rate_hz=cfg.imu_rate_hz, speed_m_per_s=cfg.speed_m_per_s, first_trial=first, nav=nav)
     truth = np.broadcast_to(drive.truth.lat_lon_h[:, 1:], drive.fix_lat_lon_h.shape)
     out = {"gnss": ned_difference_m(drive.fix_lat_lon_h, truth), "gdop": drive.gdop,
            "truth_lat_lon_h": drive.truth.lat_lon_h[0, 1:]}
@@ -93,18 +96,19 @@ def _chunk(cfg: PositioningConfig, first: int, trials: int) -> dict[str, np.ndar
 
 def run_positioning(cfg: PositioningConfig, progress: Callable[[str], None] | None = None) -> dict:
     """Run every solution the configuration asks for; returns the summary and the per-epoch errors."""
+    nav = read_gps_navigation(cfg.nav) if cfg.nav is not None else None
     parts: list[dict] = []
     for first in range(0, cfg.trials, _CHUNK_TRIALS):
         n = min(_CHUNK_TRIALS, cfg.trials - first)
         if progress is not None:
             progress(f"trials {first + 1}-{first + n} of {cfg.trials}")
-        parts.append(_chunk(cfg, first, n))
+        parts.append(_chunk(cfg, first, n, nav))
     errors = {k: np.concatenate([p[k] for p in parts]) for k in parts[0] if k not in ("gdop", "truth_lat_lon_h")}
     gdop = np.concatenate([p["gdop"] for p in parts])
     outage = ~np.isfinite(errors["gnss"][..., 0]).any(axis=0)
     solutions = {name: solution_metrics(err, gdop, outage) for name, err in errors.items()}
     summary = {
-        "scenario": cfg.scenario, "systems": cfg.systems, "ins": cfg.ins, "smooth": cfg.smooth,
+        "scenario": cfg.scenario, "systems": cfg.systems, "satellites": "broadcast" if nav else "model", "ins": cfg.ins, "smooth": cfg.smooth,
         "duration_s": cfg.duration_s, "trials": cfg.trials, "seed": cfg.seed,
         "gdop_mean": float(np.nanmean(gdop)) if np.isfinite(gdop).any() else float("nan"),
         "gdop_over_5_fraction": float(np.mean(~(gdop <= 5.0))),

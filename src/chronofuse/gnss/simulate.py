@@ -4,7 +4,8 @@ Per satellite ``n`` of system ``s`` and epoch ``k`` (Groves 2013, 9.3 and 10.4):
 
     rho = |r_sat - r_rx| + c dt_rx(k) + b_s + sigma_el eps + m(k) + (I_z + T_z) / sin(el)
 
-* geometry: satellites from :mod:`chronofuse.gnss.constellation`; the signal's travel time and the Earth's
+* geometry: satellites from :mod:`chronofuse.gnss.constellation`, or GPS satellites from a real broadcast
+  ephemeris (:mod:`chronofuse.gnss.ephemeris`); the signal's travel time and the Earth's
   rotation during it are left out on both sides (the solvers here use the same model), so the simulation
   tests estimators, not signal corrections (those are tested on real RINEX in :mod:`chronofuse.gnss.spp`);
 * receiver clock ``c dt_rx``: the two-state clock of :mod:`chronofuse.models.clock` (white and random-walk
@@ -28,12 +29,15 @@ import pymap3d
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.gnss.constellation import constellation, satellite_positions_ecef
+from chronofuse.gnss.ephemeris import GpsNavigation, satellite_position_ecef, select_ephemeris
 from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.models.receiver import gauss_markov
 from chronofuse.seeding import child_rng, root_seed
-from chronofuse.validation import check_scalar
+from chronofuse.timescale import seconds_to_ns
+from chronofuse.validation import InputDataError, check_scalar
 
-__all__ = ["SignalEnvironment", "ENVIRONMENTS", "RangeObservations", "simulate_pseudoranges"]
+__all__ = ["SignalEnvironment", "ENVIRONMENTS", "RangeObservations", "Satellites", "model_satellites",
+           "broadcast_satellites", "simulate_pseudoranges"]
 
 
 @dataclass(frozen=True)
@@ -101,18 +105,50 @@ def _look_angles(receiver_m: np.ndarray, satellite_m: np.ndarray):
     return np.arctan2(u, np.hypot(e, n)), np.arctan2(e, n), np.sqrt(e * e + n * n + u * u)
 
 
-def simulate_pseudoranges(receiver_m, heading_rad, t_s, systems: tuple[str, ...], env: SignalEnvironment, *,
+@dataclass(frozen=True)
+class Satellites:
+    """Where the satellites are at each epoch: ``position_m`` (epochs, S, 3) ECEF, ``system`` (S,) the index
+    of each satellite's system in ``systems`` (0 is the reference clock's), ``ids`` (S,) names."""
+
+    position_m: np.ndarray
+    system: np.ndarray
+    ids: tuple[str, ...]
+    systems: tuple[str, ...]
+
+
+def model_satellites(systems: tuple[str, ...], t_s) -> Satellites:
+    """The documented constellation models (:mod:`chronofuse.gnss.constellation`) of ``systems`` at ``t_s``."""
+    t = np.asarray(t_s, dtype=np.float64)
+    cons = [constellation(s) for s in systems]
+    return Satellites(position_m=np.concatenate([satellite_positions_ecef(c, t) for c in cons], axis=1),
+                      system=np.concatenate([np.full(len(c), j) for j, c in enumerate(cons)]),
+                      ids=tuple(i for c in cons for i in c.ids), systems=tuple(systems))
+
+
+def broadcast_satellites(nav: GpsNavigation, start_gps_ns: int, t_s) -> Satellites:
+    """GPS satellites from a real broadcast ephemeris at ``start_gps_ns + t_s`` (IS-GPS-200 orbits); the
+    satellites with no healthy record within four hours of the start are left out."""
+    gps_ns = int(start_gps_ns) + seconds_to_ns(np.asarray(t_s, dtype=np.float64))
+    names = sorted(set(nav.satellites))
+    eph = select_ephemeris(nav, names, gps_ns)
+    keep = eph.valid.all(axis=0)
+    if not keep.any():
+        raise InputDataError("no GPS satellite has a healthy ephemeris over the whole run", nav.source)
+    position = satellite_position_ecef(eph, gps_ns)[:, keep]
+    ids = tuple(n for n, k in zip(names, keep) if k)
+    return Satellites(position_m=position, system=np.zeros(len(ids), dtype=np.intp), ids=ids, systems=("gps",))
+
+
+def simulate_pseudoranges(receiver_m, heading_rad, t_s, satellites: Satellites, env: SignalEnvironment, *,
                           seed=0) -> RangeObservations:
     """Pseudoranges of receivers at ECEF ``receiver_m`` (trials, epochs, 3) heading ``heading_rad`` (trials,
-    epochs) at times ``t_s`` (epochs,), from the constellations ``systems`` ("gps", "bds"); trial ``i`` draws
-    from ``child_seed(seed, i)``."""
+    epochs) at times ``t_s`` (epochs,) from ``satellites`` (:func:`model_satellites` or
+    :func:`broadcast_satellites`); trial ``i`` draws from ``child_seed(seed, i)``."""
     receiver = np.asarray(receiver_m, dtype=np.float64)
     t = np.asarray(t_s, dtype=np.float64)
     trials, epochs = receiver.shape[:2]
-    cons = [constellation(s) for s in systems]
-    sat = np.concatenate([satellite_positions_ecef(c, t) for c in cons], axis=1)
-    system = np.concatenate([np.full(len(c), j) for j, c in enumerate(cons)])
-    ids = tuple(i for c in cons for i in c.ids)
+    sat, system, ids = satellites.position_m, satellites.system, satellites.ids
+    n_systems = len(satellites.systems)
     n_sat = sat.shape[1]
     el, az, rng_m = _look_angles(receiver, sat)
     visible = el > math.radians(env.elevation_mask_deg)
@@ -125,7 +161,7 @@ def simulate_pseudoranges(receiver_m, heading_rad, t_s, systems: tuple[str, ...]
     base = root_seed(seed)
     rho = np.empty((trials, epochs, n_sat))
     clock = np.empty((trials, epochs))
-    isb = np.zeros((trials, len(cons)))
+    isb = np.zeros((trials, n_systems))
     sin_el = np.maximum(np.sin(el), math.sin(math.radians(5.0)))
     sigma = env.sigma_zenith_m / sin_el
     for i in range(trials):
@@ -133,7 +169,7 @@ def simulate_pseudoranges(receiver_m, heading_rad, t_s, systems: tuple[str, ...]
         z = rng.standard_normal((3, epochs))
         clock[i] = SPEED_OF_LIGHT_M_PER_S * two_state_clock_phase_s(z[0], z[1], z[2], h0=env.clock_h0,
                                                                       hm2=env.clock_hm2, dt_s=dt)
-        isb[i, 1:] = env.isb_sigma_m * rng.standard_normal(len(cons) - 1)
+        isb[i, 1:] = env.isb_sigma_m * rng.standard_normal(n_systems - 1)
         multipath = gauss_markov(rng.standard_normal((n_sat, epochs + 1)), env.multipath_sigma_m,
                                  env.multipath_tau_s, dt).T
         zenith = env.iono_zenith_m * rng.standard_normal(n_sat) + env.tropo_zenith_m * rng.standard_normal(n_sat)

@@ -16,12 +16,13 @@ import numpy as np
 import pymap3d
 
 from chronofuse.gnss.lsq_position import least_squares_position
-from chronofuse.gnss.simulate import ENVIRONMENTS, simulate_pseudoranges
+from chronofuse.gnss.ephemeris import GpsNavigation
+from chronofuse.gnss.simulate import ENVIRONMENTS, broadcast_satellites, model_satellites, simulate_pseudoranges
 from chronofuse.models.imu import ImuModel, imu_grade, simulate_imu
 from chronofuse.models.kinematics import Trajectory, manoeuvre
 from chronofuse.positioning.truth import NavigationTruth, imu_truth, navigation_truth
 from chronofuse.seeding import child_seed, root_seed
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputDataError, check_choice, check_scalar
 
 __all__ = ["DriveData", "city_loop", "simulate_drive", "DEFAULT_ORIGIN", "SYSTEMS", "MAX_SPEED_M_PER_S"]
 
@@ -73,13 +74,16 @@ class DriveData:
 
 
 def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s: float, trials: int, *, seed=0,
-                   imu_rate_hz: float = 100.0, speed_m_per_s: float = 12.0, first_trial: int = 0) -> DriveData:
+                   imu_rate_hz: float = 100.0, speed_m_per_s: float = 12.0, first_trial: int = 0,
+                   nav: GpsNavigation | None = None) -> DriveData:
     """Simulate ``trials`` drives of ``duration_s`` in ``scenario`` (a key of
     :data:`chronofuse.gnss.simulate.ENVIRONMENTS`) with ``systems`` ("gps" or "gps+bds") and the IMU ``imu`` (a
     grade name or an :class:`~chronofuse.models.imu.ImuModel`).
 
     Trial ``i`` draws from ``child_seed(seed, first_trial + i, ...)``, so a run split into chunks of trials gives
-    the same numbers as one run.
+    the same numbers as one run. With ``nav`` (a real GPS broadcast ephemeris) the GPS satellites are where it
+    puts them, the drive starting at the file's first clock reference time; it must then hold every system
+    asked for (it is refused, naming the file, for "gps+bds": our navigation reader takes GPS records only).
     """
     check_choice(scenario, "scenario", ENVIRONMENTS)
     check_choice(systems, "systems", SYSTEMS)
@@ -88,8 +92,8 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
     check_scalar(trials, "trials", min_val=1, integer=True)
     samples = int(round(imu_rate_hz))
     epochs = int(duration_s)
-    nav = navigation_truth(city_loop(duration_s, speed_m_per_s), DEFAULT_ORIGIN, float(epochs), imu_rate_hz)
-    gyro_true, accel_true = imu_truth(nav)
+    motion = navigation_truth(city_loop(duration_s, speed_m_per_s), DEFAULT_ORIGIN, float(epochs), imu_rate_hz)
+    gyro_true, accel_true = imu_truth(motion)
     model = imu if isinstance(imu, ImuModel) else imu_grade(imu)
     base = root_seed(seed)
     gyro = np.empty((trials, epochs, samples, 3))
@@ -100,16 +104,24 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
         gyro[i] = meas.gyro_rad_per_s[0].reshape(epochs, samples, 3)
         accel[i] = meas.accel_m_per_s2[0].reshape(epochs, samples, 3)
     at_epochs = slice(samples, None, samples)  # the state at the end of each IMU block
-    lat_lon_h = nav.lat_lon_h[0, at_epochs]
+    lat_lon_h = motion.lat_lon_h[0, at_epochs]
     receiver = np.stack(pymap3d.geodetic2ecef(lat_lon_h[:, 0], lat_lon_h[:, 1], lat_lon_h[:, 2], deg=False), -1)
-    v = nav.v_ned_m_per_s[0, at_epochs]
+    v = motion.v_ned_m_per_s[0, at_epochs]
     heading = np.arctan2(v[:, 1], v[:, 0])
     t = np.arange(1, epochs + 1, dtype=np.float64)
+    if nav is None:
+        satellites = model_satellites(SYSTEMS[systems], t)
+    elif systems != "gps":
+        raise InputDataError(f"no {' or '.join(s.upper() for s in SYSTEMS[systems][1:])} satellite in the "
+                             f"navigation file (only its GPS records are read); use --systems gps or no --nav",
+                             nav.source)
+    else:
+        satellites = broadcast_satellites(nav, int(nav.toc_gps_ns.min()), t)
     fixes = np.empty((trials, epochs, 3))
     cov = np.empty((trials, epochs, 3, 3))
     gdop = np.empty((trials, epochs))
     for i in range(trials):
-        obs = simulate_pseudoranges(receiver[None], heading[None], t, SYSTEMS[systems], ENVIRONMENTS[scenario],
+        obs = simulate_pseudoranges(receiver[None], heading[None], t, satellites, ENVIRONMENTS[scenario],
                                     seed=child_seed(base, first_trial + i, 1))
         fix = least_squares_position(obs.satellite_m, obs.pseudorange_m[0], obs.sigma_m[0], obs.system,
                                      receiver[0] + 1e3)
@@ -117,8 +129,8 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
         fixes[i] = np.stack([lat, lon, h], -1)
         cov[i] = _ENU_TO_NED @ fix.cov_enu_m2 @ _ENU_TO_NED.T
         gdop[i] = fix.gdop
-    truth = NavigationTruth(t_s=nav.t_s[::samples], lat_lon_h=nav.lat_lon_h[:, ::samples],
-                            v_ned_m_per_s=nav.v_ned_m_per_s[:, ::samples], c_bn=nav.c_bn[:, ::samples],
+    truth = NavigationTruth(t_s=motion.t_s[::samples], lat_lon_h=motion.lat_lon_h[:, ::samples],
+                            v_ned_m_per_s=motion.v_ned_m_per_s[:, ::samples], c_bn=motion.c_bn[:, ::samples],
                             rate_hz=1.0)
     return DriveData(truth=truth, gyro_rad_per_s=gyro, accel_m_per_s2=accel, fix_lat_lon_h=fixes,
                      fix_cov_ned_m2=np.where(np.isfinite(cov), cov, np.eye(3)), gdop=gdop,
