@@ -95,18 +95,22 @@ def static_imu_truth(lat_rad: float, height_m: float, c_bn: np.ndarray, steps: i
 
 
 def _skew(a: np.ndarray) -> np.ndarray:
-    z = np.zeros(a.shape[:-1])
-    return np.stack([np.stack([z, -a[..., 2], a[..., 1]], -1), np.stack([a[..., 2], z, -a[..., 0]], -1),
-                     np.stack([-a[..., 1], a[..., 0], z], -1)], -2)
+    """The cross-product matrices ``[a x]`` (..., 3, 3) of vectors (..., 3)."""
+    out = np.zeros(a.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -a[..., 2], a[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = a[..., 2], -a[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -a[..., 1], a[..., 0]
+    return out
 
 
 def _rodrigues(alpha: np.ndarray) -> np.ndarray:
-    """``exp([alpha x])`` for rotation vectors (N, 3)."""
-    angle = np.linalg.norm(alpha, axis=-1)[:, None, None]
+    """``exp([alpha x]) = I + sin(t)/t [alpha x] + (1 - cos t)/t^2 [alpha x]^2``, ``t = |alpha|``, for (N, 3)."""
+    angle = np.sqrt(np.einsum("ni,ni->n", alpha, alpha))[:, None, None]
     k = _skew(alpha)
     small = angle < 1e-8
-    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(angle) / np.where(small, 1.0, angle))
-    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(angle)) / np.where(small, 1.0, angle) ** 2)
+    safe = np.where(small, 1.0, angle)
+    a = np.where(small, 1.0 - angle**2 / 6.0, np.sin(angle) / safe)
+    b = np.where(small, 0.5 - angle**2 / 24.0, (1.0 - np.cos(angle)) / safe**2)
     return np.eye(3) + a * k + b * (k @ k)
 
 
@@ -178,9 +182,16 @@ def _exp_skew(ax, ay, az, out):
             out[r, s] = (1.0 if r == s else 0.0) + sa * kx[r][s] + sb * kk
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _propagate_kernel(pos, v, c, gyro, accel, dt, hold_height, out_pos):
-    n, steps = gyro.shape[0], gyro.shape[1]
+    n = gyro.shape[0]
+    for i in numba.prange(n):  # trials are independent: one thread each (2 cores on CI)
+        _propagate_trial(i, pos, v, c, gyro, accel, dt, hold_height, out_pos)
+
+
+@numba.njit(cache=True)
+def _propagate_trial(i, pos, v, c, gyro, accel, dt, hold_height, out_pos):
+    steps = gyro.shape[1]
     rot = np.empty((3, 3))
     frame = np.empty((3, 3))
     tmp = np.empty((3, 3))
@@ -188,47 +199,46 @@ def _propagate_kernel(pos, v, c, gyro, accel, dt, hold_height, out_pos):
     om = np.empty(3)
     cor = np.empty(3)
     fn = np.empty(3)
-    for i in range(n):
-        lat, lon, h = pos[i, 0], pos[i, 1], pos[i, 2]
-        vn, ve, vd = v[i, 0], v[i, 1], v[i, 2]
-        ci = c[i].copy()
-        for k in range(steps):
-            r_n, r_e = _radii(lat)
-            sl, cl = math.sin(lat), math.cos(lat)
-            en = (ve / (r_e + h), -vn / (r_n + h), -ve * sl / cl / (r_e + h))  # transport rate
-            ie = (OMEGA_IE_RAD_PER_S * cl, 0.0, -OMEGA_IE_RAD_PER_S * sl)
-            for j in range(3):
-                om[j] = en[j] + ie[j]
-            _exp_skew(gyro[i, k, 0] * dt, gyro[i, k, 1] * dt, gyro[i, k, 2] * dt, rot)
-            _exp_skew(-om[0] * dt, -om[1] * dt, -om[2] * dt, frame)
-            for r in range(3):
-                for s in range(3):
-                    tmp[r, s] = ci[r, 0] * rot[0, s] + ci[r, 1] * rot[1, s] + ci[r, 2] * rot[2, s]
-            for r in range(3):
-                for s in range(3):
-                    c_new[r, s] = frame[r, 0] * tmp[0, s] + frame[r, 1] * tmp[1, s] + frame[r, 2] * tmp[2, s]
-            fx, fy, fz = accel[i, k, 0], accel[i, k, 1], accel[i, k, 2]
-            for r in range(3):
-                fn[r] = 0.5 * ((ci[r, 0] + c_new[r, 0]) * fx + (ci[r, 1] + c_new[r, 1]) * fy
-                               + (ci[r, 2] + c_new[r, 2]) * fz)
-            w = (en[0] + 2.0 * ie[0], en[1] + 2.0 * ie[1], en[2] + 2.0 * ie[2])
-            cor[0] = w[1] * vd - w[2] * ve
-            cor[1] = w[2] * vn - w[0] * vd
-            cor[2] = w[0] * ve - w[1] * vn
-            g = _gravity(lat, h)
-            vn2 = vn + (fn[0] - cor[0]) * dt
-            ve2 = ve + (fn[1] - cor[1]) * dt
-            vd2 = 0.0 if hold_height else vd + (fn[2] + g - cor[2]) * dt
-            h2 = h - 0.5 * (vd + vd2) * dt
-            lat2 = lat + 0.5 * (vn / (r_n + h) + vn2 / (r_n + h2)) * dt
-            r_n2, r_e2 = _radii(lat2)
-            lon = lon + 0.5 * (ve / ((r_e + h) * cl) + ve2 / ((r_e2 + h2) * math.cos(lat2))) * dt
-            lat, h, vn, ve, vd = lat2, h2, vn2, ve2, vd2
-            ci[:, :] = c_new
-            out_pos[i, k, 0], out_pos[i, k, 1], out_pos[i, k, 2] = lat, lon, h
-        pos[i, 0], pos[i, 1], pos[i, 2] = lat, lon, h
-        v[i, 0], v[i, 1], v[i, 2] = vn, ve, vd
-        c[i] = ci
+    lat, lon, h = pos[i, 0], pos[i, 1], pos[i, 2]
+    vn, ve, vd = v[i, 0], v[i, 1], v[i, 2]
+    ci = c[i].copy()
+    for k in range(steps):
+        r_n, r_e = _radii(lat)
+        sl, cl = math.sin(lat), math.cos(lat)
+        en = (ve / (r_e + h), -vn / (r_n + h), -ve * sl / cl / (r_e + h))  # transport rate
+        ie = (OMEGA_IE_RAD_PER_S * cl, 0.0, -OMEGA_IE_RAD_PER_S * sl)
+        for j in range(3):
+            om[j] = en[j] + ie[j]
+        _exp_skew(gyro[i, k, 0] * dt, gyro[i, k, 1] * dt, gyro[i, k, 2] * dt, rot)
+        _exp_skew(-om[0] * dt, -om[1] * dt, -om[2] * dt, frame)
+        for r in range(3):
+            for s in range(3):
+                tmp[r, s] = ci[r, 0] * rot[0, s] + ci[r, 1] * rot[1, s] + ci[r, 2] * rot[2, s]
+        for r in range(3):
+            for s in range(3):
+                c_new[r, s] = frame[r, 0] * tmp[0, s] + frame[r, 1] * tmp[1, s] + frame[r, 2] * tmp[2, s]
+        fx, fy, fz = accel[i, k, 0], accel[i, k, 1], accel[i, k, 2]
+        for r in range(3):
+            fn[r] = 0.5 * ((ci[r, 0] + c_new[r, 0]) * fx + (ci[r, 1] + c_new[r, 1]) * fy
+                           + (ci[r, 2] + c_new[r, 2]) * fz)
+        w = (en[0] + 2.0 * ie[0], en[1] + 2.0 * ie[1], en[2] + 2.0 * ie[2])
+        cor[0] = w[1] * vd - w[2] * ve
+        cor[1] = w[2] * vn - w[0] * vd
+        cor[2] = w[0] * ve - w[1] * vn
+        g = _gravity(lat, h)
+        vn2 = vn + (fn[0] - cor[0]) * dt
+        ve2 = ve + (fn[1] - cor[1]) * dt
+        vd2 = 0.0 if hold_height else vd + (fn[2] + g - cor[2]) * dt
+        h2 = h - 0.5 * (vd + vd2) * dt
+        lat2 = lat + 0.5 * (vn / (r_n + h) + vn2 / (r_n + h2)) * dt
+        r_n2, r_e2 = _radii(lat2)
+        lon = lon + 0.5 * (ve / ((r_e + h) * cl) + ve2 / ((r_e2 + h2) * math.cos(lat2))) * dt
+        lat, h, vn, ve, vd = lat2, h2, vn2, ve2, vd2
+        ci[:, :] = c_new
+        out_pos[i, k, 0], out_pos[i, k, 1], out_pos[i, k, 2] = lat, lon, h
+    pos[i, 0], pos[i, 1], pos[i, 2] = lat, lon, h
+    v[i, 0], v[i, 1], v[i, 2] = vn, ve, vd
+    c[i] = ci
 
 
 def propagate(state: InsState, gyro_rad_per_s, accel_m_per_s2, dt_s: float, *, hold_height: bool = False):
