@@ -31,11 +31,11 @@ from chronofuse.analysis.theory import adev_theory, avar_components
 from chronofuse.experiments.main_job import run_scenario
 from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
-from chronofuse.integrity.identification import channel_clock_biases, identify
+from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
 from chronofuse.io.records import ClockRecord, read_record
-from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
+from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator

@@ -8,8 +8,8 @@ from datetime import datetime
 import numpy as np
 import pytest
 
-from chronofuse.integrity.identification import channel_clock_biases
 from chronofuse.io.rinex import (
+    channel_clock_biases,
     count_epoch_records,
     read_gps_navigation,
     read_gps_observations,

@@ -244,7 +244,8 @@ def _identification(obs: Path, nav: Path | None, position: str | None, det: HodD
     if nav is None or position is None:
         raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
                              "mode)", str(obs))
-    from chronofuse.integrity.identification import channel_clock_biases, identify
+    from chronofuse.integrity.identification import identify
+    from chronofuse.io.rinex import channel_clock_biases
 
     biases = channel_clock_biases(obs, nav, _parse_position(position))
     interval = float(biases.interval_s)

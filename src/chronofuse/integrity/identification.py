@@ -1,12 +1,8 @@
 """Identification mode (SPEC 4): per-satellite clock biases of a static receiver and the faulty channel named.
 
-Channel clock bias. For a receiver at a known position ``r_rx`` every satellite ``n`` gives its own estimate
-of the receiver clock bias (SPEC 4)::
-
-    b_n(k) = (rho_n - |r_sat,n - r_rx| + c dt_sat,n - I_n - T_n) / c
-
-with the broadcast orbit and clock of :mod:`chronofuse.integrity.ephemeris` (Sagnac included), and the
-Klobuchar ionosphere ``I_n`` and Saastamoinen troposphere ``T_n`` of :mod:`chronofuse.integrity.positioning`.
+Channel clock bias. For a receiver at a known position every satellite ``n`` gives its own estimate
+``b_n(k)`` of the receiver clock bias (SPEC 4; :mod:`chronofuse.gnss.observables` computes them,
+:func:`chronofuse.io.rinex.channel_clock_biases` from RINEX files).
 
 Common-mode removal (the choice made here). Every ``b_n`` holds the same receiver clock; a clock jump or
 steering of the receiver would alarm every channel at once (measured in simulation: a 1 ms jump alarms
@@ -37,144 +33,15 @@ Elevation mask 15 deg by default: with 10 deg the clean real data named satellit
 from __future__ import annotations
 
 import copy
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
+from chronofuse.gnss.observables import ChannelClockBiases, channel_clock_biases_from_arrays
 from chronofuse.integrity.detector import DetectionResult, HodDetector
-from chronofuse.integrity.ephemeris import select_ephemeris
 from chronofuse.integrity.inject import Anomaly, inject
-from chronofuse.integrity.positioning import corrected_ranges
-from chronofuse.io.grid import grid_slots
-from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
-from chronofuse.timescale import NS_PER_S
-from chronofuse.validation import InputDataError, check_array, check_choice, check_scalar
-
-# An epoch tag may be this fraction of the interval off its grid slot (receiver clock steering).
-_GRID_TOLERANCE = 0.01
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Channel clock biases
-# ---------------------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class ChannelClockBiases:
-    """Per-satellite receiver clock biases on a regular epoch grid.
-
-    Attributes
-    ----------
-    t_s : ndarray (epochs,)
-        Seconds since the first epoch.
-    gps_epoch_ns : ndarray of int64 (epochs,)
-        GPS time of each grid epoch, ns since 1980-01-06.
-    satellites : list of str (sats,)
-    bias_s : ndarray (epochs, sats)
-        ``b_n(k)`` (s), NaN where the satellite is not observed (or below the mask, or without ephemeris).
-    interval_s : float
-    n_skipped_epochs : int
-        Grid epochs with no observation at all (missing from the file or unreadable there).
-    n_unreadable_epochs : int
-        Epoch records in the file that the RINEX reader could not read.
-    elevation_rad : ndarray (epochs, sats) or None
-    """
-
-    t_s: np.ndarray
-    gps_epoch_ns: np.ndarray
-    satellites: list[str]
-    bias_s: np.ndarray
-    interval_s: float
-    n_skipped_epochs: int
-    n_unreadable_epochs: int = 0
-    elevation_rad: np.ndarray | None = None
-
-
-def channel_clock_biases_from_arrays(
-    bias_s, interval_s: float, satellites=None, *, gps_epoch_ns=None, n_skipped_epochs: int | None = None
-) -> ChannelClockBiases:
-    """Wrap per-channel biases (s), shape (epochs, sats), NaN = not observed, e.g. from a simulation."""
-    b = check_array(bias_s, "bias_s", ndim=2, allow_nan=True)
-    check_scalar(interval_s, "interval_s", min_val=0.0, include_min=False)
-    sats = [f"G{j + 1:02d}" for j in range(b.shape[1])] if satellites is None else [str(s) for s in satellites]
-    if len(sats) != b.shape[1]:
-        raise ValueError(f"satellites has {len(sats)} names, bias_s has {b.shape[1]} columns")
-    epochs = b.shape[0]
-    step_ns = int(round(interval_s * NS_PER_S))
-    gps = np.arange(epochs, dtype=np.int64) * step_ns if gps_epoch_ns is None else np.asarray(gps_epoch_ns, np.int64)
-    if gps.shape != (epochs,):
-        raise ValueError(f"gps_epoch_ns has shape {gps.shape}, must be ({epochs},)")
-    missing = int((~np.isfinite(b).any(axis=1)).sum()) if n_skipped_epochs is None else int(n_skipped_epochs)
-    return ChannelClockBiases(
-        t_s=np.arange(epochs) * float(interval_s),
-        gps_epoch_ns=gps,
-        satellites=sats,
-        bias_s=b,
-        interval_s=float(interval_s),
-        n_skipped_epochs=missing,
-    )
-
-
-def channel_clock_biases(
-    obs_path, nav_path, position_ecef_m, *, elevation_mask_deg: float = 15.0, epoch_time: str = "grid"
-) -> ChannelClockBiases:
-    """Per-satellite clock biases ``b_n(k)`` (SPEC 4) from a RINEX observation file and a GPS navigation file
-    for a static receiver at ``position_ecef_m`` (3,) (m, ECEF).
-
-    Epochs are put on the grid of the header's ``INTERVAL`` (else the smallest epoch spacing), within 1 % of
-    the interval; grid epochs without data are NaN rows counted in ``n_skipped_epochs``.
-
-    ``epoch_time`` is the receive time the geometry uses: ``"grid"`` (the nominal grid epoch, default) or
-    ``"tag"`` (the epoch as written). The Trimble 5700 files here tag epochs 1-2 ms off the grid (receiver
-    millisecond clock steering) while their pseudoranges agree better with the grid: measured, the
-    second-difference noise of the channel residuals drops on 17 of 20 channels with ``"grid"`` (e.g.
-    G11 at 0759: 2.3 -> 1.4 ns) and the clean-data false alarms of station 0759 go from four channels
-    to one. ``gps_epoch_ns`` holds the times used. Raises :class:`InputDataError` naming the file
-    when an epoch is off the grid.
-    """
-    check_choice(epoch_time, "epoch_time", ("grid", "tag"))
-    position = check_array(position_ecef_m, "position_ecef_m", ndim=1)
-    if position.shape != (3,):
-        raise ValueError(f"position_ecef_m has shape {position.shape}, must be (3,)")
-    obs = read_gps_observations(obs_path)
-    nav = read_gps_navigation(nav_path)
-    gps = obs.gps_ns
-    if obs.interval_s is not None:
-        step_ns = int(round(obs.interval_s * NS_PER_S))
-    elif gps.size > 1:
-        step_ns = int(np.diff(gps).min())
-    else:
-        raise InputDataError("one epoch and no INTERVAL in the header: the sampling interval is unknown",
-                             str(obs_path))
-    # Receivers that steer their clock in millisecond steps tag epochs a few ms off the nominal grid
-    # (the Trimble 5700 files here): snap to the nearest grid slot, keep the true tag for the geometry.
-    index, bad = grid_slots((gps - gps[0]).astype(np.float64), float(step_ns), _GRID_TOLERANCE)
-    if bad >= 0:
-        raise InputDataError(f"epoch {bad + 1} is not on the {step_ns / NS_PER_S:g} s grid (or not increasing)",
-                             str(obs_path))
-    epochs = int(index[-1]) + 1
-    if epoch_time == "grid":
-        gps = gps[0] + index * step_ns
-    ranges, el = corrected_ranges(select_ephemeris(nav, obs.satellites, gps), gps, obs.pseudorange_m, position,
-                                  nav.klobuchar_alpha, nav.klobuchar_beta, math.radians(elevation_mask_deg))
-    bias = np.full((epochs, len(obs.satellites)), np.nan)
-    elevation = np.full_like(bias, np.nan)
-    bias[index] = ranges / SPEED_OF_LIGHT_M_PER_S
-    elevation[index] = el
-    tags = gps[0] + np.arange(epochs, dtype=np.int64) * step_ns
-    tags[index] = gps
-    return ChannelClockBiases(
-        t_s=np.arange(epochs) * (step_ns / NS_PER_S),
-        gps_epoch_ns=tags,
-        satellites=list(obs.satellites),
-        bias_s=bias,
-        interval_s=step_ns / NS_PER_S,
-        n_skipped_epochs=epochs - gps.size,
-        n_unreadable_epochs=obs.n_unreadable_epochs,
-        elevation_rad=elevation,
-    )
+from chronofuse.validation import check_array, check_choice, check_scalar
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -466,11 +333,8 @@ def simulate_channel_biases(
 
 
 __all__ = [
-    "ChannelClockBiases",
     "IdentificationResult",
     "SimulatedChannels",
-    "channel_clock_biases",
-    "channel_clock_biases_from_arrays",
     "channel_residuals",
     "common_clock_s",
     "identify",

@@ -15,6 +15,9 @@ Signal transit. The emission time is either solved from the pseudorange (the sat
 light-time iteration ``tau = |R3(omega_e tau) r_sat(t_rx - tau) - r_rx| / c`` for a known true receive time.
 Either way the satellite position is rotated by ``omega_e tau`` (Earth rotation during transit, the Sagnac
 correction), so the range is computed in the ECEF frame of the receive time.
+
+The record type :class:`GpsNavigation` is defined here and built from files by ``chronofuse.io.rinex``, so
+the signal models never import the file readers.
 """
 
 from __future__ import annotations
@@ -24,8 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
-from chronofuse.io.rinex import GpsNavigation
-from chronofuse.timescale import NS_PER_S, SECONDS_PER_WEEK
+from chronofuse.timescale import NS_PER_S, SECONDS_PER_WEEK, gps_ns_from_week_tow, seconds_to_ns
 
 GM_M3_PER_S2 = 3.986005e14  # WGS 84 value of IS-GPS-200
 OMEGA_EARTH_RAD_PER_S = 7.2921151467e-5  # WGS 84 Earth rotation rate
@@ -34,12 +36,39 @@ RELATIVISTIC_F_S_PER_SQRT_M = -4.442807633e-10  # F = -2 sqrt(mu) / c^2 (IS-GPS-
 _KEPLER_ITERATIONS = 10
 _LIGHT_TIME_ITERATIONS = 6
 
+#: The broadcast parameters of one GPS LNAV record (IS-GPS-200 Table 20-III), SI units in the names, angles
+#: in rad; ``week`` the full GPS week of ``toe``, ``health`` the SV health word (0: healthy).
+EPHEMERIS_FIELDS = (
+    "af0_s", "af1_s_per_s", "af2_s_per_s2", "crs_m", "delta_n_rad_per_s", "m0_rad", "cuc_rad", "eccentricity",
+    "cus_rad", "sqrt_a_sqrt_m", "toe_s", "cic_rad", "omega0_rad", "cis_rad", "i0_rad", "crc_m", "omega_rad",
+    "omega_dot_rad_per_s", "idot_rad_per_s", "week", "health", "tgd_s",
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class GpsNavigation:
+    """GPS broadcast ephemerides, one row per record (IS-GPS-200 Table 20-III); built from a RINEX
+    navigation file by :func:`chronofuse.io.rinex.read_gps_navigation`.
+
+    ``satellites`` is a list of ``records`` names; ``toc_gps_ns`` (int64, (records,)) is the clock reference
+    time as GPS ns since 1980-01-06; ``params`` maps each name of :data:`EPHEMERIS_FIELDS` to a (records,)
+    float64 array; ``klobuchar_alpha``/``klobuchar_beta`` are the broadcast ionosphere coefficients (4,)
+    each (RINEX ``ION ALPHA``/``ION BETA``), or None.
+    """
+
+    satellites: list[str]
+    toc_gps_ns: np.ndarray
+    params: dict[str, np.ndarray]
+    klobuchar_alpha: np.ndarray | None
+    klobuchar_beta: np.ndarray | None
+    source: str = ""
+
 
 @dataclass(frozen=True)
 class BroadcastEphemeris:
     """Broadcast parameters chosen per (epoch, satellite); every array has shape (epochs, sats).
 
-    ``params`` holds the fields of :class:`chronofuse.io.rinex.GpsNavigation` (NaN where no usable record),
+    ``params`` holds the fields of :class:`GpsNavigation` (NaN where no usable record),
     ``toe_gps_ns`` and ``toc_gps_ns`` the absolute reference times (int64 ns, 0 where none), ``valid`` (bool)
     whether a healthy record within ``max_age_s`` of the epoch was found.
     """
@@ -48,6 +77,15 @@ class BroadcastEphemeris:
     toe_gps_ns: np.ndarray
     toc_gps_ns: np.ndarray
     valid: np.ndarray
+
+    def epochs(self, rows) -> BroadcastEphemeris:
+        """The same ephemeris for the epochs ``rows`` only (a slice or an index array)."""
+        return BroadcastEphemeris(
+            params={k: v[rows] for k, v in self.params.items()},
+            toe_gps_ns=self.toe_gps_ns[rows],
+            toc_gps_ns=self.toc_gps_ns[rows],
+            valid=self.valid[rows],
+        )
 
 
 def _week_time(seconds: np.ndarray) -> np.ndarray:
@@ -61,8 +99,7 @@ def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float
     gps_ns = np.asarray(gps_ns, dtype=np.int64)
     epochs, sats = gps_ns.size, len(satellites)
     p = nav.params
-    toe_ns = (p["week"].astype(np.int64) * SECONDS_PER_WEEK * NS_PER_S
-              + np.round(p["toe_s"] * NS_PER_S).astype(np.int64))
+    toe_ns = gps_ns_from_week_tow(p["week"].astype(np.int64), seconds_to_ns(p["toe_s"]))
     healthy = (p["health"] == 0) & np.isfinite(p["sqrt_a_sqrt_m"])
     index = np.full((epochs, sats), -1, dtype=np.int64)
     names = np.asarray(nav.satellites)
@@ -200,3 +237,20 @@ def geometry_from_light_time(eph: BroadcastEphemeris, gps_ns, receiver_m) -> Sig
     rng = np.linalg.norm(sat - receiver_m, axis=-1)
     clock = satellite_clock_s(eph, gps_ns, -tau)
     return SignalGeometry(sat, rng, tau, clock, -tau)
+
+
+__all__ = [
+    "EPHEMERIS_FIELDS",
+    "GM_M3_PER_S2",
+    "OMEGA_EARTH_RAD_PER_S",
+    "RELATIVISTIC_F_S_PER_SQRT_M",
+    "BroadcastEphemeris",
+    "GpsNavigation",
+    "SignalGeometry",
+    "geometry_from_light_time",
+    "geometry_from_pseudorange",
+    "rotate_earth",
+    "satellite_clock_s",
+    "satellite_position_ecef",
+    "select_ephemeris",
+]
