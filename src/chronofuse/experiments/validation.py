@@ -15,8 +15,9 @@ plotted) into ``out_dir``:
 4. ``cs5071a_mtie.png``, ``cs5071a_tdev.png``: MTIE and TDEV of the Cs 5071A record against the
    PRTC-A, PRTC-B and G.811 masks, with Stable32's MTIE and TDEV tables overlaid.
 
-Run as ``chronofuse validate --data DIR --out docs/figures`` (``--quick``: shorter simulations and a
-shorter MTOTDEV range, for tests).
+This module computes; :mod:`chronofuse.report.validation_figures` draws. Run as ``chronofuse validate
+--data DIR --out docs/figures`` (``--quick``: shorter simulations and a shorter MTOTDEV range, for tests);
+``DIR`` is the project's data store or the repository's ``tests/data``, which holds the same records.
 """
 
 from __future__ import annotations
