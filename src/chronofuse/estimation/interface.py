@@ -60,7 +60,8 @@ def readonly(a) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True)
 class FrozenResult:
-    """Base of every ``run`` result: a frozen dataclass whose ndarray fields are made read-only views.
+    """Base of every ``run`` result (and of array-holding step outputs): a frozen dataclass whose ndarray
+    fields are made read-only views, so no caller can write into an estimator's state through them.
 
     Subclasses are ``@dataclass(frozen=True)`` too and simply declare their fields.
     """
