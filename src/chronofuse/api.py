@@ -27,7 +27,7 @@ from chronofuse.analysis.stability import (
     ttotdev,
 )
 from chronofuse.analysis.stability.taus import averaging_factors
-from chronofuse.analysis.theory import adev_theory, avar_components
+from chronofuse.analysis.theory import adev_theory, avar_components, corrected_pps_adev
 from chronofuse.estimation.filter import FilterResult, KalmanFilter
 from chronofuse.estimation.interface import Estimator, FrozenResult, compare_streaming_to_batch, pick_inputs
 from chronofuse.estimation.null import HoldLastEstimator
@@ -38,9 +38,12 @@ from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
 from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.modes import detect_file
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
+from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
+from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.imu import IMU_GRADES, ImuModel, SensorErrors, imu_grade, simulate_imu
 from chronofuse.models.noise import power_law_noise
@@ -50,8 +53,10 @@ from chronofuse.positioning.scenario import DriveData, simulate_drive
 from chronofuse.gnss.constellation import CONSTELLATIONS, constellation
 from chronofuse.gnss.lsq_position import PositionFix, least_squares_position
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
-from chronofuse.models.receiver import SCENARIOS, ReceiverModel, simulate_receivers
-from chronofuse.models.receiver import scenario as receiver_scenario
+from chronofuse.epochs import ReceiverEpochs
+from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
+from chronofuse.models.receiver import ReceiverTruth, simulate_receivers
+from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.validation import ChronofuseError, InputDataError
 
 __all__ = [
@@ -63,9 +68,12 @@ __all__ = [
     "simulate_oscillator",
     "power_law_noise",
     "ReceiverModel",
-    "SCENARIOS",
-    "receiver_scenario",
+    "ReceiverEnvironment",
+    "ENVIRONMENTS",
+    "receiver_environment",
     "simulate_receivers",
+    "ReceiverTruth",
+    "ReceiverEpochs",
     "ImuModel",
     "SensorErrors",
     "IMU_GRADES",
@@ -87,6 +95,9 @@ __all__ = [
     "ClockRecord",
     "read_record",
     "read_nav_clock",
+    "ClockBiasInput",
+    "read_clock_bias",
+    "read_stable32_table",
     "read_gps_observations",
     "read_gps_navigation",
     # analysis
@@ -111,6 +122,7 @@ __all__ = [
     "averaging_factors",
     "adev_theory",
     "avar_components",
+    "corrected_pps_adev",
     "MASKS",
     # estimation
     "Estimator",
@@ -133,6 +145,7 @@ __all__ = [
     "inject",
     "channel_clock_biases",
     "identify",
+    "detect_file",
     # experiments
     "Scenario",
     "load_scenario",

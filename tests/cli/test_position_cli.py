@@ -29,8 +29,8 @@ def test_position_prints_cep_and_vertical_per_solution_as_json(tmp_path):
     assert (tmp_path / "out" / "outages.png").is_file() and (tmp_path / "out" / "trajectory.png").is_file()
 
 
-def test_real_broadcast_orbits_drive_the_gps_satellites(data_dir):
-    nav = data_dir / "receivers" / "rinex" / "rtklib" / "07590920.05n"
+def test_real_broadcast_orbits_drive_the_gps_satellites(real_data):
+    nav = real_data / "receivers" / "rinex" / "rtklib" / "07590920.05n"
     result = _run("--scenario", "open-sky", "--systems", "gps", "--ins", "none", "--duration", "60", "--trials", "1",
                   "--imu-rate", "10", "--nav", str(nav), "--json")
     assert result.exit_code == 0, result.output
@@ -51,8 +51,8 @@ def test_bad_options_are_one_line_errors_naming_the_option(args, named):
     assert len(lines) == 1 and named in lines[0]
 
 
-def test_a_gps_navigation_file_is_refused_for_gps_plus_bds_naming_the_file(data_dir):
-    nav = data_dir / "receivers" / "rinex" / "rtklib" / "07590920.05n"
+def test_a_gps_navigation_file_is_refused_for_gps_plus_bds_naming_the_file(real_data):
+    nav = real_data / "receivers" / "rinex" / "rtklib" / "07590920.05n"
     result = _run("--systems", "gps+bds", "--nav", str(nav), "--duration", "20", "--trials", "1", "--imu-rate", "10")
     assert result.exit_code == 2
     line = result.stderr.strip()

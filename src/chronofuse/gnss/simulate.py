@@ -31,7 +31,7 @@ from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.gnss.constellation import constellation, satellite_positions_ecef
 from chronofuse.gnss.ephemeris import GpsNavigation, satellite_position_ecef, select_ephemeris
 from chronofuse.models.clock import two_state_clock_phase_s
-from chronofuse.models.receiver import gauss_markov
+from chronofuse.models.noise import gauss_markov
 from chronofuse.seeding import child_rng, root_seed
 from chronofuse.timescale import seconds_to_ns
 from chronofuse.validation import InputDataError, check_scalar
