@@ -45,7 +45,13 @@ from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.io.ubx import read_nav_clock
+from chronofuse.models.imu import IMU_GRADES, ImuModel, SensorErrors, imu_grade, simulate_imu
 from chronofuse.models.noise import power_law_noise
+from chronofuse.positioning.ins import InsState, propagate
+from chronofuse.positioning.loose import CoupledResult, LooselyCoupled, smooth
+from chronofuse.positioning.scenario import DriveData, simulate_drive
+from chronofuse.gnss.constellation import CONSTELLATIONS, constellation
+from chronofuse.gnss.lsq_position import PositionFix, least_squares_position
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
 from chronofuse.epochs import ReceiverEpochs
 from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
@@ -68,6 +74,23 @@ __all__ = [
     "simulate_receivers",
     "ReceiverTruth",
     "ReceiverEpochs",
+    "ImuModel",
+    "SensorErrors",
+    "IMU_GRADES",
+    "imu_grade",
+    "simulate_imu",
+    # GNSS models and positioning
+    "CONSTELLATIONS",
+    "constellation",
+    "least_squares_position",
+    "PositionFix",
+    "InsState",
+    "propagate",
+    "LooselyCoupled",
+    "CoupledResult",
+    "smooth",
+    "DriveData",
+    "simulate_drive",
     # real data in
     "ClockRecord",
     "read_record",

@@ -47,3 +47,43 @@ def gdop_over_5_fraction(gdop: np.ndarray) -> float:
     """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (SPEC 3.1's usability limit)."""
     with_fix = gdop[np.isfinite(gdop)]
     return float(np.mean(with_fix > 5)) if with_fix.size else float("nan")
+
+
+def horizontal_cep_m(north_east_m: np.ndarray, percent: float) -> float:
+    """Circular error probable: the ``percent`` percentile of the horizontal error norm (NaN epochs left out).
+
+    ``north_east_m`` (..., 2). CEP50 is the median radius, CEP95 the radius holding 95 % of the fixes
+    (the empirical definition, no distribution assumed).
+    """
+    radius = np.hypot(north_east_m[..., 0], north_east_m[..., 1])
+    radius = radius[np.isfinite(radius)]
+    return float(np.percentile(radius, percent)) if radius.size else float("nan")
+
+
+def vertical_95_m(down_m: np.ndarray) -> float:
+    """The 95th percentile of the absolute vertical error (NaN epochs left out)."""
+    v = np.abs(down_m[np.isfinite(down_m)])
+    return float(np.percentile(v, 95.0)) if v.size else float("nan")
+
+
+def outage_bridging_s(horizontal_m: np.ndarray, outage: np.ndarray, interval_s: float,
+                      thresholds_m=(2.0, 10.0)) -> dict[str, float]:
+    """How long the error stays under each threshold once an outage starts, worst case over trials and outages.
+
+    ``horizontal_m`` (trials, epochs) horizontal error; ``outage`` (epochs,) bool, True where no fix could be
+    had. For each outage and trial: the time from the outage's start until the error first exceeds the
+    threshold (the outage's length if it never does; 0 if it already did at the start). Outages cut by the
+    end of the record are left out (their length is unknown). Returns ``{"2m": seconds, "10m": seconds}``,
+    the minimum over every (trial, outage); NaN when there is no complete outage.
+    """
+    edges = np.flatnonzero(np.diff(np.r_[0, outage.astype(np.int8), 0]))
+    spans = [(s, e) for s, e in zip(edges[::2], edges[1::2]) if e < outage.size]
+    out = {}
+    for limit in thresholds_m:
+        worst = float("nan")
+        for start, end in spans:
+            over = horizontal_m[:, start:end] > limit
+            first = np.where(over.any(axis=1), over.argmax(axis=1), end - start)
+            worst = float(np.nanmin([worst, first.min() * interval_s]))
+        out[f"{limit:g}m"] = worst
+    return out

@@ -32,16 +32,19 @@ class SmootherResult(FrozenResult):
 
 
 def rts_smooth(result: FilterResult, F) -> SmootherResult:
-    """Smooth a :class:`~chronofuse.estimation.filter.FilterResult` of a filter with transition ``F`` (n, n).
+    """Smooth a :class:`~chronofuse.estimation.filter.FilterResult` of a filter with transition ``F``.
 
-    ``result.P_prior[:, k + 1]`` must be ``F P(k) F' + Q`` (true for :class:`KalmanFilter` results, whose
-    every epoch is predict then update). Epochs without a measurement are smoothed like any other.
+    ``F`` is (n, n), or time-varying (trials, steps, n, n) with ``F[:, k]`` carrying epoch ``k - 1`` to ``k``
+    (an extended or error-state filter's linearisations). ``result.P_prior[:, k + 1]`` must be
+    ``F P(k) F' + Q`` (true for :class:`KalmanFilter` results, whose every epoch is predict then update).
+    Epochs without a measurement are smoothed like any other.
     """
     F = np.asarray(F, dtype=np.float64)
     x_f, P_f = result.x, result.P
     trials, steps, n = x_f.shape
-    if F.shape != (n, n):
-        raise ValueError(f"F has shape {F.shape}, must be ({n}, {n})")
+    if F.shape not in ((n, n), (trials, steps, n, n)):
+        raise ValueError(f"F has shape {F.shape}, must be ({n}, {n}) or ({trials}, {steps}, {n}, {n})")
+    varying = F.ndim == 4
     xs = np.empty_like(x_f)
     Ps = np.empty_like(P_f)
     C = np.zeros_like(P_f)
@@ -50,7 +53,8 @@ def rts_smooth(result: FilterResult, F) -> SmootherResult:
     for k in range(steps - 2, -1, -1):
         P_pred = result.P_prior[:, k + 1]
         # C = P F' P-^-1, solved as (P- C' = F P) since P- and P are symmetric
-        gain = np.swapaxes(np.linalg.solve(P_pred, F @ P_f[:, k]), -1, -2)
+        F_next = F[:, k + 1] if varying else F
+        gain = np.swapaxes(np.linalg.solve(P_pred, F_next @ P_f[:, k]), -1, -2)
         xs[:, k] = x_f[:, k] + np.einsum("nij,nj->ni", gain, xs[:, k + 1] - result.x_prior[:, k + 1])
         Ps[:, k] = P_f[:, k] + gain @ (Ps[:, k + 1] - P_pred) @ np.swapaxes(gain, -1, -2)
         C[:, k] = gain

@@ -1,0 +1,166 @@
+"""Node kinematics in 3-D (SPEC 2.3): piecewise constant-acceleration trajectories.
+
+One model serves every use: constant velocity (one segment, zero acceleration), constant acceleration
+(one segment) and manoeuvres (several segments, each with its own acceleration; position and velocity
+are continuous at the segment starts). Positions are in a stated inertial *truth frame*, metres, and
+times are seconds of true (coordinate) time since the start of the run; the radio link
+(:mod:`chronofuse.models.link`) solves light-time in this frame.
+
+Within segment ``j`` (``t_j <= t < t_{j+1}``)::
+
+    r(t) = r_j + v_j (t - t_j) + a_j (t - t_j)^2 / 2,     v(t) = v_j + a_j (t - t_j)
+
+Arrays carry a leading trial axis of length ``trials`` or 1 (1 = the same path for every trial), so a
+Monte Carlo run with one geometry and a training set with a different path per trial use one type.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from chronofuse.validation import check_array, check_scalar
+
+__all__ = ["Trajectory", "constant_velocity", "constant_acceleration", "manoeuvre", "radial_geometry"]
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=np.float64)
+    a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A piecewise constant-acceleration path.
+
+    Attributes
+    ----------
+    segment_start_s : ndarray of shape (segments,)
+        Start time of each segment, s; strictly increasing, the first is 0 (before it the first segment
+        is extrapolated backwards).
+    position_m : ndarray of shape (trials or 1, segments, 3)
+        Position at each segment start, m.
+    velocity_m_s : ndarray of shape (trials or 1, segments, 3)
+        Velocity at each segment start, m/s.
+    acceleration_m_s2 : ndarray of shape (trials or 1, segments, 3)
+        Constant acceleration over each segment, m/s^2.
+    """
+
+    segment_start_s: np.ndarray
+    position_m: np.ndarray
+    velocity_m_s: np.ndarray
+    acceleration_m_s2: np.ndarray
+
+    def __post_init__(self):
+        starts = check_array(self.segment_start_s, "segment_start_s", ndim=1, min_length=1)
+        if starts[0] != 0.0 or np.any(np.diff(starts) <= 0.0):
+            raise ValueError(f"segment_start_s == {starts.tolist()}, must start at 0 and strictly increase")
+        shapes = []
+        for name in ("position_m", "velocity_m_s", "acceleration_m_s2"):
+            arr = check_array(getattr(self, name), name, ndim=3)
+            if arr.shape[1:] != (starts.size, 3):
+                raise ValueError(f"{name} has shape {arr.shape}, must be (trials, {starts.size}, 3)")
+            shapes.append(arr.shape[0])
+            object.__setattr__(self, name, _readonly(arr))
+        if len(set(shapes) - {1}) > 1:
+            raise ValueError(f"trial axes {shapes} of position/velocity/acceleration must agree (or be 1)")
+        object.__setattr__(self, "segment_start_s", _readonly(starts))
+
+    @property
+    def trials(self) -> int:
+        """Length of the trial axis (1 = shared by every trial)."""
+        return max(self.position_m.shape[0], self.velocity_m_s.shape[0], self.acceleration_m_s2.shape[0])
+
+    def _segment(self, t_s: np.ndarray):
+        t = check_array(t_s, "t_s", ndim=2)
+        if self.trials not in (1, t.shape[0]):
+            raise ValueError(f"t_s has {t.shape[0]} trials, the trajectory has {self.trials}")
+        j = np.clip(np.searchsorted(self.segment_start_s, t, side="right") - 1, 0, None)
+        dt = (t - self.segment_start_s[j])[..., None]
+        rows = np.arange(t.shape[0])[:, None] if self.trials > 1 else np.zeros((t.shape[0], 1), dtype=np.intp)
+
+        def pick(arr):
+            r = rows if arr.shape[0] > 1 else np.zeros_like(rows)
+            return arr[r, j]
+
+        return dt, pick(self.position_m), pick(self.velocity_m_s), pick(self.acceleration_m_s2)
+
+    def position_at(self, t_s) -> np.ndarray:
+        """Positions at true times ``t_s`` of shape (trials, k): array of shape (trials, k, 3), m."""
+        dt, r, v, a = self._segment(np.asarray(t_s, dtype=np.float64))
+        return r + v * dt + 0.5 * a * dt * dt
+
+    def velocity_at(self, t_s) -> np.ndarray:
+        """Velocities at true times ``t_s`` of shape (trials, k): array of shape (trials, k, 3), m/s."""
+        dt, _, v, a = self._segment(np.asarray(t_s, dtype=np.float64))
+        return v + a * dt
+
+
+def _vec(x, name: str) -> np.ndarray:
+    arr = check_array(x, name, ndim=(1, 2))
+    if arr.shape[-1] != 3:
+        raise ValueError(f"{name} has shape {arr.shape}, must be (3,) or (trials, 3)")
+    return arr if arr.ndim == 2 else arr[None, :]
+
+
+def constant_acceleration(position_m, velocity_m_s, acceleration_m_s2) -> Trajectory:
+    """One segment from ``t = 0``: each argument of shape (3,) or (trials, 3)."""
+    r, v, a = _vec(position_m, "position_m"), _vec(velocity_m_s, "velocity_m_s"), _vec(acceleration_m_s2, "acceleration_m_s2")
+    return Trajectory(np.zeros(1), r[:, None, :], v[:, None, :], a[:, None, :])
+
+
+def constant_velocity(position_m, velocity_m_s) -> Trajectory:
+    """Straight-line motion at constant velocity: arguments of shape (3,) or (trials, 3)."""
+    v = _vec(velocity_m_s, "velocity_m_s")
+    return constant_acceleration(position_m, v, np.zeros_like(v))
+
+
+def manoeuvre(position_m, velocity_m_s, segment_start_s, acceleration_m_s2) -> Trajectory:
+    """A manoeuvre: accelerations ``acceleration_m_s2`` (segments, 3) switched on at ``segment_start_s``.
+
+    Position and velocity are carried continuously across each switch (integrated exactly).
+    """
+    r0, v0 = _vec(position_m, "position_m"), _vec(velocity_m_s, "velocity_m_s")
+    starts = check_array(segment_start_s, "segment_start_s", ndim=1, min_length=1)
+    acc = check_array(acceleration_m_s2, "acceleration_m_s2", ndim=2)
+    if acc.shape != (starts.size, 3):
+        raise ValueError(f"acceleration_m_s2 has shape {acc.shape}, must be ({starts.size}, 3)")
+    trials = max(r0.shape[0], v0.shape[0])
+    r = np.empty((trials, starts.size, 3))
+    v = np.empty((trials, starts.size, 3))
+    r[:, 0], v[:, 0] = r0, v0
+    for j in range(1, starts.size):
+        dt = starts[j] - starts[j - 1]
+        r[:, j] = r[:, j - 1] + v[:, j - 1] * dt + 0.5 * acc[j - 1] * dt * dt
+        v[:, j] = v[:, j - 1] + acc[j - 1] * dt
+    return Trajectory(starts, r, v, np.broadcast_to(acc, (trials, starts.size, 3)).copy())
+
+
+def radial_geometry(distance_m, radial_velocity_m_s, radial_acceleration_m_s2=0.0) -> tuple[Trajectory, Trajectory]:
+    """The seed's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
+    away at ``radial_velocity_m_s`` (negative: closing) with ``radial_acceleration_m_s2``.
+
+    Each argument is a scalar or an array of shape (trials,). Returns ``(a, b)``.
+    """
+    d = np.atleast_1d(np.asarray(distance_m, dtype=np.float64))
+    v = np.atleast_1d(np.asarray(radial_velocity_m_s, dtype=np.float64))
+    acc = np.atleast_1d(np.asarray(radial_acceleration_m_s2, dtype=np.float64))
+    for name, arr in (("distance_m", d), ("radial_velocity_m_s", v), ("radial_acceleration_m_s2", acc)):
+        if arr.ndim != 1:
+            raise ValueError(f"{name} has shape {arr.shape}, must be a scalar or (trials,)")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} contains non-finite values")
+    if np.any(d < 0.0):
+        raise ValueError(f"distance_m == {d.min()}, must be >= 0")
+    n = max(d.size, v.size, acc.size)
+    for name, arr in (("distance_m", d), ("radial_velocity_m_s", v), ("radial_acceleration_m_s2", acc)):
+        check_scalar(arr.size, f"len({name})", min_val=1)
+        if arr.size not in (1, n):
+            raise ValueError(f"{name} has {arr.size} values, must have 1 or {n}")
+    e = np.array([1.0, 0.0, 0.0])
+    a = constant_velocity(np.zeros(3), np.zeros(3))
+    b = constant_acceleration(np.broadcast_to(d, (n,))[:, None] * e, np.broadcast_to(v, (n,))[:, None] * e,
+                              np.broadcast_to(acc, (n,))[:, None] * e)
+    return a, b

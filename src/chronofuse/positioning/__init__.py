@@ -1,0 +1,1 @@
+"""GNSS/INS positioning: strapdown inertial navigation, GNSS/INS filters and smoothing."""
