@@ -1,0 +1,167 @@
+"""Read a receiver recording (NMEA, UBX, or both mixed with RTCM and noise) into per-epoch reports, and
+say what it holds: message counts, time span, gaps, checksum failures, unknown talkers.
+
+One pass: :class:`chronofuse.io.frames.FrameScanner` frames the bytes (checksums verified for whole
+chunks at once), pynmeagps and pyubx2 decode the frames we use, :mod:`chronofuse.io.nmea` and
+:mod:`chronofuse.io.ubx_epochs` assemble epochs. A stream carrying both protocols is one receiver: its
+UBX epochs are taken first and NMEA fills the fields UBX did not send (and epochs UBX did not report).
+"""
+
+from __future__ import annotations
+
+import gzip
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from chronofuse.io.frames import FrameScanner, FrameStats
+from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
+from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
+from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
+from chronofuse.validation import InputDataError
+
+__all__ = ["Capture", "read_capture", "read_bytes", "EXPORT_COLUMNS", "EPOCH_FIELDS"]
+
+#: Per-epoch fields (besides ``gps_ns``), as :class:`chronofuse.epochs.ReceiverEpochs` names them.
+EPOCH_FIELDS = ("fix_mode", "time_valid", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop", "leap_s",
+                "leap_pending", "qerr_s", "clock_bias_s", "clock_drift_s_per_s")
+#: Columns of :meth:`Capture.to_frame` (the ``inspect --export`` table).
+EXPORT_COLUMNS = ("time_utc", "mode", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop", "leap_s",
+                  "clock_bias_s", "clock_drift", "qerr_s")
+_CHUNK = 1 << 22
+
+
+@dataclass(frozen=True)
+class Capture:
+    """What one recording holds. ``rows``: ``gps_ns`` (int64, strictly increasing) and
+    :data:`EPOCH_FIELDS`, one entry per epoch. ``frames``: the framer's counts; ``nmea``/``ubx``: the
+    decoders' counts; ``time_marks_gps_ns``: TIM-TM2 rising edges; ``duplicate_epochs``: epochs dropped
+    because their time repeats an earlier one."""
+
+    source: str
+    rows: dict
+    frames: FrameStats
+    nmea: NmeaDecodeStats
+    ubx: UbxDecodeStats
+    time_marks_gps_ns: np.ndarray
+    duplicate_epochs: int = 0
+    protocols: tuple = field(default=())
+
+    @property
+    def n_epochs(self) -> int:
+        return int(self.rows["gps_ns"].size)
+
+    def utc_ns(self) -> np.ndarray:
+        """The receiver's UTC label of each epoch (``gps_ns - leap_s``), int64 ns on the UTC count."""
+        return self.rows["gps_ns"] - self.rows["leap_s"].astype(np.int64) * NS_PER_S
+
+    def to_frame(self) -> pd.DataFrame:
+        """One row per epoch, columns :data:`EXPORT_COLUMNS` (``time_utc`` ISO 8601 with ms and ``Z``,
+        ``mode`` as gpsd's TPV, seconds in seconds, absent values NaN and ``n_sats`` -1)."""
+        r = self.rows
+        utc = gps_ns_to_datetime64(self.utc_ns())
+        cols = {
+            "time_utc": np.datetime_as_string(utc, unit="ms", timezone="UTC"),
+            "mode": r["fix_mode"], "n_sats": r["n_sats"], "gdop": r["gdop"], "pdop": r["pdop"],
+            "hdop": r["hdop"], "vdop": r["vdop"], "tdop": r["tdop"], "leap_s": r["leap_s"],
+            "clock_bias_s": r["clock_bias_s"], "clock_drift": r["clock_drift_s_per_s"], "qerr_s": r["qerr_s"],
+        }
+        return pd.DataFrame({name: np.asarray(cols[name]) for name in EXPORT_COLUMNS})
+
+    def gaps(self, factor: float = 1.5) -> list[tuple[int, int]]:
+        """``(gps_ns_before, gps_ns_after)`` of every interval longer than ``factor`` x the median one."""
+        t = self.rows["gps_ns"]
+        if t.size < 3:
+            return []
+        step = np.diff(t)
+        median = np.median(step)
+        idx = np.flatnonzero(step > factor * median)
+        return [(int(t[i]), int(t[i + 1])) for i in idx]
+
+
+def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = None) -> Capture:
+    """Read an iterable of byte chunks (any split) into a :class:`Capture`."""
+    scanner = FrameScanner()
+    nmea_b, nmea_s = NmeaEpochBuilder(reference_gps_ns), NmeaDecodeStats()
+    ubx_b, ubx_s = UbxEpochBuilder(), UbxDecodeStats()
+    for chunk in chunks:
+        frames = scanner.feed(chunk)
+        decode_nmea(frames, nmea_b, nmea_s)
+        decode_ubx(frames, ubx_b, ubx_s)
+    frames = scanner.close()
+    decode_nmea(frames, nmea_b, nmea_s)
+    decode_ubx(frames, ubx_b, ubx_s)
+    ubx_rows = ubx_b.rows(ubx_s)
+    nmea_rows = nmea_b.rows()
+    rows = _merge(ubx_rows, nmea_rows)
+    rows, dup = _strictly_increasing(rows)
+    protocols = tuple(p for p, n in (("nmea", sum(nmea_s.decoded.values())), ("ubx", sum(ubx_s.decoded.values())))
+                      if n)
+    return Capture(source=source, rows=rows, frames=scanner.stats, nmea=nmea_s, ubx=ubx_s,
+                   time_marks_gps_ns=np.asarray(ubx_b.marks_gps_ns, dtype=np.int64), duplicate_epochs=dup,
+                   protocols=protocols)
+
+
+def read_capture(path, reference_gps_ns: int | None = None) -> Capture:
+    """Read a recording file (plain, or gzip when its name ends in ``.gz``).
+
+    ``reference_gps_ns``: a trusted epoch near the recording (for receivers with the GPS week-rollover
+    bug, see :mod:`chronofuse.io.nmea`). Raises :class:`InputDataError` naming the file when it is
+    missing or empty; corrupt content is counted in the result, never raised.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputDataError("no such file", str(path))
+    if path.stat().st_size == 0:
+        raise InputDataError("the file is empty", str(path))
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rb") as stream:
+        return read_bytes(iter(lambda: stream.read(_CHUNK), b""), str(path), reference_gps_ns)
+
+
+def _absent(name: str, v: np.ndarray) -> np.ndarray:
+    if v.dtype.kind == "f":
+        return np.isnan(v)
+    if name == "fix_mode":
+        return v == 0
+    if name == "n_sats":
+        return v < 0
+    if name == "time_valid":
+        return ~v
+    return np.zeros(v.shape, dtype=bool)
+
+
+def _merge(ubx: dict, nmea: dict) -> dict:
+    """UBX epochs first; NMEA epochs at the same GPS ns fill UBX's absent fields; other NMEA epochs join.
+    (A leap count the UBX receiver sent wins over NMEA's table value.)"""
+    if ubx["gps_ns"].size == 0:
+        return {k: nmea[k] for k in ("gps_ns",) + EPOCH_FIELDS}
+    if nmea["gps_ns"].size == 0:
+        return {k: ubx[k] for k in ("gps_ns",) + EPOCH_FIELDS}
+    t = np.union1d(ubx["gps_ns"], nmea["gps_ns"])
+    iu = np.searchsorted(t, ubx["gps_ns"])
+    inm = np.searchsorted(t, nmea["gps_ns"])
+    out = {"gps_ns": t}
+    for name in EPOCH_FIELDS:
+        from_nmea = np.zeros(t.size, dtype=ubx[name].dtype)
+        from_nmea[inm] = nmea[name]
+        col = from_nmea.copy()
+        col[iu] = ubx[name]
+        ubx_has = np.zeros(t.size, dtype=bool)
+        ubx_has[iu] = True if name == "leap_s" else ~_absent(name, ubx[name])
+        nmea_has = np.zeros(t.size, dtype=bool)
+        nmea_has[inm] = True
+        out[name] = np.where(nmea_has & ~ubx_has, from_nmea, col)
+    return out
+
+
+def _strictly_increasing(rows: dict) -> tuple[dict, int]:
+    t = rows["gps_ns"]
+    order = np.argsort(t, kind="stable")
+    t_sorted = t[order]
+    keep = np.ones(t.size, dtype=bool)
+    keep[1:] = np.diff(t_sorted) > 0
+    idx = order[keep]
+    return {k: v[idx] for k, v in rows.items()}, int((~keep).sum())

@@ -1,0 +1,28 @@
+"""Real receiver captures for the reader tests: ``tests/data/receivers`` when the lead has copied them
+there, else the project's shared data (``$CHRONOFUSE_DATA/receivers``)."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+_REPO = Path(__file__).resolve().parents[2]
+
+
+def receivers_dir() -> Path:
+    """Folder holding ``gpsd/``, ``ubx/`` and ``rinex/`` of real receiver captures."""
+    candidates = [_REPO / "tests" / "data" / "receivers"]
+    if "CHRONOFUSE_DATA" in os.environ:
+        candidates.append(Path(os.environ["CHRONOFUSE_DATA"]) / "receivers")
+    candidates += [_REPO.parent / "shared" / "data" / "receivers", _REPO.parents[1] / "shared" / "data" / "receivers"]
+    for path in candidates:
+        if (path / "gpsd").is_dir():
+            return path
+    raise RuntimeError(f"receiver captures not found (looked in {', '.join(map(str, candidates))})")
+
+
+@pytest.fixture(scope="session")
+def receivers() -> Path:
+    return receivers_dir()
