@@ -175,3 +175,16 @@ def test_fuzzed_bytes_never_crash_the_readers_and_every_byte_is_accounted(pieces
         split_frames += scanner.feed(data[k:k + chunk])
     split_frames += scanner.close()
     assert [(f.offset, f.raw) for f in split_frames] == [(f.offset, f.raw) for f in whole_frames]
+
+
+def test_a_capture_is_the_one_receiver_epochs_record_and_exports_its_columns(receivers):
+    from chronofuse.epochs import EXPORT_COLUMNS
+
+    capture = read_capture(receivers / "gpsd" / "ublox-zed-f9t-ubx_nmea_l5.log")
+    epochs = capture.epochs
+    assert epochs.shape == (1, 1, capture.n_epochs)
+    np.testing.assert_array_equal(epochs.utc_ns()[0, 0], capture.utc_ns())
+    frame = capture.to_frame()
+    assert tuple(frame.columns) == EXPORT_COLUMNS
+    # NAV-CLOCK clkB of the first epoch, in seconds
+    assert np.isfinite(frame["clock_bias_s"]).sum() == 9

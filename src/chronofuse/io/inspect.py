@@ -16,20 +16,18 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
 from chronofuse.io.frames import FrameScanner, FrameStats
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
 from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
-from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
+from chronofuse.timescale import NS_PER_S
 from chronofuse.validation import InputDataError
 
-__all__ = ["Capture", "read_capture", "read_bytes", "EXPORT_COLUMNS", "EPOCH_FIELDS"]
+__all__ = ["Capture", "read_capture", "read_bytes", "EPOCH_FIELDS"]
 
 #: Per-epoch fields (besides ``gps_ns``), as :class:`chronofuse.epochs.ReceiverEpochs` names them.
 EPOCH_FIELDS = ("fix_mode", "time_valid", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop", "leap_s",
                 "leap_pending", "qerr_s", "clock_bias_s", "clock_drift_s_per_s")
-#: Columns of :meth:`Capture.to_frame` (the ``inspect --export`` table).
-EXPORT_COLUMNS = ("time_utc", "mode", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop", "leap_s",
-                  "clock_bias_s", "clock_drift", "qerr_s")
 _CHUNK = 1 << 22
 
 
@@ -57,18 +55,21 @@ class Capture:
         """The receiver's UTC label of each epoch (``gps_ns - leap_s``), int64 ns on the UTC count."""
         return self.rows["gps_ns"] - self.rows["leap_s"].astype(np.int64) * NS_PER_S
 
+    @property
+    def epochs(self) -> ReceiverEpochs | None:
+        """The epochs as the one per-epoch record, shape ``(1, 1, epochs)``; None when there are none."""
+        if self.n_epochs == 0:
+            return None
+        return ReceiverEpochs(gps_ns=self.rows["gps_ns"],
+                              **{name: self.rows[name][None, None, :] for name in EPOCH_FIELDS})
+
     def to_frame(self) -> pd.DataFrame:
-        """One row per epoch, columns :data:`EXPORT_COLUMNS` (``time_utc`` ISO 8601 with ms and ``Z``,
-        ``mode`` as gpsd's TPV, seconds in seconds, absent values NaN and ``n_sats`` -1)."""
-        r = self.rows
-        utc = gps_ns_to_datetime64(self.utc_ns())
-        cols = {
-            "time_utc": np.datetime_as_string(utc, unit="ms", timezone="UTC"),
-            "mode": r["fix_mode"], "n_sats": r["n_sats"], "gdop": r["gdop"], "pdop": r["pdop"],
-            "hdop": r["hdop"], "vdop": r["vdop"], "tdop": r["tdop"], "leap_s": r["leap_s"],
-            "clock_bias_s": r["clock_bias_s"], "clock_drift": r["clock_drift_s_per_s"], "qerr_s": r["qerr_s"],
-        }
-        return pd.DataFrame({name: np.asarray(cols[name]) for name in EXPORT_COLUMNS})
+        """One row per epoch, columns :data:`chronofuse.epochs.EXPORT_COLUMNS` (see
+        :meth:`ReceiverEpochs.to_frame`); an empty table with those columns when there are no epochs."""
+        epochs = self.epochs
+        if epochs is None:
+            return pd.DataFrame({name: [] for name in EXPORT_COLUMNS})
+        return epochs.to_frame()
 
     def gaps(self, factor: float = 1.5) -> list[tuple[int, int]]:
         """``(gps_ns_before, gps_ns_after)`` of every interval longer than ``factor`` x the median one."""
