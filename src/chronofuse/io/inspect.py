@@ -20,10 +20,10 @@ from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
 from chronofuse.io.frames import FrameScanner, FrameStats
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
 from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
-from chronofuse.timescale import NS_PER_S
+from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 from chronofuse.validation import InputDataError
 
-__all__ = ["Capture", "read_capture", "read_bytes", "EPOCH_FIELDS"]
+__all__ = ["Capture", "read_capture", "read_bytes", "summarize", "EPOCH_FIELDS"]
 
 #: Per-epoch fields (besides ``gps_ns``), as :class:`chronofuse.epochs.ReceiverEpochs` names them.
 EPOCH_FIELDS = ("fix_mode", "time_valid", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop", "leap_s",
@@ -166,3 +166,52 @@ def _strictly_increasing(rows: dict) -> tuple[dict, int]:
     keep[1:] = np.diff(t_sorted) > 0
     idx = order[keep]
     return {k: v[idx] for k, v in rows.items()}, int((~keep).sum())
+
+
+def _iso(utc_ns: int) -> str:
+    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(utc_ns)), unit="ms")) + "Z"
+
+
+def summarize(capture: Capture, max_gaps: int = 20) -> dict:
+    """What the recording holds, as a JSON-ready document: protocols, message counts per type, epochs,
+    time span (the receiver's UTC labels), the interval, gaps (up to ``max_gaps`` listed), damage
+    (checksum failures, truncated frames, unframed bytes, parser refusals) and unknown talkers."""
+    f = capture.frames
+    utc = capture.utc_ns()
+    gaps = capture.gaps()
+    step_s = float(np.median(np.diff(capture.rows["gps_ns"]))) / NS_PER_S if capture.n_epochs > 1 else None
+    rows = capture.rows
+    return {
+        "file": capture.source,
+        "receivers": 1 if capture.protocols else 0,
+        "protocols": list(capture.protocols),
+        "bytes": f.n_bytes,
+        "messages": dict(sorted(f.messages.items())),
+        "epochs": capture.n_epochs,
+        "start_utc": _iso(utc[0]) if capture.n_epochs else None,
+        "end_utc": _iso(utc[-1]) if capture.n_epochs else None,
+        "span_s": float(utc[-1] - utc[0]) / NS_PER_S if capture.n_epochs else 0.0,
+        "interval_s": step_s,
+        "gaps": {"count": len(gaps),
+                 "listed": [{"after_utc": _iso(a - int(rows["leap_s"][0]) * NS_PER_S),
+                             "length_s": (b - a) / NS_PER_S} for a, b in gaps[:max_gaps]]},
+        "fix_modes": {str(m): int((rows["fix_mode"] == m).sum()) for m in (0, 1, 2, 3)},
+        "leap_s": sorted({int(v) for v in rows["leap_s"]}),
+        "leap_pending_epochs": int((rows["leap_pending"] != 0).sum()),
+        "time_marks": int(capture.time_marks_gps_ns.size),
+        "damage": {
+            "nmea_bad_checksum": f.nmea_bad_checksum,
+            "nmea_no_checksum": f.nmea_no_checksum,
+            "nmea_malformed": f.nmea_malformed,
+            "ubx_bad_checksum": f.ubx_bad_checksum,
+            "rtcm3_bad_crc": f.rtcm3_bad_crc,
+            "truncated_frames": f.truncated,
+            "unframed_bytes": f.unframed_bytes,
+            "comment_lines": f.comment_lines,
+            "parser_refused": capture.nmea.parse_errors + capture.ubx.parse_errors,
+            "undated_epochs": capture.ubx.undated_epochs,
+            "duplicate_epochs": capture.duplicate_epochs,
+        },
+        "unknown_talkers": dict(sorted(f.unknown_talkers.items())),
+        "problems": [{"offset": o, "reason": r} for o, r in f.problems[:max_gaps]],
+    }
