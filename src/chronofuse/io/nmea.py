@@ -8,8 +8,9 @@ Sentences used (NMEA 0183 v4.11; talkers GP, GN, GL, GA, BD/GB (BeiDou), GQ, GI)
 * GSA: fix mode (1 none, 2 2-D, 3 3-D), the satellites used, PDOP/HDOP/VDOP. NMEA 4.10 sends one GSA per
   constellation, each with a system ID (field 18); they describe ONE solution, so their satellites are
   pooled and their (identical) DOPs taken once.
-* GSV: satellites in view (counted per constellation, from the first sentence of each group).
-* GST: pseudorange error statistics (counted; no field of the record).
+* GSV: satellites in view (per constellation and signal, from the first sentence of each group: the
+  others are counted by the framer and not decoded, their per-satellite fields being no part of the record).
+* GST: pseudorange error statistics (counted by the framer, not decoded: no field of the record).
 * GNS: fix mode per constellation and satellites used (a GGA substitute of multi-GNSS receivers).
 * GLL: UTC time and status, like RMC without the date (some receivers close their burst with it).
 
@@ -277,6 +278,10 @@ def decode_nmea(frames, builder: NmeaEpochBuilder, stats: NmeaDecodeStats) -> No
         if name[:2] not in KNOWN_TALKERS:
             stats.unknown_talker += 1
             continue
+        if msg_type == "GST":
+            continue  # counted by the framer; no field of the record comes from it
+        if msg_type == "GSV" and frame.raw.split(b",", 3)[2:3] != [b"1"]:
+            continue  # only a group's first GSV is decoded: its total in view is all we use
         try:
             msg = NMEAReader.parse(frame.raw, validate=0)
         except Exception as err:  # pynmeagps raises many types on odd fields; count, keep going

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from pyubx2 import UBXReader
+from pyubx2.ubxhelpers import calc_checksum
 
 from chronofuse.timescale import (
     MS_PER_WEEK,
@@ -66,11 +67,12 @@ class UbxDecodeStats:
 class _Epoch:
     __slots__ = ("itow_ms", "week", "utc_ns", "mode", "time_valid", "n_sats", "n_used_sat", "gdop", "pdop",
                  "hdop", "vdop", "tdop", "leap_s", "leap_pending", "clock_bias_s", "clock_drift_s_per_s",
-                 "leap_from_utc", "raw_only")
+                 "leap_from_utc", "raw_only", "nav_sat_raw")
 
     def __init__(self, itow_ms: int) -> None:
         self.itow_ms = itow_ms
         self.raw_only = False
+        self.nav_sat_raw: bytes | None = None
         self.week = -1
         self.utc_ns: int | None = None  # a valid UTC label (UTC count since the GPS epoch)
         self.leap_from_utc = False
@@ -116,6 +118,12 @@ class UbxEpochBuilder:
         ep.raw_only = raw
         self._epochs.append(ep)
         return ep
+
+    def defer_nav_sat(self, raw: bytes) -> None:
+        """Keep a NAV-SAT frame with its epoch (iTOW: payload bytes 0-3) to be decoded only if needed."""
+        if len(raw) >= 10:
+            ep = self._epoch(int.from_bytes(raw[6:10], "little"))
+            ep.nav_sat_raw = raw
 
     def push(self, name: str, m) -> None:
         if name == "TIM-TP":
@@ -174,7 +182,7 @@ class UbxEpochBuilder:
             ep.gdop, ep.pdop, ep.hdop = float(m.gDOP), float(m.pDOP), float(m.hDOP)
             ep.vdop, ep.tdop = float(m.vDOP), float(m.tDOP)
         elif name == "NAV-SAT":
-            ep.n_used_sat = sum(1 for k in range(1, int(m.numSvs) + 1) if getattr(m, f"svUsed_{k:02d}", 0))
+            ep.n_used_sat = _count_used(m)
         elif name == "NAV-CLOCK":
             ep.clock_bias_s = m.clkB * 1e-9
             ep.clock_drift_s_per_s = m.clkD * 1e-9
@@ -185,6 +193,15 @@ class UbxEpochBuilder:
         receiver's own, not the table's)."""
         eps = self._epochs
         n = len(eps)
+        for e in eps:
+            if e.n_sats < 0 and e.n_used_sat < 0 and e.nav_sat_raw is not None:
+                try:
+                    e.n_used_sat = _count_used(UBXReader.parse(e.nav_sat_raw, validate=0))
+                except Exception as err:  # a NAV-SAT pyubx2 refuses: count it, keep the epoch
+                    if stats is not None:
+                        stats.parse_errors += 1
+                        stats.errors.append((-1, f"NAV-SAT: {type(err).__name__}: {err}"))
+            e.nav_sat_raw = None
         itow = np.array([e.itow_ms for e in eps], dtype=np.int64)
         approx = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
         for i, e in enumerate(eps):
@@ -228,6 +245,20 @@ class UbxEpochBuilder:
             stats.undated_epochs += int((~dated).sum())
         rows = {k: v[dated] for k, v in rows.items()}
         return _attach_pulses(rows, self._pulses)
+
+
+def _count_used(m) -> int:
+    return sum(1 for k in range(1, int(m.numSvs) + 1) if getattr(m, f"svUsed_{k:02d}", 0))
+
+
+def _rawx_header_frame(raw: bytes) -> bytes:
+    """The RXM-RAWX frame with its measurement blocks left out (``numMeas`` 0, the 16-byte header kept,
+    checksum recomputed): pyubx2 then decodes only the header fields we use (``rcvTow``, ``week``,
+    ``leapS``, ``recStat``) instead of 32 bytes x 20 fields per measurement."""
+    header = bytearray(raw[6:22])
+    header[11] = 0  # numMeas
+    body = raw[2:4] + b"\x10\x00" + bytes(header)
+    return b"\xb5\x62" + body + calc_checksum(body)
 
 
 def _place_on_weeks(itow_ms: np.ndarray, approx_gps_ns: np.ndarray) -> np.ndarray:
@@ -309,7 +340,13 @@ def decode_ubx(frames, builder: UbxEpochBuilder, stats: UbxDecodeStats) -> None:
         if frame.kind != "ubx" or frame.name not in UBX_TYPES:
             continue
         try:
-            msg = UBXReader.parse(frame.raw, validate=0)
+            if frame.name == "NAV-SAT":
+                # parsed at the end, and only for an epoch whose NAV-PVT/NAV-SOL gave no satellite count
+                builder.defer_nav_sat(frame.raw)
+                stats.decoded[frame.name] += 1
+                continue
+            raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
+            msg = UBXReader.parse(raw, validate=0)
             builder.push(frame.name, msg)
         except Exception as err:  # pyubx2 raises several types on short or odd payloads; count, go on
             stats.parse_errors += 1
