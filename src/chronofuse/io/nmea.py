@@ -121,6 +121,8 @@ class NmeaEpochBuilder:
         self.reference_gps_ns = reference_gps_ns
         self._epochs: list[_Epoch] = []
         self._current: _Epoch | None = None
+        self._prev_mode = 0
+        self._day_state: tuple = (None, None)  # (UTC midnight ms, last time of day) carried by pop_complete
 
     def push(self, msg_type: str, msg) -> None:
         tod = _tod_ms(getattr(msg, "time", None)) if msg_type in _TIMED else None
@@ -183,12 +185,40 @@ class NmeaEpochBuilder:
                 if not math.isnan(n):
                     ep.visible += int(n)
 
+    def pop_complete(self, max_undated: int = 64) -> dict[str, np.ndarray] | None:
+        """Streaming: the epochs closed so far (every one before the burst in progress) as arrays, removed
+        from the builder; the day carries over to later calls. Epochs before any date wait for one (at
+        most ``max_undated``, then they are dropped). None when nothing is ready."""
+        closed = self._epochs[:-1] if self._epochs and self._epochs[-1] is self._current else self._epochs[:]
+        if not closed:
+            return None
+        rows = self._rows_of(closed, carry=True)
+        if rows is None:
+            if len(closed) <= max_undated:
+                return None
+            rows = None
+        self._epochs = self._epochs[len(closed):]
+        return rows
+
+    def pop_all(self) -> dict[str, np.ndarray] | None:
+        """Streaming, at the end of the stream: every epoch left (the burst in progress too)."""
+        self._current = None
+        return self.pop_complete(max_undated=0)
+
     def rows(self) -> dict[str, np.ndarray]:
         """Every epoch with a time of day, as arrays: ``gps_ns`` and the per-epoch fields of
         :class:`chronofuse.epochs.ReceiverEpochs` (``leap_s`` from the leap-second table: NMEA 0183
         carries none) plus ``n_visible``. Epochs whose date cannot be known are dropped."""
-        epochs = [e for e in self._epochs if e.tod_ms is not None]
-        day_ms = _dates_ms(epochs)
+        return self._rows_of(self._epochs, carry=False) or _empty_rows()
+
+    def _rows_of(self, epochs_in: list, carry: bool) -> dict[str, np.ndarray] | None:
+        epochs = [e for e in epochs_in if e.tod_ms is not None]
+        state = self._day_state if carry else (None, None)
+        day_ms, end_state = _dates_ms(epochs, state)
+        if carry:
+            if all(d is None for d in day_ms) and epochs:
+                return None
+            self._day_state = end_state
         keep = [i for i, d in enumerate(day_ms) if d is not None]
         utc_ms = np.array([day_ms[i] + epochs[i].tod_ms for i in keep], dtype=np.int64)
         picked = [epochs[i] for i in keep]
@@ -199,9 +229,12 @@ class NmeaEpochBuilder:
         leap = gps_minus_utc_s(utc_ns) if utc_ns.size else np.zeros(0, np.int64)
         gps_ns = utc_ns + leap * NS_PER_S
         hdop = np.array([e.hdop if not math.isnan(e.hdop) else e.gga_hdop for e in picked], dtype=np.float64)
+        modes = _modes(picked, self._prev_mode if carry else 0)
+        if carry and modes.size:
+            self._prev_mode = int(modes[-1])
         return {
             "gps_ns": gps_ns,
-            "fix_mode": _modes(picked),
+            "fix_mode": modes,
             "time_valid": np.array([e.rmc_valid or e.gga_mode >= 2 for e in picked], dtype=bool),
             "n_sats": np.array([e.n_sats() for e in picked], dtype=np.int16),
             "n_visible": np.array([e.visible if e.gsv_seen else -1 for e in picked], dtype=np.int16),
@@ -218,11 +251,10 @@ class NmeaEpochBuilder:
         }
 
 
-def _modes(epochs: list[_Epoch]) -> np.ndarray:
+def _modes(epochs: list[_Epoch], prev: int = 0) -> np.ndarray:
     """Fix mode per epoch. RMC/GLL status ``A`` alone says "a fix" without its dimension: such an epoch
-    keeps the previous epoch's 2-D/3-D mode (gpsd does the same), else 2."""
+    keeps the previous epoch's 2-D/3-D mode (gpsd does the same), else 2. ``prev``: the mode before."""
     out = np.zeros(len(epochs), dtype=np.int8)
-    prev = 0
     for i, e in enumerate(epochs):
         mode = e.mode()
         if mode == 2 and e.rmc_mode == 2 and e.gsa_mode == 0 and e.gga_mode == 0 and prev >= 2:
@@ -232,13 +264,21 @@ def _modes(epochs: list[_Epoch]) -> np.ndarray:
     return out
 
 
-def _dates_ms(epochs: list[_Epoch]) -> list[int | None]:
+def _empty_rows() -> dict[str, np.ndarray]:
+    ints = {"fix_mode": np.int8, "time_valid": bool, "n_sats": np.int16, "n_visible": np.int16,
+            "leap_s": np.int16, "leap_pending": np.int8, "gps_ns": np.int64}
+    names = ("gps_ns", "fix_mode", "time_valid", "n_sats", "n_visible", "gdop", "pdop", "hdop", "vdop", "tdop",
+             "leap_s", "leap_pending", "qerr_s", "clock_bias_s", "clock_drift_s_per_s")
+    return {n: np.zeros(0, dtype=ints.get(n, np.float64)) for n in names}
+
+
+def _dates_ms(epochs: list[_Epoch], state: tuple = (None, None)) -> tuple[list[int | None], tuple]:
     """The UTC midnight (ms since the GPS epoch, UTC count) of each epoch's day: the last date sent,
-    carried forward over midnight (time of day stepping back > 12 h) and backward to earlier epochs."""
+    carried forward over midnight (time of day stepping back > 12 h) and backward to earlier epochs.
+    ``state`` = (day, last time of day) carried from earlier epochs; the end state is returned too."""
     out: list[int | None] = [None] * len(epochs)
-    day: int | None = None
-    prev_tod: int | None = None
-    first_dated = None
+    day, prev_tod = state
+    first_dated = 0 if day is not None else None
     for i, e in enumerate(epochs):
         if e.date is not None:
             day = _day_ms(e.date)
@@ -256,7 +296,10 @@ def _dates_ms(epochs: list[_Epoch]) -> list[int | None]:
                 day -= _MS_PER_DAY
             out[i] = day
             next_tod = epochs[i].tod_ms
-    return out
+    end_day = None
+    if epochs and out[-1] is not None:
+        end_day = out[-1]
+    return out, ((end_day, epochs[-1].tod_ms) if end_day is not None else state)
 
 
 def _day_ms(date: dt.date) -> int:

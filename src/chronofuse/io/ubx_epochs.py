@@ -101,6 +101,8 @@ class UbxEpochBuilder:
     def __init__(self) -> None:
         self._epochs: list[_Epoch] = []
         self._pulses: list[tuple[int, int, int, float]] = []  # (week, tow_ms, time base, qerr_s)
+        self._anchor: tuple[int, int] | None = None  # (iTOW ms, full week) of the last epoch popped
+        self._last_leap: int | None = None
         self.marks_gps_ns: list[int] = []
 
     def _epoch(self, itow_ms: int, raw: bool = False) -> _Epoch:
@@ -187,11 +189,43 @@ class UbxEpochBuilder:
             ep.clock_bias_s = m.clkB * 1e-9
             ep.clock_drift_s_per_s = m.clkD * 1e-9
 
+    def pop_complete(self, stats: UbxDecodeStats | None = None, max_undated: int = 64) -> dict | None:
+        """Streaming: the epochs before the one in progress as arrays, removed from the builder. The last
+        dated epoch and the receiver's last leap count carry over to later calls, so an epoch without a
+        week of its own is placed from its predecessors; TIM-TP pulses wait for their epoch. Epochs
+        before anything dates them wait (at most ``max_undated``). None when nothing is ready."""
+        closed = self._epochs[:-1]
+        if not closed:
+            return None
+        rows = self._rows_of(closed, stats, streaming=True, final=len(closed) > max_undated)
+        if rows is None:
+            return None
+        self._epochs = self._epochs[len(closed):]
+        return rows
+
+    def pop_all(self, stats: UbxDecodeStats | None = None) -> dict | None:
+        """Streaming, at the end of the stream: every epoch left (the one in progress too)."""
+        self._epochs.append(_Epoch(-1))  # a sentinel "next epoch" so that every real one is closed
+        rows = self.pop_complete(stats, max_undated=0)
+        self._epochs = []
+        if self._pulses and rows is not None:
+            rows = _attach_pulses(rows, self._pulses)
+        self._pulses = []
+        return rows
+
     def rows(self, stats: UbxDecodeStats | None = None) -> dict[str, np.ndarray]:
         """The dated epochs in time order as arrays: ``gps_ns`` and the per-epoch fields of
         :class:`chronofuse.epochs.ReceiverEpochs` (plus ``leap_from_receiver``: the leap count is the
         receiver's own, not the table's)."""
-        eps = self._epochs
+        return self._rows_of(self._epochs, stats, streaming=False, final=True)
+
+    def _rows_of(self, eps: list, stats, streaming: bool, final: bool) -> dict | None:
+        has_anchor = streaming and self._anchor is not None
+        if has_anchor:
+            anchor = _Epoch(self._anchor[0])
+            anchor.week = self._anchor[1]
+            anchor.leap_s = self._last_leap
+            eps = [anchor] + list(eps)
         n = len(eps)
         for e in eps:
             if e.n_sats < 0 and e.n_used_sat < 0 and e.nav_sat_raw is not None:
@@ -212,6 +246,8 @@ class UbxEpochBuilder:
                 approx[i] = e.utc_ns + leap * NS_PER_S
         gps_ns = _place_on_weeks(itow, approx)
         dated = gps_ns != np.iinfo(np.int64).min
+        if streaming and not dated.any() and not final:
+            return None
         # GPS - UTC: the receiver's own where it says (directly, or as its GPS minus its UTC label)
         leap = np.full(n, -1, dtype=np.int64)
         own = np.zeros(n, dtype=bool)
@@ -241,10 +277,25 @@ class UbxEpochBuilder:
             "leap_from_receiver": own,
         }
         rows = {k: v.reshape(n) if v.ndim else v for k, v in rows.items()}
+        if streaming:
+            if dated.any():
+                last = int(np.flatnonzero(dated)[-1])
+                self._anchor = (int(itow[last]), int(gps_ns[last] // NS_PER_WEEK))
+            if own.any():
+                self._last_leap = int(leap[np.flatnonzero(own)[-1]])
         if stats is not None:
             stats.undated_epochs += int((~dated).sum())
+        if has_anchor:
+            dated[0] = False  # the carried anchor is no epoch of this batch
         rows = {k: v[dated] for k, v in rows.items()}
-        return _attach_pulses(rows, self._pulses)
+        if not streaming:
+            return _attach_pulses(rows, self._pulses)
+        if rows["gps_ns"].size == 0:
+            return rows
+        last_gps = int(rows["gps_ns"][-1])
+        ready = [p for p in self._pulses if _pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
+        self._pulses = [p for p in self._pulses if p not in ready]
+        return _attach_pulses(rows, ready)
 
 
 def _count_used(m) -> int:
@@ -294,6 +345,11 @@ def _fill_leap(leap: np.ndarray, own: np.ndarray, gps_ns: np.ndarray, dated: np.
     elif dated.any():
         out[dated] = gps_minus_utc_s(gps_ns[dated])
     return out
+
+
+def _pulse_gps_ns(pulse: tuple, leap_s: int) -> int:
+    week, tow_ms, base, _ = pulse
+    return week * NS_PER_WEEK + tow_ms * 1_000_000 + (leap_s * NS_PER_S if base == 1 else 0)
 
 
 def _attach_pulses(rows: dict, pulses: list) -> dict:
