@@ -27,7 +27,7 @@ from chronofuse.analysis.stability import (
     ttotdev,
 )
 from chronofuse.analysis.stability.taus import averaging_factors
-from chronofuse.analysis.theory import adev_theory, avar_components
+from chronofuse.analysis.theory import adev_theory, avar_components, corrected_pps_adev
 from chronofuse.estimation.filter import FilterResult, KalmanFilter
 from chronofuse.estimation.interface import Estimator, FrozenResult, compare_streaming_to_batch, pick_inputs
 from chronofuse.estimation.null import HoldLastEstimator
@@ -44,8 +44,10 @@ from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
-from chronofuse.models.receiver import SCENARIOS, ReceiverModel, simulate_receivers
-from chronofuse.models.receiver import scenario as receiver_scenario
+from chronofuse.epochs import ReceiverEpochs
+from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
+from chronofuse.models.receiver import ReceiverTruth, simulate_receivers
+from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.validation import ChronofuseError, InputDataError
 
 __all__ = [
@@ -57,9 +59,12 @@ __all__ = [
     "simulate_oscillator",
     "power_law_noise",
     "ReceiverModel",
-    "SCENARIOS",
-    "receiver_scenario",
+    "ReceiverEnvironment",
+    "ENVIRONMENTS",
+    "receiver_environment",
     "simulate_receivers",
+    "ReceiverTruth",
+    "ReceiverEpochs",
     # real data in
     "ClockRecord",
     "read_record",
@@ -88,6 +93,7 @@ __all__ = [
     "averaging_factors",
     "adev_theory",
     "avar_components",
+    "corrected_pps_adev",
     "MASKS",
     # estimation
     "Estimator",

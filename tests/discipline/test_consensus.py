@@ -4,13 +4,24 @@ import numpy as np
 
 from chronofuse.discipline.consensus import apply_leap, utc_consensus
 from chronofuse.models.receiver import DEFAULT_START_GPS_S, GPS_MINUS_UTC_S, simulate_receivers
+from chronofuse.timescale import NS_PER_S
+
+
+class _Run:
+    """One receiver's time reports around a leap second, as (steps,) arrays."""
+
+    def __init__(self, ep):
+        self.gps_s = ep.gps_ns // NS_PER_S
+        self.utc_s = ep.utc_ns()[0, 0] // NS_PER_S
+        self.leap_s = ep.leap_s[0, 0].astype(np.int64)
+        self.leap_pending = ep.leap_pending[0, 0].astype(np.int64)
 
 
 def _receivers_around_a_leap():
     start = DEFAULT_START_GPS_S + 86_400 - 300  # 23:55:00 UTC on 2025-01-01
     event = DEFAULT_START_GPS_S + 86_400 + 1  # first GPS second with GPS - UTC = 19 s
     rx = simulate_receivers("open-sky", 600, 1, seed=0, start_gps_s=start, leap_event_gps_s=event, leap_announce_s=3600)
-    return rx, start, event
+    return _Run(rx.epochs), start, event
 
 
 def test_a_receiver_with_the_wrong_utc_second_is_flagged_and_outvoted():
@@ -57,3 +68,15 @@ def test_the_leap_is_applied_on_time_even_when_receivers_update_their_count_late
                       np.ones((3, 600), bool))
     sched = apply_leap(rx.gps_s, GPS_MINUS_UTC_S, c.leap_pending)
     assert np.array_equal(sched.leap_s, rx.leap_s)
+
+
+def test_a_pending_negative_leap_skips_235959():
+    start = DEFAULT_START_GPS_S + 86_400 - 10
+    gps = np.arange(start, start + 20)
+    pending = np.full(20, -1)
+    sched = apply_leap(gps, GPS_MINUS_UTC_S, pending)
+    labels = sched.utc_s % 86_400
+    assert 86_399 not in labels.tolist()
+    k = int(np.flatnonzero(labels == 0)[0])
+    assert sched.leap_s[k] == GPS_MINUS_UTC_S - 1 and sched.leap_s[k - 1] == GPS_MINUS_UTC_S
+    assert np.count_nonzero(np.diff(sched.utc_s) == 2) == 1  # 23:59:58 -> 00:00:00

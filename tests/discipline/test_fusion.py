@@ -49,8 +49,8 @@ def test_unusable_receivers_do_not_vote_and_no_receiver_gives_nan():
 @pytest.mark.slow
 def test_fused_1pps_beats_best_source_selection_in_an_urban_canyon():
     rx = simulate_receivers("urban-canyon", 4000, 4, seed=11, trials=3)
-    e = rx.pps_error_s + rx.qerr_s
-    usable = usable_epochs(rx)
+    e = rx.pps_error_s + rx.epochs.qerr_s
+    usable = usable_epochs(rx.epochs)
     fus = InverseVarianceFusion("fusion").run(-e, usable)
     sel = InverseVarianceFusion("selection").run(-e, usable)
     both = np.isfinite(fus.offset_s) & np.isfinite(sel.offset_s)

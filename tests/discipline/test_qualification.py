@@ -31,14 +31,15 @@ def test_a_gdop_threshold_below_one_is_refused_naming_the_parameter(value):
 
 def test_urban_canyon_receivers_lose_about_the_epochs_whose_gdop_is_five_or_more():
     rx = simulate_receivers("urban-canyon", 3000, 2, seed=3)
-    usable = usable_epochs(rx)
+    ep = rx.epochs
+    usable = usable_epochs(ep, pps_present=np.isfinite(rx.pps_error_s))
     with np.errstate(invalid="ignore"):
-        expected = rx.fix & (rx.gdop < 5) & (rx.n_sats >= 4)
+        expected = ep.has_fix & ep.time_valid & (ep.gdop < 5) & (ep.n_sats >= 4)
     assert np.array_equal(usable, expected)
     # The scenario is built so that GDOP > 5 is frequent: qualification must reject a real share.
-    assert 0.05 < 1 - usable[rx.fix].mean() < 0.6
+    assert 0.05 < 1 - usable[ep.has_fix].mean() < 0.6
 
 
 def test_open_sky_receivers_are_usable_whenever_they_have_a_fix():
     rx = simulate_receivers("open-sky", 2000, 1, seed=4)
-    assert np.array_equal(usable_epochs(rx), rx.fix)
+    assert np.array_equal(usable_epochs(rx.epochs), rx.epochs.has_fix)

@@ -11,6 +11,7 @@ from chronofuse.models.noise import (
     PartitionedConvolution,
     flicker_fm_gain,
     flicker_pm_gain,
+    gauss_markov,
     kasdin_walter_impulse_response,
     power_law_noise,
     shaping_kernel,
@@ -138,3 +139,25 @@ def test_power_law_noise_rejects_bad_arguments_naming_them():
         power_law_noise(-1.0, 10, rng, trials=0)
     with pytest.raises(TypeError, match="rng"):
         power_law_noise(-1.0, 10, 42)
+
+
+def test_gauss_markov_filter_matches_the_ar1_recursion_written_as_a_loop():
+    rng = np.random.default_rng(3)
+    w = rng.standard_normal((2, 3, 51))
+    sigma, tau_s, dt_s = 2.0, 7.0, 1.5
+    phi = np.exp(-dt_s / tau_s)
+    expect = np.empty((2, 3, 50))
+    prev = sigma * w[..., 0]
+    for k in range(50):
+        prev = phi * prev + sigma * np.sqrt(1 - phi**2) * w[..., k + 1]
+        expect[..., k] = prev
+    np.testing.assert_allclose(gauss_markov(w, sigma, tau_s, dt_s), expect, rtol=1e-12, atol=1e-12)
+
+
+def test_gauss_markov_is_stationary_with_exponential_autocovariance():
+    # Started from its stationary law: variance sigma^2 at every step, E[x_k x_{k+n}] = sigma^2 phi^n.
+    sigma, tau_s, dt_s = 3.0, 4.0, 1.0
+    x = gauss_markov(np.random.default_rng(5).standard_normal((20000, 9)), sigma, tau_s, dt_s)
+    np.testing.assert_allclose(x.var(axis=0), sigma**2, rtol=0.05)
+    for lag in (1, 4, 7):
+        assert np.mean(x[:, 0] * x[:, lag]) == pytest.approx(sigma**2 * np.exp(-lag * dt_s / tau_s), abs=0.2)

@@ -234,7 +234,9 @@ def test_bad_simulation_arguments_raise_errors_naming_them():
     with pytest.raises(ValueError, match="trials"):
         simulate_oscillator(model, 10.0, 1.0, seed=1, trials=0)
     with pytest.raises(TypeError, match="seed"):
-        simulate_oscillator(model, 10.0, 1.0, seed=np.random.default_rng(1))
+        simulate_oscillator(model, 10.0, 1.0, seed=-1)
+    with pytest.raises(TypeError, match="seed"):
+        simulate_oscillator(model, 10.0, 1.0, seed=1.5)
     with pytest.raises(ValueError, match="temperature_K"):
         simulate_oscillator(model, 10.0, 1.0, seed=1, temperature_K=np.zeros(9))
     with pytest.raises(ValueError, match="efc_V"):

@@ -12,30 +12,23 @@ from scipy import stats
 from scipy.optimize import least_squares
 
 from _helpers import read_stable32_table
-from chronofuse.models.receiver import (
-    DEFAULT_START_GPS_S,
-    SCENARIOS,
-    ReceiverModel,
-    ReceiverTruth,
-    Scenario,
-    corrected_pps_adev,
-    gauss_markov,
-    sawtooth_s,
-    scenario,
-    simulate_receivers,
-)
+from chronofuse.analysis.theory import corrected_pps_adev
+from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
+from chronofuse.models.receiver import DEFAULT_START_GPS_S, ReceiverTruth, sawtooth_s, simulate_receivers
+from chronofuse.models.receiver_model import ReceiverModel
+from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_ns_to_utc
 
-OPEN_SKY = SCENARIOS["open-sky"].model
+OPEN_SKY = ENVIRONMENTS["open-sky"].model
 QUIET = dataclasses.replace(OPEN_SKY, white_sigma_s=0.0, multipath_sigma_s=0.0, wander_sigma_s=0.0)
 
 
 def corrected(truth: ReceiverTruth) -> np.ndarray:
     """1PPS error with the announced qErr applied (u-blox sign: add it)."""
-    return truth.pps_error_s + truth.qerr_s
+    return truth.pps_error_s + truth.epochs.qerr_s
 
 
 def test_qerr_cancels_the_sawtooth_of_a_noiseless_receiver():
-    truth = simulate_receivers(Scenario("quiet", QUIET), 5000, 3, seed=1)
+    truth = simulate_receivers(ReceiverEnvironment("quiet", QUIET), 5000, 3, seed=1)
     tick_s = 1.0 / QUIET.tick_hz
     assert np.abs(truth.pps_error_s).max() <= tick_s / 2 * (1 + 1e-9)
     # A uniform sawtooth over one tick: variance T^2 / 12.
@@ -59,7 +52,7 @@ def test_sawtooth_puts_the_edge_on_the_nearest_tick():
 
 def test_qerr_removal_leaves_white_plus_multipath_with_theoretical_std():
     model = dataclasses.replace(OPEN_SKY, wander_sigma_s=0.0, multipath_tau_s=5.0)
-    truth = simulate_receivers(Scenario("no-wander", model), 20000, 4, seed=2)
+    truth = simulate_receivers(ReceiverEnvironment("no-wander", model), 20000, 4, seed=2)
     # White noise is scaled by GDOP/median = exp(s z), z ~ N(0, 1): E[(G/median)^2] = exp(2 s^2).
     var_theory = model.white_sigma_s**2 * np.exp(2 * model.gdop_log_sigma**2) + model.multipath_sigma_s**2
     assert np.std(corrected(truth)) == pytest.approx(np.sqrt(var_theory), rel=0.03)
@@ -68,22 +61,9 @@ def test_qerr_removal_leaves_white_plus_multipath_with_theoretical_std():
     assert np.var(truth.pps_error_s) == pytest.approx(np.var(corrected(truth)) + tick_s**2 / 12, rel=0.05)
 
 
-def test_gauss_markov_filter_matches_the_ar1_recursion_written_as_a_loop():
-    rng = np.random.default_rng(3)
-    w = rng.standard_normal((2, 3, 51))
-    sigma, tau_s, dt_s = 2.0, 7.0, 1.5
-    phi = np.exp(-dt_s / tau_s)
-    expect = np.empty((2, 3, 50))
-    prev = sigma * w[..., 0]
-    for k in range(50):
-        prev = phi * prev + sigma * np.sqrt(1 - phi**2) * w[..., k + 1]
-        expect[..., k] = prev
-    np.testing.assert_allclose(gauss_markov(w, sigma, tau_s, dt_s), expect, rtol=1e-12, atol=1e-12)
-
-
 def test_multipath_autocorrelation_matches_exp_minus_lag_over_tau():
     model = dataclasses.replace(QUIET, multipath_sigma_s=10e-9, multipath_tau_s=20.0)
-    x = corrected(simulate_receivers(Scenario("multipath", model), 40000, 8, seed=4))[0]
+    x = corrected(simulate_receivers(ReceiverEnvironment("multipath", model), 40000, 8, seed=4))[0]
     x = x - x.mean(axis=-1, keepdims=True)
     var = np.mean(x * x)
     assert np.sqrt(var) == pytest.approx(10e-9, rel=0.05)
@@ -94,30 +74,32 @@ def test_multipath_autocorrelation_matches_exp_minus_lag_over_tau():
 
 def test_open_sky_keeps_a_fix_with_gdop_below_two():
     truth = simulate_receivers("open-sky", 20000, 4, seed=5)
-    assert truth.fix.all()
-    assert np.mean(truth.gdop < 2.0) > 0.999
-    assert truth.n_sats.min() >= 4
+    ep = truth.epochs
+    assert ep.has_fix.all() and (ep.fix_mode == 3).all() and ep.time_valid.all()
+    assert np.mean(ep.gdop < 2.0) > 0.999
+    assert ep.n_sats.min() >= 4
     assert np.isfinite(truth.pps_error_s).all()
 
 
 def test_urban_canyon_gdop_and_fix_loss_follow_the_model_laws():
-    model = SCENARIOS["urban-canyon"].model
+    model = ENVIRONMENTS["urban-canyon"].model
     truth = simulate_receivers("urban-canyon", 40000, 8, seed=6)
+    ep = truth.epochs
     # GDOP is log-normal: P(GDOP > 5 | fix) = P(5 < G <= gdop_fix_max) / P(G <= gdop_fix_max).
     law = stats.lognorm(s=model.gdop_log_sigma, scale=model.gdop_median)
     expect = (law.cdf(model.gdop_fix_max) - law.cdf(5.0)) / law.cdf(model.gdop_fix_max)
     assert expect > 0.2  # "frequent GDOP > 5"
-    assert np.mean(truth.gdop[truth.fix] > 5.0) == pytest.approx(expect, abs=0.05)
+    assert np.mean(ep.gdop[ep.has_fix] > 5.0) == pytest.approx(expect, abs=0.05)
     # Outages start as a Poisson process and last geometric times: an M/G/inf occupancy, so the
     # receiver has no outage with probability exp(-rate * mean length).
     p_start = 1 - np.exp(-model.outage_rate_hz)
     expect_fix = np.exp(-p_start * model.outage_mean_s) * law.cdf(model.gdop_fix_max)
-    assert truth.fix.mean() == pytest.approx(expect_fix, abs=0.008)
-    lost = ~truth.fix
+    assert ep.has_fix.mean() == pytest.approx(expect_fix, abs=0.008)
+    lost = ~ep.has_fix
     assert lost.any()
-    assert np.isnan(truth.pps_error_s[lost]).all() and np.isnan(truth.gdop[lost]).all()
-    assert np.isnan(truth.clock_bias_s[lost]).all() and np.isnan(truth.qerr_s[lost]).all()
-    assert truth.n_sats[lost].max() <= 3
+    assert np.isnan(truth.pps_error_s[lost]).all() and np.isnan(ep.gdop[lost]).all()
+    assert np.isnan(ep.clock_bias_s[lost]).all() and np.isnan(ep.qerr_s[lost]).all()
+    assert ep.n_sats[lost].max() <= 3 and (ep.fix_mode[lost] == 1).all() and not ep.time_valid[lost].any()
 
 
 def test_clock_bias_second_difference_has_the_spec_section_4_autocorrelation():
@@ -125,7 +107,7 @@ def test_clock_bias_second_difference_has_the_spec_section_4_autocorrelation():
     r(2) = s2 / ts^2, r(3) = 0, with q1 = h0 / 2, q2 = 2 pi^2 h_-2 and s2 the white measurement variance."""
     ts = 2.0
     model = dataclasses.replace(QUIET, white_sigma_s=1e-9, gdop_log_sigma=0.0, clock_h0=2e-17, clock_hm2=1e-18)
-    bias = simulate_receivers(Scenario("clock", model), 80000, 4, seed=14, rate_hz=1 / ts).clock_bias_s[0]
+    bias = simulate_receivers(ReceiverEnvironment("clock", model), 80000, 4, seed=14, rate_hz=1 / ts).epochs.clock_bias_s[0]
     df = (bias[:, 2:] - 2 * bias[:, 1:-1] + bias[:, :-2]) / ts
     q1, q2, s2 = model.clock_h0 / 2, 2 * np.pi**2 * model.clock_hm2, model.white_sigma_s**2
     r0 = (2 * q1 * ts + 2 / 3 * q2 * ts**3 + 6 * s2) / ts**2
@@ -135,29 +117,29 @@ def test_clock_bias_second_difference_has_the_spec_section_4_autocorrelation():
 
 
 def test_jamming_window_has_no_fix_and_no_pulse():
-    sc = scenario("jamming")
+    sc = receiver_environment("jamming")
     truth = simulate_receivers(sc, 1800, 3, seed=7, trials=2)
     inside = (truth.t_s >= sc.jamming_start_s) & (truth.t_s < sc.jamming_start_s + sc.jamming_duration_s)
     assert inside.sum() == 600
-    assert not truth.fix[..., inside].any()
+    assert not truth.epochs.has_fix[..., inside].any()
     assert np.isnan(truth.pps_error_s[..., inside]).all()
-    assert (truth.n_sats[..., inside] == 0).all()
-    assert truth.fix[..., ~inside].all()
+    assert (truth.epochs.n_sats[..., inside] == 0).all()
+    assert truth.epochs.has_fix[..., ~inside].all()
 
 
-@pytest.mark.parametrize("shape", ["ramp", "quadratic"])
-def test_spoofing_drag_off_equals_its_formula_while_the_fix_stays_good(shape):
-    rate = 2e-9 if shape == "ramp" else 1e-11
-    spoofed = dataclasses.replace(scenario("spoofing"), spoof_shape=shape, spoof_rate=rate)
-    honest = Scenario("honest", spoofed.model)
+@pytest.mark.parametrize(("rate_s_per_s", "accel_s_per_s2"), [(2e-9, 0.0), (0.0, 1e-11), (1e-9, 4e-12)])
+def test_spoofing_drag_off_equals_its_formula_while_the_fix_stays_good(rate_s_per_s, accel_s_per_s2):
+    spoofed = dataclasses.replace(receiver_environment("spoofing"), spoof_rate_s_per_s=rate_s_per_s,
+                                  spoof_accel_s_per_s2=accel_s_per_s2)
+    honest = ReceiverEnvironment("honest", spoofed.model)
     a = simulate_receivers(spoofed, 1500, 2, seed=8)
     b = simulate_receivers(honest, 1500, 2, seed=8)
     since = np.maximum(a.t_s - 600.0, 0.0)
-    formula = rate * since if shape == "ramp" else 0.5 * rate * since**2
-    np.testing.assert_allclose(a.spoof_offset_s, np.broadcast_to(formula, a.spoof_offset_s.shape), rtol=0, atol=0)
-    assert a.fix.all() and np.nanmax(a.gdop) < 2.0
+    formula = rate_s_per_s * since + 0.5 * accel_s_per_s2 * since**2
+    np.testing.assert_allclose(a.spoof_offset_s, np.broadcast_to(formula, a.spoof_offset_s.shape), rtol=1e-15, atol=0)
+    assert a.epochs.has_fix.all() and np.nanmax(a.epochs.gdop) < 2.0
     # Same seed, same noise: the clock bias and the corrected 1PPS move by exactly the drag-off.
-    np.testing.assert_allclose(a.clock_bias_s - b.clock_bias_s, a.spoof_offset_s, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(a.epochs.clock_bias_s - b.epochs.clock_bias_s, a.spoof_offset_s, rtol=0, atol=1e-15)
     np.testing.assert_allclose(corrected(a) - corrected(b), a.spoof_offset_s, rtol=0, atol=1.01e-12)
 
 
@@ -166,16 +148,16 @@ def test_a_receiver_stream_does_not_depend_on_how_many_ran():
     large = simulate_receivers("urban-canyon", 600, 5, seed=9, trials=3)
     again = simulate_receivers("urban-canyon", 600, 2, seed=np.random.SeedSequence(9))
     np.testing.assert_array_equal(small.pps_error_s[0], large.pps_error_s[0, :2])
-    np.testing.assert_array_equal(small.clock_bias_s, again.clock_bias_s)
-    assert not np.array_equal(large.clock_bias_s[1, 0], large.clock_bias_s[2, 0])
-    assert not np.array_equal(large.clock_bias_s[0, 0], large.clock_bias_s[0, 1])
+    np.testing.assert_array_equal(small.epochs.clock_bias_s, again.epochs.clock_bias_s)
+    assert not np.array_equal(large.epochs.clock_bias_s[1, 0], large.epochs.clock_bias_s[2, 0])
+    assert not np.array_equal(large.epochs.clock_bias_s[0, 0], large.epochs.clock_bias_s[0, 1])
 
 
 def test_stream_seeds_are_the_documented_seed_sequence_children():
     # Receiver 1 of trial 2 is seeded by root.spawn(3)[2].spawn(2)[1]: a Generator with that seed
     # draws the first white-noise normals, whose scaled value is the only noise of this model.
     model = dataclasses.replace(QUIET, white_sigma_s=1e-9, gdop_log_sigma=0.0)
-    truth = simulate_receivers(Scenario("white", model), 50, 2, seed=21, trials=3)
+    truth = simulate_receivers(ReceiverEnvironment("white", model), 50, 2, seed=21, trials=3)
     child = np.random.SeedSequence(21).spawn(3)[2].spawn(2)[1]
     white = np.random.default_rng(child).standard_normal(50) * 1e-9
     np.testing.assert_allclose(corrected(truth)[2, 1], white, rtol=0, atol=1e-12)
@@ -195,21 +177,27 @@ def test_receivers_have_independent_errors():
 def test_utc_label_is_gps_minus_leap_and_the_leap_is_announced():
     event = DEFAULT_START_GPS_S + 100
     truth = simulate_receivers("open-sky", 200, 1, seed=11, leap_event_gps_s=event, leap_announce_s=50)
-    np.testing.assert_array_equal(truth.utc_s, truth.gps_s - truth.leap_s)
-    assert (truth.leap_s[truth.gps_s < event] == 18).all() and (truth.leap_s[truth.gps_s >= event] == 19).all()
-    np.testing.assert_array_equal(truth.leap_pending, (truth.gps_s >= event - 50) & (truth.gps_s < event))
+    ep = truth.epochs
+    gps_s = ep.gps_ns // NS_PER_S
+    utc_s = ep.utc_ns()[0, 0] // NS_PER_S
+    np.testing.assert_array_equal(utc_s, gps_s - ep.leap_s[0, 0])
+    assert (ep.leap_s[0, 0][gps_s < event] == 18).all() and (ep.leap_s[0, 0][gps_s >= event] == 19).all()
+    np.testing.assert_array_equal(ep.leap_pending[0, 0], (gps_s >= event - 50) & (gps_s < event))
     # The inserted second repeats one UTC label (POSIX style).
-    assert len(np.unique(truth.utc_s)) == len(truth.utc_s) - 1
+    assert len(np.unique(utc_s)) == len(utc_s) - 1
     # The default epoch is 2025-01-01T00:00:00 UTC (GPS - UTC = 18 s).
-    utc0 = dt.datetime(1980, 1, 6) + dt.timedelta(seconds=int(truth.utc_s[0]))
+    utc0 = dt.datetime(1980, 1, 6) + dt.timedelta(seconds=int(utc_s[0]))
     assert utc0 == dt.datetime(2025, 1, 1)
-    assert truth.gps_s.dtype == np.int64 and truth.utc_s.dtype == np.int64
+    assert ep.gps_ns.dtype == np.int64 and ep.utc_ns().dtype == np.int64
+    # Before the event the receiver's UTC is the leap-second table's (timescale.gps_ns_to_utc).
+    before = gps_s < event
+    np.testing.assert_array_equal(ep.utc_ns()[0, 0][before], datetime64_to_gps_ns(gps_ns_to_utc(ep.gps_ns[before])))
 
 
 def test_decimated_runs_keep_integer_epochs_and_markov_time_constants():
     truth = simulate_receivers("open-sky", 1000, 1, seed=12, rate_hz=0.1)
     assert truth.pps_error_s.shape == (1, 1, 100)
-    np.testing.assert_array_equal(np.diff(truth.gps_s), 10)
+    np.testing.assert_array_equal(np.diff(truth.epochs.gps_ns), 10 * NS_PER_S)
 
 
 def test_to_frame_is_tidy_with_nanoseconds_at_the_edge():
@@ -220,7 +208,7 @@ def test_to_frame_is_tidy_with_nanoseconds_at_the_edge():
                                         "utc_s", "leap_s", "leap_pending", "clock_bias_ns"]
     row = frame[(frame.receiver == 3) & (frame.t_s == 5.0)].iloc[0]  # 1-based: array index 2
     assert row.pps_error_ns == pytest.approx(truth.pps_error_s[1, 2, 5] * 1e9)
-    assert row.utc_s == truth.utc_s[5]
+    assert row.utc_s == truth.epochs.utc_ns()[1, 2, 5] // NS_PER_S
     assert frame.loc[frame.t_s >= 600, "pps_error_ns"].isna().all()
 
 
@@ -232,13 +220,13 @@ def test_to_frame_is_tidy_with_nanoseconds_at_the_edge():
         (lambda: ReceiverModel(outlier_prob=1.5), "outlier_prob"),
         (lambda: ReceiverModel(multipath_tau_s=float("nan")), "multipath_tau_s"),
         (lambda: ReceiverModel(gdop_median=0.5), "gdop_median"),
-        (lambda: Scenario("x", OPEN_SKY, spoof_shape="cubic"), "spoof_shape"),
-        (lambda: Scenario("x", OPEN_SKY, jamming_start_s=-5.0), "jamming_start_s"),
-        (lambda: scenario("desert"), "scenario"),
+        (lambda: ReceiverEnvironment("x", OPEN_SKY, spoof_accel_s_per_s2=float("inf")), "spoof_accel_s_per_s2"),
+        (lambda: ReceiverEnvironment("x", OPEN_SKY, jamming_start_s=-5.0), "jamming_start_s"),
+        (lambda: receiver_environment("desert"), "environment"),
         (lambda: simulate_receivers("open-sky", 100, 1, seed=0, rate_hz=0.3), "rate_hz"),
         (lambda: simulate_receivers("open-sky", 0, 1, seed=0), "duration_s"),
         (lambda: simulate_receivers("open-sky", 10, 0, seed=0), "n_receivers"),
-        (lambda: simulate_receivers(Scenario("x", OPEN_SKY, affected_receivers=(3,)), 10, 2, seed=0),
+        (lambda: simulate_receivers(ReceiverEnvironment("x", OPEN_SKY, affected_receivers=(3,)), 10, 2, seed=0),
          "affected_receivers"),
     ],
 )

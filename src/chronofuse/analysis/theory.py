@@ -11,6 +11,9 @@ the Nyquist frequency ``rate_hz / 2`` of the sampled phase:
     drift          D:  D^2 tau^2 / 2
 
 These are Allan *variances*; :func:`adev_theory` is the square root of their sum.
+
+:func:`corrected_pps_adev` is the Allan deviation of a GNSS receiver's qErr-corrected 1PPS error (white
+noise plus Gauss-Markov terms), from the autocovariance form of NIST SP 1065 eq. (7).
 """
 
 from __future__ import annotations
@@ -20,9 +23,10 @@ import math
 import numpy as np
 
 from chronofuse.models.oscillator import PowerLaw
+from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["avar_components", "adev_theory"]
+__all__ = ["avar_components", "adev_theory", "corrected_pps_adev"]
 
 
 def avar_components(h: PowerLaw, tau_s, rate_hz: float, drift_per_s: float = 0.0) -> dict[str, np.ndarray]:
@@ -66,3 +70,29 @@ def avar_components(h: PowerLaw, tau_s, rate_hz: float, drift_per_s: float = 0.0
 def adev_theory(h: PowerLaw, tau_s, rate_hz: float, drift_per_s: float = 0.0) -> np.ndarray:
     """Theoretical Allan deviation ``sqrt(sum of avar_components)``, shaped like ``tau_s``."""
     return np.sqrt(sum(avar_components(h, tau_s, rate_hz, drift_per_s).values()))
+
+
+def corrected_pps_adev(model: ReceiverModel, tau_s, dt_s: float = 1.0) -> np.ndarray:
+    """Theoretical ADEV of a receiver's qErr-corrected 1PPS error ``e`` (no outliers, jumps or outages).
+
+    ``tau_s`` (k,) must be whole multiples ``n dt_s``; returns (k,). For stationary ``e`` with
+    autocovariance ``R``, ``AVAR(n dt) = [6 R(0) - 8 R(n) + 2 R(2n)] / (2 n^2 dt^2)`` (the expectation
+    of NIST SP 1065 eq. (7)); here ``R(0)`` holds the white variance
+    ``sigma_w^2 exp(2 gdop_log_sigma^2)`` (the GDOP gain is log-normal) and each Gauss-Markov term adds
+    ``sigma^2 exp(-n dt / tau)`` (:mod:`chronofuse.models.receiver`). This is the GNSS-reference floor a
+    disciplined oscillator can reach.
+    """
+    if not isinstance(model, ReceiverModel):
+        raise TypeError(f"model == {model!r}, must be a ReceiverModel")
+    tau_s = np.asarray(tau_s, dtype=np.float64)
+    n = np.rint(tau_s / dt_s)
+    if tau_s.ndim != 1 or np.any(n < 1) or np.any(np.abs(n * dt_s - tau_s) > 1e-9 * tau_s):
+        raise ValueError(f"tau_s == {tau_s}, must be a 1-D array of whole multiples of dt_s == {dt_s}")
+    white_var = model.white_sigma_s**2 * np.exp(2.0 * model.gdop_log_sigma**2)
+
+    def autocov(lag):
+        return (np.where(lag == 0, white_var, 0.0)
+                + model.multipath_sigma_s**2 * np.exp(-lag * dt_s / model.multipath_tau_s)
+                + model.wander_sigma_s**2 * np.exp(-lag * dt_s / model.wander_tau_s))
+
+    return np.sqrt((6.0 * autocov(0.0 * n) - 8.0 * autocov(n) + 2.0 * autocov(2.0 * n)) / (2.0 * tau_s**2))

@@ -17,7 +17,8 @@ from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
 from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.models.oscillator import PRESETS, preset, simulate_oscillator
-from chronofuse.models.receiver import SCENARIOS, simulate_receivers
+from chronofuse.models.environment import ENVIRONMENTS
+from chronofuse.models.receiver import simulate_receivers
 
 simulate_app = typer.Typer(help="Simulate clocks and receivers (truth models) and write them to a file.",
                            no_args_is_help=True)
@@ -85,7 +86,7 @@ def oscillator(
 
 @simulate_app.command("receiver")
 def receiver(
-    scenario: str = typer.Option("open-sky", "--scenario", help=f"One of {sorted(SCENARIOS)}."),
+    scenario: str = typer.Option("open-sky", "--scenario", help=f"Receiver environment, one of {sorted(ENVIRONMENTS)}."),
     duration: int = typer.Option(3600, "--duration", help="Duration in seconds."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers (independent errors)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
@@ -102,13 +103,13 @@ def receiver(
             write_table({c: frame[c].to_numpy() for c in frame.columns}, out)
     rows = []
     for r in range(receivers):
-        corrected = truth.pps_error_s[0, r] + truth.qerr_s[0, r]  # u-blox qErr sign: add it
+        corrected = truth.pps_error_s[0, r] + truth.epochs.qerr_s[0, r]  # u-blox qErr sign: add it
         valid = corrected[np.isfinite(corrected)]
         rows.append({
             "receiver": r + 1,
             "pps_rms_ns": float(np.sqrt(np.mean(valid**2)) * 1e9) if valid.size else None,
-            "fix_fraction": float(np.mean(truth.fix[0, r])),
-            "gdop_over_5_fraction": gdop_over_5_fraction(truth.gdop[0, r]),
+            "fix_fraction": float(np.mean(truth.epochs.has_fix[0, r])),
+            "gdop_over_5_fraction": gdop_over_5_fraction(truth.epochs.gdop[0, r]),
         })
     if json_out:
         print_json({"scenario": scenario, "receivers": receivers, "duration_s": duration, "out": str(out),

@@ -29,7 +29,7 @@ __all__ = ["Consensus", "utc_consensus", "LeapSchedule", "apply_leap"]
 
 @dataclass(frozen=True)
 class Consensus:
-    """Per second (steps,): majority ``utc_s``, ``leap_s``, ``leap_pending`` and ``quorum``; per receiver
+    """Per second (steps,): majority ``utc_s``, ``leap_s``, ``leap_pending`` (-1, 0, +1) and ``quorum``; per receiver
     and second (receivers, steps): ``dissent``. Read-only."""
 
     utc_s: np.ndarray
@@ -57,10 +57,11 @@ def _majority(values: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 def utc_consensus(utc_s, leap_s, leap_pending, valid) -> Consensus:
-    """Majority vote over receivers; inputs (receivers, steps): int labels and counts, bool flags, bool validity."""
+    """Majority vote over receivers; inputs (receivers, steps): int UTC labels (s) and leap counts, the
+    pending announcement (-1, 0, +1), and validity (bool; e.g. ``epochs.time_valid``)."""
     utc = np.asarray(utc_s, dtype=np.int64)
     leap = np.asarray(leap_s, dtype=np.int64)
-    pend = np.asarray(leap_pending, dtype=bool).astype(np.int64)
+    pend = np.asarray(leap_pending, dtype=np.int64)
     valid = np.asarray(valid, dtype=bool)
     for name, a in (("utc_s", utc), ("leap_s", leap), ("leap_pending", pend)):
         if a.shape != valid.shape or a.ndim != 2:
@@ -70,7 +71,7 @@ def utc_consensus(utc_s, leap_s, leap_pending, valid) -> Consensus:
     pd, fp = _majority(pend, valid)
     quorum = fu & fl & fp
     dissent = valid & ((utc != u) | (leap != lp) | (pend != pd))
-    return Consensus(u, lp, pd.astype(bool), quorum, dissent)
+    return Consensus(u, lp, pd, quorum, dissent)
 
 
 @dataclass(frozen=True)
@@ -87,23 +88,28 @@ class LeapSchedule:
 
 
 def apply_leap(gps_s, initial_leap_s: int, leap_pending) -> LeapSchedule:
-    """Insert a pending positive leap second at the end of the UTC day it is pending in (module docstring).
+    """Apply a pending leap second at the end of the UTC day it is pending in (module docstring).
 
-    ``gps_s`` (steps,) consecutive GPS seconds; ``leap_pending`` (steps,) the consensus flag.
+    ``gps_s`` (steps,) consecutive GPS seconds; ``leap_pending`` (steps,) the consensus announcement:
+    +1 insert (23:59:60), -1 delete (23:59:59 is skipped: from that second the count is ``L - 1``), 0 none.
     """
     gps = np.asarray(gps_s, dtype=np.int64)
-    pending = np.asarray(leap_pending, dtype=bool)
+    pending = np.asarray(leap_pending, dtype=np.int64)
     leap = np.empty(gps.shape, dtype=np.int64)
     inserted = np.zeros(gps.shape, dtype=bool)
     current = int(initial_leap_s)
-    armed = False
+    armed = 0
     for k, g in enumerate(gps):
-        armed = armed or bool(pending[k])
-        if armed and (int(g) - current) % SECONDS_PER_DAY == 0:
+        armed = armed or int(np.sign(pending[k]))
+        into_day = (int(g) - current) % SECONDS_PER_DAY
+        if armed > 0 and into_day == 0:
             inserted[k] = True  # 23:59:60, labelled as the next midnight
             leap[k] = current
             current += 1
-            armed = False
+            armed = 0
             continue
+        if armed < 0 and into_day == SECONDS_PER_DAY - 1:
+            current -= 1  # 23:59:59 does not exist: this second is already the next midnight
+            armed = 0
         leap[k] = current
     return LeapSchedule(leap, gps - leap, inserted)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from chronofuse.epochs import ReceiverEpochs
 from chronofuse.validation import check_scalar
 
 __all__ = ["Qualification", "usable_epochs"]
@@ -57,13 +58,13 @@ class Qualification:
         return ok
 
 
-def usable_epochs(receivers, qualification: Qualification = Qualification()) -> np.ndarray:
-    """Usable mask of simulated or read receiver epochs, shape (trials, receivers, steps).
+def usable_epochs(epochs: ReceiverEpochs, qualification: Qualification = Qualification(), pps_present=None) -> np.ndarray:
+    """Usable mask of receiver epochs (simulated or read), shape (trials, receivers, epochs).
 
-    ``receivers`` carries ``fix``, ``gdop``, ``n_sats`` and ``pps_error_s`` arrays (a
-    :class:`~chronofuse.models.receiver.ReceiverTruth`); ``time_valid`` is used when present, otherwise
-    time is valid exactly when there is a fix (the simulated receiver reports no separate time flag).
+    Fix: ``epochs.has_fix`` (a 2-D or 3-D / time-only fix); time: ``epochs.time_valid``; GDOP and
+    satellites from the epochs. ``pps_present`` (same shape, optional): whether a 1PPS edge was
+    measured (a simulated run passes ``numpy.isfinite(truth.pps_error_s)``).
     """
-    time_valid = getattr(receivers, "time_valid", receivers.fix)
-    return qualification.usable(receivers.fix, time_valid, receivers.gdop, receivers.n_sats,
-                                np.isfinite(receivers.pps_error_s))
+    if not isinstance(epochs, ReceiverEpochs):
+        raise TypeError(f"epochs == {epochs!r}, must be a ReceiverEpochs")
+    return qualification.usable(epochs.has_fix, epochs.time_valid, epochs.gdop, epochs.n_sats, pps_present)

@@ -81,7 +81,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     say(f"simulating {scn.receivers.count} receivers ({scn.receivers.scenario})")
     rx = simulate_receivers(scn.receivers.scenario, int(round(scn.duration_s)), scn.receivers.count, seeds[1],
                             rate_hz=scn.rate_hz)
-    pps = rx.pps_error_s[0] + rx.qerr_s[0]  # (receivers, steps): qErr-corrected 1PPS time error (u-blox sign)
+    pps = rx.pps_error_s[0] + rx.epochs.qerr_s[0]  # (receivers, steps): qErr-corrected 1PPS time error (u-blox sign)
     labels = [f"rx{i + 1}" for i in range(scn.receivers.count)]
     n = min(t_s.size, pps.shape[1])
 
@@ -155,8 +155,8 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
         "receivers": {
             label: {
                 "pps_error": _series_summary(series),
-                "fix_fraction": float(np.mean(rx.fix[0, i, :n])),
-                "gdop_over_5_fraction": gdop_over_5_fraction(rx.gdop[0, i, :n]),
+                "fix_fraction": float(np.mean(rx.epochs.has_fix[0, i, :n])),
+                "gdop_over_5_fraction": gdop_over_5_fraction(rx.epochs.gdop[0, i, :n]),
                 "deviations": {stat: dev.to_dict() for stat, dev in rx_devs[label].items()},
             }
             for i, (label, series) in enumerate(zip(labels, pps[:, :n]))

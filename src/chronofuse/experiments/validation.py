@@ -8,7 +8,7 @@ plotted) into ``out_dir``:
    (Stable32 has no MTOTDEV table for this record: MTOTDEV is plotted alone).
 2. ``receiver_calibration.png``: ADEV of the simulated open-sky receiver's qErr-corrected 1PPS
    (``pps_error_s + qerr_s``), of its raw ``pps_error_s`` (48 MHz sawtooth left in) and the analytic
-   :func:`~chronofuse.models.receiver.corrected_pps_adev`, against Stable32's ADEV table of that record;
+   :func:`~chronofuse.analysis.theory.corrected_pps_adev`, against Stable32's ADEV table of that record;
    the record's statistics behind the calibration are re-measured (:func:`record_statistics`).
 3. ``oscillator_<preset>.png``: simulated OADEV (independent trials pooled) with its confidence
    interval against :func:`~chronofuse.analysis.theory.adev_theory` (noise and drift), per preset.
@@ -40,7 +40,9 @@ from chronofuse.analysis.metrics import pooled_oadev  # noqa: E402
 from chronofuse.analysis.stability.edf import chi2_interval  # noqa: E402
 from chronofuse.analysis.theory import adev_theory  # noqa: E402
 from chronofuse.models.oscillator import PRESETS, simulate_oscillator  # noqa: E402
-from chronofuse.models.receiver import corrected_pps_adev, scenario, simulate_receivers  # noqa: E402
+from chronofuse.analysis.theory import corrected_pps_adev  # noqa: E402
+from chronofuse.models.environment import receiver_environment  # noqa: E402
+from chronofuse.models.receiver import simulate_receivers  # noqa: E402
 from chronofuse.report.figures import plot_deviations  # noqa: E402
 from chronofuse.report.jsonio import dumps  # noqa: E402
 from chronofuse.validation import check_scalar  # noqa: E402
@@ -164,14 +166,14 @@ def _gps_figures(out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationS
 
 
 def record_statistics(x_s: np.ndarray, oadev_table: dict[str, np.ndarray], max_tau_s: float = 8192.0) -> dict:
-    """The statistics behind the open-sky calibration (``chronofuse.models.receiver`` docstring), re-measured.
+    """The statistics behind the open-sky calibration (``chronofuse.models.receiver_model`` docstring), re-measured.
 
     ``x_s`` (N,) the 1 Hz GPS-vs-maser phase in seconds; ``oadev_table`` Stable32's OADEV octave table
     (:func:`read_stable32_columns`). Returns the Pearson kurtosis of the second difference, the largest
     first difference in units of its standard deviation, the lag-1 correlation of the first difference,
     the median one-sided phase PSD above 0.1 Hz (Welch, 4096-point segments, s^2/Hz) and the white
     sigma it implies (``sqrt(level f_h)``, f_h = 0.5 Hz), and the worst misfit ``|ln(model/table)|`` of
-    :func:`~chronofuse.models.receiver.corrected_pps_adev` of the open-sky preset up to ``max_tau_s``.
+    :func:`~chronofuse.analysis.theory.corrected_pps_adev` of the open-sky preset up to ``max_tau_s``.
     """
     d1 = np.diff(x_s)
     d2 = np.diff(x_s, 2)
@@ -179,7 +181,8 @@ def record_statistics(x_s: np.ndarray, oadev_table: dict[str, np.ndarray], max_t
     freq, psd = scipy.signal.welch(x_s - x_s.mean(), fs=1.0, nperseg=4096)
     level = float(np.median(psd[freq > 0.1]))
     keep = oadev_table["tau"] <= max_tau_s
-    ratio = corrected_pps_adev(scenario("open-sky").model, oadev_table["tau"][keep]) / oadev_table["dev"][keep]
+    open_sky = receiver_environment("open-sky").model
+    ratio = corrected_pps_adev(open_sky, oadev_table["tau"][keep]) / oadev_table["dev"][keep]
     return {
         "kurtosis_second_difference": float(scipy.stats.kurtosis(d2, fisher=False)),
         "max_first_difference_s": float(np.abs(centred).max()),
@@ -198,13 +201,13 @@ def _receiver_figure(
 ) -> tuple[list[Path], dict]:
     table = read_stable32_columns(stab / "gps" / "stable32_ADEV_decade.txt")
     truth = simulate_receivers("open-sky", settings.receiver_duration_s, 1, np.random.SeedSequence([seed, 2]))
-    corrected = truth.pps_error_s[0, 0] + truth.qerr_s[0, 0]
+    corrected = truth.pps_error_s[0, 0] + truth.epochs.qerr_s[0, 0]
     raw = np.array(truth.pps_error_s[0, 0])
     tau = table["tau"][table["tau"] <= st.STATISTICS["adev"].max_m(corrected.size)]
     with np.errstate(all="ignore"):
         sim = st.adev(corrected, 1.0, tau)
         sim_raw = st.adev(raw, 1.0, tau)
-    analytic = corrected_pps_adev(scenario("open-sky").model, table["tau"])
+    analytic = corrected_pps_adev(receiver_environment("open-sky").model, table["tau"])
     path = plot_deviations(
         {"simulated open sky, pps_error_s + qerr_s": sim, "simulated open sky, raw pps_error_s": sim_raw},
         out_dir / "receiver_calibration.png",

@@ -1,4 +1,7 @@
-"""Discrete power-law noise by the Kasdin–Walter method.
+"""Noise processes of the truth models: power-law noise (Kasdin–Walter) and the Gauss-Markov process.
+
+Power-law noise
+---------------
 
 A sequence ``u`` with power spectral density ``S(f) ~ f**alpha`` is white noise ``e`` (unit variance)
 through the fractional-difference filter ``H(z) = (1 - z**-1) ** (alpha / 2)`` (Kasdin & Walter 1992,
@@ -24,6 +27,13 @@ Memory: the convolution is done by uniformly partitioned FFT blocks (:class:`Par
 one trial at a time in float64: about 2 x 16 bytes per sample (impulse-response spectra shared by all
 trials, plus the current trial's input spectra) instead of a 2x-padded full-length FFT and the FFT
 library's scratch space (another 2x).
+
+First-order Gauss-Markov
+------------------------
+:func:`gauss_markov`: the AR(1) recursion ``x_k = phi x_{k-1} + sigma sqrt(1 - phi^2) w_k``,
+``phi = exp(-dt / tau)``, started from its stationary law, so that ``E[x_k x_{k+n}] = sigma^2
+exp(-n dt / tau)`` exactly (R. G. Brown and P. Y. C. Hwang, *Introduction to Random Signals and Applied
+Kalman Filtering*, 4th ed., ch. 2): the receiver's multipath, wander and geometry.
 """
 
 from __future__ import annotations
@@ -31,6 +41,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft
 from scipy import special
+from scipy.signal import lfilter
 
 from chronofuse.validation import check_scalar
 
@@ -44,6 +55,7 @@ __all__ = [
     "flicker_fm_gain",
     "flicker_pm_gain",
     "tabulated_gain",
+    "gauss_markov",
 ]
 
 _CHUNK = 1 << 20  # frequency bins handled at once when applying a shaping gain
@@ -283,3 +295,19 @@ def tabulated_gain(gain, points: int = 4097):
         return np.interp(np.abs(nu), nodes, values)
 
     return interpolant
+
+
+def gauss_markov(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.ndarray:
+    """Stationary first-order Gauss-Markov process from unit normals, along the last axis.
+
+    ``w`` has shape ``(..., steps + 1)``: ``w[..., 0]`` draws the initial state from the stationary law
+    ``N(0, sigma^2)``; the result ``x`` has shape ``(..., steps)`` with
+    ``x_k = phi x_{k-1} + sigma sqrt(1 - phi^2) w_k``, ``phi = exp(-dt_s / tau_s)``, hence
+    ``E[x_k x_{k+n}] = sigma^2 phi^n`` (Brown and Hwang, ch. 2), computed by an AR(1) IIR filter
+    (:func:`scipy.signal.lfilter`; the tests compare it with the recursion written as a loop).
+    """
+    w = np.asarray(w, dtype=np.float64)
+    phi = float(np.exp(-dt_s / tau_s))
+    x_prev = sigma * w[..., :1]
+    out, _ = lfilter([sigma * np.sqrt(1.0 - phi * phi)], [1.0, -phi], w[..., 1:], axis=-1, zi=phi * x_prev)
+    return out

@@ -31,7 +31,8 @@ the band-limited continuous process behind it where the formula is an asymptote.
 * temperature: ``y[n] += temp_coeff_per_K (T[n] - temp_ref_K)``, zero-order hold over the step.
 * EFC: ``y[n] += efc_gain_per_V dac_quantize(V[n])``, zero-order hold (a DAC holds its output).
 
-Randomness: one child ``SeedSequence`` per trial (``spawn_key + (i,)`` of the given seed, exactly what
+Randomness: the seed follows :mod:`chronofuse.seeding` (an int or SeedSequence reproduces, a Generator
+is consumed); one child ``SeedSequence`` per trial (``spawn_key + (i,)`` of the root, exactly what
 ``SeedSequence.spawn`` gives a fresh sequence) and one grandchild per noise type, so trial ``i`` and
 each component's realisation do not depend on how many trials run or which other ``h`` are non-zero.
 
@@ -353,8 +354,9 @@ def simulate_oscillator(
         Length; the number of steps is ``round(duration_s * rate_hz)`` (>= 2).
     rate_hz : float
         Sample rate; the noise bandwidth is ``f_h = rate_hz / 2``.
-    seed : int or numpy.random.SeedSequence
-        Trial ``i`` uses the child ``spawn_key + (i,)``: its result does not depend on ``trials``.
+    seed : int or numpy.random.SeedSequence (reproduces) or numpy.random.Generator (consumed)
+        :func:`chronofuse.seeding.root_seed`; trial ``i`` uses the child ``spawn_key + (i,)`` of the
+        root: its result does not depend on ``trials``.
     trials : int
     temperature_K : array of shape (steps,) or (trials, steps), optional
         Oscillator temperature at each ``t_s``, K, held over the step.
