@@ -16,15 +16,16 @@ def register(app: typer.Typer) -> None:
 
 
 def inspect(
-    file: Path = typer.Argument(..., help="NMEA / UBX recording (mixed with RTCM or noise is fine), .gz ok."),
+    file: Path = typer.Argument(..., help="NMEA / UBX recording (mixed with RTCM or noise is fine, .gz ok), or RINEX obs/clock."),
     export: Path | None = typer.Option(None, "--export", help="Write the per-epoch table to OUT.csv or OUT.parquet."),
+    receiver: str | None = typer.Option(None, "--receiver", help="A RINEX clock file's station to export (default: the first)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
     """Receivers, message counts per type, time span, gaps, checksum failures, unknown talkers."""
     if export is not None and export.suffix.lower() not in (".csv", ".parquet"):
         fail(f"--export {export}: the name must end in .csv or .parquet")
     with user_errors():
-        capture = read_capture(file)
+        capture = read_capture(file, receiver=receiver)
         doc = summarize(capture)
         if export is not None:
             table = capture.to_frame()

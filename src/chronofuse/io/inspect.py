@@ -18,6 +18,7 @@ import pandas as pd
 
 from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
 from chronofuse.io.frames import FrameScanner, FrameStats
+from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs, rinex_kind
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
 from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
 from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
@@ -46,6 +47,7 @@ class Capture:
     time_marks_gps_ns: np.ndarray
     duplicate_epochs: int = 0
     protocols: tuple = field(default=())
+    receivers: tuple = field(default=())  # names, for files holding several (RINEX clock: stations)
 
     @property
     def n_epochs(self) -> int:
@@ -105,21 +107,48 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
                    protocols=protocols)
 
 
-def read_capture(path, reference_gps_ns: int | None = None) -> Capture:
-    """Read a recording file (plain, or gzip when its name ends in ``.gz``).
+def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None = None) -> Capture:
+    """Read a recording file (plain, or gzip when its name ends in ``.gz``): NMEA/UBX, or a RINEX
+    observation or clock file (:mod:`chronofuse.io.rinex_epochs`; ``receiver`` picks a clock file's
+    station, the first by default).
 
     ``reference_gps_ns``: a trusted epoch near the recording (for receivers with the GPS week-rollover
     bug, see :mod:`chronofuse.io.nmea`). Raises :class:`InputDataError` naming the file when it is
-    missing or empty; corrupt content is counted in the result, never raised.
+    missing or empty, or a RINEX navigation file (no receiver epochs); corrupt content is counted in
+    the result, never raised.
     """
     path = Path(path)
     if not path.is_file():
         raise InputDataError("no such file", str(path))
     if path.stat().st_size == 0:
         raise InputDataError("the file is empty", str(path))
+    kind = rinex_kind(path)
+    if kind is not None:
+        return _read_rinex(path, kind, receiver)
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rb") as stream:
         return read_bytes(iter(lambda: stream.read(_CHUNK), b""), str(path), reference_gps_ns)
+
+
+def _read_rinex(path: Path, kind: tuple[str, str], receiver: str | None) -> Capture:
+    version, what = kind
+    names: tuple = ()
+    if what == "obs":
+        epochs, j = read_rinex_observation_epochs(path), 0
+    elif what == "clock":
+        names, epochs, _ = read_rinex_clock_epochs(path)
+        if receiver is not None and receiver not in names:
+            raise InputDataError(f"no station {receiver!r} (the file has {len(names)}: {', '.join(names[:8])}...)",
+                                 str(path))
+        j = names.index(receiver) if receiver is not None else 0
+    else:
+        raise InputDataError(f"a RINEX {version} {what} file holds no receiver epochs", str(path))
+    rows = {"gps_ns": np.asarray(epochs.gps_ns)}
+    rows.update({name: np.asarray(getattr(epochs, name))[0, j].copy() for name in EPOCH_FIELDS})
+    stats = FrameStats(n_bytes=path.stat().st_size)
+    stats.messages[f"RINEX {version} {what}"] = int(rows["gps_ns"].size)
+    return Capture(source=str(path), rows=rows, frames=stats, nmea=NmeaDecodeStats(), ubx=UbxDecodeStats(),
+                   time_marks_gps_ns=np.zeros(0, np.int64), protocols=(f"rinex-{what}",), receivers=names)
 
 
 def _absent(name: str, v: np.ndarray) -> np.ndarray:
@@ -183,7 +212,8 @@ def summarize(capture: Capture, max_gaps: int = 20) -> dict:
     rows = capture.rows
     return {
         "file": capture.source,
-        "receivers": 1 if capture.protocols else 0,
+        "receivers": len(capture.receivers) or (1 if capture.protocols else 0),
+        "receiver_names": list(capture.receivers[:50]),
         "protocols": list(capture.protocols),
         "bytes": f.n_bytes,
         "messages": dict(sorted(f.messages.items())),
