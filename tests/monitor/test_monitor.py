@@ -55,7 +55,7 @@ def test_usable_is_the_disciplined_oscillators_qualification_of_the_same_epochs(
 
 
 def test_an_injected_clock_bias_step_raises_the_hod_alarm_the_batch_detector_raises(tmp_path):
-    bias = _bias(400, seed=7, anomaly=Anomaly("step", start_s=300.0, size=400e-9))
+    bias = _bias(400, seed=7, anomaly=Anomaly("step", 300.0, offset_s=400e-9))
     mon, acked = _run(tmp_path, {"rx": ubx_stream(bias)})
     alarms = [r["gps_ns"] for r in acked if r["alarm"]]
     first = acked[0]["gps_ns"]
