@@ -42,6 +42,14 @@ from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scena
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
 from chronofuse.io.ubx import read_nav_clock
+from chronofuse.io.inspect import Capture, read_bytes, read_capture, summarize
+from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs
+from chronofuse.io.sources import FileSource, GpsdSource, SerialSource, SourceGroup, TcpSource, parse_source
+from chronofuse.io.sources_decode import GpsdJsonDecoder, StreamDecoder
+from chronofuse.monitor.decisions import MonitorSettings
+from chronofuse.monitor.engine import Monitor
+from chronofuse.monitor.log import EpochLog
+from chronofuse.monitor.summary import read_session
 from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
 from chronofuse.epochs import ReceiverEpochs
@@ -71,6 +79,25 @@ __all__ = [
     "read_nav_clock",
     "read_gps_observations",
     "read_gps_navigation",
+    "read_capture",
+    "read_bytes",
+    "Capture",
+    "summarize",
+    "read_rinex_observation_epochs",
+    "read_rinex_clock_epochs",
+    "FileSource",
+    "SerialSource",
+    "TcpSource",
+    "GpsdSource",
+    "SourceGroup",
+    "parse_source",
+    "StreamDecoder",
+    "GpsdJsonDecoder",
+    # monitor
+    "Monitor",
+    "MonitorSettings",
+    "EpochLog",
+    "read_session",
     # analysis
     "Deviation",
     "STATISTICS",
