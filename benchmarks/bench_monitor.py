@@ -60,9 +60,9 @@ def run(quick: bool = False) -> list[dict]:
             "ours_s": cpu,
             "baseline": f"budget {BUDGET_CORE_PER_RECEIVER:.0%} core/receiver",
             "baseline_s": BUDGET_CORE_PER_RECEIVER * RECEIVERS * wall,
-            "ratio": BUDGET_CORE_PER_RECEIVER / per_receiver,
+            "ratio": float(BUDGET_CORE_PER_RECEIVER / per_receiver),
             "target": ">= 1 (under 10 % of a core per receiver)",
-            "passed": per_receiver < BUDGET_CORE_PER_RECEIVER,
+            "passed": bool(per_receiver < BUDGET_CORE_PER_RECEIVER),
             "note": (f"{per_epoch_s * 1e3:.2f} ms CPU per epoch -> {per_receiver:.2%} of a core per receiver at "
                      f"{rate_hz:.0f} Hz; process CPU / wall / receivers = {cpu / wall / RECEIVERS:.2%} over {wall:.1f} s; "
                      f"{mon.acknowledged:,} epochs logged of about {RECEIVERS * rate_hz * wall:,.0f} sent"),
