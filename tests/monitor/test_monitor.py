@@ -6,7 +6,6 @@ from __future__ import annotations
 import sqlite3
 
 import numpy as np
-import pytest
 
 from chronofuse.discipline.qualification import Qualification, usable_epochs
 from chronofuse.integrity.detector import HodDetector

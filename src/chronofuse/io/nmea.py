@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pynmeagps import NMEAReader
 
-from chronofuse.io.frames import KNOWN_TALKERS, Frame
+from chronofuse.io.frames import KNOWN_TALKERS
 from chronofuse.timescale import (
     NS_PER_S,
     datetime64_to_gps_ns,
