@@ -188,3 +188,33 @@ def test_a_capture_is_the_one_receiver_epochs_record_and_exports_its_columns(rec
     assert tuple(frame.columns) == EXPORT_COLUMNS
     # NAV-CLOCK clkB of the first epoch, in seconds
     assert np.isfinite(frame["clock_bias_s"]).sum() == 9
+
+
+@pytest.mark.parametrize("name", ["mt3339.log", "nl551e.log", "gr601-w.log", "ublox-lea-5h.log",
+                                  "sl869.log", "navika-100-fix.log", "et-332.log", "magellan315.log"])
+def test_the_pdop_of_the_gsv_geometry_is_the_receivers_own_gsa_pdop(receivers, name):
+    """GDOP/TDOP of NMEA receivers come from the GSV elevations/azimuths of the satellites GSA lists as
+    used; the PDOP of that same geometry must be what the receiver itself reports in GSA (integer-degree
+    angles and the receivers' 1-2 decimal PDOP leave a few per mille)."""
+    from chronofuse.io.frames import scan_bytes as scan
+    from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
+
+    frames, _ = scan((receivers / "gpsd" / name).read_bytes())
+    builder = NmeaEpochBuilder()
+    decode_nmea(frames, builder, NmeaDecodeStats())
+    rows = builder.rows()
+    ok = np.isfinite(rows["pdop"]) & np.isfinite(rows["geometry_pdop"])
+    assert ok.sum() >= 3
+    np.testing.assert_allclose(rows["geometry_pdop"][ok], rows["pdop"][ok], rtol=0.03, atol=0.02)
+    assert np.all(rows["gdop"][ok] > rows["geometry_pdop"][ok])
+
+
+def test_geometry_dops_of_a_symmetric_constellation_match_the_closed_form():
+    from chronofuse.io.nmea import geometry_dops
+
+    # zenith + three at 0 deg elevation 120 deg apart: H^T H = diag(3/2, 3/2, 1, 4) plus the z-clock
+    # coupling [[1, 1], [1, 4]] -> G_zz = 4/3, G_tt = 1/3, G_xx = G_yy = 2/3
+    gdop, tdop, pdop = geometry_dops([(90.0, 0.0), (0.0, 0.0), (0.0, 120.0), (0.0, 240.0)])
+    assert pdop == pytest.approx(np.sqrt(2 / 3 + 2 / 3 + 4 / 3))
+    assert tdop == pytest.approx(np.sqrt(1 / 3))
+    assert gdop == pytest.approx(np.sqrt(2 / 3 + 2 / 3 + 4 / 3 + 1 / 3))

@@ -8,8 +8,8 @@ Sentences used (NMEA 0183 v4.11; talkers GP, GN, GL, GA, BD/GB (BeiDou), GQ, GI)
 * GSA: fix mode (1 none, 2 2-D, 3 3-D), the satellites used, PDOP/HDOP/VDOP. NMEA 4.10 sends one GSA per
   constellation, each with a system ID (field 18); they describe ONE solution, so their satellites are
   pooled and their (identical) DOPs taken once.
-* GSV: satellites in view (per constellation and signal, from the first sentence of each group: the
-  others are counted by the framer and not decoded, their per-satellite fields being no part of the record).
+* GSV: satellites in view, with elevation and azimuth: GSA carries no GDOP or TDOP, so they are computed
+  from the geometry of the satellites GSA lists as used (:func:`geometry_dops`, as gpsd does).
 * GST: pseudorange error statistics (counted by the framer, not decoded: no field of the record).
 * GNS: fix mode per constellation and satellites used (a GGA substitute of multi-GNSS receivers).
 * GLL: UTC time and status, like RMC without the date (some receivers close their burst with it).
@@ -57,6 +57,7 @@ __all__ = ["NMEA_TYPES", "NmeaDecodeStats", "NmeaEpochBuilder", "decode_nmea"]
 NMEA_TYPES = frozenset({"GGA", "RMC", "ZDA", "GSA", "GSV", "GST", "GNS", "GLL"})
 _TIMED = frozenset({"GGA", "RMC", "ZDA", "GNS", "GST", "GLL"})
 _MS_PER_DAY = 86_400_000
+_SKY_EPOCHS = 10
 _HALF_DAY_MS = _MS_PER_DAY // 2
 
 
@@ -74,7 +75,7 @@ class NmeaDecodeStats:
 
 class _Epoch:
     __slots__ = ("tod_ms", "date", "gsa_mode", "gga_mode", "rmc_mode", "rmc_valid", "gga_sats",
-                 "gsa_svids", "pdop", "hdop", "vdop", "gga_hdop", "visible", "gsv_seen")
+                 "gsa_svids", "pdop", "hdop", "vdop", "gga_hdop", "visible", "gsv_seen", "sky")
 
     def __init__(self, tod_ms: int | None) -> None:
         self.tod_ms = tod_ms
@@ -88,6 +89,7 @@ class _Epoch:
         self.pdop = self.hdop = self.vdop = self.gga_hdop = math.nan
         self.visible = 0
         self.gsv_seen: set = set()
+        self.sky: dict = {}  # (system, svid) -> (elevation deg, azimuth deg), from GSV
 
     def mode(self) -> int:
         return max(self.gsa_mode, self.gga_mode, self.rmc_mode)
@@ -96,6 +98,49 @@ class _Epoch:
         if self.gga_sats >= 0 and (self.gga_sats > 0 or not self.gsa_svids):
             return self.gga_sats
         return len(self.gsa_svids) if self.gsa_svids else -1
+
+
+#: NMEA 4.10 GSA system IDs: 1 GPS, 2 GLONASS, 3 Galileo, 4 BeiDou, 5 QZSS, 6 NavIC.
+_SYSTEM_IDS = (1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
+_TALKER_SYSTEM = {"GP": 1, "GL": 2, "GA": 3, "GB": 4, "BD": 4, "GQ": 5, "GI": 6}
+
+
+def _system(talker: str, svid: int) -> int:
+    """The constellation of a satellite number: from the talker, or for ``GN`` from NMEA's number ranges
+    (1-32 GPS, 33-64 SBAS (counted with GPS), 65-96 GLONASS, 193-202 QZSS, 201-264 BeiDou, 301-336 Galileo)."""
+    system = _TALKER_SYSTEM.get(talker)
+    if system is not None:
+        return system
+    if 65 <= svid <= 96:
+        return 2
+    if 301 <= svid <= 336:
+        return 3
+    if 193 <= svid <= 200:
+        return 5
+    if 201 <= svid <= 264:
+        return 4
+    return 1
+
+
+def geometry_dops(elev_az_deg) -> tuple[float, float, float]:
+    """GDOP and TDOP of satellites at (elevation, azimuth) in degrees, one receiver clock:
+    ``G = (H^T H)^-1`` with rows ``H_i = [cos e sin a, cos e cos a, sin e, 1]``, ``GDOP = sqrt(tr G)``,
+    ``TDOP = sqrt(G_44)``, ``PDOP = sqrt(G_11 + G_22 + G_33)`` (Misra & Enge, *Global Positioning
+    System*, 2nd ed., section 6.1.3; gpsd's ``fill_dop`` does the same for receivers that send no GDOP).
+    Returns (GDOP, TDOP, PDOP); NaN with fewer than 4 satellites or a singular geometry."""
+    if len(elev_az_deg) < 4:
+        return math.nan, math.nan, math.nan
+    ea = np.radians(np.asarray(elev_az_deg, dtype=np.float64))
+    el, az = ea[:, 0], ea[:, 1]
+    h = np.column_stack((np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), np.ones(el.size)))
+    try:
+        g = np.linalg.inv(h.T @ h)
+    except np.linalg.LinAlgError:
+        return math.nan, math.nan, math.nan
+    tr, g44 = float(np.trace(g)), float(g[3, 3])
+    if not (tr > 0 and 0 < g44 < tr):
+        return math.nan, math.nan, math.nan
+    return math.sqrt(tr), math.sqrt(g44), math.sqrt(tr - g44)
 
 
 def _num(value) -> float:
@@ -122,6 +167,8 @@ class NmeaEpochBuilder:
         self._epochs: list[_Epoch] = []
         self._current: _Epoch | None = None
         self._prev_mode = 0
+        self._sky: dict = {}  # (system, svid) -> (elevation, azimuth, epoch count when seen)
+        self._n_opened = 0
         self._day_state: tuple = (None, None)  # (UTC midnight ms, last time of day) carried by pop_complete
 
     def push(self, msg_type: str, msg) -> None:
@@ -131,11 +178,9 @@ class NmeaEpochBuilder:
                 if self._current is not None and self._current.tod_ms is None:
                     self._current.tod_ms = tod  # untimed sentences opened this burst
                 else:
-                    self._current = _Epoch(tod)
-                    self._epochs.append(self._current)
+                    self._open(_Epoch(tod))
         elif self._current is None:
-            self._current = _Epoch(None)
-            self._epochs.append(self._current)
+            self._open(_Epoch(None))
         ep = self._current
         if msg_type == "GGA" or msg_type == "GNS":
             if msg_type == "GGA":
@@ -170,11 +215,12 @@ class NmeaEpochBuilder:
             mode = _num(msg.navMode)
             if mode in (1.0, 2.0, 3.0):
                 ep.gsa_mode = max(ep.gsa_mode, int(mode))
-            system = getattr(msg, "systemId", "")
+            system_id = _num(getattr(msg, "systemId", ""))
             for k in range(1, 13):
-                sv = getattr(msg, f"svid_{k:02d}", "")
-                if sv != "" and sv is not None:
-                    ep.gsa_svids.add((system, sv))
+                sv = _num(getattr(msg, f"svid_{k:02d}", ""))
+                if not math.isnan(sv):
+                    system = int(system_id) if system_id in _SYSTEM_IDS else _system(msg.talker, int(sv))
+                    ep.gsa_svids.add((system, int(sv)))
             if math.isnan(ep.pdop):
                 ep.pdop, ep.hdop, ep.vdop = _num(msg.PDOP), _num(msg.HDOP), _num(msg.VDOP)
         elif msg_type == "GSV":
@@ -184,6 +230,10 @@ class NmeaEpochBuilder:
                 n = _num(msg.numSV)
                 if not math.isnan(n):
                     ep.visible += int(n)
+            for k in range(1, 5):
+                sv, el, az = (_num(getattr(msg, f"{f}_{k:02d}", "")) for f in ("svid", "elv", "az"))
+                if not (math.isnan(sv) or math.isnan(el) or math.isnan(az)):
+                    self._sky[(_system(msg.talker, int(sv)), int(sv))] = (el, az, self._n_opened)
 
     def pop_complete(self, max_undated: int = 64) -> dict[str, np.ndarray] | None:
         """Streaming: the epochs closed so far (every one before the burst in progress) as arrays, removed
@@ -200,8 +250,24 @@ class NmeaEpochBuilder:
         self._epochs = self._epochs[len(closed):]
         return rows
 
+    def _open(self, epoch: _Epoch) -> None:
+        """Start a new epoch; the one it follows keeps the skyview as it stood at its end (satellites
+        seen by a GSV in the last ``_SKY_EPOCHS`` epochs: receivers that rotate their GSV sentences over
+        several seconds still give a whole sky)."""
+        if self._current is not None:
+            self._close_sky(self._current)
+        self._n_opened += 1
+        self._current = epoch
+        self._epochs.append(epoch)
+
+    def _close_sky(self, epoch: _Epoch) -> None:
+        if not epoch.sky:
+            epoch.sky = {k: (el, az) for k, (el, az, n) in self._sky.items() if self._n_opened - n < _SKY_EPOCHS}
+
     def pop_all(self) -> dict[str, np.ndarray] | None:
         """Streaming, at the end of the stream: every epoch left (the burst in progress too)."""
+        if self._current is not None:
+            self._close_sky(self._current)
         self._current = None
         return self.pop_complete(max_undated=0)
 
@@ -212,6 +278,8 @@ class NmeaEpochBuilder:
         return self._rows_of(self._epochs, carry=False) or _empty_rows()
 
     def _rows_of(self, epochs_in: list, carry: bool) -> dict[str, np.ndarray] | None:
+        if self._current is not None and self._current in epochs_in[-1:]:
+            self._close_sky(self._current)
         epochs = [e for e in epochs_in if e.tod_ms is not None]
         state = self._day_state if carry else (None, None)
         day_ms, end_state = _dates_ms(epochs, state)
@@ -229,6 +297,7 @@ class NmeaEpochBuilder:
         leap = gps_minus_utc_s(utc_ns) if utc_ns.size else np.zeros(0, np.int64)
         gps_ns = utc_ns + leap * NS_PER_S
         hdop = np.array([e.hdop if not math.isnan(e.hdop) else e.gga_hdop for e in picked], dtype=np.float64)
+        geometry = [geometry_dops([e.sky[s] for s in e.gsa_svids if s in e.sky]) for e in picked]
         modes = _modes(picked, self._prev_mode if carry else 0)
         if carry and modes.size:
             self._prev_mode = int(modes[-1])
@@ -238,11 +307,12 @@ class NmeaEpochBuilder:
             "time_valid": np.array([e.rmc_valid or e.gga_mode >= 2 for e in picked], dtype=bool),
             "n_sats": np.array([e.n_sats() for e in picked], dtype=np.int16),
             "n_visible": np.array([e.visible if e.gsv_seen else -1 for e in picked], dtype=np.int16),
-            "gdop": np.full(len(picked), np.nan),
+            "gdop": np.array([g[0] for g in geometry], dtype=np.float64),
             "pdop": np.array([e.pdop for e in picked], dtype=np.float64),
             "hdop": hdop,
             "vdop": np.array([e.vdop for e in picked], dtype=np.float64),
-            "tdop": np.full(len(picked), np.nan),
+            "tdop": np.array([g[1] for g in geometry], dtype=np.float64),
+            "geometry_pdop": np.array([g[2] for g in geometry], dtype=np.float64),
             "leap_s": leap.astype(np.int16),
             "leap_pending": np.zeros(len(picked), dtype=np.int8),
             "qerr_s": np.full(len(picked), np.nan),
@@ -268,7 +338,7 @@ def _empty_rows() -> dict[str, np.ndarray]:
     ints = {"fix_mode": np.int8, "time_valid": bool, "n_sats": np.int16, "n_visible": np.int16,
             "leap_s": np.int16, "leap_pending": np.int8, "gps_ns": np.int64}
     names = ("gps_ns", "fix_mode", "time_valid", "n_sats", "n_visible", "gdop", "pdop", "hdop", "vdop", "tdop",
-             "leap_s", "leap_pending", "qerr_s", "clock_bias_s", "clock_drift_s_per_s")
+             "geometry_pdop", "leap_s", "leap_pending", "qerr_s", "clock_bias_s", "clock_drift_s_per_s")
     return {n: np.zeros(0, dtype=ints.get(n, np.float64)) for n in names}
 
 
@@ -323,8 +393,6 @@ def decode_nmea(frames, builder: NmeaEpochBuilder, stats: NmeaDecodeStats) -> No
             continue
         if msg_type == "GST":
             continue  # counted by the framer; no field of the record comes from it
-        if msg_type == "GSV" and frame.raw.split(b",", 3)[2:3] != [b"1"]:
-            continue  # only a group's first GSV is decoded: its total in view is all we use
         try:
             msg = NMEAReader.parse(frame.raw, validate=0)
         except Exception as err:  # pynmeagps raises many types on odd fields; count, keep going
