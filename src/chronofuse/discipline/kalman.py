@@ -151,6 +151,9 @@ class KalmanServo(Servo):
         prior = predict(x, state["P"], F, Q)
         x_prior = prior.x.copy()
         x_prior[:, 0] += dt * state["u"]  # B u, the correction applied over the last second
+        # A loop's first sample jam-syncs the 1PPS: its phase starts there (zero); no prior phase existed.
+        if self.step_threshold_s is not None:
+            x_prior[:, 0] = np.where(valid & ~state["started"], z, x_prior[:, 0])
         e = z - x_prior @ H[0]
         s0 = np.einsum("i,nij,j->n", H[0], prior.P, H[0])
         r_k, accept, extra = self._weigh(state, np.where(valid, e, np.nan), s0, r, valid)
