@@ -217,3 +217,58 @@ def close_loop_kernel(free, ref, x, P, u, started, window, rejects, integral, F,
                 outs[a, i, k] = tmp[a]
             c = c + tmp[1] + dt * tmp[0]
     return phase, offset, outs
+
+
+@numba.njit(cache=True)
+def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
+    """Online inverse-variance fusion (:mod:`.fusion`) over (trials, receivers, steps); returns
+    fused (trials, steps), variance (trials, steps), weights (trials, receivers, steps)."""
+    trials, receivers, steps = z.shape
+    fused = np.empty((trials, steps))
+    variance = np.empty((trials, steps))
+    weights = np.empty((trials, receivers, steps))
+    ms = np.full(receivers, np.nan)
+    var = np.empty(receivers)
+    w = np.empty(receivers)
+    w_all = np.empty(receivers)
+    zz = np.empty(receivers)
+    for i in range(trials):
+        ms[:] = np.nan
+        for k in range(steps):
+            for j in range(receivers):
+                v = ms[j] if not math.isnan(ms[j]) else initial_var
+                var[j] = max(v, floor_var)
+                w_all[j] = 1.0 / var[j] if usable[i, j, k] else 0.0
+                zz[j] = z[i, j, k] if usable[i, j, k] else 0.0
+                w[j] = w_all[j]
+            if selection:
+                best = 0
+                for j in range(1, receivers):
+                    if w[j] > w[best]:
+                        best = j
+                for j in range(receivers):
+                    if j != best:
+                        w[j] = 0.0
+            total = 0.0
+            num = 0.0
+            t_all = 0.0
+            n_all = 0.0
+            for j in range(receivers):
+                total += w[j]
+                num += w[j] * zz[j]
+                t_all += w_all[j]
+                n_all += w_all[j] * zz[j]
+            has = total > 0.0
+            fused[i, k] = num / total if has else np.nan
+            variance[i, k] = 1.0 / total if has else np.nan
+            for j in range(receivers):
+                weights[i, j, k] = w[j] / (total if has else 1.0)
+                t_others = t_all - w_all[j]
+                if usable[i, j, k] and t_others > 0.0:
+                    resid = zz[j] - (n_all - w_all[j] * zz[j]) / t_others
+                    sample = resid * resid - 1.0 / t_others
+                    if math.isnan(ms[j]):
+                        ms[j] = max(sample, var[j])
+                    else:
+                        ms[j] = (1.0 - alpha) * ms[j] + alpha * sample
+    return fused, variance, weights
