@@ -272,3 +272,39 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
                     else:
                         ms[j] = (1.0 - alpha) * ms[j] + alpha * sample
     return fused, variance, weights
+
+
+@numba.njit(cache=True)
+def states_kernel(usable, alarm, offset, threshold_s, hold):
+    """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps); returns
+    state and reason, int8 (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2, HOLDOVER 3,
+    RECOVERY 4; reasons NONE 0, REFERENCE_USABLE 1, REFERENCE_LOST 2, LOCK_ACHIEVED 3, INTEGRITY_ALARM 4."""
+    trials, steps = usable.shape
+    states = np.empty((trials, steps), dtype=np.int8)
+    reasons = np.zeros((trials, steps), dtype=np.int8)
+    for i in range(trials):
+        s = 0
+        run = 0
+        for k in range(steps):
+            ok = usable[i, k] and not alarm[i, k]
+            settled = ok and abs(offset[i, k]) < threshold_s
+            run = run + 1 if settled else 0
+            lost = 4 if alarm[i, k] else 2
+            new = s
+            why = 0
+            if s == 0 and ok:
+                new, why = 1, 1
+            elif s == 1 and not ok:
+                new, why = 0, lost
+            elif s == 2 and not ok:
+                new, why = 3, lost
+            elif s == 3 and ok:
+                new, why = 4, 1
+            elif s == 4 and not ok:
+                new, why = 3, lost
+            if (s == 1 or s == 4) and run >= hold:
+                new, why = 2, 3
+            s = new
+            states[i, k] = s
+            reasons[i, k] = why
+    return states, reasons
