@@ -49,7 +49,7 @@ from chronofuse.validation import check_scalar
 __all__ = ["effective_clock_noise", "KalmanServo", "AdaptiveKalmanServo", "GatedKalmanServo", "HuberKalmanServo"]
 
 
-def effective_clock_noise(h: PowerLaw, tau_match_s: float = 100.0) -> tuple[float, float]:
+def effective_clock_noise(h: PowerLaw, tau_match_s: float = 1000.0) -> tuple[float, float]:
     """``(h0, hm2)`` of a white-FM + random-walk-FM model standing in for ``h`` (flicker FM folded in).
 
     Flicker FM's Allan variance ``2 ln2 h_-1`` is split equally at ``tau_match_s``:
@@ -71,6 +71,7 @@ class KalmanServo(Servo):
     drift_psd_per_s3 : spectral density of the random-walk drift (1/s^3), >= 0.
     gauss_markov : tuple of ``(sigma_s, tau_s)`` — correlated measurement errors modelled as states.
     steer_s : phase steering time constant (s), > 0.
+    tau_match_s : where flicker FM is folded (s): near the loop's crossover, where it matters (default 1000 s).
     sigma_phase0_s, sigma_freq0, sigma_drift0_per_s : prior standard deviations (after the jam sync).
     drift_ar1 : AR(1) coefficient of the drift (1 = random walk), in (0, 1].
     """
@@ -78,7 +79,7 @@ class KalmanServo(Servo):
     name = "kf"
 
     def __init__(self, h: PowerLaw, measurement_sigma_s: float, *, drift_psd_per_s3: float = 1e-40,
-                 gauss_markov: tuple = (), steer_s: float = 300.0, tau_match_s: float = 100.0,
+                 gauss_markov: tuple = (), steer_s: float = 300.0, tau_match_s: float = 1000.0,
                  sigma_phase0_s: float = 1e-7, sigma_freq0: float = 1e-8, sigma_drift0_per_s: float = 1e-14,
                  drift_ar1: float = 1.0, interval_s: float = 1.0, dac: Dac | None = None,
                  step_threshold_s: float | None = 1e-6, fast: bool = True):

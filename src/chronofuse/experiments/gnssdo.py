@@ -115,10 +115,14 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     return dataclasses.replace(receiver_environment("spoofing"), spoof_start_s=0.5 * duration_s)
 
 
-def _design_sigma_s(env: ReceiverEnvironment, receivers: int) -> float:
-    """The designer's measurement noise: the short-term (white + multipath) rms of the fused reference."""
+def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
+    """The designer's white measurement noise for the fused reference: white noise plus the multipath
+    as the white noise it looks like to a loop much slower than its correlation time (a Gauss-Markov
+    process has zero-frequency spectral density ``2 sigma^2 tau``, Brown and Hwang ch. 2, i.e. a
+    per-sample variance ``2 sigma^2 tau / dt``), divided by the number of receivers. The slow wander
+    is left out: no loop can tell it from the oscillator."""
     m = env.model
-    return math.sqrt((m.white_sigma_s**2 + m.multipath_sigma_s**2) / receivers)
+    return math.sqrt((m.white_sigma_s**2 + 2.0 * m.multipath_sigma_s**2 * m.multipath_tau_s / interval_s) / receivers)
 
 
 def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None,
