@@ -50,7 +50,8 @@ from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.validation import InputDataError, check_choice, check_scalar
 
 __all__ = ["SCENARIOS", "CONTROLLERS", "GnssdoSetup", "make_controller", "clairvoyant_controller",
-           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "read_reference"]
+           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "read_reference",
+           "equivalent_white_sigma_s"]
 
 Progress = Callable[[str], None]
 
@@ -267,6 +268,16 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
     return summary
 
 
+def equivalent_white_sigma_s(e: np.ndarray, block_s: int = 100) -> float:
+    """The white noise a slow loop sees in a 1PPS error record ``e`` (1 Hz): ``sqrt(B var(dm) / 2)`` with
+    ``dm`` the differences of consecutive ``B``-second block means (for white noise of variance
+    ``sigma^2`` that is ``sigma``; for short-correlated noise it is its zero-frequency level, the
+    ``2 sigma^2 tau`` of :func:`_design_sigma_s`; differencing removes the slow wander)."""
+    n = e.size // block_s * block_s
+    means = e[:n].reshape(-1, block_s).mean(axis=1)
+    return float(np.sqrt(block_s * np.var(np.diff(means)) / 2.0))
+
+
 def _data_line(path: Path, index: int) -> int:
     """1-based file line of the ``index``-th data line (0-based) of a text record, for error messages."""
     import gzip
@@ -304,8 +315,8 @@ def run_reference(path: Path, controller: str = "kf", seed: int = 0, trials: int
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
     The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
-    oscillator is simulated (seed child 0); the servo is designed from the record's first hour (the
-    rms of its first difference over sqrt 2 as the white-noise level).
+    oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
+    first four hours by :func:`equivalent_white_sigma_s` (what a user with a reference would do once).
     """
     check_choice(controller, "--controller", CONTROLLERS)
     e = read_reference(path)
@@ -316,7 +327,7 @@ def run_reference(path: Path, controller: str = "kf", seed: int = 0, trials: int
     root = root_seed(seed)
     progress("simulating the oscillator")
     free, noise_only = _free_phase(osc, steps, trials, root)
-    sigma = float(np.std(np.diff(e[:3600])) / math.sqrt(2.0))
+    sigma = equivalent_white_sigma_s(e[:4 * 3600])
     env = dataclasses.replace(receiver_environment("open-sky"), name="reference")
     servo = make_controller(controller, osc, env, 1, dac, measurement_sigma_s=sigma)
     progress(f"disciplining ({controller}) against {path.name}")
