@@ -188,8 +188,10 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
 
 def _oadev_pooled(x: np.ndarray, taus: np.ndarray) -> np.ndarray:
     """sqrt of the mean over rows of the overlapping Allan variance at ``taus`` (1 Hz phase, NaN = gap)."""
-    avar = [st.oadev(row, 1.0, taus).dev ** 2 for row in x]
-    return np.sqrt(np.nanmean(np.array(avar), axis=0))
+    avar = np.array([st.oadev(row, 1.0, taus).dev ** 2 for row in x])
+    ok = np.isfinite(avar)
+    count = ok.sum(axis=0)
+    return np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
 
 
 def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s: np.ndarray,
