@@ -56,3 +56,15 @@ def test_fused_1pps_beats_best_source_selection_in_an_urban_canyon():
     both = np.isfinite(fus.offset_s) & np.isfinite(sel.offset_s)
     rms = [np.sqrt(np.mean(r.offset_s[both] ** 2)) for r in (fus, sel)]
     assert rms[0] < 0.8 * rms[1]
+
+
+@pytest.mark.parametrize("mode", ["fusion", "selection"])
+def test_the_fusion_kernel_equals_its_numpy_twin(mode):
+    rng = np.random.default_rng(9)
+    z = np.array([4e-9, 8e-9, 15e-9])[None, :, None] * rng.standard_normal((2, 3, 800))
+    usable = rng.random(z.shape) > 0.1
+    fast = InverseVarianceFusion(mode, fast=True).run(z, usable)
+    slow = InverseVarianceFusion(mode, fast=False).run(z, usable)
+    np.testing.assert_allclose(fast.offset_s, slow.offset_s, rtol=1e-9, atol=1e-20)
+    np.testing.assert_allclose(fast.weights, slow.weights, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(fast.variance_s2, slow.variance_s2, rtol=1e-9)

@@ -59,3 +59,16 @@ def test_streaming_states_equal_the_batch_states():
 def test_a_lock_hold_shorter_than_one_sample_is_refused():
     with pytest.raises(ValueError, match="lock_hold_s"):
         StateConfig(lock_hold_s=0.5)
+
+
+def test_the_compiled_state_machine_equals_its_numpy_twin():
+    rng = np.random.default_rng(2)
+    usable = rng.random((3, 3000)) > 0.02
+    usable[:, 1000:1400] = False
+    alarm = np.zeros_like(usable)
+    alarm[1, 2000:2100] = True
+    offset = np.where(usable, 150e-9 * rng.standard_normal((3, 3000)), np.nan)
+    fast = run_states(usable, offset, CFG, alarm=alarm, fast=True)
+    slow = run_states(usable, offset, CFG, alarm=alarm, fast=False)
+    assert np.array_equal(fast.state, slow.state) and np.array_equal(fast.reason, slow.reason)
+    assert len(set(fast.state.ravel().tolist())) == 5  # every state visited

@@ -39,6 +39,7 @@ import numpy as np
 from scipy import stats
 
 from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.kernels import MODES
 from chronofuse.discipline.servo import Servo
 from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.clock import clock_process_noise, clock_transition
@@ -48,7 +49,7 @@ from chronofuse.validation import check_scalar
 __all__ = ["effective_clock_noise", "KalmanServo", "AdaptiveKalmanServo", "GatedKalmanServo", "HuberKalmanServo"]
 
 
-def effective_clock_noise(h: PowerLaw, tau_match_s: float = 100.0) -> tuple[float, float]:
+def effective_clock_noise(h: PowerLaw, tau_match_s: float = 1000.0) -> tuple[float, float]:
     """``(h0, hm2)`` of a white-FM + random-walk-FM model standing in for ``h`` (flicker FM folded in).
 
     Flicker FM's Allan variance ``2 ln2 h_-1`` is split equally at ``tau_match_s``:
@@ -70,6 +71,7 @@ class KalmanServo(Servo):
     drift_psd_per_s3 : spectral density of the random-walk drift (1/s^3), >= 0.
     gauss_markov : tuple of ``(sigma_s, tau_s)`` — correlated measurement errors modelled as states.
     steer_s : phase steering time constant (s), > 0.
+    tau_match_s : where flicker FM is folded (s): near the loop's crossover, where it matters (default 1000 s).
     sigma_phase0_s, sigma_freq0, sigma_drift0_per_s : prior standard deviations (after the jam sync).
     drift_ar1 : AR(1) coefficient of the drift (1 = random walk), in (0, 1].
     """
@@ -77,11 +79,11 @@ class KalmanServo(Servo):
     name = "kf"
 
     def __init__(self, h: PowerLaw, measurement_sigma_s: float, *, drift_psd_per_s3: float = 1e-40,
-                 gauss_markov: tuple = (), steer_s: float = 300.0, tau_match_s: float = 100.0,
+                 gauss_markov: tuple = (), steer_s: float = 300.0, tau_match_s: float = 1000.0,
                  sigma_phase0_s: float = 1e-7, sigma_freq0: float = 1e-8, sigma_drift0_per_s: float = 1e-14,
                  drift_ar1: float = 1.0, interval_s: float = 1.0, dac: Dac | None = None,
-                 step_threshold_s: float | None = 1e-6):
-        super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s)
+                 step_threshold_s: float | None = 1e-6, fast: bool = True):
+        super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s, fast=fast)
         self.h = h
         self.measurement_sigma_s = measurement_sigma_s
         self.drift_psd_per_s3 = drift_psd_per_s3
@@ -137,6 +139,15 @@ class KalmanServo(Servo):
         return {"x": np.zeros((n_loops, n)), "P": np.broadcast_to(P0, (n_loops, n, n)).copy(),
                 "model": (F, Q, H, self.measurement_sigma_s**2)}
 
+    def _kernel_model(self, state):
+        F, Q, H, r = state["model"]
+        return (F, Q, np.ascontiguousarray(H[0]), float(r), MODES[self.name], float(self.interval_s),
+                float(self.steer_s), self._step_thr()) + self._robust_params()
+
+    def _robust_params(self) -> tuple:
+        """(wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki) for the kernel."""
+        return (0.0, 1.0, 1.0, 0.0, 0, 1.0, 0.0, 0.0)
+
     # -- the robust hook (plain KF: the nominal R, every sample accepted) --------------------------------
 
     def _weigh(self, state, e, s0, r, valid):
@@ -151,6 +162,9 @@ class KalmanServo(Servo):
         prior = predict(x, state["P"], F, Q)
         x_prior = prior.x.copy()
         x_prior[:, 0] += dt * state["u"]  # B u, the correction applied over the last second
+        # A loop's first sample jam-syncs the 1PPS: its phase starts there (zero); no prior phase existed.
+        if self.step_threshold_s is not None:
+            x_prior[:, 0] = np.where(valid & ~state["started"], z, x_prior[:, 0])
         e = z - x_prior @ H[0]
         s0 = np.einsum("i,nij,j->n", H[0], prior.P, H[0])
         r_k, accept, extra = self._weigh(state, np.where(valid, e, np.nan), s0, r, valid)
@@ -196,6 +210,12 @@ class AdaptiveKalmanServo(KalmanServo):
         state["window"] = np.full((n_loops, int(self.window)), np.nan)
         return state
 
+    def _threshold_s(self) -> float:
+        return self.sigma_th_s if self.sigma_th_s is not None else self.threshold_factor * self.measurement_sigma_s
+
+    def _robust_params(self):
+        return (float(self._threshold_s()), float(self.lambda_min), float(self.lambda_max), 0.0, 0, 1.0, 0.0, 0.0)
+
     def _weigh(self, state, e, s0, r, valid):
         buf = np.concatenate([state["window"][:, 1:], e[:, None]], axis=1)  # NaN where no sample
         count = np.isfinite(buf).sum(axis=1)
@@ -203,7 +223,7 @@ class AdaptiveKalmanServo(KalmanServo):
         mean = filled.sum(axis=1) / np.maximum(count, 1)
         var = (np.where(np.isfinite(buf), buf - mean[:, None], 0.0) ** 2).sum(axis=1) / np.maximum(count - 1, 1)
         sigma_e = np.where(count >= 2, np.sqrt(var), 0.0)
-        th = self.sigma_th_s if self.sigma_th_s is not None else self.threshold_factor * self.measurement_sigma_s
+        th = self._threshold_s()
         lam = np.where(sigma_e > th, self.lambda_max, self.lambda_min)
         return lam * r, valid, {"window": buf}
 
@@ -230,6 +250,9 @@ class GatedKalmanServo(KalmanServo):
         state["gamma"] = float(stats.chi2.isf(self.gate_pfa, 1))
         return state
 
+    def _robust_params(self):
+        return (0.0, 1.0, 1.0, float(stats.chi2.isf(self.gate_pfa, 1)), int(self.max_rejects), 1.0, 0.0, 0.0)
+
     def _weigh(self, state, e, s0, r, valid):
         gamma = state["gamma"]
         with np.errstate(invalid="ignore"):
@@ -252,6 +275,9 @@ class HuberKalmanServo(KalmanServo):
     def _check(self) -> None:
         super()._check()
         check_scalar(self.huber_c, "huber_c", min_val=0.0, include_min=False)
+
+    def _robust_params(self):
+        return (0.0, 1.0, 1.0, 0.0, 0, float(self.huber_c), 0.0, 0.0)
 
     def _weigh(self, state, e, s0, r, valid):
         r_norm = np.abs(np.where(valid, e, 0.0)) / np.sqrt(s0 + r)

@@ -10,7 +10,9 @@ with ``u_k`` the DAC-applied correction and ``s_k`` the phase step of second ``k
 servo sees ``z_k = x_k - e_k`` (``e_k``: the reference 1PPS error, NaN when unusable), optionally as
 a time-interval counter reads it (quantized by the multi-phase counter, :mod:`.counter`). All trials
 advance together (vectorized over the first axis); the servo's own functional core does the work, so
-a loop run equals a streaming servo fed the same offsets (tested).
+a loop run equals a streaming servo fed the same offsets (tested). With ``servo.fast`` (and no
+counter) the whole loop runs in the compiled :func:`~.kernels.close_loop_kernel`, the same arithmetic
+per loop as the servo's numpy core (tested against it).
 
 ``x_k`` is the time error of the regenerated 1PPS against true time (s): what the GPSDO delivers.
 """
@@ -22,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.discipline.counter import MultiPhaseCounter
+from chronofuse.discipline.kernels import close_loop_kernel
 from chronofuse.discipline.servo import Servo, freeze
 from chronofuse.validation import check_array
 
@@ -71,6 +74,11 @@ def close_loop(servo: Servo, free_phase_s, reference_error_s, *, counter: MultiP
     rng = np.random.default_rng(seed) if counter is not None else None
 
     state = servo.initial_state(trials)
+    if servo.fast and counter is None:
+        ref = np.ascontiguousarray(ref)
+        phase, offset, outs = close_loop_kernel(free, ref, *servo._kernel_arrays(state), *servo._kernel_params(state))
+        return LoopRun(phase, offset, outs[0], outs[1], outs[2], outs[3], outs[4] != 0.0, outs[5] != 0.0,
+                       interval_s=dt)
     phase = np.empty((trials, steps))
     offset = np.empty((trials, steps))
     outs = [np.empty((trials, steps), dtype=d) for d in (float, float, float, float, bool, bool)]

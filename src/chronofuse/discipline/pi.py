@@ -41,8 +41,8 @@ class PiServo(Servo):
     name = "pi"
 
     def __init__(self, kp: float = SEED_KP, ki: float = SEED_KI, *, interval_s: float = 1.0,
-                 dac: Dac | None = None, step_threshold_s: float | None = 1e-6):
-        super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s)
+                 dac: Dac | None = None, step_threshold_s: float | None = 1e-6, fast: bool = True):
+        super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s, fast=fast)
         self.kp = kp
         self.ki = ki
 
@@ -64,6 +64,11 @@ class PiServo(Servo):
         super()._check()
         check_scalar(self.kp, "kp", min_val=0.0, max_val=2.0, include_max=False)
         check_scalar(self.ki, "ki", min_val=0.0, include_min=False)
+
+    def _kernel_model(self, state):
+        one = np.zeros((1, 1))
+        return (one, one, np.zeros(1), 1.0, 4, float(self.interval_s), 1.0, self._step_thr(),
+                0.0, 1.0, 1.0, 0.0, 0, 1.0, float(self.kp), float(self.ki))
 
     def _initial(self, n):
         return {"integral": np.zeros(n)}

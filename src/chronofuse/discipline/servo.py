@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.kernels import MODES, servo_step_kernel
 from chronofuse.validation import check_array, check_scalar
 
 __all__ = ["Servo", "ServoOutput", "ServoRun", "NullServo", "freeze"]
@@ -89,14 +90,17 @@ class Servo:
     interval_s : float, > 0 — the sample interval.
     dac : Dac or None — quantize and clip the corrections (None: ideal actuator).
     step_threshold_s : float or None — see the module docstring.
+    fast : bool — use the compiled kernel (True) or the numpy twin (False); they agree to rounding.
     """
 
     name = "servo"
 
-    def __init__(self, *, interval_s: float = 1.0, dac: Dac | None = None, step_threshold_s: float | None = 1e-6):
+    def __init__(self, *, interval_s: float = 1.0, dac: Dac | None = None, step_threshold_s: float | None = 1e-6,
+                 fast: bool = True):
         self.interval_s = interval_s
         self.dac = dac
         self.step_threshold_s = step_threshold_s
+        self.fast = fast
 
     # -- the functional core ---------------------------------------------------------------------------
 
@@ -119,7 +123,45 @@ class Servo:
         """One second for ``N`` loops: returns ``(state', (freq_adj, phase_step_s, estimate, innovation, used, near_rail))``.
 
         ``offset_s`` (N,) measured offsets (s; ignored where ``valid`` is False), ``valid`` (N,) bool.
+        With ``fast`` the compiled kernel (:mod:`.kernels`) does the arithmetic of :meth:`_numpy_update`.
         """
+        if self.fast:
+            new = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in state.items()}
+            out = servo_step_kernel(np.asarray(offset_s, dtype=np.float64), np.asarray(valid, dtype=bool),
+                                    *self._kernel_arrays(new), *self._kernel_params(new))
+            return new, (out[0], out[1], out[2], out[3], out[4] != 0.0, out[5] != 0.0)
+        return self._numpy_update(state, offset_s, valid)
+
+    def _kernel_arrays(self, state: dict) -> tuple:
+        """The kernel's in-place state arrays (x, P, u, started, window, rejects, integral), dummies if unused."""
+        n = state["u"].shape[0]
+        return (state.get("x", np.zeros((n, 1))), state.get("P", np.zeros((n, 1, 1))), state["u"], state["started"],
+                state.get("window", np.zeros((n, 1))), state.get("rejects", np.zeros(n, dtype=np.int64)),
+                state.get("integral", np.zeros(n)))
+
+    def _kernel_params(self, state: dict) -> tuple:
+        """The kernel's parameters (see :func:`.kernels.servo_step_kernel`); backends override their part."""
+        return self._kernel_model(state) + self._kernel_tail()
+
+    def _kernel_model(self, state: dict) -> tuple:
+        """(F, Q, h, r, mode, dt, steer, step_thr, wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki)."""
+        one = np.zeros((1, 1))
+        return (one, one, np.zeros(1), 1.0, MODES[self.name], float(self.interval_s), 1.0, self._step_thr(),
+                0.0, 1.0, 1.0, 0.0, 0, 1.0, 0.0, 0.0)
+
+    def _step_thr(self) -> float:
+        return -1.0 if self.step_threshold_s is None else float(self.step_threshold_s)
+
+    def _kernel_tail(self) -> tuple:
+        """The DAC's parameters: (dac_on, gain, step_V, half, half_span, margin)."""
+        if self.dac is None:
+            return (False, 1.0, 1.0, 1.0, 1.0, 0.0)
+        d = self.dac
+        return (True, float(d.efc_gain_per_V), float(d.step_V), 2.0 ** (int(d.bits) - 1), 0.5 * float(d.range_V),
+                float(d.rail_margin))
+
+    def _numpy_update(self, state: dict, offset_s: np.ndarray, valid: np.ndarray):
+        """The readable numpy core (the kernels' twin)."""
         z = np.where(valid, offset_s, 0.0)
         jump = valid & ~state["started"]
         if self.step_threshold_s is not None:
@@ -174,8 +216,8 @@ class NullServo(Servo):
 
     name = "null"
 
-    def __init__(self, *, interval_s: float = 1.0, dac: Dac | None = None):
-        super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=None)
+    def __init__(self, *, interval_s: float = 1.0, dac: Dac | None = None, fast: bool = True):
+        super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=None, fast=fast)
 
     def _initial(self, n):
         return {}
