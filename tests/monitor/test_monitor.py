@@ -113,3 +113,19 @@ def test_two_receivers_logged_together_share_their_epochs_and_the_report_reads_t
     expected = read_bytes([streams["a"]]).rows["clock_bias_s"]
     np.testing.assert_allclose(sessions["a"].clock_bias_s, expected)
     assert sessions["a"].adev is not None and np.all(np.isfinite(sessions["a"].adev.dev[:3]))
+
+
+def test_the_live_table_shows_each_receiver_its_alarm_and_its_clock_bias(tmp_path):
+    from rich.console import Console
+
+    from chronofuse.monitor.table import receiver_table
+
+    bias = _bias(200, seed=7, anomaly=Anomaly("step", 199.0, offset_s=400e-9))
+    mon, acked = _run(tmp_path, {"rx": ubx_stream(bias), "quiet": ubx_stream(_bias(200, seed=8))})
+    console = Console(record=True, width=220)
+    console.print(receiver_table(mon))
+    text = console.export_text()
+    rows = {line.split("│")[1].strip(): line for line in text.splitlines() if line.count("│") > 5}
+    assert set(rows) >= {"rx", "quiet"}
+    assert "ALARM" in rows["rx"] and "ALARM" not in rows["quiet"]
+    assert f"{acked[-1]['clock_bias_s'] * 1e9:.1f}" in text
