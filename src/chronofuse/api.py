@@ -46,6 +46,14 @@ from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_
 from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.imu import IMU_GRADES, ImuModel, SensorErrors, imu_grade, simulate_imu
+from chronofuse.io.inspect import Capture, read_bytes, read_capture, summarize
+from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs
+from chronofuse.io.sources import FileSource, GpsdSource, SerialSource, SourceGroup, TcpSource, parse_source
+from chronofuse.io.sources_decode import GpsdJsonDecoder, StreamDecoder
+from chronofuse.monitor.decisions import MonitorSettings
+from chronofuse.monitor.engine import Monitor
+from chronofuse.monitor.log import EpochLog
+from chronofuse.monitor.summary import read_session
 from chronofuse.models.noise import power_law_noise
 from chronofuse.positioning.ins import InsState, propagate
 from chronofuse.positioning.loose import CoupledResult, LooselyCoupled, smooth
@@ -100,6 +108,25 @@ __all__ = [
     "read_stable32_table",
     "read_gps_observations",
     "read_gps_navigation",
+    "read_capture",
+    "read_bytes",
+    "Capture",
+    "summarize",
+    "read_rinex_observation_epochs",
+    "read_rinex_clock_epochs",
+    "FileSource",
+    "SerialSource",
+    "TcpSource",
+    "GpsdSource",
+    "SourceGroup",
+    "parse_source",
+    "StreamDecoder",
+    "GpsdJsonDecoder",
+    # monitor
+    "Monitor",
+    "MonitorSettings",
+    "EpochLog",
+    "read_session",
     # analysis
     "Deviation",
     "STATISTICS",

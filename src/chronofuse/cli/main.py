@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from chronofuse import __version__
-from chronofuse.cli import detect, position, reproduce, run, simulate, stability, validate
+from chronofuse.cli import detect, gnssdo, inspect, monitor, position, reproduce, run, simulate, stability, validate
 
 app = typer.Typer(
     name="chronofuse",
@@ -15,7 +15,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-for module in (simulate, stability, run, detect, reproduce, validate, position):
+for module in (simulate, stability, run, detect, gnssdo, reproduce, validate, inspect, monitor, position):
     module.register(app)
 
 

@@ -1,0 +1,77 @@
+"""``chronofuse gnssdo``: discipline a simulated oscillator to GNSS receivers (or a real 1PPS record)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+
+
+def register(app: typer.Typer) -> None:
+    app.command("gnssdo")(gnssdo)
+
+
+def gnssdo(
+    scenario: str = typer.Option("open-sky", "--scenario", help="open-sky, urban-canyon, outage, jumps or spoofing."),
+    controller: str = typer.Option("kf", "--controller", help="pi, kf, wakf, gated or huber."),
+    receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),
+    duration: int = typer.Option(86_400, "--duration", help="Run length in seconds (>= 3600)."),
+    trials: int = typer.Option(1, "--trials", help="Monte Carlo trials (vectorized)."),
+    seed: int = typer.Option(0, "--seed", help="Root seed (>= 0)."),
+    rate: float = typer.Option(1.0, "--rate", help="Loop rate in Hz (the 1PPS: 1)."),
+    gdop_max: float = typer.Option(5.0, "--gdop-max", help="A receiver is usable only with GDOP below this (>= 1)."),
+    dac_bits: int | None = typer.Option(None, "--dac-bits", help="DAC resolution (default: the oscillator's)."),
+    loop_bandwidth: float | None = typer.Option(None, "--loop-bandwidth",
+                                                help="pi only: design the PI from this natural frequency (Hz)."),
+    fusion: str = typer.Option("fusion", "--fusion", help="fusion (inverse-variance) or selection (best source)."),
+    reference: Path | None = typer.Option(None, "--reference",
+                                          help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+) -> None:
+    """GNSS-disciplined oscillator (seed 000): time error, convergence, holdover, states and ADEV."""
+    from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo, run_reference
+
+    if not rate > 0:
+        fail(f"--rate == {rate}, must be > 0")
+    if rate != 1.0:
+        fail(f"--rate == {rate}, must be 1 (the loop runs on the 1PPS, one sample per second)")
+    with user_errors():
+        setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
+                            trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits,
+                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion)
+        with progress_reporter("gnssdo") as say:
+            if reference is not None:
+                summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say)
+                if out is not None:
+                    from chronofuse.report.gnssdo import plot_adev
+                    from chronofuse.report.jsonio import dumps
+
+                    out.mkdir(parents=True, exist_ok=True)
+                    plot_adev(summary["adev"], out / "adev.png", f"ADEV against {reference.name}")
+                    (out / "summary.json").write_text(dumps(summary) + "\n")
+                    summary["files"] = ["adev.png", "summary.json"]
+            else:
+                summary = run_gnssdo(setup, out, progress=say)
+    if out is not None:
+        summary["out"] = str(out)
+    if json_out:
+        print_json(summary)
+        return
+    con = human_console(False)
+    table = Table("metric", "value", title=f"GNSSDO: {summary.get('scenario', 'reference')}, {controller}")
+    for key in ("time_error_rms_ns", "time_error_pp_ns", "convergence_s", "optimal_rms_ns", "holdover_error_ns",
+                "holdover_s"):
+        if key in summary:
+            value = summary[key]
+            table.add_row(key, "never" if value is None else f"{value:.4g}")
+    for state, seconds in summary["state_seconds"].items():
+        table.add_row(f"seconds {state}", f"{seconds:.0f}")
+    con.print(table)
+    if summary.get("no_usable_receiver"):
+        con.print("no usable receiver at any second: the oscillator stayed in free-run")
+    if out is not None:
+        con.print(f"report -> {out}/ ({', '.join(summary.get('files', []))})")

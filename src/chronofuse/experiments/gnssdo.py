@@ -1,0 +1,345 @@
+"""``chronofuse gnssdo``: one GNSSDO run on a simulated scenario (or a real reference record), evaluated.
+
+Orchestration only: the truth models simulate, :mod:`chronofuse.discipline` disciplines, the stability
+engine measures. Everything is drawn from one ``SeedSequence`` (child 0: the oscillator, child 1: the
+receivers, child 2: each trial's initial phase and frequency offsets), so a trial's numbers do not depend
+on the trial count.
+
+Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys):
+
+* time error (TE) of the disciplined 1PPS against true time, over the seconds from ``SETTLE_S`` (30 min,
+  the seed's convergence bound) on that have a usable reference (holdover is reported apart):
+  ``time_error_rms_ns`` (rms over trials and seconds), ``time_error_pp_ns`` (mean over trials of the
+  peak-to-peak);
+* ``convergence_s``: the first second after which ``|TE| < CONVERGENCE_THRESHOLD_S`` (100 ns) holds at
+  every later second with a usable reference (median over trials; null if never);
+* ``optimal_rms_ns``: the same TE rms of the clairvoyant Kalman servo (the true oscillator noise and the
+  true receiver noise model, multipath and wander as Gauss-Markov states) on the same data;
+* ``holdover_error_ns`` / ``holdover_s`` (outage scenario): rms over trials of the TE accumulated over
+  the outage;
+* ``state_seconds``: seconds per state (mean over trials);
+* ``adev``: overlapping ADEV (mean Allan variance over trials) of the free-running oscillator, of the
+  GNSS reference (the fused, qErr-corrected 1PPS error) and of the disciplined output.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import chronofuse.analysis.stability as st
+from chronofuse.analysis.stability.taus import averaging_factors
+from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
+from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, HuberKalmanServo, KalmanServo
+from chronofuse.discipline.loop import close_loop
+from chronofuse.discipline.pi import PiServo
+from chronofuse.discipline.qualification import Qualification
+from chronofuse.discipline.servo import Servo
+from chronofuse.discipline.states import StateConfig, run_states
+from chronofuse.io.records import read_record
+from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
+from chronofuse.models.oscillator import OscillatorModel, preset, simulate_oscillator
+from chronofuse.models.receiver import simulate_receivers
+from chronofuse.seeding import child_rng, child_seed, root_seed
+from chronofuse.validation import InputDataError, check_choice, check_scalar
+
+__all__ = ["SCENARIOS", "CONTROLLERS", "GnssdoSetup", "make_controller", "clairvoyant_controller",
+           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "read_reference",
+           "equivalent_white_sigma_s"]
+
+Progress = Callable[[str], None]
+
+SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing")
+CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
+SETTLE_S = 1800.0
+CONVERGENCE_THRESHOLD_S = 100e-9
+#: Initial offsets of the free-running oscillator, uniform per trial: phase (s) and frequency.
+INITIAL_PHASE_MAX_S = 5e-4
+INITIAL_FREQUENCY_MAX = 5e-9
+
+
+@dataclass(frozen=True)
+class GnssdoSetup:
+    """One ``chronofuse gnssdo`` configuration (the command line's options)."""
+
+    scenario: str = "open-sky"
+    controller: str = "kf"
+    receivers: int = 3
+    duration_s: int = 86_400
+    trials: int = 1
+    seed: int = 0
+    oscillator: str = "ocxo"
+    gdop_max: float = 5.0
+    dac_bits: int | None = None
+    loop_bandwidth_hz: float | None = None
+    fusion: str = "fusion"
+    integrity_pfa: float | None = None
+
+    def __post_init__(self):
+        check_choice(self.scenario, "--scenario", SCENARIOS)
+        check_choice(self.controller, "--controller", CONTROLLERS)
+        check_scalar(self.receivers, "--receivers", min_val=1, integer=True)
+        check_scalar(self.duration_s, "--duration", min_val=2 * SETTLE_S, integer=True)
+        check_scalar(self.trials, "--trials", min_val=1, integer=True)
+        check_scalar(self.seed, "--seed", min_val=0, integer=True)
+        check_scalar(self.gdop_max, "--gdop-max", min_val=1.0)
+        if self.dac_bits is not None:
+            check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
+        if self.loop_bandwidth_hz is not None:
+            check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
+
+
+def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
+    """The receiver environment of a gnssdo scenario (events placed relative to the run's length).
+
+    ``outage``: open sky, every receiver jammed for the third quarter of the run (holdover);
+    ``jumps``: open sky plus 1 % single-pulse outliers (rms 100 ns) and persistent steps (2e-4 per s,
+    rms 50 ns), the seed's "GPS jump outliers"; ``spoofing``: the preset drag-off (2 ns/s) from mid-run.
+    """
+    check_choice(name, "--scenario", SCENARIOS)
+    if name in ("open-sky", "urban-canyon"):
+        return receiver_environment(name)
+    sky = receiver_environment("open-sky")
+    if name == "outage":
+        return dataclasses.replace(sky, name="outage", description="open sky, all receivers jammed for the third quarter",
+                                   jamming_start_s=0.5 * duration_s, jamming_duration_s=0.25 * duration_s)
+    if name == "jumps":
+        model = dataclasses.replace(sky.model, outlier_prob=0.01, outlier_sigma_s=100e-9, jump_prob=2e-4,
+                                    jump_sigma_s=50e-9)
+        return dataclasses.replace(sky, name="jumps", model=model, description="open sky with outliers and steps")
+    return dataclasses.replace(receiver_environment("spoofing"), spoof_start_s=0.5 * duration_s)
+
+
+def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
+    """The designer's white measurement noise for the fused reference: white noise plus the multipath
+    as the white noise it looks like to a loop much slower than its correlation time (a Gauss-Markov
+    process has zero-frequency spectral density ``2 sigma^2 tau``, Brown and Hwang ch. 2, i.e. a
+    per-sample variance ``2 sigma^2 tau / dt``), divided by the number of receivers. The slow wander
+    is left out: no loop can tell it from the oscillator."""
+    m = env.model
+    return math.sqrt((m.white_sigma_s**2 + 2.0 * m.multipath_sigma_s**2 * m.multipath_tau_s / interval_s) / receivers)
+
+
+def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None,
+                    loop_bandwidth_hz: float | None = None, measurement_sigma_s: float | None = None) -> Servo:
+    """The controller ``name`` as a designer would set it up from data sheets (not from the truth).
+
+    ``pi``: the seed's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1);
+    Kalman types: the oscillator's h-coefficients and the short-term noise of the receivers.
+    """
+    check_choice(name, "--controller", CONTROLLERS)
+    if name == "pi":
+        if loop_bandwidth_hz is not None:
+            return PiServo.from_bandwidth(loop_bandwidth_hz, 1.0, dac=dac)
+        return PiServo(dac=dac)
+    cls = {"kf": KalmanServo, "wakf": AdaptiveKalmanServo, "gated": GatedKalmanServo, "huber": HuberKalmanServo}[name]
+    sigma = _design_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
+    return cls(osc.h, sigma, dac=dac)
+
+
+def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None) -> KalmanServo:
+    """The optimality yardstick: a Kalman servo given the true model of the oscillator and of the fused
+    reference's noise (white noise inflated by the mean log-normal GDOP gain, multipath and wander as
+    Gauss-Markov states, each divided by the number of equal, independent receivers)."""
+    m = env.model
+    white = m.white_sigma_s * math.exp(m.gdop_log_sigma**2) / math.sqrt(receivers)
+    gm = ((m.multipath_sigma_s / math.sqrt(receivers), m.multipath_tau_s),
+          (m.wander_sigma_s / math.sqrt(receivers), m.wander_tau_s))
+    return KalmanServo(osc.h, white, gauss_markov=gm, dac=dac)
+
+
+def _free_phase(osc: OscillatorModel, steps: int, trials: int, root: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray]:
+    """Free-running phase with each trial's initial offsets, and the same without them (for ADEV)."""
+    truth = simulate_oscillator(osc, float(steps), 1.0, child_seed(root, 0), trials=trials)
+    t = truth.t_s
+    offsets = np.array([child_rng(root, 2, i).uniform(-1.0, 1.0, 2) for i in range(trials)])
+    free = truth.x_s + offsets[:, :1] * INITIAL_PHASE_MAX_S + offsets[:, 1:] * INITIAL_FREQUENCY_MAX * t
+    return free, truth.x_s
+
+
+def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> dict:
+    """Simulate the scenario and run the chosen controller and the clairvoyant one on the same data."""
+    root = root_seed(setup.seed)
+    osc = preset(setup.oscillator)
+    if setup.dac_bits is not None:
+        osc = dataclasses.replace(osc, dac_bits=setup.dac_bits)
+    dac = Dac.for_oscillator(osc)
+    env = scenario_environment(setup.scenario, setup.duration_s)
+    progress("simulating the oscillator")
+    free, noise_only = _free_phase(osc, setup.duration_s, setup.trials, root)
+    progress("simulating the receivers")
+    rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=setup.trials)
+    config = ChainConfig(qualification=Qualification(gdop_max=setup.gdop_max), fusion=setup.fusion,
+                         integrity_pfa=setup.integrity_pfa)
+    progress(f"disciplining ({setup.controller})")
+    servo = make_controller(setup.controller, osc, env, setup.receivers, dac, setup.loop_bandwidth_hz)
+    run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, config)
+    progress("disciplining (clairvoyant)")
+    best = discipline_run(clairvoyant_controller(osc, env, setup.receivers, dac), free, rx.pps_error_s, rx.epochs, config)
+    return {"setup": setup, "oscillator": osc, "environment": env, "free_phase_s": free, "noise_phase_s": noise_only,
+            "run": run, "clairvoyant": best}
+
+
+def _oadev_pooled(x: np.ndarray, taus: np.ndarray) -> np.ndarray:
+    """sqrt of the mean over rows of the overlapping Allan variance at ``taus`` (1 Hz phase, NaN = gap)."""
+    avar = np.array([st.oadev(row, 1.0, taus).dev ** 2 for row in x])
+    ok = np.isfinite(avar)
+    count = ok.sum(axis=0)
+    return np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
+
+
+def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s: np.ndarray,
+                start: int = int(SETTLE_S)) -> dict:
+    """``{"free_run": {"tau", "dev"}, "gnss": ..., "disciplined": ...}`` on one octave grid up to a quarter
+    of the record from ``start`` (the seconds before it hold the acquisition's phase step)."""
+    free_phase_s, reference_error_s, phase_s = free_phase_s[:, start:], reference_error_s[:, start:], phase_s[:, start:]
+    taus = averaging_factors(phase_s.shape[1] // 4, "octave").astype(float)
+    gnss = -reference_error_s  # the reference 1PPS's own time error
+    if np.isnan(gnss).mean() > 0.5:
+        gnss_dev = np.full(taus.shape, np.nan)
+    else:
+        gnss_dev = _oadev_pooled(gnss, taus)
+    return {"free_run": {"tau": taus, "dev": _oadev_pooled(free_phase_s, taus)},
+            "gnss": {"tau": taus, "dev": gnss_dev},
+            "disciplined": {"tau": taus, "dev": _oadev_pooled(phase_s, taus)}}
+
+
+def time_error_metrics(phase_s: np.ndarray, has_reference: np.ndarray) -> dict:
+    """TE rms / peak-to-peak after ``SETTLE_S`` with a usable reference, and the convergence time (s)."""
+    t = np.arange(phase_s.shape[1], dtype=float)
+    window = has_reference & (t >= SETTLE_S)[None, :]
+    x = np.where(window, phase_s, np.nan)
+    rms = float(np.sqrt(np.nanmean(x**2))) if window.any() else math.nan
+    pp = float(np.nanmean(np.nanmax(x, axis=1) - np.nanmin(x, axis=1))) if window.any() else math.nan
+    bad = has_reference & (np.abs(phase_s) >= CONVERGENCE_THRESHOLD_S)
+    conv = []
+    for row in bad:
+        idx = np.flatnonzero(row)
+        conv.append(0.0 if idx.size == 0 else (math.nan if idx[-1] == row.size - 1 else float(idx[-1] + 1)))
+    converged = [c for c in conv if math.isfinite(c)]
+    return {"time_error_rms_ns": rms * 1e9, "time_error_pp_ns": pp * 1e9,
+            "convergence_s": float(np.median(converged)) if len(converged) == len(conv) else None}
+
+
+def _holdover(run: GnssdoRun, env: ReceiverEnvironment) -> dict:
+    if env.jamming_start_s is None or env.jamming_duration_s <= 0:
+        return {}
+    start = int(env.jamming_start_s)
+    end = min(int(env.jamming_start_s + env.jamming_duration_s), run.phase_s.shape[1] - 1)
+    err = run.phase_s[:, end] - run.phase_s[:, start]
+    return {"holdover_error_ns": float(np.sqrt(np.mean(err**2))) * 1e9, "holdover_s": float(end - start)}
+
+
+def evaluate(sim: dict) -> dict:
+    """The summary (JSON keys of the command line) of :func:`simulate_gnssdo`'s result."""
+    run, best, setup = sim["run"], sim["clairvoyant"], sim["setup"]
+    has_ref = np.isfinite(run.reference_error_s)
+    summary = {"scenario": setup.scenario, "controller": setup.controller, "receivers": setup.receivers,
+               "duration_s": setup.duration_s, "trials": setup.trials, "seed": setup.seed,
+               "oscillator": setup.oscillator, **time_error_metrics(run.phase_s, has_ref)}
+    summary["optimal_rms_ns"] = time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"]
+    summary.update(_holdover(run, sim["environment"]))
+    summary["state_seconds"] = run.states.seconds_in()
+    summary["state_changes_trial0"] = run.states.changes(0)[:50]
+    summary["dac_rail_alarm_seconds"] = float(run.states.rail_alarm.sum() / setup.trials)
+    summary["no_usable_receiver"] = bool(not has_ref.any())
+    summary["adev"] = adev_series(sim["noise_phase_s"], run.reference_error_s, run.phase_s)
+    return summary
+
+
+def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progress = lambda s: None) -> dict:
+    """Simulate, evaluate and (with ``out_dir``) write ``summary.json`` and the PNG report; returns the summary."""
+    from chronofuse.report.gnssdo import write_report
+    from chronofuse.report.jsonio import dumps
+
+    sim = simulate_gnssdo(setup, progress)
+    progress("measuring")
+    summary = evaluate(sim)
+    if out_dir is not None:
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        summary["files"] = write_report(sim, summary, out_dir)
+        (out_dir / "summary.json").write_text(dumps(summary) + "\n")
+        summary["files"].append("summary.json")
+    return summary
+
+
+def equivalent_white_sigma_s(e: np.ndarray, block_s: int = 100) -> float:
+    """The white noise a slow loop sees in a 1PPS error record ``e`` (1 Hz): ``sqrt(B var(dm) / 2)`` with
+    ``dm`` the differences of consecutive ``B``-second block means (for white noise of variance
+    ``sigma^2`` that is ``sigma``; for short-correlated noise it is its zero-frequency level, the
+    ``2 sigma^2 tau`` of :func:`_design_sigma_s`; differencing removes the slow wander)."""
+    n = e.size // block_s * block_s
+    means = e[:n].reshape(-1, block_s).mean(axis=1)
+    return float(np.sqrt(block_s * np.var(np.diff(means)) / 2.0))
+
+
+def _data_line(path: Path, index: int) -> int:
+    """1-based file line of the ``index``-th data line (0-based) of a text record, for error messages."""
+    import gzip
+
+    opener = gzip.open if path.suffix == ".gz" else open
+    count = -1
+    with opener(path, "rt") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            text = line.split("#")[0].strip()
+            if text and (text[0].isdigit() or text[0] in "+-.n"):
+                count += 1
+                if count == index:
+                    return lineno
+    return lineno
+
+
+def read_reference(path: Path) -> np.ndarray:
+    """A real receiver's 1PPS phase against a reference clock (truth), 1 Hz, no gaps; seconds (N,).
+
+    Refused, naming the file and line: another rate than 1 Hz (from a time column), and any gap.
+    """
+    path = Path(path)
+    rec = read_record(path, kind="phase", rate_hz=1.0)
+    if rec.n_gaps:
+        first = int(np.flatnonzero(np.isnan(rec.values))[0])
+        raise InputDataError(f"gap in the reference record ({rec.n_gaps} missing samples, the first at sample "
+                             f"{first}); the loop needs one sample every second", str(path), _data_line(path, first))
+    if rec.values.size < 2 * SETTLE_S:
+        raise InputDataError(f"{rec.values.size} samples, need at least {int(2 * SETTLE_S)}", str(path))
+    return rec.values
+
+
+def run_reference(path: Path, controller: str = "kf", seed: int = 0, trials: int = 1,
+                  progress: Progress = lambda s: None, oscillator: str = "ocxo") -> dict:
+    """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
+
+    The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
+    oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
+    first four hours by :func:`equivalent_white_sigma_s` (what a user with a reference would do once).
+    """
+    check_choice(controller, "--controller", CONTROLLERS)
+    e = read_reference(path)
+    e = e - np.mean(e)
+    steps = e.size
+    osc = preset(oscillator)
+    dac = Dac.for_oscillator(osc)
+    root = root_seed(seed)
+    progress("simulating the oscillator")
+    free, noise_only = _free_phase(osc, steps, trials, root)
+    sigma = equivalent_white_sigma_s(e[:4 * 3600])
+    env = dataclasses.replace(receiver_environment("open-sky"), name="reference")
+    servo = make_controller(controller, osc, env, 1, dac, measurement_sigma_s=sigma)
+    progress(f"disciplining ({controller}) against {path.name}")
+    loop = close_loop(servo, free, e)
+    best = close_loop(clairvoyant_controller(osc, env, 1, dac), free, e)
+    has_ref = np.ones(loop.phase_s.shape, dtype=bool)
+    states = run_states(has_ref, loop.offset_s, StateConfig(), near_rail=loop.near_rail)
+    summary = {"reference": str(path), "controller": controller, "duration_s": steps, "trials": trials, "seed": seed,
+               **time_error_metrics(loop.phase_s, has_ref),
+               "optimal_rms_ns": time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"],
+               "state_seconds": states.seconds_in(),
+               "adev": adev_series(noise_only, np.broadcast_to(e, loop.phase_s.shape), loop.phase_s)}
+    return summary

@@ -1,0 +1,412 @@
+"""u-blox UBX messages to per-epoch receiver reports, decoded by pyubx2 (the field's parser).
+
+Messages used (u-blox 8 / M8 and F9 interface descriptions; field names as pyubx2 gives them):
+
+* NAV-PVT: ``fixType``, ``numSV``, ``pDOP``, UTC date and time with ``validDate``/``validTime``/
+  ``fullyResolved``; NAV-SOL and NAV-STATUS (older receivers): ``gpsFix``, ``week``, ``numSV``.
+* NAV-TIMEGPS: ``week`` and ``leapS`` (with their valid bits); NAV-TIMEUTC: UTC date and ``validUTC``.
+* NAV-TIMELS: ``currLs`` (GPS - UTC, s) and ``lsChange``/``timeToLsEvent`` (the announced leap second).
+* NAV-DOP: ``gDOP`` ... ``hDOP`` (pyubx2 applies the 0.01 scale); NAV-SAT: satellites with ``svUsed``.
+* NAV-CLOCK: ``clkB`` (ns) and ``clkD`` (ns/s): the receiver clock bias and drift.
+* TIM-TP: ``qErr`` (ps) of the NEXT time pulse, whose time is ``towMS``/``week`` in ``timeBase`` (0 GNSS,
+  1 UTC): it is paired with the epoch of that pulse, not with the epoch it arrives in.
+* TIM-TM2: time marks on the EXTINT input (rising-edge times kept as GPS ns).
+* RXM-RAWX: ``rcvTow``, ``week`` and ``leapS`` (valid when ``recStat.leapSec``).
+
+Every navigation message carries ``iTOW`` (GPS time of week, ms) of its epoch; messages with the same
+``iTOW`` are one epoch. The full epoch is ``week * 604800 s + iTOW``; the week comes from a message that
+sends it (NAV-SOL, NAV-TIMEGPS, RXM-RAWX, TIM-TP) or, failing those, from a valid UTC date (NAV-PVT,
+NAV-TIMEUTC) placed on the GPS scale; epochs between dated ones get the week of their neighbours
+(iTOW rollover included). GPS - UTC is taken from the receiver: NAV-TIMELS ``currLs``, NAV-TIMEGPS or
+RXM-RAWX ``leapS`` when flagged valid, or the difference of NAV-PVT's UTC and GPS time once fully
+resolved; the leap-second table only where the receiver never says. pyubx2's own UTC helper (a fixed
+18 s offset) is never used.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+from pyubx2 import UBXReader
+from pyubx2.ubxhelpers import calc_checksum
+
+from chronofuse.timescale import (
+    MS_PER_WEEK,
+    NS_PER_S,
+    NS_PER_WEEK,
+    datetime64_to_gps_ns,
+    gps_minus_utc_s,
+)
+
+__all__ = ["UBX_TYPES", "UbxDecodeStats", "UbxEpochBuilder", "decode_ubx", "GPSD_FIX_MODE"]
+
+UBX_TYPES = frozenset({"NAV-PVT", "NAV-SOL", "NAV-STATUS", "NAV-TIMEGPS", "NAV-TIMEUTC", "NAV-TIMELS",
+                       "NAV-DOP", "NAV-SAT", "NAV-CLOCK", "TIM-TP", "TIM-TM2", "RXM-RAWX"})
+
+#: u-blox ``fixType``/``gpsFix`` -> gpsd TPV mode: 0 no fix, 1 dead reckoning only, 2 2-D, 3 3-D,
+#: 4 GNSS + dead reckoning, 5 time only (a surveyed timing receiver: 3, as gpsd reports it).
+GPSD_FIX_MODE = {0: 1, 1: 2, 2: 2, 3: 3, 4: 3, 5: 3}
+_RAW_TOL_MS = 25
+_NEAR_EPOCHS = 16  # how far back a late message may still find its epoch
+
+
+@dataclass
+class UbxDecodeStats:
+    """Messages decoded per type, frames pyubx2 refused (first reasons kept), and epochs that could not
+    be dated (no week and no valid UTC date anywhere in the stream)."""
+
+    decoded: Counter = field(default_factory=Counter)
+    parse_errors: int = 0
+    undated_epochs: int = 0
+    errors: list = field(default_factory=list)
+
+
+class _Epoch:
+    __slots__ = ("itow_ms", "week", "utc_ns", "mode", "time_valid", "n_sats", "n_used_sat", "gdop", "pdop",
+                 "hdop", "vdop", "tdop", "leap_s", "leap_pending", "clock_bias_s", "clock_drift_s_per_s",
+                 "leap_from_utc", "raw_only", "nav_sat_raw")
+
+    def __init__(self, itow_ms: int) -> None:
+        self.itow_ms = itow_ms
+        self.raw_only = False
+        self.nav_sat_raw: bytes | None = None
+        self.week = -1
+        self.utc_ns: int | None = None  # a valid UTC label (UTC count since the GPS epoch)
+        self.leap_from_utc = False
+        self.mode = 0
+        self.time_valid = False
+        self.n_sats = -1
+        self.n_used_sat = -1
+        self.gdop = self.pdop = self.hdop = self.vdop = self.tdop = math.nan
+        self.leap_s: int | None = None
+        self.leap_pending = 0
+        self.clock_bias_s = self.clock_drift_s_per_s = math.nan
+
+
+def _utc_label_ns(year, month, day, hour, minute, second, nano) -> int | None:
+    try:
+        stamp = np.datetime64(f"{int(year):04d}-{int(month):02d}-{int(day):02d}T{int(hour):02d}:"
+                              f"{int(minute):02d}:00", "ns")
+    except ValueError:
+        return None
+    return int(datetime64_to_gps_ns(stamp)) + int(second) * NS_PER_S + int(nano)
+
+
+class UbxEpochBuilder:
+    """Streaming assembly of UBX epochs: :meth:`push` decoded messages, :meth:`rows` gives arrays."""
+
+    def __init__(self) -> None:
+        self._epochs: list[_Epoch] = []
+        self._pulses: list[tuple[int, int, int, float]] = []  # (week, tow_ms, time base, qerr_s)
+        self._anchor: tuple[int, int] | None = None  # (iTOW ms, full week) of the last epoch popped
+        self._last_leap: int | None = None
+        self.marks_gps_ns: list[int] = []
+
+    def _epoch(self, itow_ms: int, raw: bool = False) -> _Epoch:
+        """The epoch of ``itow_ms`` among the recent ones, or a new one. RXM-RAWX's ``rcvTow`` is the
+        receiver's own measurement time, up to a clock bias (<= 1 ms when steered, tens of ms free-running)
+        off the navigation epoch's rounded iTOW: a RAWX and a navigation epoch within 25 ms are one."""
+        for ep in reversed(self._epochs[-_NEAR_EPOCHS:]):
+            if ep.itow_ms == itow_ms:
+                return ep
+            if (raw or ep.raw_only) and abs(ep.itow_ms - itow_ms) <= _RAW_TOL_MS:
+                if ep.raw_only and not raw:
+                    ep.itow_ms, ep.raw_only = itow_ms, False
+                return ep
+        ep = _Epoch(itow_ms)
+        ep.raw_only = raw
+        self._epochs.append(ep)
+        return ep
+
+    def defer_nav_sat(self, raw: bytes) -> None:
+        """Keep a NAV-SAT frame with its epoch (iTOW: payload bytes 0-3) to be decoded only if needed."""
+        if len(raw) >= 10:
+            ep = self._epoch(int.from_bytes(raw[6:10], "little"))
+            ep.nav_sat_raw = raw
+
+    def push(self, name: str, m) -> None:
+        if name == "TIM-TP":
+            qerr = math.nan if getattr(m, "qErrInvalid", 0) else m.qErr * 1e-12
+            self._pulses.append((int(m.week), int(m.towMS), int(m.timeBase), qerr))
+            return
+        if name == "TIM-TM2":
+            if m.newRisingEdge and m.time:
+                self.marks_gps_ns.append(int(m.wnR) * NS_PER_WEEK + int(m.towMsR) * 1_000_000 + int(m.towSubMsR))
+            return
+        if name == "RXM-RAWX":
+            ep = self._epoch(int(round(m.rcvTow * 1000.0)) % MS_PER_WEEK, raw=True)
+            ep.week = int(m.week)
+            if m.leapSec:
+                ep.leap_s = int(m.leapS)
+            return
+        ep = self._epoch(int(m.iTOW))
+        if name == "NAV-PVT":
+            ep.mode = GPSD_FIX_MODE.get(int(m.fixType), 0)
+            ep.n_sats = int(m.numSV)
+            ep.pdop = float(m.pDOP)
+            if m.validDate and m.validTime and m.fullyResolved:
+                ep.time_valid = True
+                ep.utc_ns = _utc_label_ns(m.year, m.month, m.day, m.hour, m.min, m.second, m.nano)
+                ep.leap_from_utc = True
+        elif name == "NAV-SOL" or name == "NAV-STATUS":
+            fix_ok = m.gpsfixOK if name == "NAV-SOL" else m.gpsFixOk
+            fix = GPSD_FIX_MODE.get(int(m.gpsFix), 0) if fix_ok or m.gpsFix == 0 else 1
+            if ep.mode == 0:
+                ep.mode = fix
+            if name == "NAV-SOL":
+                if ep.n_sats < 0:
+                    ep.n_sats = int(m.numSV)
+                if math.isnan(ep.pdop):
+                    ep.pdop = float(m.pDOP)
+                if m.wknSet and m.towSet:
+                    ep.week = int(m.week)
+            elif m.wknSet and m.towSet:
+                ep.time_valid = ep.time_valid or bool(fix_ok)
+        elif name == "NAV-TIMEGPS":
+            if m.weekValid and m.towValid:
+                ep.week = int(m.week)
+            if m.leapSValid:
+                ep.leap_s = int(m.leapS)
+        elif name == "NAV-TIMEUTC":
+            if m.validUTC and m.validTOW and m.validWKN:
+                ep.time_valid = True
+                ep.utc_ns = _utc_label_ns(m.year, m.month, m.day, m.hour, m.min, m.sec, m.nano)
+                ep.leap_from_utc = True
+        elif name == "NAV-TIMELS":
+            if m.validCurrLs:
+                ep.leap_s = int(m.currLs)
+            if m.validTimeToLsEvent and m.lsChange and 0 < m.timeToLsEvent <= 86_400:
+                ep.leap_pending = int(np.sign(m.lsChange))
+        elif name == "NAV-DOP":
+            ep.gdop, ep.pdop, ep.hdop = float(m.gDOP), float(m.pDOP), float(m.hDOP)
+            ep.vdop, ep.tdop = float(m.vDOP), float(m.tDOP)
+        elif name == "NAV-SAT":
+            ep.n_used_sat = _count_used(m)
+        elif name == "NAV-CLOCK":
+            ep.clock_bias_s = m.clkB * 1e-9
+            ep.clock_drift_s_per_s = m.clkD * 1e-9
+
+    def pop_complete(self, stats: UbxDecodeStats | None = None, max_undated: int = 64) -> dict | None:
+        """Streaming: the epochs before the one in progress as arrays, removed from the builder. The last
+        dated epoch and the receiver's last leap count carry over to later calls, so an epoch without a
+        week of its own is placed from its predecessors; TIM-TP pulses wait for their epoch. Epochs
+        before anything dates them wait (at most ``max_undated``). None when nothing is ready."""
+        closed = self._epochs[:-1]
+        if not closed:
+            return None
+        rows = self._rows_of(closed, stats, streaming=True, final=len(closed) > max_undated)
+        if rows is None:
+            return None
+        self._epochs = self._epochs[len(closed):]
+        return rows
+
+    def pop_all(self, stats: UbxDecodeStats | None = None) -> dict | None:
+        """Streaming, at the end of the stream: every epoch left (the one in progress too)."""
+        self._epochs.append(_Epoch(-1))  # a sentinel "next epoch" so that every real one is closed
+        rows = self.pop_complete(stats, max_undated=0)
+        self._epochs = []
+        if self._pulses and rows is not None:
+            rows = _attach_pulses(rows, self._pulses)
+        self._pulses = []
+        return rows
+
+    def rows(self, stats: UbxDecodeStats | None = None) -> dict[str, np.ndarray]:
+        """The dated epochs in time order as arrays: ``gps_ns`` and the per-epoch fields of
+        :class:`chronofuse.epochs.ReceiverEpochs` (plus ``leap_from_receiver``: the leap count is the
+        receiver's own, not the table's)."""
+        return self._rows_of(self._epochs, stats, streaming=False, final=True)
+
+    def _rows_of(self, eps: list, stats, streaming: bool, final: bool) -> dict | None:
+        has_anchor = streaming and self._anchor is not None
+        if has_anchor:
+            anchor = _Epoch(self._anchor[0])
+            anchor.week = self._anchor[1]
+            anchor.leap_s = self._last_leap
+            eps = [anchor] + list(eps)
+        n = len(eps)
+        for e in eps:
+            if e.n_sats < 0 and e.n_used_sat < 0 and e.nav_sat_raw is not None:
+                try:
+                    e.n_used_sat = _count_used(UBXReader.parse(e.nav_sat_raw, validate=0))
+                except Exception as err:  # a NAV-SAT pyubx2 refuses: count it, keep the epoch
+                    if stats is not None:
+                        stats.parse_errors += 1
+                        stats.errors.append((-1, f"NAV-SAT: {type(err).__name__}: {err}"))
+            e.nav_sat_raw = None
+        itow = np.array([e.itow_ms for e in eps], dtype=np.int64)
+        approx = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
+        for i, e in enumerate(eps):
+            if e.week >= 0:
+                approx[i] = e.week * NS_PER_WEEK + e.itow_ms * 1_000_000
+            elif e.utc_ns is not None:
+                leap = e.leap_s if e.leap_s is not None else int(gps_minus_utc_s(e.utc_ns))
+                approx[i] = e.utc_ns + leap * NS_PER_S
+        gps_ns = _place_on_weeks(itow, approx)
+        dated = gps_ns != np.iinfo(np.int64).min
+        if streaming and not dated.any() and not final:
+            return None
+        # GPS - UTC: the receiver's own where it says (directly, or as its GPS minus its UTC label)
+        leap = np.full(n, -1, dtype=np.int64)
+        own = np.zeros(n, dtype=bool)
+        pending = np.zeros(n, dtype=np.int8)
+        for i, e in enumerate(eps):
+            if e.leap_s is not None:
+                leap[i], own[i] = e.leap_s, True
+            elif e.utc_ns is not None and dated[i]:
+                leap[i], own[i] = round((int(gps_ns[i]) - e.utc_ns) / NS_PER_S), True
+            pending[i] = e.leap_pending
+        leap = _fill_leap(leap, own, gps_ns, dated)
+        rows = {
+            "gps_ns": gps_ns,
+            "fix_mode": np.array([e.mode for e in eps], dtype=np.int8),
+            "time_valid": np.array([e.time_valid for e in eps], dtype=bool),
+            "n_sats": np.array([e.n_sats if e.n_sats >= 0 else e.n_used_sat for e in eps], dtype=np.int16),
+            "gdop": np.array([e.gdop for e in eps]),
+            "pdop": np.array([e.pdop for e in eps]),
+            "hdop": np.array([e.hdop for e in eps]),
+            "vdop": np.array([e.vdop for e in eps]),
+            "tdop": np.array([e.tdop for e in eps]),
+            "leap_s": leap.astype(np.int16),
+            "leap_pending": pending,
+            "qerr_s": np.full(n, np.nan),
+            "clock_bias_s": np.array([e.clock_bias_s for e in eps]),
+            "clock_drift_s_per_s": np.array([e.clock_drift_s_per_s for e in eps]),
+            "leap_from_receiver": own,
+        }
+        rows = {k: v.reshape(n) if v.ndim else v for k, v in rows.items()}
+        if streaming:
+            if dated.any():
+                last = int(np.flatnonzero(dated)[-1])
+                self._anchor = (int(itow[last]), int(gps_ns[last] // NS_PER_WEEK))
+            if own.any():
+                self._last_leap = int(leap[np.flatnonzero(own)[-1]])
+        if stats is not None:
+            stats.undated_epochs += int((~dated).sum())
+        if has_anchor:
+            dated[0] = False  # the carried anchor is no epoch of this batch
+        rows = {k: v[dated] for k, v in rows.items()}
+        if not streaming:
+            return _attach_pulses(rows, self._pulses)
+        if rows["gps_ns"].size == 0:
+            return rows
+        last_gps = int(rows["gps_ns"][-1])
+        ready = [p for p in self._pulses if _pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
+        self._pulses = [p for p in self._pulses if p not in ready]
+        return _attach_pulses(rows, ready)
+
+
+def _count_used(m) -> int:
+    return sum(1 for k in range(1, int(m.numSvs) + 1) if getattr(m, f"svUsed_{k:02d}", 0))
+
+
+def _rawx_header_frame(raw: bytes) -> bytes:
+    """The RXM-RAWX frame with its measurement blocks left out (``numMeas`` 0, the 16-byte header kept,
+    checksum recomputed): pyubx2 then decodes only the header fields we use (``rcvTow``, ``week``,
+    ``leapS``, ``recStat``) instead of 32 bytes x 20 fields per measurement."""
+    header = bytearray(raw[6:22])
+    header[11] = 0  # numMeas
+    body = raw[2:4] + b"\x10\x00" + bytes(header)
+    return b"\xb5\x62" + body + calc_checksum(body)
+
+
+def _place_on_weeks(itow_ms: np.ndarray, approx_gps_ns: np.ndarray) -> np.ndarray:
+    """Full GPS ns of each epoch: the instant with time of week ``itow_ms`` nearest an estimate, the
+    estimate being the epoch's own (``approx_gps_ns``) or, for epochs without one, the nearest dated
+    epoch's plus the iTOW step (wrapped to +- half a week)."""
+    n = itow_ms.size
+    missing = np.iinfo(np.int64).min
+    out = np.full(n, missing, dtype=np.int64)
+    have = np.flatnonzero(approx_gps_ns != missing)
+    if n == 0 or have.size == 0:
+        return out
+    # nearest dated epoch in file order, for each epoch
+    pos = np.searchsorted(have, np.arange(n))
+    left = have[np.clip(pos - 1, 0, have.size - 1)]
+    right = have[np.clip(pos, 0, have.size - 1)]
+    idx = np.where(np.abs(np.arange(n) - left) <= np.abs(right - np.arange(n)), left, right)
+    step_ms = itow_ms - itow_ms[idx]
+    step_ms = (step_ms + MS_PER_WEEK // 2) % MS_PER_WEEK - MS_PER_WEEK // 2
+    estimate = approx_gps_ns[idx] + step_ms * 1_000_000
+    week = np.rint((estimate - itow_ms * 1_000_000) / NS_PER_WEEK).astype(np.int64)
+    return week * NS_PER_WEEK + itow_ms * 1_000_000
+
+
+def _fill_leap(leap: np.ndarray, own: np.ndarray, gps_ns: np.ndarray, dated: np.ndarray) -> np.ndarray:
+    """Carry the receiver's last leap count forward (and its first one backward); the table elsewhere."""
+    out = leap.copy()
+    idx = np.flatnonzero(own)
+    if idx.size:
+        pos = np.searchsorted(idx, np.arange(leap.size), side="right") - 1
+        src = idx[np.clip(pos, 0, None)]
+        out = np.where(own, leap, leap[src])
+    elif dated.any():
+        out[dated] = gps_minus_utc_s(gps_ns[dated])
+    return out
+
+
+def _pulse_gps_ns(pulse: tuple, leap_s: int) -> int:
+    week, tow_ms, base, _ = pulse
+    return week * NS_PER_WEEK + tow_ms * 1_000_000 + (leap_s * NS_PER_S if base == 1 else 0)
+
+
+def _attach_pulses(rows: dict, pulses: list) -> dict:
+    """Put each TIM-TP ``qErr`` on the epoch of the pulse it describes (GPS ns of the pulse; a UTC
+    time base is moved to GPS with that epoch's leap count); a pulse without an epoch gets its own row."""
+    if not pulses:
+        return rows
+    gps = rows["gps_ns"]
+    order = np.argsort(gps, kind="stable")
+    rows = {k: v[order] for k, v in rows.items()}
+    gps = rows["gps_ns"]
+    extra = []
+    for week, tow_ms, base, qerr in pulses:
+        t = week * NS_PER_WEEK + tow_ms * 1_000_000
+        if base == 1:  # UTC time base: towMS counts UTC seconds of the week
+            j = np.searchsorted(gps, t, side="right") - 1
+            leap = int(rows["leap_s"][max(j, 0)]) if gps.size else int(gps_minus_utc_s(t))
+            t += leap * NS_PER_S
+        j = np.searchsorted(gps, t)
+        if j < gps.size and gps[j] == t:
+            rows["qerr_s"][j] = qerr
+        else:
+            extra.append((t, qerr))
+    if extra:
+        n_extra = len(extra)
+        add = {k: np.resize(np.zeros(1, v.dtype), n_extra) for k, v in rows.items()}
+        add["gps_ns"] = np.array([t for t, _ in extra], dtype=np.int64)
+        add["qerr_s"] = np.array([q for _, q in extra])
+        for k in ("gdop", "pdop", "hdop", "vdop", "tdop", "clock_bias_s", "clock_drift_s_per_s"):
+            add[k] = np.full(n_extra, np.nan)
+        add["n_sats"] = np.full(n_extra, -1, dtype=np.int16)
+        j = np.clip(np.searchsorted(gps, add["gps_ns"]) - 1, 0, max(gps.size - 1, 0))
+        add["leap_s"] = rows["leap_s"][j] if gps.size else gps_minus_utc_s(add["gps_ns"]).astype(np.int16)
+        rows = {k: np.concatenate([rows[k], add[k]]) for k in rows}
+        order = np.argsort(rows["gps_ns"], kind="stable")
+        rows = {k: v[order] for k, v in rows.items()}
+    return rows
+
+
+def decode_ubx(frames, builder: UbxEpochBuilder, stats: UbxDecodeStats) -> None:
+    """Decode the UBX frames we use among ``frames`` with pyubx2 (checksums already verified by the
+    framer) and push them into ``builder``; a frame pyubx2 refuses is counted, never fatal."""
+    for frame in frames:
+        if frame.kind != "ubx" or frame.name not in UBX_TYPES:
+            continue
+        try:
+            if frame.name == "NAV-SAT":
+                # parsed at the end, and only for an epoch whose NAV-PVT/NAV-SOL gave no satellite count
+                builder.defer_nav_sat(frame.raw)
+                stats.decoded[frame.name] += 1
+                continue
+            raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
+            msg = UBXReader.parse(raw, validate=0)
+            builder.push(frame.name, msg)
+        except Exception as err:  # pyubx2 raises several types on short or odd payloads; count, go on
+            stats.parse_errors += 1
+            if len(stats.errors) < 50:
+                stats.errors.append((frame.offset, f"{frame.name}: {type(err).__name__}: {err}"))
+            continue
+        stats.decoded[frame.name] += 1

@@ -1,0 +1,127 @@
+"""The monitor loop: sources -> live decoders -> per-receiver decisions -> cross-receiver decisions ->
+the durable log -> acknowledgements (and the live table).
+
+Each pass drains the source events that arrived, decodes them per receiver, groups the epochs of all
+receivers by GPS time (an epoch is decided once every connected receiver has passed it, or after
+``hold_s`` of wall time), commits the decided records to the log in one transaction and only then
+hands them to ``on_ack`` (the ``--json-lines`` printer): what was acknowledged is on disk.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+
+from chronofuse.io.sources import SourceGroup
+from chronofuse.io.sources_decode import decoder_for
+from chronofuse.monitor.decisions import MonitorSettings, ReceiverMonitor, decide_second
+from chronofuse.monitor.log import EpochLog
+
+__all__ = ["Monitor"]
+
+
+def _utc_label(gps_ns: int, leap_s: int) -> str:
+    import numpy as np
+
+    from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
+
+    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(gps_ns - leap_s * NS_PER_S)), unit="ms")) + "Z"
+
+
+class Monitor:
+    """Watch ``sources`` (see :mod:`chronofuse.io.sources`), log to ``log`` (an :class:`EpochLog` or
+    None), call ``on_ack(records)`` after each commit and ``on_event(receiver, kind, detail)`` on
+    connection changes."""
+
+    def __init__(self, sources, settings: MonitorSettings = MonitorSettings(), log: EpochLog | None = None,
+                 on_ack=None, on_event=None, hold_s: float = 2.0) -> None:
+        self.sources = list(sources)
+        self.settings = settings
+        self.log = log
+        self.on_ack = on_ack
+        self.on_event = on_event
+        self.hold_s = hold_s
+        self.receivers = {s.name: ReceiverMonitor(s.name, settings) for s in self.sources}
+        self.decoders = {s.name: decoder_for(s) for s in self.sources}
+        self._pending: dict[int, list] = defaultdict(list)
+        self._pending_since: dict[int, float] = {}
+        self._previous_bias: dict[str, float] = {}
+        self._ended: set[str] = set()
+        self.acknowledged = 0
+
+    def run(self, duration_s: float | None = None, on_tick=None, tick_s: float = 0.25) -> None:
+        """Run until every source has ended (files) or ``duration_s`` has passed; ``on_tick(self)`` is
+        called about every ``tick_s`` (the live table's refresh)."""
+        group = SourceGroup(self.sources).start()
+        start = last_tick = time.monotonic()
+        try:
+            while len(self._ended) < len(self.sources):
+                if duration_s is not None and time.monotonic() - start >= duration_s:
+                    break
+                self.step(group, timeout_s=tick_s)
+                if on_tick is not None and time.monotonic() - last_tick >= tick_s:
+                    on_tick(self)
+                    last_tick = time.monotonic()
+            self._flush(final=True)
+        finally:
+            group.stop()
+            if on_tick is not None:
+                on_tick(self)
+
+    def step(self, group: SourceGroup, timeout_s: float = 0.25, max_events: int = 256) -> None:
+        """One pass: drain up to ``max_events`` source events, decide and commit what is ready."""
+        events, conn_events = [], []
+        event = group.get(timeout_s)
+        while event is not None:
+            events.append(event)
+            if len(events) >= max_events:
+                break
+            event = group.get(0.0) if not group.events.empty() else None
+        for ev in events:
+            rx = self.receivers[ev.source]
+            if ev.kind == "data":
+                for epoch in self.decoders[ev.source].feed(ev.data):
+                    self._add(rx.decide(epoch))
+            else:
+                if ev.kind == "up":
+                    rx.connected = True
+                elif ev.kind in ("down", "end"):
+                    if rx.connected and ev.kind == "down":
+                        rx.outages += 1
+                    rx.connected = False
+                    if ev.kind == "end":
+                        for epoch in self.decoders[ev.source].close():
+                            self._add(rx.decide(epoch))
+                        self._ended.add(ev.source)
+                detail = ev.data if isinstance(ev.data, str) else ""
+                conn_events.append((ev.source, time.time(), ev.kind, detail))
+                if self.on_event is not None:
+                    self.on_event(ev.source, ev.kind, detail)
+        self._flush(final=False, events=conn_events)
+
+    def _add(self, record: dict) -> None:
+        record["utc"] = _utc_label(record["gps_ns"], record["leap_s"])
+        self._pending[record["gps_ns"]].append(record)
+        self._pending_since.setdefault(record["gps_ns"], time.monotonic())
+
+    def _flush(self, final: bool, events=()) -> None:
+        now = time.monotonic()
+        live = [rx for rx in self.receivers.values() if rx.connected and rx.name not in self._ended]
+        horizon = min((rx._last_gps_ns for rx in live if rx._last_gps_ns is not None), default=None)
+        ready = []
+        for gps_ns in sorted(self._pending):
+            old = now - self._pending_since[gps_ns] >= self.hold_s
+            if final or old or horizon is None or gps_ns <= horizon:
+                ready.append(gps_ns)
+        records = []
+        for gps_ns in ready:
+            group = self._pending.pop(gps_ns)
+            self._pending_since.pop(gps_ns)
+            decide_second(group, self.settings.jump_s, self._previous_bias)
+            records += group
+        if self.log is not None:
+            self.log.append(records, list(events))
+        if records:
+            self.acknowledged += len(records)
+            if self.on_ack is not None:
+                self.on_ack(records)

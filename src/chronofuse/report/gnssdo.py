@@ -1,0 +1,104 @@
+"""PNG figures of a GNSSDO run: time error with the states shaded, ADEV of the three series, holdover."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from chronofuse.discipline.states import State  # noqa: E402
+
+_STATE_COLOURS = {State.FREE_RUN: "#dddddd", State.ACQUIRING: "#fde9b0", State.LOCKED: "#d8f0d8",
+                  State.HOLDOVER: "#f7c6c6", State.RECOVERY: "#cfe0fb"}
+
+
+def _decimated(t: np.ndarray, v: np.ndarray, keep: int = 20_000):
+    step = max(1, t.size // keep)
+    return t[::step], v[::step]
+
+
+def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> Path:
+    """Time error of trial 0 (ns) against hours, the clairvoyant servo's beside it, states shaded."""
+    fig, ax = plt.subplots(figsize=(9, 4))
+    hours = t_s / 3600.0
+    edges = np.flatnonzero(np.diff(states)) + 1
+    starts = np.concatenate([[0], edges])
+    stops = np.concatenate([edges, [states.size]])
+    seen = set()
+    for a, b in zip(starts, stops):
+        s = State(int(states[a]))
+        ax.axvspan(hours[a], hours[min(b, hours.size - 1)], color=_STATE_COLOURS[s], lw=0,
+                   label=None if s in seen else s.name.lower().replace("_", "-"))
+        seen.add(s)
+    ax.plot(*_decimated(hours, phase_s * 1e9), lw=0.6, color="C0", label="disciplined 1PPS")
+    ax.plot(*_decimated(hours, optimal_s * 1e9), lw=0.6, color="C3", alpha=0.7, label="clairvoyant KF")
+    lim = np.nanpercentile(np.abs(phase_s[int(0.05 * phase_s.size):]) * 1e9, 99.5) * 1.5 + 1.0
+    ax.set_ylim(-lim, lim)
+    ax.set_xlabel("time (h)")
+    ax.set_ylabel("time error (ns)")
+    ax.set_title(title)
+    ax.legend(loc="upper right", fontsize=7, ncol=3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_adev(adev: dict, path: Path, title: str) -> Path:
+    """ADEV of the free-running oscillator, the GNSS reference and the disciplined output, and their envelope."""
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    styles = {"free_run": ("free-running oscillator", "C7"), "gnss": ("GNSS reference (fused 1PPS)", "C1"),
+              "disciplined": ("disciplined output", "C0")}
+    for key, (label, colour) in styles.items():
+        tau, dev = np.asarray(adev[key]["tau"]), np.asarray(adev[key]["dev"], dtype=float)
+        if np.isfinite(dev).any():
+            ax.loglog(tau, dev, "o-", ms=3, color=colour, label=label)
+    env = np.fmin(np.asarray(adev["free_run"]["dev"], dtype=float), np.asarray(adev["gnss"]["dev"], dtype=float))
+    ax.loglog(adev["free_run"]["tau"], env, "k--", lw=0.8, label="lower envelope")
+    ax.set_xlabel("tau (s)")
+    ax.set_ylabel("overlapping ADEV")
+    ax.grid(True, which="both", lw=0.3)
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_holdover(t_s, phase_s, optimal_s, start_s: float, stop_s: float, path: Path, title: str) -> Path:
+    """Time error accumulated over the outage (trial 0), ours and the clairvoyant KF's."""
+    a, b = int(start_s), int(min(stop_s, t_s.size - 1))
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    hours = (t_s[a:b] - t_s[a]) / 3600.0
+    ax.plot(hours, (phase_s[a:b] - phase_s[a]) * 1e9, label="controller")
+    ax.plot(hours, (optimal_s[a:b] - optimal_s[a]) * 1e9, label="clairvoyant KF")
+    ax.set_xlabel("time in holdover (h)")
+    ax.set_ylabel("accumulated time error (ns)")
+    ax.set_title(title)
+    ax.grid(True, lw=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_report(sim: dict, summary: dict, out_dir: Path) -> list[str]:
+    """Write the PNGs of one simulated run into ``out_dir``; returns their file names."""
+    run, best, setup = sim["run"], sim["clairvoyant"], sim["setup"]
+    t = np.arange(run.phase_s.shape[1], dtype=float)
+    label = f"{setup.scenario}, {setup.controller}, {setup.receivers} receiver(s)"
+    files = [plot_time_error(t, run.phase_s[0], best.phase_s[0], run.states.state[0], out_dir / "time_error.png",
+                             f"Time error ({label})").name,
+             plot_adev(summary["adev"], out_dir / "adev.png", f"ADEV ({label})").name]
+    env = sim["environment"]
+    if env.jamming_start_s is not None and env.jamming_duration_s > 0:
+        files.append(plot_holdover(t, run.phase_s[0], best.phase_s[0], env.jamming_start_s,
+                                   env.jamming_start_s + env.jamming_duration_s, out_dir / "holdover.png",
+                                   f"Holdover ({label})").name)
+    return files
