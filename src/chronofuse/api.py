@@ -26,7 +26,7 @@ from chronofuse.analysis.stability import (
     totdev,
     ttotdev,
 )
-from chronofuse.analysis.stability.taus import averaging_factors
+from chronofuse.analysis.stability.taus import averaging_factors, tau_grid
 from chronofuse.analysis.theory import adev_theory, avar_components
 from chronofuse.experiments.main_job import run_scenario
 from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
@@ -81,6 +81,7 @@ __all__ = [
     "frequency_to_phase",
     "phase_to_frequency",
     "averaging_factors",
+    "tau_grid",
     "adev_theory",
     "avar_components",
     "MASKS",

@@ -19,6 +19,7 @@ import chronofuse.analysis.stability as st
 from chronofuse.analysis.stability.noise_id import (
     MIN_ACF_POINTS,
     acf_noise_id,
+    acf_noise_id_fast,
     b1_expected,
     b1_noise_id,
     identify_noise,
@@ -157,8 +158,22 @@ def test_unidentifiable_factors_hold_the_last_identified_alpha():
 def test_the_method_of_each_alpha_is_reported_acf_from_30_averages_b1_below(records):
     import chronofuse.analysis.stability as stab
 
-    dev = stab.adev(records["phasedat"], 1.0)  # 1001 points: m = 32 has 31 averages, m = 64 has 15
+    dev = stab.adev(records["phasedat"], 1.0, stab.tau_grid("octave", 1001, 1.0, "adev"))  # 1001 points: m = 32 has 31 averages, m = 64 has 15
     m = np.rint(dev.tau_s).astype(int)
     assert (dev.alpha_method[m <= 32] == "acf").all()
     assert (dev.alpha_method[m >= 64] == "b1").all()
     assert dev.to_dict()["alpha_method"] == [str(v) for v in dev.alpha_method]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_fused_numba_identification_equals_the_readable_numpy_twin(seed):
+    """acf_noise_id_fast (one numba pass per difference) against acf_noise_id (np.diff, detrend, dots),
+    on records mixing a frequency offset, drift and each power-law noise, at several factors."""
+    rng = np.random.default_rng(seed)
+    n = 3000
+    white = rng.standard_normal(n)
+    for x in (white, np.cumsum(white), np.cumsum(np.cumsum(white)), np.cumsum(np.cumsum(np.cumsum(white)))):
+        x = x + 1e-3 * np.arange(n) + 1e-7 * np.arange(n) ** 2
+        for m in (1, 2, 5, 16, 64):
+            for dmax in (2, 3):
+                assert acf_noise_id_fast(x, m, dmax) == acf_noise_id(x, m, dmax)

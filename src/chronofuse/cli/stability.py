@@ -45,13 +45,13 @@ def stability(
         fail(f"--mask {mask!r}: choose from {', '.join(MASKS)}")
     with user_errors():
         record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz)
-        tau_spec = parse_taus(taus, record.rate_hz)
         x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
         results = {}
         with collected_warnings() as notes, progress_reporter("stability") as say:
             for name in names:
                 say(name)
-                results[name] = st.compute(name, x, record.rate_hz, tau_spec, ci=ci,
+                tau_s = parse_taus(taus, x.size, record.rate_hz, name)
+                results[name] = st.compute(name, x, record.rate_hz, tau_s, ci=ci,
                                            bias_correction=not no_bias_correction)
             verdict = None
             if mask is not None:
