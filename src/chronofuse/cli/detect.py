@@ -94,7 +94,7 @@ def _bias_column(path: Path, column: str | None) -> str | None:
 def read_csv_bias(path: Path, rate_hz: float, column: str | None) -> ClockBiasInput:
     """Clock bias (s) from a CSV/text record via :func:`chronofuse.io.records.read_record` (gaps as NaN)."""
     record = read_record(path, kind="phase", rate_hz=rate_hz, column=_bias_column(path, column))
-    t = record.t_s if record.t_s is not None else np.arange(record.values.size) / record.rate_hz
+    t = record.t_ns / 1e9 if record.t_ns is not None else np.arange(record.values.size) / record.rate_hz
     return ClockBiasInput(bias_s=record.values, t=t, n_skipped=record.n_gaps)
 
 
