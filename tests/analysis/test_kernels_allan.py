@@ -221,3 +221,22 @@ def test_max_averaging_factors_follow_stable32_stop_ratios():
     assert ka.max_m_adev(4) == 0
     with pytest.raises(ValueError, match="n_points"):
         ka.max_m_adev(-1)
+
+
+@pytest.mark.parametrize("order", [2, 3])
+def test_the_fused_numba_difference_sums_equal_the_blockwise_numpy_twin(order):
+    """_difference_sum_of_squares_fused (one numba pass) against _difference_sum_of_squares (numpy blocks),
+    overlapping and decimated, with and without missing samples."""
+    rng = np.random.default_rng(order)
+    x = np.cumsum(rng.standard_normal(70_000)) * 1e-9
+    work = np.empty((2, ka._BLOCK))
+    for gaps in (False, True):
+        if gaps:
+            x[[5, 6, 40_000]] = np.nan
+        for m in (1, 3, 64, 1000):
+            s_num, n_num = ka._difference_sum_of_squares(x, m, order, work)
+            s_fused, n_fused = ka._difference_sum_of_squares_fused(x, m, order, 1)
+            assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-12)
+            s_num, n_num = ka._difference_sum_of_squares(x[::m], 1, order, work)
+            s_fused, n_fused = ka._difference_sum_of_squares_fused(x, m, order, m)
+            assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-12)
