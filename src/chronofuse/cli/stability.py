@@ -14,7 +14,6 @@ from chronofuse.analysis.stability.taus import parse_taus
 from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputDataError
-from chronofuse.report.figures import plot_deviations
 
 _UNITS_S = {"tdev", "ttotdev", "tie_rms", "mtie"}
 
@@ -57,6 +56,8 @@ def stability(
                 say(f"mask {mask}")
                 verdict = MASKS[mask].check(x, record.rate_hz)
         if plot is not None:
+            from chronofuse.report.figures import plot_deviations  # matplotlib only when a plot is asked for
+
             dimensionless = {k: v for k, v in results.items() if k not in _UNITS_S}
             seconds = {k: v for k, v in results.items() if k in _UNITS_S}
             plot.parent.mkdir(parents=True, exist_ok=True)
