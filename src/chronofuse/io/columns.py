@@ -238,10 +238,11 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
     decimal = "," if layout.decimal_comma else "."
     if layout.delimiter != " ":
         try:
-            with open_binary(path, layout.compression) as fh:
+            source = pa.OSFile(str(path)) if layout.compression is None else open_binary(path, layout.compression)
+            with source as fh:  # pyarrow's own file for plain text: no Python in the read loop
                 return pcsv.read_csv(
                     fh,
-                    read_options=pcsv.ReadOptions(skip_rows=skip, column_names=names, block_size=1 << 24),
+                    read_options=pcsv.ReadOptions(skip_rows=skip, column_names=names),
                     parse_options=pcsv.ParseOptions(delimiter=layout.delimiter or "\x1f"),
                     convert_options=pcsv.ConvertOptions(
                         column_types=types, include_columns=[f"c{i}" for i in columns], null_values=_NULLS,
