@@ -238,3 +238,26 @@ def test_public_api_lists_every_statistic():
     x = st.frequency_to_phase(np.ones(4), 1.0)
     np.testing.assert_array_equal(st.phase_to_frequency(x, 1.0), np.ones(4))
     np.testing.assert_array_equal(st.averaging_factors(9), [1, 2, 4, 8])
+
+
+def test_no_difference_statistic_depends_on_the_value_put_in_a_frequency_gap():
+    """One documented gap rule ("span"): a term whose span holds a missing sample is skipped, so the
+    value integrated across a missing frequency sample (the mean, or anything else) never reaches a
+    result. Checked by integrating the same record with the gap filled by 0 and by 1e-8 instead."""
+    rng = np.random.default_rng(21)
+    y = rng.standard_normal(3000) * 1e-11
+    y[[100, 1500, 1501, 2222]] = np.nan
+    phases = []
+    for fill in (0.0, 1e-8):  # 1000 times the noise: any bridging term would show
+        x = np.concatenate(([0.0], np.cumsum(np.where(np.isnan(y), fill, y))))
+        x[1:][np.isnan(y)] = np.nan
+        phases.append(x)
+    np.testing.assert_array_equal(np.isnan(phases[0]), np.isnan(st.frequency_to_phase(y, 1.0)))
+    for name in ("adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "tie_rms"):
+        taus = tau_grid("octave", phases[0].size, 1.0, name)
+        a, b = (compute(name, x, 1.0, taus) for x in phases)
+        np.testing.assert_allclose(a.dev, b.dev, rtol=1e-9, err_msg=name)
+        np.testing.assert_array_equal(a.n, b.n)
+        assert a.gap_rule == "span" and a.skipped == 4
+    assert compute("mtie", phases[0], 1.0, [1.0]).gap_rule == "window"
+    assert compute("totdev", phases[0], 1.0, [1.0]).gap_rule == "fill"

@@ -168,4 +168,5 @@ def compute(
         bias_corrected=corrected,
         filled=int(filled),
         skipped=int(skipped),
+        gap_rule=spec.gap_rule,
     )

@@ -117,17 +117,21 @@ def _sum_of_squares(d: np.ndarray) -> tuple[float, int]:
     return sum_of_squares(dv), int(dv.size)
 
 
-def _difference_sum_of_squares(x: np.ndarray, m: int, order: int, work: np.ndarray) -> tuple[float, int]:
-    """Sum of squares of the non-NaN lagged differences of ``order`` of ``x`` (N,) at lag ``m``, and their
-    count, formed block by block in ``work`` (2, _BLOCK)."""
-    length = x.size - order * m
-    total, count = 0.0, 0
-    for start in range(0, max(length, 0), _BLOCK):
-        stop = min(start + _BLOCK, length)
-        s, c = _sum_of_squares(_lagged_difference(x[start : stop + order * m], m, order, work))
-        total += s
-        count += c
-    return total, count
+def nan_prefix(x: np.ndarray) -> np.ndarray:
+    """``c[i]`` = number of NaN in ``x[:i]``, shape (N + 1,): ``x[i : j]`` holds no NaN iff ``c[j] == c[i]``."""
+    return np.concatenate(([0], np.cumsum(np.isnan(x), dtype=np.int64)))
+
+
+def _difference_sum_of_squares(x: np.ndarray, m: int, order: int, step: int = 1) -> tuple[float, int]:
+    """Readable twin of the fused sum: sum of squares of the lagged differences of ``order`` of ``x`` (N,)
+    at lag ``m``, starts ``0, step, 2 step, ...``, skipping every term whose span ``x[i : i + order m + 1]``
+    holds a missing sample; and their count."""
+    d = _lagged_difference(x, m, order).copy()[::step]
+    if np.isnan(x).any():
+        c = nan_prefix(x)
+        starts = np.arange(0, x.size - order * m, step)
+        d = d[c[starts + order * m + 1] == c[starts]]
+    return sum_of_squares(d), int(d.size)
 
 
 @numba.njit(cache=True)
@@ -135,9 +139,8 @@ def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: in
     """The numba twin of :func:`_difference_sum_of_squares`: one pass, no temporaries.
 
     Terms start at ``i = 0, step, 2 step, ...`` (``step = 1``: overlapping; ``step = m``: the phase
-    decimated by ``m``); a term that is NaN (touches a missing sample) is skipped. Returns
-    ``(sum of squares, count)``. The plain sum runs first (it vectorizes); only when it comes out NaN is
-    the record summed again term by term, skipping the NaN terms.
+    decimated by ``m``). Returns ``(sum of squares, count)``, or ``(nan, -1)`` when a term is NaN (a
+    record with gaps goes to :func:`_difference_sum_of_squares_span`, which applies the span rule).
     """
     last = max(x.size - order * m, 0)
     total = 0.0
@@ -160,16 +163,25 @@ def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: in
     count = (last + step - 1) // step
     if total == total:
         return total, count
+    return np.nan, -1  # a gap: the caller sums again with the span rule
+
+
+@numba.njit(cache=True)
+def _difference_sum_of_squares_span(x: np.ndarray, c: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
+    """The fused sum on a record with gaps: terms whose span ``x[i : i + order m + 1]`` holds a missing
+    sample (``c`` from :func:`nan_prefix`) are skipped."""
+    last = max(x.size - order * m, 0)
     total = 0.0
     count = 0
     for i in range(0, last, step):
+        if c[i + order * m + 1] != c[i]:
+            continue
         if order == 2:
             d = x[i + 2 * m] - 2.0 * x[i + m] + x[i]
         else:
             d = x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]
-        if d == d:
-            total += d * d
-            count += 1
+        total += d * d
+        count += 1
     return total, count
 
 
@@ -183,9 +195,15 @@ def _difference_variance(
     """
     var = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
+    # A decimated term can step over a gap without reading it: with gaps, every m uses the span rule.
+    prefix = nan_prefix(x) if np.isnan(x).any() else None
     for j, mj in enumerate(m):
         mj = int(mj)
-        s, count = _difference_sum_of_squares_fused(x, mj, order, 1 if overlapping else mj)
+        step = 1 if overlapping else mj
+        if prefix is None:
+            s, count = _difference_sum_of_squares_fused(x, mj, order, step)
+        else:
+            s, count = _difference_sum_of_squares_span(x, prefix, mj, order, step)
         n[j] = count
         if count > 0:
             var[j] = s / (scale * count * (mj * tau0_s) ** 2)

@@ -31,7 +31,7 @@ import numba
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, sum_of_squares
+from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, nan_prefix, sum_of_squares
 
 __all__ = ["tie_rms_raw", "mtie_raw", "mtie_sparse_numpy", "mtie_windows_raw", "max_m_tie_rms", "max_m_mtie"]
 
@@ -42,7 +42,8 @@ def tie_rms_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray
     Parameters
     ----------
     x : ndarray of shape (N,)
-        Phase in seconds; NaN marks a missing sample (differences touching it are skipped).
+        Phase in seconds; NaN marks a missing sample (a difference whose span ``x[i : i + m + 1]`` holds one
+        is skipped, the rule of every difference statistic here).
     m : ndarray of int of shape (k,)
         Averaging factors, ``1 <= m <= max_m_tie_rms(N)``.
     tau0_s : float
@@ -58,12 +59,13 @@ def tie_rms_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
     dev = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
+    prefix = nan_prefix(x) if np.isnan(x).any() else None
     for j, mj in enumerate(m):
         mj = int(mj)
         d = x[mj:] - x[:-mj]
         s = sum_of_squares(d)
-        if np.isnan(s):
-            d = d[~np.isnan(d)]
+        if prefix is not None:
+            d = d[prefix[mj + 1 :] == prefix[: x.size - mj]]  # no missing sample in x[i : i + m + 1]
             s = sum_of_squares(d)
         n[j] = d.size
         if d.size:

@@ -43,6 +43,9 @@ from chronofuse.validation import check_choice, check_scalar
 __all__ = ["StatisticSpec", "STATISTICS", "GAP_POLICIES", "EDF_FAMILIES"]
 
 GAP_POLICIES = ("skip", "fill")
+# What a Deviation reports as its gap rule: "span" (a term whose span holds a missing sample is skipped),
+# "window" (MTIE: a window's extremes over the samples present in it) or "fill" (gaps interpolated).
+GAP_RULES = ("span", "window", "fill")
 EDF_FAMILIES = ("greenhall", "totdev", "mtotdev", "htotdev", "theo1", "none")
 
 Kernel = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
@@ -62,7 +65,7 @@ class StatisticSpec:
     max_m : callable
         Largest valid averaging factor for N phase points.
     gaps : str
-        ``"skip"`` (kernel skips terms touching NaN) or ``"fill"`` (engine interpolates first).
+        ``"skip"`` (the kernel skips terms by ``gap_rule``) or ``"fill"`` (the engine interpolates first).
     tau_factor : float
         ``tau = tau_factor * m * tau0`` (0.75 for Theo1, 1 otherwise).
     m_step : int
@@ -73,6 +76,8 @@ class StatisticSpec:
         Largest number of differences in the lag-1 ACF noise identification (3: Hadamard family).
     bias : callable or None
         ``(alpha (k,), m (k,), N) -> factor (k,)`` multiplying the raw deviation, or None.
+    gap_rule : str
+        One of ``GAP_RULES``, reported on every result.
     """
 
     name: str
@@ -84,10 +89,14 @@ class StatisticSpec:
     edf_family: str = "greenhall"
     noise_dmax: int = 2
     bias: BiasFunction | None = None
+    gap_rule: str = "span"
 
     def __post_init__(self):
         check_choice(self.gaps, "gaps", GAP_POLICIES)
         check_choice(self.edf_family, "edf_family", EDF_FAMILIES)
+        check_choice(self.gap_rule, "gap_rule", GAP_RULES)
+        if (self.gaps == "fill") != (self.gap_rule == "fill"):
+            raise ValueError(f"gap_rule == {self.gap_rule!r} does not go with gaps == {self.gaps!r}")
         check_scalar(self.tau_factor, "tau_factor", min_val=0, include_min=False)
         check_scalar(self.m_step, "m_step", min_val=1, integer=True)
 
@@ -101,14 +110,18 @@ STATISTICS: dict[str, StatisticSpec] = {
         StatisticSpec("tdev", tdev_raw, max_m_tdev, "skip"),
         StatisticSpec("hdev", hdev_raw, max_m_hdev, "skip", noise_dmax=3),
         StatisticSpec("ohdev", ohdev_raw, max_m_ohdev, "skip", noise_dmax=3),
-        StatisticSpec("totdev", totdev_raw, max_m_totdev, "fill", edf_family="totdev", bias=totdev_bias),
-        StatisticSpec("mtotdev", mtotdev_raw, max_m_mtotdev, "fill", edf_family="mtotdev"),
-        StatisticSpec("ttotdev", ttotdev_raw, max_m_ttotdev, "fill", edf_family="mtotdev"),
         StatisticSpec(
-            "htotdev", htotdev_raw, max_m_htotdev, "fill", edf_family="htotdev", noise_dmax=3, bias=htotdev_bias
+            "totdev", totdev_raw, max_m_totdev, "fill", edf_family="totdev", bias=totdev_bias, gap_rule="fill"
         ),
-        StatisticSpec("theo1", theo1_raw, max_m_theo1, "fill", tau_factor=0.75, m_step=2, edf_family="theo1"),
+        StatisticSpec("mtotdev", mtotdev_raw, max_m_mtotdev, "fill", edf_family="mtotdev", gap_rule="fill"),
+        StatisticSpec("ttotdev", ttotdev_raw, max_m_ttotdev, "fill", edf_family="mtotdev", gap_rule="fill"),
+        StatisticSpec(
+            "htotdev", htotdev_raw, max_m_htotdev, "fill", edf_family="htotdev", noise_dmax=3, bias=htotdev_bias,
+            gap_rule="fill",
+        ),
+        StatisticSpec("theo1", theo1_raw, max_m_theo1, "fill", tau_factor=0.75, m_step=2, edf_family="theo1",
+                      gap_rule="fill"),
         StatisticSpec("tie_rms", tie_rms_raw, max_m_tie_rms, "skip", edf_family="none"),
-        StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none"),
+        StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none", gap_rule="window"),
     )
 }
