@@ -147,7 +147,7 @@ def compute(
     dev = np.asarray(dev, dtype=float)
     n = np.asarray(n, dtype=np.int64)
 
-    alpha, alpha_method = identify_noise_methods(x_id, m, spec.noise_dmax)
+    alpha, alpha_method = identify_noise_methods(x_id, m, spec.noise_dmax, spec.overlapping)
     corrected = bool(bias_correction and spec.bias is not None)
     if corrected:
         dev = dev * spec.bias(alpha, m, n_points)

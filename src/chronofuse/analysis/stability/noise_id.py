@@ -16,14 +16,17 @@ spectrum, ``S_y(f) ~ f**alpha``, is identified as an integer in -2..2 (Stable32'
    (classical variance of the ``m``-averages over the non-overlapped Allan variance) is compared with
    its expectation ``B1(N, mu)`` for each noise type, the boundaries being geometric means of
    neighbouring expectations; B1 cannot tell white from flicker PM (both ``mu = -2``), so R(n) =
-   MVAR / AVAR decides between them.
+   MVAR / AVAR decides between them. The AVAR in B1 is the overlapping one for the overlapping and total
+   statistics (non-overlapped for ADEV and HDEV): with ~10 averages the non-overlapped AVAR alone
+   scatters B1 across a boundary (SP 1065's white-FM 1000-point set at m = 100: 0.68, flicker PM; with
+   the overlapping AVAR 0.98, white FM, which gives SP 1065's published HTOTDEV there).
 
 Reproduction of Stable32 (tests/analysis/test_noise_id.py): every ``Alpha`` entry of every Stable32
 table in ``shared/data/stability`` whose row has at least 30 frequency averages is reproduced exactly
 (phasedat, ocxo, gps and Cs5071A, all statistics of the Allan, Hadamard and total families). Working on
 frequency averages with a linear detrend matters: identifying on the decimated phase with a quadratic
 detrend (allantools' choice) gives alpha = 2 instead of Stable32's 0 at m = 10000 of the Cs5071A record.
-The B1/R(n) rows (fewer than 30 averages) are not all reproduced: Stable32's small-sample procedure is
+The B1/R(n) rows (fewer than 30 averages) are not all reproduced (33 of 75): Stable32's small-sample procedure is
 not documented beyond "B1 and R(n)", and its answers even differ between ADEV and OADEV at the same
 ``m`` of the same record (ocxo m = 1024: -2 and -1), which no single B1 rule gives. The Cs5071A TOTDEV
 table reports alpha = 0 at every row (also where ADEV on the same data reports 2 and 1), and the
@@ -223,18 +226,23 @@ def _rn_expected(m: int, alpha: int) -> float:
     return mvar / avar
 
 
-def b1_noise_id(x: np.ndarray, m: int) -> int | None:
+def b1_noise_id(x: np.ndarray, m: int, overlapping: bool = False) -> int | None:
     """B1-ratio noise identification with R(n) to separate white and flicker PM.
 
     ``x`` (N,) gap-free phase; returns ``alpha`` in -2..2, or None when fewer than 2 frequency averages
-    (or no Allan term) exist at this ``m``.
+    (or no Allan term) exist at this ``m``. ``overlapping``: the Allan variance in the ratio is the
+    overlapping one (for the overlapping and total statistics; Stable32's B1 answers differ between ADEV
+    and OADEV at the same ``m``, as the variance it divides by does). With n = 10 averages the
+    non-overlapped AVAR has about 9 degrees of freedom and its scatter alone moves B1 across the
+    white-PM/white-FM boundary: on SP 1065's white-FM 1000-point set at m = 100 it gives B1 = 0.68
+    (flicker PM) where the overlapping AVAR gives 0.98 (white FM).
     """
     z = frequency_averages(x, m)
     n = z.size
     if n < 3:
         return None
     mm = np.array([m], dtype=np.int64)
-    avar = float(adev_raw(x, mm, 1.0)[0][0]) ** 2
+    avar = float((oadev_raw if overlapping else adev_raw)(x, mm, 1.0)[0][0]) ** 2
     if not np.isfinite(avar) or avar == 0.0:
         return None
     b1 = float(np.var(z, ddof=1)) / avar
@@ -258,7 +266,9 @@ def b1_noise_id(x: np.ndarray, m: int) -> int | None:
     return 1 if rn > np.sqrt(_rn_expected(m, 2) * _rn_expected(m, 1)) else 2
 
 
-def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple[np.ndarray, np.ndarray]:
+def identify_noise_methods(
+    x: np.ndarray, m: np.ndarray, dmax: int = 2, overlapping: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """Identify the power-law noise ``alpha`` (integer, -2..2) at each averaging factor.
 
     Parameters
@@ -269,6 +279,8 @@ def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple
         Averaging factors.
     dmax : int
         2 for the Allan and total families, 3 for the Hadamard family.
+    overlapping : bool
+        The B1 fallback divides by the overlapping Allan variance (see :func:`b1_noise_id`).
 
     Returns
     -------
@@ -289,7 +301,7 @@ def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple
         if a is not None:
             method[j] = "acf"
         else:
-            a = b1_noise_id(x, int(mj))
+            a = b1_noise_id(x, int(mj), overlapping)
             if a is not None:
                 method[j] = "b1"
         if a is not None:

@@ -78,6 +78,9 @@ class StatisticSpec:
         ``(alpha (k,), m (k,), N) -> factor (k,)`` multiplying the raw deviation, or None.
     gap_rule : str
         One of ``GAP_RULES``, reported on every result.
+    overlapping : bool
+        The statistic averages overlapping terms (all but ADEV and HDEV): its B1 noise identification
+        divides by the overlapping Allan variance.
     """
 
     name: str
@@ -90,6 +93,7 @@ class StatisticSpec:
     noise_dmax: int = 2
     bias: BiasFunction | None = None
     gap_rule: str = "span"
+    overlapping: bool = True
 
     def __post_init__(self):
         check_choice(self.gaps, "gaps", GAP_POLICIES)
@@ -104,11 +108,11 @@ class StatisticSpec:
 STATISTICS: dict[str, StatisticSpec] = {
     spec.name: spec
     for spec in (
-        StatisticSpec("adev", adev_raw, max_m_adev, "skip"),
+        StatisticSpec("adev", adev_raw, max_m_adev, "skip", overlapping=False),
         StatisticSpec("oadev", oadev_raw, max_m_oadev, "skip"),
         StatisticSpec("mdev", mdev_raw, max_m_mdev, "skip"),
         StatisticSpec("tdev", tdev_raw, max_m_tdev, "skip"),
-        StatisticSpec("hdev", hdev_raw, max_m_hdev, "skip", noise_dmax=3),
+        StatisticSpec("hdev", hdev_raw, max_m_hdev, "skip", noise_dmax=3, overlapping=False),
         StatisticSpec("ohdev", ohdev_raw, max_m_ohdev, "skip", noise_dmax=3),
         StatisticSpec(
             "totdev", totdev_raw, max_m_totdev, "fill", edf_family="totdev", bias=totdev_bias, gap_rule="fill"
