@@ -152,16 +152,23 @@ def _sw_scalar(t: float, alpha: int) -> float:
     raise ValueError(f"alpha == {alpha}, must be an integer in -4..2")
 
 
+# (k, (-1)**k C(2d, d+k)) for k = -d..d, by d: the weights of eq. (9).
+_SZ_WEIGHTS = {d: tuple((k, (-1) ** k * math.comb(2 * d, d + k)) for k in range(-d, d + 1)) for d in range(1, 4)}
+
+
 def _sz_scalar(t: float, F: float, alpha: int, d: int) -> float:
     """:func:`_sz` of one float."""
     total = 0.0
-    for k in range(-d, d + 1):
+    weights = _SZ_WEIGHTS[d] if d in _SZ_WEIGHTS else tuple((k, (-1) ** k * math.comb(2 * d, d + k))
+                                                            for k in range(-d, d + 1))
+    if math.isinf(F):
+        for k, w in weights:
+            total += w * _sw_scalar(t + k, alpha + 2)
+        return total
+    step = 1.0 / F
+    for k, w in weights:
         u = t + k
-        if math.isinf(F):
-            sx = _sw_scalar(u, alpha + 2)
-        else:
-            sx = F * F * (2.0 * _sw_scalar(u, alpha) - _sw_scalar(u - 1.0 / F, alpha) - _sw_scalar(u + 1.0 / F, alpha))
-        total += (-1) ** k * math.comb(2 * d, d + k) * sx
+        total += w * (F * F * (2.0 * _sw_scalar(u, alpha) - _sw_scalar(u - step, alpha) - _sw_scalar(u + step, alpha)))
     return total
 
 

@@ -130,7 +130,8 @@ def compute(
         raise TypeError(f"bias_correction == {bias_correction!r}, must be a bool")
     tau0_s = 1.0 / rate_hz
 
-    n_missing = int(np.isnan(x).sum())
+    # One reduction tells whether there is a gap (x has no infinities); count only then.
+    n_missing = int(np.count_nonzero(np.isnan(x))) if x.size and np.isnan(np.add.reduce(x)) else 0
     if n_missing == x.size:
         raise ValueError(f"x_s has {x.size} samples, all NaN")
     skipped = filled = 0

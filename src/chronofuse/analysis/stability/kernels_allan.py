@@ -134,7 +134,30 @@ def _difference_sum_of_squares(x: np.ndarray, m: int, order: int, step: int = 1)
     return sum_of_squares(d), int(d.size)
 
 
-@numba.njit(cache=True)
+# Reassociation only (no "nnan": a NaN sum still tells a gap): with the terms read from slices the sum
+# vectorizes, 5x faster than the strict left-to-right sum on one core.
+_REASSOC = {"reassoc"}
+
+
+@numba.njit(cache=True, fastmath=_REASSOC)
+def _contiguous_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
+    """Sum of squares of the lag-``lag`` differences of ``order`` of ``x`` (read through slices)."""
+    count = max(x.size - order * lag, 0)
+    total = 0.0
+    if order == 2:
+        a, b, c = x[2 * lag : 2 * lag + count], x[lag : lag + count], x[:count]
+        for i in range(count):
+            d = a[i] - 2.0 * b[i] + c[i]
+            total += d * d
+    else:
+        a, b, c, e = x[3 * lag : 3 * lag + count], x[2 * lag : 2 * lag + count], x[lag : lag + count], x[:count]
+        for i in range(count):
+            d = a[i] - 3.0 * b[i] + 3.0 * c[i] - e[i]
+            total += d * d
+    return total, count
+
+
+@numba.njit(cache=True, fastmath=_REASSOC)
 def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
     """The numba twin of :func:`_difference_sum_of_squares`: one pass, no temporaries.
 
@@ -142,28 +165,13 @@ def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: in
     decimated by ``m``). Returns ``(sum of squares, count)``, or ``(nan, -1)`` when a term is NaN (a
     record with gaps goes to :func:`_difference_sum_of_squares_span`, which applies the span rule).
     """
-    last = max(x.size - order * m, 0)
-    total = 0.0
-    if step == 1 and order == 2:  # unit-stride loops are written apart: those LLVM vectorizes
-        for i in range(last):
-            d = x[i + 2 * m] - 2.0 * x[i + m] + x[i]
-            total += d * d
-    elif step == 1:
-        for i in range(last):
-            d = x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]
-            total += d * d
-    elif order == 2:
-        for i in range(0, last, step):
-            d = x[i + 2 * m] - 2.0 * x[i + m] + x[i]
-            total += d * d
+    if step == 1:
+        total, count = _contiguous_sum(x, m, order)  # contiguous slices: the loop vectorizes
     else:
-        for i in range(0, last, step):
-            d = x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]
-            total += d * d
-    count = (last + step - 1) // step
+        total, count = _contiguous_sum(np.ascontiguousarray(x[::step]), 1, order)
     if total == total:
         return total, count
-    return np.nan, -1  # a gap: the caller sums again with the span rule
+    return np.nan, -1
 
 
 @numba.njit(cache=True)
@@ -185,6 +193,18 @@ def _difference_sum_of_squares_span(x: np.ndarray, c: np.ndarray, m: int, order:
     return total, count
 
 
+def allan_variance_gap_free(x: np.ndarray, m: int, overlapping: bool) -> float:
+    """AVAR at factor ``m`` in units of ``tau0 = 1`` of a gap-free phase record ``x`` (N,) (no checks:
+    for the noise identification, which already holds a validated, gap-filled record); NaN if no term."""
+    s, count = _difference_sum_of_squares_fused(x, m, _SECOND, 1 if overlapping else m)
+    return s / (2.0 * count * m * m) if count > 0 else np.nan
+
+
+def _has_nan(x: np.ndarray) -> bool:
+    """Whether ``x`` holds a NaN, by one reduction (no boolean temporary; ``x`` has no infinities)."""
+    return bool(np.isnan(np.add.reduce(x))) if x.size else False
+
+
 def _difference_variance(
     x: np.ndarray, m: np.ndarray, tau0_s: float, order: int, scale: float, overlapping: bool
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -196,7 +216,7 @@ def _difference_variance(
     var = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
     # A decimated term can step over a gap without reading it: with gaps, every m uses the span rule.
-    prefix = nan_prefix(x) if np.isnan(x).any() else None
+    prefix = nan_prefix(x) if _has_nan(x) else None
     for j, mj in enumerate(m):
         mj = int(mj)
         step = 1 if overlapping else mj

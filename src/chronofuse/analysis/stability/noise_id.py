@@ -40,7 +40,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from chronofuse.analysis.stability.kernels_allan import adev_raw, mdev_raw, oadev_raw, sum_of_squares
+from chronofuse.analysis.stability.kernels_allan import allan_variance_gap_free, mdev_raw, oadev_raw, sum_of_squares
 
 __all__ = [
     "MIN_ACF_POINTS",
@@ -137,47 +137,54 @@ def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
     series ``w`` is the ``(d+1)``-th difference of the decimated phase ``x[::m]`` divided by ``m``,
     formed once into a scratch array, then fitted and correlated.
     """
-    n_dec = (x.size - 1) // m + 1
-    n = n_dec - 1 - d
+    xd = x if m == 1 else np.ascontiguousarray(x[::m])  # contiguous slices below: the loops vectorize
+    n = xd.size - 1 - d
     if n < 2:
         return 0.0
     inv_m = 1.0 / m
     w = np.empty(n)
-    # w = (d+1)-th difference of x[::m] / m, written out per order so that the loop vectorizes.
+    # w = (d+1)-th difference of x[::m] / m, written out per order.
     if d == 0:
+        a1, a0 = xd[1 : n + 1], xd[:n]
         for k in range(n):
-            w[k] = (x[(k + 1) * m] - x[k * m]) * inv_m
+            w[k] = (a1[k] - a0[k]) * inv_m
     elif d == 1:
+        a2, a1, a0 = xd[2 : n + 2], xd[1 : n + 1], xd[:n]
         for k in range(n):
-            w[k] = (x[(k + 2) * m] - 2.0 * x[(k + 1) * m] + x[k * m]) * inv_m
+            w[k] = (a2[k] - 2.0 * a1[k] + a0[k]) * inv_m
     elif d == 2:
+        a3, a2, a1, a0 = xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
         for k in range(n):
-            w[k] = (x[(k + 3) * m] - 3.0 * x[(k + 2) * m] + 3.0 * x[(k + 1) * m] - x[k * m]) * inv_m
+            w[k] = (a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]) * inv_m
     else:
+        a4, a3, a2, a1, a0 = xd[4 : n + 4], xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
         for k in range(n):
-            w[k] = (x[(k + 4) * m] - 4.0 * x[(k + 3) * m] + 6.0 * x[(k + 2) * m] - 4.0 * x[(k + 1) * m]
-                    + x[k * m]) * inv_m
+            w[k] = (a4[k] - 4.0 * a3[k] + 6.0 * a2[k] - 4.0 * a1[k] + a0[k]) * inv_m
     w0 = w[0]
     s1 = 0.0
     skw = 0.0
-    for k in range(n):
-        v = w[k] - w0
-        s1 += v
-        skw += k * v
+    if d == 0:  # only the d = 0 series is detrended; the others need just their mean
+        for k in range(n):
+            v = w[k] - w0
+            s1 += v
+            skw += k * v
+    else:
+        for k in range(n):
+            s1 += w[k] - w0
     half = 0.5 * (n - 1)
     mean = w0 + s1 / n
     slope = 0.0
     if d == 0:
         slope = (skw - half * s1) / (n * (n * n - 1.0) / 12.0)
     # Pass 2: residuals e_k = w_k - mean - slope (k - half), their energy and lag-1 products.
-    for k in range(n):
-        w[k] = w[k] - mean - slope * (k - half)
-    den = 0.0
+    prev = w[0] - mean + slope * half
+    den = prev * prev
     num = 0.0
-    for k in range(n):
-        den += w[k] * w[k]
-    for k in range(n - 1):
-        num += w[k] * w[k + 1]
+    for k in range(1, n):
+        e = w[k] - mean - slope * (k - half)
+        den += e * e
+        num += prev * e
+        prev = e
     if den == 0.0:
         return 0.0
     return num / den
@@ -242,7 +249,7 @@ def b1_noise_id(x: np.ndarray, m: int, overlapping: bool = False) -> int | None:
     if n < 3:
         return None
     mm = np.array([m], dtype=np.int64)
-    avar = float((oadev_raw if overlapping else adev_raw)(x, mm, 1.0)[0][0]) ** 2
+    avar = allan_variance_gap_free(x, m, overlapping)
     if not np.isfinite(avar) or avar == 0.0:
         return None
     b1 = float(np.var(z, ddof=1)) / avar
