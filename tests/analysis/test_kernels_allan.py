@@ -240,3 +240,13 @@ def test_the_fused_numba_difference_sums_equal_the_blockwise_numpy_twin(order):
                 if gaps:
                     s_fused, n_fused = ka._difference_sum_of_squares_span(x, ka.nan_prefix(x), m, order, step)
                 assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-12)
+
+
+def test_the_fused_numba_mdev_sum_equals_the_blockwise_numpy_twin():
+    rng = np.random.default_rng(31)
+    x = np.cumsum(np.cumsum(rng.standard_normal(80_000))) * 1e-12 + 1e-6 * np.arange(80_000)  # a ramp too
+    work, cumulative = np.empty((2, ka._BLOCK)), np.empty(x.size + 1)
+    for m in (1, 2, 7, 64, 5000):
+        s_num, n_num = ka._mvar_sum_of_squares(x, m, work, cumulative.copy())
+        s_fused, n_fused = ka._mvar_sum_of_squares_fused(x, m, cumulative)
+        assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-9)

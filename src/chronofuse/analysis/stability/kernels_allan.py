@@ -140,7 +140,7 @@ _REASSOC = {"reassoc"}
 
 
 @numba.njit(cache=True, fastmath=_REASSOC)
-def _contiguous_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
+def contiguous_difference_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
     """Sum of squares of the lag-``lag`` differences of ``order`` of ``x`` (read through slices)."""
     count = max(x.size - order * lag, 0)
     total = 0.0
@@ -166,9 +166,9 @@ def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: in
     record with gaps goes to :func:`_difference_sum_of_squares_span`, which applies the span rule).
     """
     if step == 1:
-        total, count = _contiguous_sum(x, m, order)  # contiguous slices: the loop vectorizes
+        total, count = contiguous_difference_sum(x, m, order)  # contiguous slices: the loop vectorizes
     else:
-        total, count = _contiguous_sum(np.ascontiguousarray(x[::step]), 1, order)
+        total, count = contiguous_difference_sum(np.ascontiguousarray(x[::step]), 1, order)
     if total == total:
         return total, count
     return np.nan, -1
@@ -348,6 +348,39 @@ def _mvar_sum_of_squares(x: np.ndarray, m: int, work: np.ndarray, cumulative: np
     return total, n_terms
 
 
+@numba.njit(cache=True)
+def _mvar_cumulative(x: np.ndarray, m: int, c: np.ndarray) -> int:
+    """``c[0] = 0``, ``c[i+1] = c[i] + (x[i+2m] - 2 x[i+m] + x[i])``: the running sum of the second
+    differences, strictly left to right (no reassociation here); returns their number ``N - 2m``."""
+    n_diff = x.size - 2 * m
+    c[0] = 0.0
+    a, b, e = x[2 * m : 2 * m + n_diff], x[m : m + n_diff], x[:n_diff]
+    for i in range(n_diff):
+        c[i + 1] = c[i] + (a[i] - 2.0 * b[i] + e[i])
+    return n_diff
+
+
+@numba.njit(cache=True, fastmath=_REASSOC)
+def _window_square_sum(c: np.ndarray, m: int, n_terms: int) -> float:
+    """``sum_j (c[j+m] - c[j])**2`` for ``j < n_terms`` (slices; the sum vectorizes)."""
+    hi, lo = c[m : m + n_terms], c[:n_terms]
+    total = 0.0
+    for j in range(n_terms):
+        t = hi[j] - lo[j]
+        total += t * t
+    return total
+
+
+def _mvar_sum_of_squares_fused(x: np.ndarray, m: int, cumulative: np.ndarray) -> tuple[float, int]:
+    """The numba twin of :func:`_mvar_sum_of_squares` (same algorithm: running sum of the second
+    differences, then differences of that sum), without blocks or temporaries."""
+    n_terms = x.size - 3 * m + 1
+    if n_terms <= 0:
+        return 0.0, 0
+    _mvar_cumulative(x, m, cumulative)
+    return _window_square_sum(cumulative, m, n_terms), n_terms
+
+
 def _mvar(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Modified Allan variance (k,) and term counts (k,), NIST SP 1065 eq. (14), O(N) per factor.
 
@@ -356,11 +389,10 @@ def _mvar(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.n
     """
     var = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
-    work = np.empty((2, _BLOCK))
     cumulative = np.empty(x.size + 1)
     for j, mj in enumerate(m):
         mj = int(mj)
-        s, count = _mvar_sum_of_squares(x, mj, work, cumulative)
+        s, count = _mvar_sum_of_squares_fused(x, mj, cumulative)
         if np.isnan(s):
             terms = _mvar_terms_with_gaps(x, mj)
             s, count = sum_of_squares(terms), int(terms.size)
