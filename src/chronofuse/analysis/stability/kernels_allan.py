@@ -9,8 +9,12 @@ Every kernel has the stability-engine signature ``name_raw(x, m, tau0_s) -> (dev
 
 All are O(N) per averaging factor: the Allan and Hadamard variances are means of squared binomial
 differences of the phase taken at lag ``m``; the modified variance sums ``m`` consecutive second
-differences, which is a difference of two cumulative sums. A term that touches a NaN sample is skipped
-and ``n`` counts only the valid terms. Kernels never modify ``x``.
+differences, which is a difference of two cumulative sums. A term whose span (first to last sample it
+covers) holds a NaN sample is skipped and ``n`` counts only the valid terms. Kernels never modify ``x``.
+
+The sums run in numba loops over contiguous slices with reassociated (vectorized) additions
+(``_difference_sum_of_squares_fused``, ``_mvar_sum_of_squares_fused``); their readable numpy twins
+(``_difference_sum_of_squares``, the blocked ``_mvar_sum_of_squares``) are compared in the tests.
 
 Reference: W. J. Riley, *Handbook of Frequency Stability Analysis*, NIST SP 1065 (2008), section 5.2.
 The averaging-factor limits are Stable32's "stop ratios" (``max AF = N // ratio``: 5 for ADEV and HDEV,
@@ -106,15 +110,6 @@ def sum_of_squares(d: np.ndarray) -> float:
     processes hold the cores (measured: 10x slower medians on a shared 2-core machine).
     """
     return float(np.einsum("i,i->", d, d))
-
-
-def _sum_of_squares(d: np.ndarray) -> tuple[float, int]:
-    """Sum of squares of the non-NaN entries of ``d`` (L,) and how many there are."""
-    s = sum_of_squares(d)
-    if not np.isnan(s):
-        return s, int(d.size)
-    dv = d[~np.isnan(d)]
-    return sum_of_squares(dv), int(dv.size)
 
 
 def nan_prefix(x: np.ndarray) -> np.ndarray:
