@@ -117,3 +117,19 @@ def test_a_time_tagged_record_reports_its_jitter_and_gaps(tmp_path):
     doc = json.loads(result.stdout)
     assert (doc["n"], doc["rate"], doc["gaps"]) == (400, 1.0, 1)
     assert 3e-4 < doc["jitter_rms_s"] < 8e-4 and doc["jitter_max_s"] < 1.01e-3
+
+
+def test_the_nbs14_10_point_frequency_set_gives_its_published_adev_and_oadev(tmp_path):
+    """NBS-14 10-point set (W. J. Riley, "The calculation of time domain frequency stability", and NIST
+    SP 1065 p. 107; allantools' tests/nbs14): frequency 892, 809, 823, 798, 671, 644, 883, 903, 677;
+    ADEV 91.22945 and 115.8082, OADEV 91.22945 and 85.95287 at tau = 1 and 2. Values far outside a clock's
+    range: analysed as given, with a warning, not refused as absolute frequency."""
+    path = tmp_path / "nbs14.txt"
+    path.write_text("892\n809\n823\n798\n671\n644\n883\n903\n677\n")
+    result = invoke("stability", path, "--kind", "freq", "--rate", 1, "--dev", "adev,oadev", "--taus", "1,2",
+                    "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    np.testing.assert_allclose(doc["deviations"]["adev"]["dev"], [91.22945, 115.8082], rtol=1e-6)
+    np.testing.assert_allclose(doc["deviations"]["oadev"]["dev"], [91.22945, 85.95287], rtol=1e-6)
+    assert any("implausible for a clock" in w for w in doc["warnings"])
