@@ -11,7 +11,7 @@ import numpy as np
 import pyarrow as pa
 import pytest
 
-from chronofuse.io.columns import decimal_text_to_ns
+from chronofuse.io.columns import decimal_text_to_ns, read_columns, sniff
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputDataError
 
@@ -212,16 +212,21 @@ def test_comment_lines_and_inline_comments_among_the_data_are_skipped(tmp_path):
     np.testing.assert_allclose(rec.values, [1e-9, 2e-9, 3e-9])
 
 
-def test_the_fast_columnar_reader_and_the_line_reader_give_identical_values(tmp_path):
+def test_pyarrow_pandas_and_the_line_reader_give_identical_values(tmp_path):
+    """The same numbers through the three readers: pyarrow (plain column), pandas' C parser (a '#' line
+    among the data) and the Python line reader (';' columns with a '#' line among the data)."""
     rng = np.random.default_rng(3)
     y = rng.standard_normal(5000) * 1e-9
     fast = tmp_path / "fast.txt"
     fast.write_text("".join(f"{v!r}\n" for v in y.tolist()))
-    slow = tmp_path / "slow.txt"
-    slow.write_text("# start\n" + "".join(f"{v!r}\n" + ("# mid\n" if k == 2500 else "") for k, v in enumerate(y.tolist())))
-    a, b = read_record(fast, rate_hz=1.0), read_record(slow, rate_hz=1.0)
-    np.testing.assert_array_equal(a.values, y)
-    np.testing.assert_array_equal(b.values, y)
+    mid = tmp_path / "mid.txt"
+    mid.write_text("# start\n" + "".join(f"{v!r}\n" + ("# mid\n" if k == 2500 else "") for k, v in enumerate(y.tolist())))
+    semi = tmp_path / "semi.txt"
+    semi.write_text("".join(f"{k};{v!r}\n" + ("# mid\n" if k == 2500 else "") for k, v in enumerate(y.tolist())))
+    layout = sniff(semi)
+    assert read_columns(semi, layout, 1, None)[2] is False  # the line reader was needed
+    for path in (fast, mid, semi):
+        np.testing.assert_array_equal(read_record(path, rate_hz=1.0).values, y)
 
 
 # --- time-tagged data ----------------------------------------------------------------------------
