@@ -26,7 +26,7 @@ from chronofuse.analysis.stability import (
     totdev,
     ttotdev,
 )
-from chronofuse.analysis.stability.taus import averaging_factors
+from chronofuse.analysis.stability.taus import averaging_factors, tau_grid
 from chronofuse.analysis.theory import adev_theory, avar_components, corrected_pps_adev
 from chronofuse.estimation.filter import FilterResult, KalmanFilter
 from chronofuse.estimation.interface import Estimator, FrozenResult, compare_streaming_to_batch, pick_inputs
@@ -147,6 +147,7 @@ __all__ = [
     "frequency_to_phase",
     "phase_to_frequency",
     "averaging_factors",
+    "tau_grid",
     "adev_theory",
     "avar_components",
     "corrected_pps_adev",

@@ -101,3 +101,13 @@ def test_bias_correction_false_returns_the_raw_kernel_for_every_statistic(phased
     off = st.totdev(x, 1.0, [10.0, 1000.0], bias_correction=False)
     assert on.alpha.tolist() == [-2, -2] and on.bias_corrected
     assert on.dev[1] / off.dev[1] == pytest.approx(1 / np.sqrt(1 - 0.75 * 1000 / 2999))
+
+
+def test_default_htotdev_of_the_nist_1000_point_set_equals_the_published_values(nbs14_phase):
+    """NIST SP 1065 (Riley 2008) section 12.1 / Table 31, the 1000-point white-FM set (also allantools'
+    tests/nbs14/test_nbs14_1000point.py): HTOTDEV 2.943883e-01, 9.614787e-02, 3.058103e-02 at 1, 10, 100 s.
+    At 100 s only 10 frequency averages exist (B1 identification): identified as white FM, the default
+    bias correction 1/sqrt(0.995) gives the published value (flicker PM would leave it 0.25 % low)."""
+    res = st.htotdev(nbs14_phase, 1.0, [1.0, 10.0, 100.0])
+    np.testing.assert_allclose(res.dev, [2.943883e-01, 9.614787e-02, 3.058103e-02], rtol=2e-6)
+    assert res.alpha.tolist() == [0, 0, 0] and res.alpha_method.tolist() == ["acf", "acf", "b1"]

@@ -225,7 +225,8 @@ def test_htotdev_bounds_are_conservative_against_stable32(records, data_dir):
 
 def test_ci_sets_the_width_of_the_interval(records):
     x = records["phasedat"]
-    narrow = st.oadev(x, 1.0, ci=0.5)
-    wide = st.oadev(x, 1.0, ci=0.95)
+    octave = st.tau_grid("octave", x.size, 1.0, "oadev")
+    narrow = st.oadev(x, 1.0, octave, ci=0.5)
+    wide = st.oadev(x, 1.0, octave, ci=0.95)
     assert np.all(wide.lo < narrow.lo) and np.all(wide.hi > narrow.hi)
     np.testing.assert_array_equal(wide.edf, narrow.edf)

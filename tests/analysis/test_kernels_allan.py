@@ -116,7 +116,8 @@ def test_raw_deviation_equals_nist_sp1065_1000_point_test_values(statistic, nbs1
 
 def brute_force_variance_sum(x: np.ndarray, m: int, statistic: str) -> tuple[float, int]:
     """Sum of squared terms and their count by direct enumeration of SP 1065's definitions, skipping any
-    term that uses a NaN sample (a readable loop, independent of the kernels' vectorized forms)."""
+    term whose span (first to last sample it covers) holds a NaN sample (a readable loop, independent of
+    the kernels' vectorized forms)."""
     weights = {"adev": [1, -2, 1], "oadev": [1, -2, 1], "hdev": [-1, 3, -3, 1], "ohdev": [-1, 3, -3, 1]}
     total, count = 0.0, 0
     if statistic in ("mdev", "tdev"):
@@ -129,13 +130,13 @@ def brute_force_variance_sum(x: np.ndarray, m: int, statistic: str) -> tuple[flo
     stride = m if statistic in ("adev", "hdev") else 1
     for i in range(0, x.size - (len(w) - 1) * m, stride):
         term = sum(wk * x[i + k * m] for k, wk in enumerate(w))
-        if not np.isnan(term):
+        if not np.isnan(x[i : i + (len(w) - 1) * m + 1]).any():
             total, count = total + term**2, count + 1
     return total, count
 
 
 @pytest.mark.parametrize("statistic", STATISTICS)
-def test_terms_touching_an_isolated_nan_are_skipped_as_by_direct_enumeration(statistic):
+def test_terms_spanning_a_missing_sample_are_skipped_as_by_direct_enumeration(statistic):
     rng = np.random.default_rng(20240601)
     x = np.cumsum(rng.standard_normal(240)) * 1e-9 + rng.standard_normal(240) * 1e-9
     x[[17, 100, 101, 180]] = np.nan
@@ -221,3 +222,31 @@ def test_max_averaging_factors_follow_stable32_stop_ratios():
     assert ka.max_m_adev(4) == 0
     with pytest.raises(ValueError, match="n_points"):
         ka.max_m_adev(-1)
+
+
+@pytest.mark.parametrize("order", [2, 3])
+def test_the_fused_numba_difference_sums_equal_the_blockwise_numpy_twin(order):
+    """_difference_sum_of_squares_fused (one numba pass) against _difference_sum_of_squares (numpy blocks),
+    overlapping and decimated, with and without missing samples."""
+    rng = np.random.default_rng(order)
+    x = np.cumsum(rng.standard_normal(70_000)) * 1e-9
+    for gaps in (False, True):
+        if gaps:
+            x[[5, 6, 40_000]] = np.nan
+        for m in (1, 3, 64, 1000):
+            for step in (1, m):
+                s_num, n_num = ka._difference_sum_of_squares(x, m, order, step)
+                s_fused, n_fused = ka._difference_sum_of_squares_fused(x, m, order, step)
+                if gaps:
+                    s_fused, n_fused = ka._difference_sum_of_squares_span(x, ka.nan_prefix(x), m, order, step)
+                assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-12)
+
+
+def test_the_fused_numba_mdev_sum_equals_the_blockwise_numpy_twin():
+    rng = np.random.default_rng(31)
+    x = np.cumsum(np.cumsum(rng.standard_normal(80_000))) * 1e-12 + 1e-6 * np.arange(80_000)  # a ramp too
+    work, cumulative = np.empty((2, ka._BLOCK)), np.empty(x.size + 1)
+    for m in (1, 2, 7, 64, 5000):
+        s_num, n_num = ka._mvar_sum_of_squares(x, m, work, cumulative.copy())
+        s_fused, n_fused = ka._mvar_sum_of_squares_fused(x, m, cumulative)
+        assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-9)

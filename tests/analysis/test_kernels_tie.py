@@ -126,12 +126,12 @@ def test_tie_rms_gap_longer_than_the_lag_pools_the_two_records_either_side():
     np.testing.assert_allclose(dev**2 * n, dev_a**2 * n_a + dev_b**2 * n_b, rtol=1e-12)
 
 
-def test_tie_rms_skips_differences_touching_an_isolated_nan_as_by_direct_enumeration():
+def test_tie_rms_skips_differences_spanning_a_missing_sample_as_by_direct_enumeration():
     rng = np.random.default_rng(9)
     x = rng.standard_normal(120)
     x[[10, 60]] = np.nan
     for mj in (1, 5, 30):
-        diffs = [x[i + mj] - x[i] for i in range(x.size - mj) if not np.isnan(x[i + mj] - x[i])]
+        diffs = [x[i + mj] - x[i] for i in range(x.size - mj) if not np.isnan(x[i : i + mj + 1]).any()]
         dev, n = kt.tie_rms_raw(x, np.array([mj]), 1.0)
         assert n[0] == len(diffs) < x.size - mj
         assert dev[0] == pytest.approx(np.sqrt(np.mean(np.square(diffs))), rel=1e-13)
@@ -153,3 +153,16 @@ def test_kernel_leaves_its_input_untouched_and_rejects_bad_shapes(kernel):
 def test_mtie_rejects_a_window_longer_than_the_record():
     with pytest.raises(ValueError, match="must be < N"):
         kt.mtie_raw(np.zeros(10), np.array([10]), 1.0)
+
+
+@pytest.mark.parametrize("gaps", [False, True])
+def test_the_numba_sparse_table_equals_its_numpy_twin_and_the_window_scan(gaps):
+    rng = np.random.default_rng(11)
+    x = np.cumsum(rng.standard_normal(3000)) * 1e-9
+    if gaps:
+        x[[0, 7, 8, 1500]] = np.nan
+    m = np.r_[averaging_factors(kt.max_m_mtie(x.size), "octave"), 3, 5, 6, 7, 99, 1000]
+    ours = kt.mtie_raw(x, m, 1.0)
+    np.testing.assert_array_equal(ours[0], kt.mtie_sparse_numpy(x, m, 1.0)[0])
+    np.testing.assert_array_equal(ours[0], kt.mtie_windows_raw(x, m, 1.0)[0])
+    np.testing.assert_array_equal(ours[1], kt.mtie_windows_raw(x, m, 1.0)[1])

@@ -12,7 +12,7 @@ import pytest
 from allantools import mask as at_mask
 
 from chronofuse.analysis.masks import MASKS, Mask, MaskSegment
-from chronofuse.analysis.stability import Deviation, mtie, tdev
+from chronofuse.analysis.stability import Deviation, mtie, tau_grid, tdev
 
 NS = 1e-9
 
@@ -97,14 +97,14 @@ def test_a_value_equal_to_the_limit_passes():
 def test_check_accepts_a_deviation_and_rejects_the_wrong_metric():
     rng = np.random.default_rng(5)
     x_s = 2 * NS * rng.standard_normal(4000)  # white PM, 2 ns rms: well inside PRTC-A
-    res_mtie = MASKS["prtc-a"].check(mtie(x_s, 1.0))
+    res_mtie = MASKS["prtc-a"].check(mtie(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "mtie")))
     assert res_mtie.metric == "mtie" and res_mtie.passed
-    res_tdev = MASKS["prtc-a"].check(tdev(x_s, 1.0))
+    res_tdev = MASKS["prtc-a"].check(tdev(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "tdev")))
     assert res_tdev.metric == "tdev" and res_tdev.passed
     # PRTC-B's 1 ns TDEV is violated by 2 ns white PM at tau = tau0 (TDEV(tau0) = sigma_x = 2 ns).
-    assert not MASKS["prtc-b"].check(tdev(x_s, 1.0)).passed
+    assert not MASKS["prtc-b"].check(tdev(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "tdev"))).passed
     with pytest.raises(ValueError, match="statistic"):
-        MASKS["prtc-a"].mtie.check(tdev(x_s, 1.0))
+        MASKS["prtc-a"].mtie.check(tdev(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "tdev")))
 
 
 def test_max_abs_time_error_limits_are_100_ns_and_40_ns():
@@ -151,7 +151,7 @@ def test_a_phase_record_is_checked_for_mtie_tdev_and_max_time_error_at_once():
     x_s = 2 * NS * rng.standard_normal(3000)  # white PM, 2 ns rms: MTIE < 25 ns, TDEV(1 s) ~ 2 ns
     verdict_a = MASKS["prtc-a"].check(x_s, 1.0)
     assert verdict_a.passed and verdict_a.time_error.passed
-    np.testing.assert_array_equal(verdict_a.mtie.value_s, mtie(x_s, 1.0).dev)
+    np.testing.assert_array_equal(verdict_a.mtie.value_s, mtie(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "mtie")).dev)
     verdict_b = MASKS["prtc-b"].check(x_s, 1.0)
     assert not verdict_b.passed and not verdict_b.tdev.passed and verdict_b.time_error.passed
     shifted = MASKS["prtc-a"].check(x_s + 120 * NS, 1.0)  # a constant offset: only |TE| sees it

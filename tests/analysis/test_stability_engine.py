@@ -21,7 +21,7 @@ import pytest
 from _helpers import assert_close_printed, read_stable32_table
 
 import chronofuse.analysis.stability as st
-from chronofuse.analysis.stability import STATISTICS, compute
+from chronofuse.analysis.stability import STATISTICS, compute, tau_grid
 from chronofuse.analysis.stability.convert import fill_gaps
 from chronofuse.analysis.stability.kernels_allan import adev_raw
 from chronofuse.analysis.stability.kernels_total import totdev_raw
@@ -92,7 +92,7 @@ def test_ocxo_totdev_with_bias_correction_matches_stable32_where_alpha_agrees(re
 def test_octave_grid_runs_to_the_statistic_range_and_fills_every_field(records):
     x = records["phasedat"]
     for name in STATISTICS:
-        res = compute(name, x, 1.0)
+        res = compute(name, x, 1.0, tau_grid("octave", x.size, 1.0, name))
         k = res.tau_s.size
         assert k >= 3, name
         for field in ("dev", "n", "alpha", "edf", "lo", "hi"):
@@ -112,8 +112,9 @@ def test_octave_grid_runs_to_the_statistic_range_and_fills_every_field(records):
 def test_wrappers_are_compute_by_name(records):
     x = records["phasedat"][:300]
     for name in STATISTICS:
-        a = getattr(st, name)(x, 2.0, "decade", ci=0.9, bias_correction=False)
-        b = compute(name, x, 2.0, "decade", ci=0.9, bias_correction=False)
+        taus = tau_grid("decade", x.size, 2.0, name)
+        a = getattr(st, name)(x, 2.0, taus, ci=0.9, bias_correction=False)
+        b = compute(name, x, 2.0, taus, ci=0.9, bias_correction=False)
         np.testing.assert_array_equal(a.dev, b.dev)
         np.testing.assert_array_equal(a.hi, b.hi)
         assert a.ci == 0.9 and not a.bias_corrected
@@ -121,17 +122,17 @@ def test_wrappers_are_compute_by_name(records):
 
 def test_sample_rate_scales_tau_and_fractional_frequency_statistics(records):
     x = records["phasedat"]
-    one = st.oadev(x, 1.0)
-    ten = st.oadev(x, 10.0)
+    one = st.oadev(x, 1.0, tau_grid("octave", x.size, 1.0, "oadev"))
+    ten = st.oadev(x, 10.0, tau_grid("octave", x.size, 10.0, "oadev"))
     np.testing.assert_allclose(ten.tau_s, one.tau_s / 10)
     # ADEV ~ phase difference / tau: ten times the rate, ten times the deviation; TDEV (seconds) unchanged.
     np.testing.assert_allclose(ten.dev, 10 * one.dev, rtol=1e-12)
-    np.testing.assert_allclose(st.tdev(x, 10.0).dev, st.tdev(x, 1.0).dev, rtol=1e-12)
+    np.testing.assert_allclose(st.tdev(x, 10.0, one.tau_s / 10).dev, st.tdev(x, 1.0, one.tau_s).dev, rtol=1e-12)
 
 
 def test_explicit_taus_select_the_same_points_as_the_grid(records):
     x = records["phasedat"]
-    grid = st.mdev(x, 1.0)
+    grid = st.mdev(x, 1.0, tau_grid("octave", x.size, 1.0, "mdev"))
     pick = st.mdev(x, 1.0, np.array([4.0, 1.0, 32.0]))
     np.testing.assert_array_equal(pick.tau_s, [4.0, 1.0, 32.0])
     for tau, dev in zip(pick.tau_s, pick.dev):
@@ -155,13 +156,14 @@ def test_taus_beyond_the_range_are_dropped_with_a_warning(records):
 def test_skip_policy_passes_gaps_to_the_kernel_and_reports_them(records):
     x = records["phasedat"].copy()
     x[[10, 11, 500, 777]] = np.nan
-    res = st.adev(x, 1.0)
+    octave = tau_grid("octave", x.size, 1.0, "adev")
+    res = st.adev(x, 1.0, octave)
     assert res.skipped == 4 and res.filled == 0
     m = np.rint(res.tau_s).astype(np.int64)
     dev, n = adev_raw(x, m, 1.0)
     np.testing.assert_array_equal(res.dev, dev)
     np.testing.assert_array_equal(res.n, n)
-    full = st.adev(records["phasedat"], 1.0)
+    full = st.adev(records["phasedat"], 1.0, octave)
     assert np.all(res.n <= full.n) and res.n[0] < full.n[0]
     # A gap costs degrees of freedom.
     assert res.edf[0] < full.edf[0]
@@ -170,7 +172,7 @@ def test_skip_policy_passes_gaps_to_the_kernel_and_reports_them(records):
 def test_fill_policy_interpolates_gaps_and_reports_them(records):
     x = records["phasedat"].copy()
     x[[0, 10, 11, 500]] = np.nan  # one leading (trimmed) and three interior
-    res = st.totdev(x, 1.0, bias_correction=False)
+    res = st.totdev(x, 1.0, tau_grid("octave", x.size - 1, 1.0, "totdev"), bias_correction=False)
     assert res.filled == 4 and res.skipped == 0
     xf, count = fill_gaps(x)
     assert count == 4 and xf.size == x.size - 1
@@ -194,7 +196,6 @@ def test_mtie_windows_ignore_missing_samples(records):
         (dict(x_s=np.zeros(100), rate_hz=0.0), "rate_hz"),
         (dict(x_s=np.zeros(100), rate_hz=-1.0), "rate_hz"),
         (dict(x_s=np.zeros(100), rate_hz=1.0, tau_s=[1.5]), "tau_s"),
-        (dict(x_s=np.zeros(100), rate_hz=1.0, tau_s="weekly"), "tau_s"),
         (dict(x_s=np.zeros(100), rate_hz=1.0, ci=1.2), "ci"),
         (dict(x_s=np.full(100, np.nan), rate_hz=1.0), "x_s"),
         (dict(x_s=np.array([0.0, np.inf, 1.0]), rate_hz=1.0), "x_s"),
@@ -202,8 +203,19 @@ def test_mtie_windows_ignore_missing_samples(records):
     ],
 )
 def test_bad_inputs_raise_errors_naming_the_parameter(kwargs, match):
+    kwargs.setdefault("tau_s", [1.0])
     with pytest.raises(ValueError, match=match):
         st.adev(**kwargs)
+
+
+def test_taus_are_an_array_only_and_the_grid_helper_names_the_statistic_that_does_not_fit():
+    with pytest.raises(TypeError, match="tau_grid"):
+        st.adev(np.zeros(100), 1.0, "octave")
+    np.testing.assert_array_equal(tau_grid("octave", 1001, 2.0, "adev"), [0.5, 1, 2, 4, 8, 16, 32, 64])  # m <= 200
+    theo_m = [m for m in (2, 4, 10, 20, 40, 100, 200, 400, 1000) if m <= STATISTICS["theo1"].max_m(1001)]
+    np.testing.assert_array_equal(tau_grid("decade", 1001, 1.0, "theo1"), 0.75 * np.array(theo_m))
+    with pytest.raises(ValueError, match="too few for hdev"):
+        tau_grid("octave", 4, 1.0, "hdev")
 
 
 def test_theo1_rejects_odd_averaging_factors_and_unknown_statistics_are_named():
@@ -211,9 +223,9 @@ def test_theo1_rejects_odd_averaging_factors_and_unknown_statistics_are_named():
     with pytest.raises(ValueError, match="tau_s"):
         st.theo1(x, 1.0, [0.75])  # m = 1, odd
     with pytest.raises(ValueError, match="statistic"):
-        compute("allan", x, 1.0)
+        compute("allan", x, 1.0, [1.0])
     with pytest.raises(TypeError, match="bias_correction"):
-        compute("adev", x, 1.0, bias_correction="yes")
+        compute("adev", x, 1.0, [1.0], bias_correction="yes")
 
 
 def test_public_api_lists_every_statistic():
@@ -226,3 +238,26 @@ def test_public_api_lists_every_statistic():
     x = st.frequency_to_phase(np.ones(4), 1.0)
     np.testing.assert_array_equal(st.phase_to_frequency(x, 1.0), np.ones(4))
     np.testing.assert_array_equal(st.averaging_factors(9), [1, 2, 4, 8])
+
+
+def test_no_difference_statistic_depends_on_the_value_put_in_a_frequency_gap():
+    """One documented gap rule ("span"): a term whose span holds a missing sample is skipped, so the
+    value integrated across a missing frequency sample (the mean, or anything else) never reaches a
+    result. Checked by integrating the same record with the gap filled by 0 and by 1e-8 instead."""
+    rng = np.random.default_rng(21)
+    y = rng.standard_normal(3000) * 1e-11
+    y[[100, 1500, 1501, 2222]] = np.nan
+    phases = []
+    for fill in (0.0, 1e-8):  # 1000 times the noise: any bridging term would show
+        x = np.concatenate(([0.0], np.cumsum(np.where(np.isnan(y), fill, y))))
+        x[1:][np.isnan(y)] = np.nan
+        phases.append(x)
+    np.testing.assert_array_equal(np.isnan(phases[0]), np.isnan(st.frequency_to_phase(y, 1.0)))
+    for name in ("adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "tie_rms"):
+        taus = tau_grid("octave", phases[0].size, 1.0, name)
+        a, b = (compute(name, x, 1.0, taus) for x in phases)
+        np.testing.assert_allclose(a.dev, b.dev, rtol=1e-9, err_msg=name)
+        np.testing.assert_array_equal(a.n, b.n)
+        assert a.gap_rule == "span" and a.skipped == 4
+    assert compute("mtie", phases[0], 1.0, [1.0]).gap_rule == "window"
+    assert compute("totdev", phases[0], 1.0, [1.0]).gap_rule == "fill"

@@ -54,7 +54,9 @@ def test_frequency_records_with_a_mask_and_a_plot(data_dir, tmp_path):
         ("abc\ndef\n", ("--rate", 1), "bad.txt:2: cannot read 'def' as a number"),
         ("0 1e-9\n1 nan\n2 nan\n3 nan\n4 nan\n5 nan\n6 1e-9\n", ("--rate", 1), "bad.txt:2: 5 of 7 samples are missing"),
         ("0 1e-9\n2 2e-9\n1 3e-9\n", ("--rate", 0.5), "bad.txt:3: time is not increasing"),
-        ("0 1e-9\n10 2e-9\n20 3e-9\n", ("--rate", 1), "bad.txt:2: rate 1 Hz does not match the time column"),
+        ("0 1e-9\n1 2e-9\n2.5 3e-9\n", (), "bad.txt:3: time step 1.5 s is not a whole number of 1 s"),
+        ("1e-9\n2e-9\n3e-9\n", ("--rate", 1, "--dev", "hdev"), "bad.txt: hdev: the record has 3 samples, too few for hdev"),
+        ("1,475\n1,482\n1,470\n", ("--rate", 1), "bad.txt:2: '1,482' after '1,475'"),
     ],
 )
 def test_bad_input_is_a_one_line_error_naming_file_and_line_with_exit_code_2(tmp_path, text, args, expected):
@@ -81,3 +83,53 @@ def test_taus_beyond_the_record_are_dropped_with_a_one_line_warning_in_the_json(
     doc = json.loads(result.stdout)
     assert doc["deviations"]["adev"]["tau"] == [1.0]
     assert len(doc["warnings"]) == 1 and "tau_s [1000.0] s dropped" in doc["warnings"][0]
+
+
+def test_nist_1000_point_fractional_frequency_gives_the_published_adev_with_a_magnitude_warning(tmp_path):
+    """NIST SP 1065 section 12.1 (p. 107) 1000-point set, values in [0, 1] read as fractional frequency;
+    ADEV at 1, 10, 100 s from SP 1065 Table 31 (also allantools' tests/nbs14): 2.922319e-01, 9.965736e-02,
+    3.897804e-02. MTIE at 1 s of integrated frequency is max |y| tau0 (a window of two phase points)."""
+    n = [1234567890]
+    for _ in range(999):
+        n.append((16807 * n[-1]) % 2147483647)
+    y = np.array(n) / 2147483647.0
+    path = tmp_path / "nist1000.txt"
+    path.write_text("".join(f"{v!r}\n" for v in y.tolist()))
+    result = invoke("stability", path, "--kind", "freq", "--rate", 1, "--dev", "adev,mtie", "--taus", "1,10,100",
+                    "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    np.testing.assert_allclose(doc["deviations"]["adev"]["dev"], [2.922319e-01, 9.965736e-02, 3.897804e-02],
+                               rtol=1e-6)
+    assert doc["deviations"]["mtie"]["dev"][0] == pytest.approx(np.max(np.abs(y)), rel=1e-12)
+    assert any("implausible for a clock" in w for w in doc["warnings"])
+
+
+def test_a_time_tagged_record_reports_its_jitter_and_gaps(tmp_path):
+    rng = np.random.default_rng(2)
+    t = 1.7e9 + np.arange(400) + rng.uniform(-1e-3, 1e-3, 400)
+    keep = np.ones(400, bool)
+    keep[50] = False
+    path = tmp_path / "tagged.csv"
+    path.write_text("time,x_ns\n" + "".join(f"{tk:.6f},{k}\n" for k, tk in zip(np.flatnonzero(keep), t[keep])))
+    result = invoke("stability", path, "--dev", "adev", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert (doc["n"], doc["rate"], doc["gaps"]) == (400, 1.0, 1)
+    assert 3e-4 < doc["jitter_rms_s"] < 8e-4 and doc["jitter_max_s"] < 1.01e-3
+
+
+def test_the_nbs14_10_point_frequency_set_gives_its_published_adev_and_oadev(tmp_path):
+    """NBS-14 10-point set (W. J. Riley, "The calculation of time domain frequency stability", and NIST
+    SP 1065 p. 107; allantools' tests/nbs14): frequency 892, 809, 823, 798, 671, 644, 883, 903, 677;
+    ADEV 91.22945 and 115.8082, OADEV 91.22945 and 85.95287 at tau = 1 and 2. Values far outside a clock's
+    range: analysed as given, with a warning, not refused as absolute frequency."""
+    path = tmp_path / "nbs14.txt"
+    path.write_text("892\n809\n823\n798\n671\n644\n883\n903\n677\n")
+    result = invoke("stability", path, "--kind", "freq", "--rate", 1, "--dev", "adev,oadev", "--taus", "1,2",
+                    "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    np.testing.assert_allclose(doc["deviations"]["adev"]["dev"], [91.22945, 115.8082], rtol=1e-6)
+    np.testing.assert_allclose(doc["deviations"]["oadev"]["dev"], [91.22945, 85.95287], rtol=1e-6)
+    assert any("implausible for a clock" in w for w in doc["warnings"])

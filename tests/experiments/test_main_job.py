@@ -40,7 +40,7 @@ def test_the_oscillator_in_the_report_agrees_with_its_theory_at_99_percent_confi
 
     osc = report.summary["oscillator"]
     x_s = pd.read_csv(report.out_dir / "timeseries.csv")["oscillator_x_ns"].to_numpy() * 1e-9
-    dev = stability.oadev(x_s, 1.0, "decade", ci=0.99)
+    dev = stability.oadev(x_s, 1.0, stability.tau_grid("decade", x_s.size, 1.0, "oadev"), ci=0.99)
     theory = np.interp(np.log(dev.tau_s), np.log(osc["theory"]["tau"]), osc["theory"]["adev"])
     inside = (theory >= dev.lo) & (theory <= dev.hi)
     assert inside[dev.tau_s <= 200].all(), (dev.tau_s, dev.lo, theory, dev.hi)

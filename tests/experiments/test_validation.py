@@ -120,13 +120,14 @@ def test_pooled_oadev_of_one_trial_is_plain_oadev_and_pooling_adds_degrees_of_fr
     rng = np.random.default_rng(5)
     x = np.cumsum(rng.standard_normal((3, 4000)), axis=1) * 1e-9
     one = pooled_oadev(x[:1], 1.0)
-    plain = st.oadev(x[0], 1.0)
+    octave = st.tau_grid("octave", x.shape[1], 1.0, "oadev")
+    plain = st.oadev(x[0], 1.0, octave)
     np.testing.assert_allclose(one.dev, plain.dev, rtol=1e-14)
     np.testing.assert_allclose(one.lo, plain.lo, rtol=1e-12)
     pooled = pooled_oadev(x, 1.0)
-    per_trial = np.array([st.oadev(row, 1.0).dev ** 2 for row in x])
+    per_trial = np.array([st.oadev(row, 1.0, octave).dev ** 2 for row in x])
     np.testing.assert_allclose(pooled.dev, np.sqrt(per_trial.mean(axis=0)), rtol=1e-14)
-    np.testing.assert_allclose(pooled.edf, 3 * st.oadev(x[0], 1.0).edf, rtol=1e-14)
+    np.testing.assert_allclose(pooled.edf, 3 * st.oadev(x[0], 1.0, octave).edf, rtol=1e-14)
     with pytest.raises(ValueError, match="x_s has shape"):
         pooled_oadev(x[0], 1.0)
 

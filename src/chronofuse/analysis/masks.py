@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from chronofuse.analysis.stability import mtie, tdev
+from chronofuse.analysis.stability import mtie, tau_grid, tdev
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.validation import check_array, check_choice, check_scalar
 
@@ -241,8 +241,8 @@ class ClockMasks:
         if rate_hz is None:
             raise ValueError("rate_hz is None, must be given with a phase record x_s (or pass a Deviation)")
         x = check_array(deviation_or_phase, "x_s", allow_nan=True)
-        res_mtie = self.mtie.check(mtie(x, rate_hz))
-        res_tdev = self.tdev.check(tdev(x, rate_hz))
+        res_mtie = self.mtie.check(mtie(x, rate_hz, tau_grid("octave", x.size, rate_hz, "mtie")))
+        res_tdev = self.tdev.check(tdev(x, rate_hz, tau_grid("octave", x.size, rate_hz, "tdev")))
         te = self.check_time_error(x) if self.max_abs_te_s is not None else None
         passed = res_mtie.passed and res_tdev.passed and (te is None or te.passed)
         return ClockVerdict(self.name, res_mtie, res_tdev, te, bool(passed))

@@ -33,7 +33,7 @@ def pooled_oadev(x_s: np.ndarray, rate_hz: float, ci: float = 0.683) -> st.Devia
     """
     if x_s.ndim != 2:
         raise ValueError(f"x_s has shape {x_s.shape}, must be (trials, N)")
-    per_trial = [st.oadev(row, rate_hz, "octave", ci=ci) for row in x_s]
+    per_trial = [st.oadev(row, rate_hz, st.tau_grid("octave", x_s.shape[1], rate_hz, "oadev"), ci=ci) for row in x_s]
     avar = np.mean([d.dev**2 for d in per_trial], axis=0)
     edf = x_s.shape[0] * np.asarray(per_trial[0].edf)
     dev = np.sqrt(avar)

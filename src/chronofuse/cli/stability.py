@@ -13,7 +13,7 @@ from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.stability.taus import parse_taus
 from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
 from chronofuse.io.records import read_record
-from chronofuse.report.figures import plot_deviations
+from chronofuse.validation import InputDataError
 
 _UNITS_S = {"tdev", "ttotdev", "tie_rms", "mtie"}
 
@@ -25,7 +25,8 @@ def register(app: typer.Typer) -> None:
 def stability(
     file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, .gz ok."),
     kind: str = typer.Option("phase", "--kind", help="phase (seconds) or freq (fractional frequency)."),
-    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column)."),
+    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column; "
+                                      "overrides a time column that disagrees, with a warning)."),
     dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(st.STATISTICS)}."),
     taus: str = typer.Option("octave", "--taus", help="octave, decade, all, or comma-separated seconds."),
     mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASKS)}."),
@@ -43,21 +44,20 @@ def stability(
         fail(f"--dev {dev!r}: unknown statistic {unknown}; choose from {', '.join(st.STATISTICS)}")
     if mask is not None and mask not in MASKS:
         fail(f"--mask {mask!r}: choose from {', '.join(MASKS)}")
-    with user_errors():
-        record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz)
-        tau_spec = parse_taus(taus, record.rate_hz)
-        x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
-        results = {}
-        with collected_warnings() as notes, progress_reporter("stability") as say:
-            for name in names:
-                say(name)
-                results[name] = st.compute(name, x, record.rate_hz, tau_spec, ci=ci,
-                                           bias_correction=not no_bias_correction)
+    with user_errors(), collected_warnings() as notes:
+        with progress_reporter("stability") as say:
+            say("reading")
+            record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz)
+            x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
+            results = {name: _compute(file, name, x, record.rate_hz, taus, ci, not no_bias_correction, say)
+                       for name in names}
             verdict = None
             if mask is not None:
                 say(f"mask {mask}")
                 verdict = MASKS[mask].check(x, record.rate_hz)
         if plot is not None:
+            from chronofuse.report.figures import plot_deviations  # matplotlib only when a plot is asked for
+
             dimensionless = {k: v for k, v in results.items() if k not in _UNITS_S}
             seconds = {k: v for k, v in results.items() if k in _UNITS_S}
             plot.parent.mkdir(parents=True, exist_ok=True)
@@ -70,6 +70,8 @@ def stability(
         "rate": record.rate_hz,
         "kind": kind,
         "gaps": record.n_gaps,
+        "jitter_rms_s": record.jitter_rms_s,
+        "jitter_max_s": record.jitter_max_s,
         "deviations": {name: res.to_dict() for name, res in results.items()},
         "mask": verdict.to_dict() if verdict is not None else None,
         "plot": str(plot) if plot is not None else None,
@@ -79,7 +81,10 @@ def stability(
         print_json(doc)
         return
     con = human_console(False)
-    con.print(f"[bold]{file}[/bold]: {record.values.size:,} {kind} points at {record.rate_hz:g} Hz, {record.n_gaps} missing")
+    timing = (f"; time tags off the grid by {record.jitter_rms_s:.3g} s rms, {record.jitter_max_s:.3g} s at most"
+              if record.t_ns is not None else "")
+    con.print(f"[bold]{file}[/bold]: {record.values.size:,} {kind} points at {record.rate_hz:g} Hz, "
+              f"{record.n_gaps} missing{timing}")
     for note in notes:
         con.print(f"warning: {note}", markup=False)
     for name, res in results.items():
@@ -92,6 +97,19 @@ def stability(
         con.print(f"mask {mask}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} ({verdict_details(verdict)})")
     if plot is not None:
         con.print(f"plot -> {plot}")
+
+
+def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bias: bool, say):
+    """One statistic on the octave/decade/all grid or the listed taus; a record too short for it is an
+    error naming the file."""
+    say(name)
+    try:
+        tau_s = parse_taus(taus, x.size, rate_hz, name)
+        return st.compute(name, x, rate_hz, tau_s, ci=ci, bias_correction=bias)
+    except ValueError as exc:
+        if "taus ==" in str(exc):
+            raise
+        raise InputDataError(f"{name}: {exc}", str(file)) from None
 
 
 def verdict_details(verdict) -> str:

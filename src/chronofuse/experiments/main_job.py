@@ -87,12 +87,13 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
 
     say("analysing stability")
     taus = scn.analysis.taus
-    osc_adev = stability.oadev(osc_x[:n], scn.rate_hz, taus)
+    osc_adev = stability.oadev(osc_x[:n], scn.rate_hz, stability.tau_grid(taus, n, scn.rate_hz, "oadev"))
     theory_tau = np.logspace(np.log10(osc_adev.tau_s[0]), np.log10(osc_adev.tau_s[-1]), 60)
     theory = adev_theory(model.h, theory_tau, scn.rate_hz, model.drift_per_s)
     rx_devs: dict[str, dict[str, stability.Deviation]] = {}
     for label, series in zip(labels, pps[:, :n]):
-        rx_devs[label] = {name: stability.compute(name, series, scn.rate_hz, taus) for name in scn.analysis.deviations}
+        rx_devs[label] = {name: stability.compute(name, series, scn.rate_hz, stability.tau_grid(taus, n, scn.rate_hz, name))
+                          for name in scn.analysis.deviations}
 
     mask_doc = None
     mask_limits = {}

@@ -65,7 +65,7 @@ def bias_column(path: str | Path, column: str | None = None) -> str | None:
 def read_csv_bias(path: str | Path, rate_hz: float, column: str | None = None) -> ClockBiasInput:
     """Clock bias (s) from a CSV/text record via :func:`chronofuse.io.records.read_record` (gaps as NaN)."""
     record = read_record(path, kind="phase", rate_hz=rate_hz, column=bias_column(path, column))
-    t_s = record.t_s if record.t_s is not None else np.arange(record.values.size) / record.rate_hz
+    t_s = record.t_ns / 1e9 if record.t_ns is not None else np.arange(record.values.size) / record.rate_hz
     return ClockBiasInput(bias_s=record.values, t_s=t_s, n_skipped=record.n_gaps, source=record.source)
 
 

@@ -1,34 +1,54 @@
-"""Plain phase or frequency records (Stable32 / TimeLab style text files).
+"""Plain phase or frequency records (Stable32 / TimeLab / counter-log style text files).
 
-A record file holds one column (values at a known rate) or two columns (time in seconds, value),
-separated by commas or white space; ``#`` (and ``;``) start comments; a first line of names is a
-header, and a name's unit suffix (``_s``, ``_ms``, ``_us``, ``_ns``) scales that column to SI; a time
-column named ``mjd`` is in days (converted to seconds).
-``.gz`` files are read transparently. ``nan`` marks a missing sample (a gap), and so does a step of
-the time column that is a whole multiple of the sample interval.
+A record file holds one column (values at a known rate) or two columns (time, value), or more with a
+header naming them; ``#`` (and ``;``) start comments; a first line of names is a header, and a name's
+unit suffix (``_s``, ``_ms``, ``_us``, ``_ns``, ``_ps``) scales that column to SI; a time column named
+``mjd`` is in days. The layout (compression by content, BOM, delimiter, decimal comma) is sniffed by
+:mod:`chronofuse.io.columns`, which reads the columns with pyarrow's CSV reader.
+
+Time columns are read as text and converted to integer nanoseconds exactly (``int_part * ns_per_unit +
+fraction``): an absolute epoch is never one float64. The sample interval is the median time step
+(robust to gaps and jitter), refined by least squares over the whole record and snapped to a round
+value (6 significant digits of the interval or of the rate) when that moves no sample to another slot.
+Each sample goes to the nearest slot of that grid; a sample more than a quarter interval from its slot
+is refused (it is not on a regular grid); the rms and largest offset from the slots are reported
+(``jitter_rms_s``, ``jitter_max_s``), and missing slots become gaps (NaN). ``rate_hz``, when given with a
+time column, sets the interval; when it disagrees with the time column (by more than 1e-3 relative)
+it overrides it with a warning, and the samples are taken as consecutive.
+
+``nan`` marks a missing sample. Frequency records: fractional frequency is analysed whatever its size,
+with a warning above 1e-3 (implausible for a clock); values that are clearly an absolute frequency
+(all of one sign, above 1e-3 and a spread under 1e-3 of their mean: a counter's readings in Hz or a
+frequency normalised to 1) are refused unless ``nominal_hz`` is given.
 
 Every problem is reported as :class:`~chronofuse.validation.InputDataError` naming the file and line.
 """
 
 from __future__ import annotations
 
-import gzip
-import math
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from chronofuse.io.grid import grid_slots, place_on_grid
+from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
+from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
 from chronofuse.validation import InputDataError, check_choice, check_scalar
+
+__all__ = ["ClockRecord", "read_record", "KINDS"]
 
 KINDS = ("phase", "freq")
 
 _UNIT_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12}
-_SPLIT = re.compile(r"[,\s;]+")
-_SECONDS_PER_DAY = 86_400.0
-_TIME_NAMES = {"t", "time", "mjd", "epoch", "t_s", "time_s"}
+_TIME_NAMES = {"t", "time", "mjd", "epoch", "t_s", "time_s", "unix", "timestamp"}
+# A sample further than this fraction of the interval from its grid slot is not on a regular grid.
+_SLOT_TOLERANCE = 0.25
+# --rate and the time column agree when their intervals differ by less than this (relative).
+_RATE_AGREEMENT = 1e-3
+# Fractional frequency beyond this magnitude is implausible for a clock (warned, or refused when narrow).
+_PLAUSIBLE_Y = 1e-3
 
 
 @dataclass(frozen=True)
@@ -42,37 +62,35 @@ class ClockRecord:
     rate_hz : float
         Sample rate.
     kind : {"phase", "freq"}
-    t_s : ndarray of shape (N,) or None
-        The time column (seconds, gaps filled in) when the file had one.
+    t_ns : ndarray of int64 of shape (N,) or None
+        Epoch of each grid slot in integer nanoseconds on the file's own time scale (UNIX, MJD, ...), when
+        the file had a time column.
     source : str
         Where the record came from (file path).
     n_gaps : int
-        Number of missing samples (NaN values plus samples inserted for time-column gaps).
+        Number of missing samples (NaN values plus slots the time column skipped).
     column : str
         The name (or 1-based number) of the value column read.
+    jitter_rms_s, jitter_max_s : float
+        Rms and largest distance of the time tags from their grid slots (0 without a time column).
     """
 
     values: np.ndarray
     rate_hz: float
     kind: str
-    t_s: np.ndarray | None
+    t_ns: np.ndarray | None
     source: str
     n_gaps: int
     column: str
+    jitter_rms_s: float = 0.0
+    jitter_max_s: float = 0.0
 
-
-def _open_text(path: Path):
-    if path.suffix == ".gz":
-        return gzip.open(path, "rt", encoding="utf-8", errors="replace")
-    return open(path, encoding="utf-8", errors="replace")
-
-
-def _is_number(token: str) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
+    @property
+    def t_s(self) -> np.ndarray | None:
+        """Seconds since the first sample (a duration, float64), shape (N,), or None without a time column."""
+        if self.t_ns is None:
+            return None
+        return (self.t_ns - self.t_ns[0]) / NS_PER_S
 
 
 def _unit_scale(name: str) -> float:
@@ -82,44 +100,28 @@ def _unit_scale(name: str) -> float:
     return 1.0
 
 
-def _read_rows(path: Path) -> tuple[list[str] | None, int, list[tuple[int, list[str]]]]:
-    """Return (header names or None, header line number (0 if none), [(line number, tokens)])."""
-    header = None
-    header_line = 0
-    rows: list[tuple[int, list[str]]] = []
-    try:
-        with _open_text(path) as fh:
-            for lineno, raw in enumerate(fh, start=1):
-                line = raw.split("#", 1)[0].strip()
-                if not line:
-                    continue
-                tokens = [t for t in _SPLIT.split(line) if t]
-                if not tokens:
-                    continue
-                if header is None and not rows and not all(_is_number(t) for t in tokens):
-                    if any(_is_number(t) for t in tokens):
-                        bad = next(t for t in tokens if not _is_number(t))
-                        raise InputDataError(f"cannot read {bad!r} as a number", str(path), lineno)
-                    header, header_line = tokens, lineno
-                    continue
-                rows.append((lineno, tokens))
-    except (OSError, EOFError, gzip.BadGzipFile) as exc:
-        raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
-    return header, header_line, rows
+def _time_ns_per_unit(name: str) -> int:
+    """Nanoseconds per unit of a time column named ``name`` (``mjd``: days; ``_ms``, ``_us``, ``_ns``)."""
+    lowered = name.lower()
+    if lowered == "mjd" or lowered.startswith("mjd_"):
+        return SECONDS_PER_DAY * NS_PER_S
+    match = re.search(r"_([a-z]+)$", lowered)
+    return {"ms": 1_000_000, "us": 1_000, "ns": 1}.get(match.group(1) if match else "", NS_PER_S)
 
 
-def _pick_columns(header, header_line: int, rows, path: Path, column: str | None) -> tuple[int | None, int, str, float, float]:
-    """Choose (time index or None, value index, value name, time scale, value scale)."""
-    width = len(rows[0][1])
+def _pick_columns(layout: Layout, path: Path, column: str | None) -> tuple[int | None, int, str]:
+    """Choose (time index or None, value index, value name)."""
+    width, header = layout.width, layout.header
     names = header if header is not None else [str(i + 1) for i in range(width)]
     if header is not None and len(header) != width:
         raise InputDataError(
-            f"header has {len(header)} names but the first data line has {width} values", str(path), rows[0][0]
+            f"header has {len(header)} names but the first data line has {width} values", str(path),
+            layout.first_data_line
         )
     time_idx = None
     if width >= 2:
         lowered = [n.lower() for n in names]
-        time_idx = next((i for i, n in enumerate(lowered) if n in _TIME_NAMES or n.startswith("t_")), 0)
+        time_idx = next((i for i, n in enumerate(lowered) if n in _TIME_NAMES or n.startswith(("t_", "mjd"))), 0)
     if column is not None:
         if column in names:
             value_idx = names.index(column)
@@ -127,19 +129,25 @@ def _pick_columns(header, header_line: int, rows, path: Path, column: str | None
             value_idx = int(column) - 1
         else:
             raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{width})", str(path),
-                                 header_line or rows[0][0])
+                                 layout.header_line or layout.first_data_line)
     elif width == 1:
         value_idx = 0
     elif width == 2:
         value_idx = 1 - time_idx
     else:
-        raise InputDataError(f"{width} columns {names}: choose the value column with --column", str(path), rows[0][0])
+        raise InputDataError(f"{width} columns {names}: choose the value column with --column", str(path),
+                             layout.first_data_line)
     if value_idx == time_idx:
         time_idx = None
-    time_scale = 1.0
-    if time_idx is not None:
-        time_scale = _SECONDS_PER_DAY if names[time_idx].lower() == "mjd" else _unit_scale(names[time_idx])
-    return time_idx, value_idx, names[value_idx], time_scale, _unit_scale(names[value_idx])
+    return time_idx, value_idx, names[value_idx]
+
+
+def _line_of(path: Path, layout: Layout, k: int) -> int:
+    """1-based file line of data sample ``k`` (a second, line-by-line pass: only for error messages)."""
+    for i, (lineno, _) in enumerate(data_lines(path, layout)):
+        if i == k:
+            return lineno
+    return layout.first_data_line
 
 
 def _longest_nan_run(values: np.ndarray) -> tuple[int, int]:
@@ -151,6 +159,93 @@ def _longest_nan_run(values: np.ndarray) -> tuple[int, int]:
     return int(starts[k]), int(ends[k] - starts[k])
 
 
+def _snap(interval_ns: float) -> list[float]:
+    """Round candidates for an interval (ns): 6 significant digits of the interval and of the rate."""
+    rate = 1e9 / interval_ns
+    return [float(f"{interval_ns:.6g}"), 1e9 / float(f"{rate:.6g}")]
+
+
+@dataclass(frozen=True)
+class _Grid:
+    slots: np.ndarray  # int64 (N,): slot of each sample, slots[0] == 0
+    interval_ns: float
+    start_ns: float  # grid slot 0 is at t[0] + start_ns
+    jitter_rms_s: float
+    jitter_max_s: float
+
+
+def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
+    """Place integer-ns time tags (N,) on a regular grid; None when ``rate_hz`` overrides the time column.
+
+    Each step is a whole number of intervals (within ``_SLOT_TOLERANCE``): the slots are the running sum
+    of those numbers, so timing jitter never accumulates along the record; the interval is then the
+    least-squares slope of offset against slot, snapped to a round value when that changes no slot.
+    """
+    steps = np.diff(t_ns)
+    if (steps <= 0).any():
+        k = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise InputDataError(
+            f"time is not increasing ({t_ns[k - 1] / NS_PER_S:.9g} s then {t_ns[k] / NS_PER_S:.9g} s on the file's "
+            "scale)", str(path), _line_of(path, layout, k))
+    first_guess = float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])  # lower median
+    if rate_hz is not None:
+        given = 1e9 / rate_hz
+        if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
+            warnings.warn(
+                f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
+                f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=3)
+            return None
+        first_guess = given
+    ratio = steps / first_guess
+    counts = np.rint(ratio).astype(np.int64)
+    bad = np.flatnonzero((np.abs(ratio - counts) > _SLOT_TOLERANCE) | (counts < 1))
+    if bad.size:
+        k = int(bad[0])
+        raise InputDataError(
+            f"time step {steps[k] / 1e9:.9g} s is not a whole number of {first_guess / 1e9:.9g} s sample intervals "
+            f"(the median step; tolerance {_SLOT_TOLERANCE} of an interval)", str(path), _line_of(path, layout, k + 1))
+    slots = np.concatenate(([0], np.cumsum(counts)))
+    offsets = (t_ns - t_ns[0]).astype(np.float64)
+    if rate_hz is not None:
+        interval = first_guess
+    else:  # least-squares line offset = start + interval * slot
+        sc = slots - slots.mean()
+        interval = float(np.dot(sc, offsets - offsets.mean()) / np.dot(sc, sc))
+        for candidate in _snap(interval):
+            if abs(candidate - interval) * slots[-1] < 0.01 * interval:
+                interval = candidate
+                break
+    resid = offsets - slots * interval
+    start = float(np.mean(resid))  # the grid's phase against the first time tag
+    resid -= start
+    return _Grid(slots, interval, start, float(np.sqrt(np.mean(resid**2))) / 1e9, float(np.abs(resid).max()) / 1e9)
+
+
+def _check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) -> np.ndarray:
+    """Fractional frequency from the values (absolute frequency with ``nominal_hz``), see module docstring."""
+    if nominal_hz is not None:
+        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
+        return values / nominal_hz - 1.0
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return values
+    largest = float(np.max(np.abs(finite)))
+    if largest <= _PLAUSIBLE_Y:
+        return values
+    mean = float(np.mean(finite))
+    spread = float(np.std(finite))
+    one_sign = bool(np.all(finite > 0) or np.all(finite < 0))
+    if one_sign and abs(mean) > _PLAUSIBLE_Y and spread < _PLAUSIBLE_Y * abs(mean):
+        raise InputDataError(
+            f"frequency values of mean {mean:.9g} with a relative spread of {spread / abs(mean):.1e} look like an "
+            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency (--nominal-hz)",
+            str(path))
+    warnings.warn(
+        f"{path}: fractional frequency up to {largest:.3g} in magnitude is implausible for a clock (|y| > "
+        f"{_PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give --nominal-hz)", stacklevel=3)
+    return values
+
+
 def read_record(
     path: str | Path,
     *,
@@ -160,7 +255,7 @@ def read_record(
     nominal_hz: float | None = None,
     max_gap_fraction: float = 0.5,
 ) -> ClockRecord:
-    """Read a phase or frequency record from a text file (optionally gzipped).
+    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content).
 
     Parameters
     ----------
@@ -169,23 +264,22 @@ def read_record(
     kind : {"phase", "freq"}
         What the values are: phase in seconds (after the column's unit scale) or fractional frequency.
     rate_hz : float, optional
-        Sample rate. Required for one-column files; for files with a time column it is derived from
-        the time column, and a given value must agree with it.
+        Sample rate. Required for one-column files; with a time column it sets the grid interval, and
+        overrides the time column (with a warning) where the two disagree.
     column : str, optional
         Name (from the header) or 1-based number of the value column.
     nominal_hz : float, optional
-        For ``kind="freq"`` files holding absolute frequency in Hz (a counter's readings): the
-        nominal frequency, so that ``y = f / nominal_hz - 1``. Without it, frequency values whose
-        magnitude exceeds 1e-3 are rejected as being in the wrong unit.
+        For ``kind="freq"`` files holding absolute frequency in Hz (a counter's readings): the nominal
+        frequency, so that ``y = f / nominal_hz - 1``.
     max_gap_fraction : float
         A record whose gaps exceed this fraction of its samples is rejected (too little data).
 
     Raises
     ------
     InputDataError
-        Empty file, text where numbers are expected, a ragged line, non-monotonic time, a time step
-        that is not a whole number of sample intervals, a rate that does not match the time column,
-        or a record made mostly of gaps: each names the file and line.
+        Empty file, an archive, text where numbers are expected, an ambiguous decimal comma, a ragged line,
+        non-monotonic time, a time tag off the regular grid, absolute frequency without ``nominal_hz``, or
+        a record made mostly of gaps: each names the file and, where there is one, the line.
     """
     path = Path(path)
     check_choice(kind, "kind", KINDS)
@@ -195,103 +289,75 @@ def read_record(
         raise InputDataError("no such file", str(path))
     if path.is_dir():
         raise InputDataError("is a directory, not a data file", str(path))
-    header, header_line, rows = _read_rows(path)
-    if not rows:
+    layout = sniff(path)
+    time_idx, value_idx, name = _pick_columns(layout, path, column)
+    try:
+        values, time_text, _ = read_columns(path, layout, value_idx, time_idx)
+    except (OSError, EOFError) as exc:
+        raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
+    if values.size == 0:
         raise InputDataError("no data lines (empty file, or only comments and a header)", str(path))
-    time_idx, value_idx, name, t_scale, v_scale = _pick_columns(header, header_line, rows, path, column)
-    width = len(rows[0][1])
-
-    values = np.empty(len(rows))
-    times = np.empty(len(rows)) if time_idx is not None else None
-    for i, (lineno, tokens) in enumerate(rows):
-        if len(tokens) != width:
-            raise InputDataError(f"{len(tokens)} values on this line, expected {width}", str(path), lineno)
-        try:
-            values[i] = float(tokens[value_idx])
-            if times is not None:
-                times[i] = float(tokens[time_idx])
-        except ValueError:
-            bad = next(t for t in tokens if not _is_number(t))
-            raise InputDataError(f"cannot read {bad!r} as a number", str(path), lineno) from None
     if np.isinf(values).any():
-        lineno = rows[int(np.flatnonzero(np.isinf(values))[0])][0]
-        raise InputDataError("infinite value", str(path), lineno)
-    values = values * v_scale
+        raise InputDataError("infinite value", str(path), _line_of(path, layout, int(np.flatnonzero(np.isinf(values))[0])))
+    scale = 1.0 if layout.header is None else _unit_scale(name)
+    if scale != 1.0:
+        values = values * scale
 
-    sample_line = np.array([lineno for lineno, _ in rows])  # file line of each sample (-1: inserted gap)
-    t_out = None
-    if times is not None:
-        if np.isnan(times).any():
-            lineno = rows[int(np.flatnonzero(np.isnan(times))[0])][0]
-            raise InputDataError("missing time value", str(path), lineno)
-        t0_s = times[0] * t_scale
-        times = (times - times[0]) * t_scale  # relative first: MJD days * 86400 keep their precision
-        steps = np.diff(times)
-        if (steps <= 0).any():
-            k = int(np.flatnonzero(steps <= 0)[0]) + 1
-            raise InputDataError(
-                f"time is not increasing ({t0_s + times[k - 1]:g} s then {t0_s + times[k]:g} s)", str(path), rows[k][0]
-            )
-        if steps.size:
-            interval = float(np.min(steps))
-            derived = 1.0 / interval
-            if rate_hz is not None and not math.isclose(derived, rate_hz, rel_tol=1e-6):
-                raise InputDataError(
-                    f"rate {rate_hz:g} Hz does not match the time column (interval {interval:g} s, i.e. "
-                    f"{derived:g} Hz)",
-                    str(path),
-                    rows[int(np.argmin(steps)) + 1][0],
-                )
-            rate_hz = derived
-            index, bad = grid_slots(times, interval, 1e-6)
-            if bad >= 0:
-                raise InputDataError(
-                    f"time step {steps[bad - 1]:g} s is not a whole number of {interval:g} s sample intervals",
-                    str(path),
-                    rows[bad][0],
-                )
-            values = place_on_grid(index, values)
-            sample_line = np.full(values.size, -1)
-            sample_line[index] = [lineno for lineno, _ in rows]
-            t_out = t0_s + np.arange(values.size) / rate_hz
+    t_ns, grid = None, None
+    jitter = (0.0, 0.0)
+    sample_of_slot = None  # sample index at each slot (-1: a slot the time column skipped)
+    if time_text is not None:
+        t_name = layout.header[time_idx] if layout.header is not None else "t"
+        t_raw, bad = decimal_text_to_ns(time_text, _time_ns_per_unit(t_name))
+        if bad >= 0:
+            raise InputDataError(f"cannot read {time_text[bad].as_py()!r} as a time", str(path),
+                                 _line_of(path, layout, bad))
+        if t_raw.size >= 2:
+            grid = _time_grid(t_raw, rate_hz, path, layout)
+        if grid is not None:
+            rate_hz = 1e9 / grid.interval_ns
+            placed = np.full(int(grid.slots[-1]) + 1, np.nan)
+            placed[grid.slots] = values
+            sample_of_slot = np.full(placed.size, -1, dtype=np.int64)
+            sample_of_slot[grid.slots] = np.arange(values.size)
+            values = placed
+            t_ns = t_raw[0] + np.rint(grid.start_ns + np.arange(values.size) * grid.interval_ns).astype(np.int64)
+            jitter = (grid.jitter_rms_s, grid.jitter_max_s)
+        elif rate_hz is not None and t_raw.size >= 2:
+            t_ns = t_raw[0] + np.rint(np.arange(values.size) * (1e9 / rate_hz)).astype(np.int64)
         else:
-            t_out = t0_s + times
+            t_ns = t_raw
     if rate_hz is None:
         raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
 
     if kind == "freq":
-        if nominal_hz is not None:
-            check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
-            values = values / nominal_hz - 1.0
-        elif np.nanmax(np.abs(values)) > 1e-3:
-            k = int(np.nanargmax(np.abs(values)))
-            raise InputDataError(
-                f"frequency value {values[k]:g} is not a fractional frequency (|y| > 1e-3): "
-                "for absolute frequency in Hz give the nominal frequency (--nominal-hz)",
-                str(path),
-                rows[min(k, len(rows) - 1)][0],
-            )
+        values = _check_frequency(values, path, nominal_hz)
 
     n_gaps = int(np.isnan(values).sum())
     if n_gaps == values.size:
-        raise InputDataError("every value is missing (NaN)", str(path), rows[0][0])
+        raise InputDataError("every value is missing (NaN)", str(path), layout.first_data_line)
     if n_gaps > max_gap_fraction * values.size:
         start, length = _longest_nan_run(values)
-        line = sample_line[start] if sample_line[start] >= 0 else sample_line[max(start - 1, 0)]
+        if sample_of_slot is not None:
+            k = sample_of_slot[start] if sample_of_slot[start] >= 0 else sample_of_slot[max(start - 1, 0)]
+        else:
+            k = start
         raise InputDataError(
             f"{n_gaps} of {values.size} samples are missing (NaN runs or time gaps; the longest, {length} samples, "
             f"starts here); too little data",
             str(path),
-            int(line),
+            _line_of(path, layout, int(max(k, 0))),
         )
     return ClockRecord(
         values=values,
         rate_hz=float(rate_hz),
         kind=kind,
-        t_s=t_out,
+        t_ns=t_ns,
         source=str(path),
         n_gaps=n_gaps,
         column=name,
+        jitter_rms_s=jitter[0],
+        jitter_max_s=jitter[1],
     )
 
 

@@ -1,9 +1,10 @@
 """Clock stability statistics: one engine, named wrappers, one result type.
 
 Every statistic takes PHASE in seconds (convert frequency data with :func:`frequency_to_phase`) and has
-the same signature, ``stat(x_s, rate_hz, tau_s="octave", *, ci=0.683, bias_correction=True)``, returning
+the same signature, ``stat(x_s, rate_hz, tau_s, *, ci=0.683, bias_correction=True)``, returning
 a :class:`Deviation` with the deviation, Stable32's noise type ``alpha``, the EDF and the confidence
-interval at each averaging time. ``compute(name, ...)`` is the same by name; ``STATISTICS`` lists them.
+interval at each averaging time. ``tau_s`` is an array of seconds: ``tau_grid("octave", N, rate_hz, name)``
+builds the standard grids. ``compute(name, ...)`` is the same by name; ``STATISTICS`` lists them.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 from chronofuse.analysis.stability.convert import frequency_to_phase, phase_to_frequency
 from chronofuse.analysis.stability.engine import STATISTICS, compute
 from chronofuse.analysis.stability.result import Deviation
-from chronofuse.analysis.stability.taus import averaging_factors
+from chronofuse.analysis.stability.taus import averaging_factors, tau_grid
 
 __all__ = [
     "adev",
@@ -33,6 +34,7 @@ __all__ = [
     "frequency_to_phase",
     "phase_to_frequency",
     "averaging_factors",
+    "tau_grid",
 ]
 
 _DESCRIPTIONS = {
@@ -55,16 +57,16 @@ _DESCRIPTIONS = {
 def _wrapper(name: str):
     """The public function for one statistic: ``compute(name, ...)`` with its own name and docstring."""
 
-    def statistic(x_s, rate_hz: float, tau_s="octave", *, ci: float = 0.683, bias_correction: bool = True) -> Deviation:
+    def statistic(x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True) -> Deviation:
         return compute(name, x_s, rate_hz, tau_s, ci=ci, bias_correction=bias_correction)
 
     statistic.__name__ = statistic.__qualname__ = name
     statistic.__doc__ = (
         f"{_DESCRIPTIONS[name][0].upper()}{_DESCRIPTIONS[name][1:]}.\n\n"
         "Parameters: ``x_s`` phase in seconds, shape (N,), NaN for missing samples; ``rate_hz`` sample\n"
-        "rate (> 0); ``tau_s`` 'octave' | 'decade' | 'all' or averaging times in seconds, shape (k,);\n"
-        "``ci`` confidence of the interval; ``bias_correction`` as Stable32. Returns a :class:`Deviation`\n"
-        "of shape (k,) (see :func:`compute`)."
+        "rate (> 0); ``tau_s`` averaging times in seconds, shape (k,) (``tau_grid`` builds octave/decade\n"
+        "grids); ``ci`` confidence of the interval; ``bias_correction`` as Stable32.\n"
+        "Returns a :class:`Deviation` of shape (k,) (see :func:`compute`)."
     )
     return statistic
 

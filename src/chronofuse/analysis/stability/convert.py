@@ -11,8 +11,10 @@ def frequency_to_phase(y: np.ndarray, rate_hz: float) -> np.ndarray:
     """Integrate fractional frequency ``y`` (N,) into phase ``x`` (N+1,) in seconds, ``x[0] = 0``.
 
     ``x[i+1] = x[i] + y[i] / rate_hz`` (NIST SP 1065 eq. 4 inverted). A NaN frequency sample is
-    integrated as the record's mean frequency and the phase at its end is marked NaN, so statistics
-    that skip gaps skip the terms that touch it.
+    integrated as the record's mean frequency and the phase at its end is marked NaN. Every difference
+    statistic skips the terms whose span holds that sample (``gap_rule == "span"``), so no result
+    depends on the value put in the gap; MTIE windows use the samples present (``"window"``), and the
+    total family and Theo1 interpolate (``"fill"``).
     """
     y = check_array(y, "y", allow_nan=True)
     check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)

@@ -43,7 +43,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import gammaincinv
 
 __all__ = [
     "greenhall_edf",
@@ -96,49 +96,104 @@ def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
     """Greenhall eq. (7): the generalized autocovariance kernel ``sw(t)`` of power-law noise."""
     t = np.asarray(t, dtype=float)
     a = np.abs(t)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_a = np.where(a > 0, np.log(np.where(a > 0, a, 1.0)), 0.0)
     if alpha == 2:
         return -a
-    if alpha == 1:
-        return t**2 * log_a
     if alpha == 0:
         return a**3
-    if alpha == -1:
-        return -(t**4) * log_a
     if alpha == -2:
         return -(a**5)
-    if alpha == -3:
-        return t**6 * log_a
     if alpha == -4:
         return a**7
-    raise ValueError(f"alpha == {alpha}, must be an integer in -4..2")
+    if alpha not in (1, -1, -3):
+        raise ValueError(f"alpha == {alpha}, must be an integer in -4..2")
+    log_a = np.log(np.where(a > 0, a, 1.0))  # t**k log|t| -> 0 at t = 0
+    if alpha == 1:
+        return t**2 * log_a
+    if alpha == -1:
+        return -(t**4) * log_a
+    return t**6 * log_a
 
 
 def _sx(t: np.ndarray, F: float, alpha: int) -> np.ndarray:
     """Greenhall eq. (8): ``sx(t) = F**2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)]``; ``sw(t, alpha+2)`` at F = inf."""
     if math.isinf(F):
         return _sw(t, alpha + 2)
-    return F**2 * (2.0 * _sw(t, alpha) - _sw(t - 1.0 / F, alpha) - _sw(t + 1.0 / F, alpha))
+    shifted = _sw(np.stack((t, t - 1.0 / F, t + 1.0 / F)), alpha)  # one kernel call for the three arguments
+    return F**2 * (2.0 * shifted[0] - shifted[1] - shifted[2])
 
 
 def _sz(t: np.ndarray, F: float, alpha: int, d: int) -> np.ndarray:
     """Greenhall eq. (9): ``sz(t) = sum_k (-1)**k C(2d, d+k) sx(t + k)``, ``k = -d..d``."""
     t = np.asarray(t, dtype=float)
-    out = np.zeros_like(t)
-    for k in range(-d, d + 1):
-        out = out + (-1) ** k * math.comb(2 * d, d + k) * _sx(t + k, F, alpha)
-    return out
+    k = np.arange(-d, d + 1)
+    weights = np.array([(-1) ** int(kk) * math.comb(2 * d, d + int(kk)) for kk in k], dtype=float)
+    sx = _sx(t[..., None] + k, F, alpha)  # (..., 2d+1): every shift in one call
+    return sx @ weights
+
+
+def _sw_scalar(t: float, alpha: int) -> float:
+    """:func:`_sw` of one float (no array overhead: the short sums of eq. (10) are mostly a few terms)."""
+    a = abs(t)
+    if alpha == 2:
+        return -a
+    if alpha == 0:
+        return a**3
+    if alpha == -2:
+        return -(a**5)
+    if alpha == -4:
+        return a**7
+    log_a = math.log(a) if a > 0 else 0.0
+    if alpha == 1:
+        return t * t * log_a
+    if alpha == -1:
+        return -(t**4) * log_a
+    if alpha == -3:
+        return t**6 * log_a
+    raise ValueError(f"alpha == {alpha}, must be an integer in -4..2")
+
+
+# (k, (-1)**k C(2d, d+k)) for k = -d..d, by d: the weights of eq. (9).
+_SZ_WEIGHTS = {d: tuple((k, (-1) ** k * math.comb(2 * d, d + k)) for k in range(-d, d + 1)) for d in range(1, 4)}
+
+
+def _sz_scalar(t: float, F: float, alpha: int, d: int) -> float:
+    """:func:`_sz` of one float."""
+    total = 0.0
+    weights = _SZ_WEIGHTS[d] if d in _SZ_WEIGHTS else tuple((k, (-1) ** k * math.comb(2 * d, d + k))
+                                                            for k in range(-d, d + 1))
+    if math.isinf(F):
+        for k, w in weights:
+            total += w * _sw_scalar(t + k, alpha + 2)
+        return total
+    step = 1.0 / F
+    for k, w in weights:
+        u = t + k
+        total += w * (F * F * (2.0 * _sw_scalar(u, alpha) - _sw_scalar(u - step, alpha) - _sw_scalar(u + step, alpha)))
+    return total
+
+
+# Up to this many terms eq. (10) is summed with Python floats; beyond, with arrays.
+_SCALAR_TERMS = 8
 
 
 def _basic_sum(J: float, M: float, S: float, F: float, alpha: int, d: int) -> float:
     """Greenhall eq. (10): ``sz(0)**2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)**2 + (1 - J/M) sz(J/S)**2``."""
-    j = np.arange(1, int(J), dtype=float)
-    total = float(_sz(np.array(0.0), F, alpha, d)) ** 2
-    total += (1.0 - J / M) * float(_sz(np.array(J / S), F, alpha, d)) ** 2
-    if j.size:
-        total += float(np.sum(2.0 * (1.0 - j / M) * _sz(j / S, F, alpha, d) ** 2))
-    return total
+    if J <= _SCALAR_TERMS:
+        total = _sz_scalar(0.0, F, alpha, d) ** 2
+        if int(J) >= 1:
+            total += (1.0 - J / M) * _sz_scalar(J / S, F, alpha, d) ** 2
+        for jj in range(1, int(J)):
+            total += 2.0 * (1.0 - jj / M) * _sz_scalar(jj / S, F, alpha, d) ** 2
+        return total
+    j = np.arange(0, int(J) + 1, dtype=float)
+    j[-1] = J
+    sz2 = _sz(j / S, F, alpha, d) ** 2
+    weights = 2.0 * (1.0 - j / M)
+    weights[0] = 1.0
+    weights[-1] = 1.0 - J / M
+    if int(J) == 0:
+        return float(sz2[0])
+    return float(np.dot(weights, sz2))
 
 
 def _white_pm_unmodified(d: int, M: float, S: float) -> float:
@@ -148,11 +203,10 @@ def _white_pm_unmodified(d: int, M: float, S: float) -> float:
     ``m``); terms ``S`` per ``m`` apart overlap at lags ``p S``. Equals Greenhall case 4 when
     ``ceil(M/S) > d`` (``a0 = C(4d, 2d)/C(2d, d)**2``, ``a1 = d/2``).
     """
-    c = np.array([(-1) ** k * math.comb(d, k) for k in range(d + 1)], dtype=float)
-    rho = np.correlate(c, c, mode="full")  # lags -d..d
-    lags = np.arange(-d, d + 1)
-    weights = np.maximum(M - np.abs(lags) * S, 0.0)
-    return M**2 * rho[d] ** 2 / float(np.sum(weights * rho**2))
+    c = [(-1) ** k * math.comb(d, k) for k in range(d + 1)]
+    rho = [sum(c[i] * c[i + abs(p)] for i in range(d + 1 - abs(p))) for p in range(-d, d + 1)]  # lags -d..d
+    total = sum(max(M - abs(p) * S, 0.0) * rho[p + d] ** 2 for p in range(-d, d + 1))
+    return M**2 * rho[d] ** 2 / total
 
 
 def greenhall_edf(alpha: int, d: int, m: int, n_points: int, *, overlapping: bool, modified: bool) -> float:
@@ -189,14 +243,14 @@ def greenhall_edf(alpha: int, d: int, m: int, n_points: int, *, overlapping: boo
     r = M / S
     if modified:  # case 1
         if J <= _J_MAX:
-            inv = _basic_sum(J, M, S, 1.0, alpha, d) / (float(_sz(np.array(0.0), 1.0, alpha, d)) ** 2 * M)
+            inv = _basic_sum(J, M, S, 1.0, alpha, d) / (_sz_scalar(0.0, 1.0, alpha, d) ** 2 * M)
         elif r > d + 1:
             a0, a1 = _TABLE1[alpha][d - 1]
             inv = (a0 - a1 / r) / r
         else:
             m_prime = _J_MAX / r
             inv = _basic_sum(_J_MAX, _J_MAX, m_prime, 1.0, alpha, d) / (
-                float(_sz(np.array(0.0), 1.0, alpha, d)) ** 2 * _J_MAX
+                _sz_scalar(0.0, 1.0, alpha, d) ** 2 * _J_MAX
             )
         return 1.0 / inv
     if alpha == 2:  # case 4, exact
@@ -204,20 +258,20 @@ def greenhall_edf(alpha: int, d: int, m: int, n_points: int, *, overlapping: boo
     if alpha <= 0:  # case 2
         if J <= _J_MAX:
             m_prime = float(m) if m * (d + 1) <= _J_MAX else math.inf
-            inv = _basic_sum(J, M, S, m_prime, alpha, d) / (float(_sz(np.array(0.0), m_prime, alpha, d)) ** 2 * M)
+            inv = _basic_sum(J, M, S, m_prime, alpha, d) / (_sz_scalar(0.0, m_prime, alpha, d) ** 2 * M)
         elif r > d + 1:
             a0, a1 = _TABLE2[alpha][d - 1]
             inv = (a0 - a1 / r) / r
         else:
             m_prime = _J_MAX / r
             inv = _basic_sum(_J_MAX, _J_MAX, m_prime, math.inf, alpha, d) / (
-                float(_sz(np.array(0.0), math.inf, alpha, d)) ** 2 * _J_MAX
+                _sz_scalar(0.0, math.inf, alpha, d) ** 2 * _J_MAX
             )
         return 1.0 / inv
     # alpha == 1, case 3
     b0, b1 = _TABLE3[d - 1]
     if J <= _J_MAX:
-        inv = _basic_sum(J, M, S, float(m), 1, d) / (float(_sz(np.array(0.0), float(m), 1, d)) ** 2 * M)
+        inv = _basic_sum(J, M, S, float(m), 1, d) / (_sz_scalar(0.0, float(m), 1, d) ** 2 * M)
     elif r > d + 1:
         a0, a1 = _TABLE2[1][d - 1]
         inv = (a0 - a1 / r) / ((b0 + b1 * math.log(m)) ** 2 * r)
@@ -298,6 +352,8 @@ def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float) -> tuple[np.ndarr
     ok = np.isfinite(edf) & (edf > 0) & np.isfinite(dev)
     if ok.any():
         e = edf[ok]
-        lo[ok] = dev[ok] * np.sqrt(e / chi2.ppf((1.0 + ci) / 2.0, e))
-        hi[ok] = dev[ok] * np.sqrt(e / chi2.ppf((1.0 - ci) / 2.0, e))
+        # chi2.ppf(p, e) is 2 gammaincinv(e/2, p) (scipy's own definition), called directly: the
+        # distribution object's argument checks cost more than the quantiles on a short tau grid.
+        lo[ok] = dev[ok] * np.sqrt(e / (2.0 * gammaincinv(e / 2.0, (1.0 + ci) / 2.0)))
+        hi[ok] = dev[ok] * np.sqrt(e / (2.0 * gammaincinv(e / 2.0, (1.0 - ci) / 2.0)))
     return lo, hi

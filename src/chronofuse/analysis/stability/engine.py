@@ -7,9 +7,9 @@
    a missing sample (Allan and Hadamard families, TIE rms, MTIE; ``skipped`` counts the missing
    samples); ``fill`` interpolates interior gaps linearly and trims leading/trailing ones first (total
    family and Theo1; ``filled`` counts them);
-3. build the averaging factors: an octave/decade/all grid up to the statistic's largest factor, or
-   explicit averaging times converted with ``taus_to_factors`` (a time that is not a whole multiple of
-   the sample interval is an error; one beyond the record's range is dropped with a warning);
+3. convert the averaging times (an array of seconds; ``taus.tau_grid`` builds the octave/decade/all
+   grids) to averaging factors with ``taus_to_factors`` (a time that is not a whole multiple of the
+   sample interval is an error; one beyond the record's range is dropped with a warning);
 4. run the raw kernel; identify the noise (``noise_id``); multiply by the bias correction
    (``bias``) when asked; compute the EDF (``edf``) and the chi-square interval.
 
@@ -19,135 +19,33 @@ The result is a :class:`~chronofuse.analysis.stability.result.Deviation`.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from chronofuse.analysis.stability import edf as edf_mod
-from chronofuse.analysis.stability.bias import htotdev_bias, totdev_bias
 from chronofuse.analysis.stability.convert import fill_gaps
-from chronofuse.analysis.stability.kernels_allan import (
-    adev_raw,
-    hdev_raw,
-    max_m_adev,
-    max_m_hdev,
-    max_m_mdev,
-    max_m_oadev,
-    max_m_ohdev,
-    max_m_tdev,
-    mdev_raw,
-    oadev_raw,
-    ohdev_raw,
-    tdev_raw,
-)
-from chronofuse.analysis.stability.kernels_theo import max_m_theo1, theo1_raw
-from chronofuse.analysis.stability.kernels_tie import max_m_mtie, max_m_tie_rms, mtie_raw, tie_rms_raw
-from chronofuse.analysis.stability.kernels_total import (
-    htotdev_raw,
-    max_m_htotdev,
-    max_m_mtotdev,
-    max_m_totdev,
-    max_m_ttotdev,
-    mtotdev_raw,
-    totdev_raw,
-    ttotdev_raw,
-)
 from chronofuse.analysis.stability.noise_id import identify_noise_methods
+from chronofuse.analysis.stability.registry import EDF_FAMILIES, GAP_POLICIES, STATISTICS, StatisticSpec
 from chronofuse.analysis.stability.result import Deviation
-from chronofuse.analysis.stability.taus import SPACINGS, averaging_factors, taus_to_factors
+from chronofuse.analysis.stability.taus import taus_to_factors
 from chronofuse.validation import check_array, check_choice, check_scalar
 
 __all__ = ["StatisticSpec", "STATISTICS", "compute", "GAP_POLICIES", "EDF_FAMILIES"]
 
-GAP_POLICIES = ("skip", "fill")
-EDF_FAMILIES = ("greenhall", "totdev", "mtotdev", "htotdev", "theo1", "none")
-
-Kernel = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
-BiasFunction = Callable[[np.ndarray, np.ndarray, int], np.ndarray]
-
-
-@dataclass(frozen=True)
-class StatisticSpec:
-    """How the engine computes one statistic.
-
-    Attributes
-    ----------
-    name : str
-        Registry key (``"adev"``, ...).
-    kernel : callable
-        Raw kernel ``(x (N,), m (k,), tau0_s) -> (dev (k,), n (k,))``, no bias correction.
-    max_m : callable
-        Largest valid averaging factor for N phase points.
-    gaps : str
-        ``"skip"`` (kernel skips terms touching NaN) or ``"fill"`` (engine interpolates first).
-    tau_factor : float
-        ``tau = tau_factor * m * tau0`` (0.75 for Theo1, 1 otherwise).
-    m_step : int
-        Averaging factors must be multiples of this (2 for Theo1).
-    edf_family : str
-        One of ``EDF_FAMILIES``; ``"none"`` for TIE rms and MTIE (no chi-square interval).
-    noise_dmax : int
-        Largest number of differences in the lag-1 ACF noise identification (3: Hadamard family).
-    bias : callable or None
-        ``(alpha (k,), m (k,), N) -> factor (k,)`` multiplying the raw deviation, or None.
-    """
-
-    name: str
-    kernel: Kernel
-    max_m: Callable[[int], int]
-    gaps: str
-    tau_factor: float = 1.0
-    m_step: int = 1
-    edf_family: str = "greenhall"
-    noise_dmax: int = 2
-    bias: BiasFunction | None = None
-
-    def __post_init__(self):
-        check_choice(self.gaps, "gaps", GAP_POLICIES)
-        check_choice(self.edf_family, "edf_family", EDF_FAMILIES)
-        check_scalar(self.tau_factor, "tau_factor", min_val=0, include_min=False)
-        check_scalar(self.m_step, "m_step", min_val=1, integer=True)
-
-
-STATISTICS: dict[str, StatisticSpec] = {
-    spec.name: spec
-    for spec in (
-        StatisticSpec("adev", adev_raw, max_m_adev, "skip"),
-        StatisticSpec("oadev", oadev_raw, max_m_oadev, "skip"),
-        StatisticSpec("mdev", mdev_raw, max_m_mdev, "skip"),
-        StatisticSpec("tdev", tdev_raw, max_m_tdev, "skip"),
-        StatisticSpec("hdev", hdev_raw, max_m_hdev, "skip", noise_dmax=3),
-        StatisticSpec("ohdev", ohdev_raw, max_m_ohdev, "skip", noise_dmax=3),
-        StatisticSpec("totdev", totdev_raw, max_m_totdev, "fill", edf_family="totdev", bias=totdev_bias),
-        StatisticSpec("mtotdev", mtotdev_raw, max_m_mtotdev, "fill", edf_family="mtotdev"),
-        StatisticSpec("ttotdev", ttotdev_raw, max_m_ttotdev, "fill", edf_family="mtotdev"),
-        StatisticSpec(
-            "htotdev", htotdev_raw, max_m_htotdev, "fill", edf_family="htotdev", noise_dmax=3, bias=htotdev_bias
-        ),
-        StatisticSpec("theo1", theo1_raw, max_m_theo1, "fill", tau_factor=0.75, m_step=2, edf_family="theo1"),
-        StatisticSpec("tie_rms", tie_rms_raw, max_m_tie_rms, "skip", edf_family="none"),
-        StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none"),
-    )
-}
-
 
 def _factors(spec: StatisticSpec, tau_s, rate_hz: float, n_points: int) -> np.ndarray:
-    """Averaging factors (k,) for ``tau_s`` (a spacing name or seconds), within the statistic's range."""
+    """Averaging factors (k,) for the averaging times ``tau_s`` (seconds), within the statistic's range."""
     max_m = int(spec.max_m(n_points))
     if isinstance(tau_s, str):
-        check_choice(tau_s, "tau_s", SPACINGS)
-        m = averaging_factors(max_m, tau_s)
-        if spec.m_step > 1:
-            m = m[m % spec.m_step == 0]
-        if m.size == 0:
-            raise ValueError(
-                f"x_s has {n_points} samples, too few for {spec.name} (largest averaging factor {max_m})"
-            )
-        return m
+        raise TypeError(
+            f"tau_s == {tau_s!r}: give averaging times in seconds as an array; "
+            f"tau_grid({tau_s!r}, n_points, rate_hz, statistic) builds the standard grids"
+        )
+    if max_m < 1:
+        raise ValueError(f"x_s has {n_points} samples, too few for {spec.name}")
     taus = np.asarray(tau_s, dtype=float)
     if taus.ndim != 1 or taus.size == 0:
-        raise ValueError(f"tau_s has shape {taus.shape}, must be a non-empty 1-D array of seconds or one of {SPACINGS}")
+        raise ValueError(f"tau_s has shape {taus.shape}, must be a non-empty 1-D array of seconds")
     if not np.all(np.isfinite(taus)) or np.any(taus <= 0):
         raise ValueError(f"tau_s == {taus.tolist()}, must be positive finite seconds")
     m = taus_to_factors(taus, rate_hz, tau_factor=spec.tau_factor)  # its errors name tau_s
@@ -194,7 +92,7 @@ def compute(
     statistic: str,
     x_s,
     rate_hz: float,
-    tau_s="octave",
+    tau_s,
     *,
     ci: float = 0.683,
     bias_correction: bool = True,
@@ -210,8 +108,9 @@ def compute(
         first (``frequency_to_phase``).
     rate_hz : float
         Sample rate, ``1 / tau0``, > 0.
-    tau_s : {"octave", "decade", "all"} or array-like of shape (k,)
-        Averaging-factor grid, or averaging times in seconds (whole multiples of ``tau_factor/rate_hz``).
+    tau_s : array-like of shape (k,)
+        Averaging times in seconds (whole multiples of ``tau_factor/rate_hz``); ``tau_grid`` builds the
+        octave, decade and all-factors grids.
     ci : float
         Confidence of the interval, 0 < ci < 1 (0.683: Stable32's 1 sigma).
     bias_correction : bool
@@ -231,7 +130,8 @@ def compute(
         raise TypeError(f"bias_correction == {bias_correction!r}, must be a bool")
     tau0_s = 1.0 / rate_hz
 
-    n_missing = int(np.isnan(x).sum())
+    # One reduction tells whether there is a gap (x has no infinities); count only then.
+    n_missing = int(np.count_nonzero(np.isnan(x))) if x.size and np.isnan(np.add.reduce(x)) else 0
     if n_missing == x.size:
         raise ValueError(f"x_s has {x.size} samples, all NaN")
     skipped = filled = 0
@@ -248,7 +148,7 @@ def compute(
     dev = np.asarray(dev, dtype=float)
     n = np.asarray(n, dtype=np.int64)
 
-    alpha, alpha_method = identify_noise_methods(x_id, m, spec.noise_dmax)
+    alpha, alpha_method = identify_noise_methods(x_id, m, spec.noise_dmax, spec.overlapping)
     corrected = bool(bias_correction and spec.bias is not None)
     if corrected:
         dev = dev * spec.bias(alpha, m, n_points)
@@ -269,4 +169,5 @@ def compute(
         bias_corrected=corrected,
         filled=int(filled),
         skipped=int(skipped),
+        gap_rule=spec.gap_rule,
     )

@@ -9,8 +9,12 @@ Every kernel has the stability-engine signature ``name_raw(x, m, tau0_s) -> (dev
 
 All are O(N) per averaging factor: the Allan and Hadamard variances are means of squared binomial
 differences of the phase taken at lag ``m``; the modified variance sums ``m`` consecutive second
-differences, which is a difference of two cumulative sums. A term that touches a NaN sample is skipped
-and ``n`` counts only the valid terms. Kernels never modify ``x``.
+differences, which is a difference of two cumulative sums. A term whose span (first to last sample it
+covers) holds a NaN sample is skipped and ``n`` counts only the valid terms. Kernels never modify ``x``.
+
+The sums run in numba loops over contiguous slices with reassociated (vectorized) additions
+(``_difference_sum_of_squares_fused``, ``_mvar_sum_of_squares_fused``); their readable numpy twins
+(``_difference_sum_of_squares``, the blocked ``_mvar_sum_of_squares``) are compared in the tests.
 
 Reference: W. J. Riley, *Handbook of Frequency Stability Analysis*, NIST SP 1065 (2008), section 5.2.
 The averaging-factor limits are Stable32's "stop ratios" (``max AF = N // ratio``: 5 for ADEV and HDEV,
@@ -20,6 +24,7 @@ Software", Table III.
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 __all__ = [
@@ -107,26 +112,92 @@ def sum_of_squares(d: np.ndarray) -> float:
     return float(np.einsum("i,i->", d, d))
 
 
-def _sum_of_squares(d: np.ndarray) -> tuple[float, int]:
-    """Sum of squares of the non-NaN entries of ``d`` (L,) and how many there are."""
-    s = sum_of_squares(d)
-    if not np.isnan(s):
-        return s, int(d.size)
-    dv = d[~np.isnan(d)]
-    return sum_of_squares(dv), int(dv.size)
+def nan_prefix(x: np.ndarray) -> np.ndarray:
+    """``c[i]`` = number of NaN in ``x[:i]``, shape (N + 1,): ``x[i : j]`` holds no NaN iff ``c[j] == c[i]``."""
+    return np.concatenate(([0], np.cumsum(np.isnan(x), dtype=np.int64)))
 
 
-def _difference_sum_of_squares(x: np.ndarray, m: int, order: int, work: np.ndarray) -> tuple[float, int]:
-    """Sum of squares of the non-NaN lagged differences of ``order`` of ``x`` (N,) at lag ``m``, and their
-    count, formed block by block in ``work`` (2, _BLOCK)."""
-    length = x.size - order * m
-    total, count = 0.0, 0
-    for start in range(0, max(length, 0), _BLOCK):
-        stop = min(start + _BLOCK, length)
-        s, c = _sum_of_squares(_lagged_difference(x[start : stop + order * m], m, order, work))
-        total += s
-        count += c
+def _difference_sum_of_squares(x: np.ndarray, m: int, order: int, step: int = 1) -> tuple[float, int]:
+    """Readable twin of the fused sum: sum of squares of the lagged differences of ``order`` of ``x`` (N,)
+    at lag ``m``, starts ``0, step, 2 step, ...``, skipping every term whose span ``x[i : i + order m + 1]``
+    holds a missing sample; and their count."""
+    d = _lagged_difference(x, m, order).copy()[::step]
+    if np.isnan(x).any():
+        c = nan_prefix(x)
+        starts = np.arange(0, x.size - order * m, step)
+        d = d[c[starts + order * m + 1] == c[starts]]
+    return sum_of_squares(d), int(d.size)
+
+
+# Reassociation only (no "nnan": a NaN sum still tells a gap): with the terms read from slices the sum
+# vectorizes, 5x faster than the strict left-to-right sum on one core.
+_REASSOC = {"reassoc"}
+
+
+@numba.njit(cache=True, fastmath=_REASSOC)
+def contiguous_difference_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
+    """Sum of squares of the lag-``lag`` differences of ``order`` of ``x`` (read through slices)."""
+    count = max(x.size - order * lag, 0)
+    total = 0.0
+    if order == 2:
+        a, b, c = x[2 * lag : 2 * lag + count], x[lag : lag + count], x[:count]
+        for i in range(count):
+            d = a[i] - 2.0 * b[i] + c[i]
+            total += d * d
+    else:
+        a, b, c, e = x[3 * lag : 3 * lag + count], x[2 * lag : 2 * lag + count], x[lag : lag + count], x[:count]
+        for i in range(count):
+            d = a[i] - 3.0 * b[i] + 3.0 * c[i] - e[i]
+            total += d * d
     return total, count
+
+
+@numba.njit(cache=True, fastmath=_REASSOC)
+def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
+    """The numba twin of :func:`_difference_sum_of_squares`: one pass, no temporaries.
+
+    Terms start at ``i = 0, step, 2 step, ...`` (``step = 1``: overlapping; ``step = m``: the phase
+    decimated by ``m``). Returns ``(sum of squares, count)``, or ``(nan, -1)`` when a term is NaN (a
+    record with gaps goes to :func:`_difference_sum_of_squares_span`, which applies the span rule).
+    """
+    if step == 1:
+        total, count = contiguous_difference_sum(x, m, order)  # contiguous slices: the loop vectorizes
+    else:
+        total, count = contiguous_difference_sum(np.ascontiguousarray(x[::step]), 1, order)
+    if total == total:
+        return total, count
+    return np.nan, -1
+
+
+@numba.njit(cache=True)
+def _difference_sum_of_squares_span(x: np.ndarray, c: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
+    """The fused sum on a record with gaps: terms whose span ``x[i : i + order m + 1]`` holds a missing
+    sample (``c`` from :func:`nan_prefix`) are skipped."""
+    last = max(x.size - order * m, 0)
+    total = 0.0
+    count = 0
+    for i in range(0, last, step):
+        if c[i + order * m + 1] != c[i]:
+            continue
+        if order == 2:
+            d = x[i + 2 * m] - 2.0 * x[i + m] + x[i]
+        else:
+            d = x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]
+        total += d * d
+        count += 1
+    return total, count
+
+
+def allan_variance_gap_free(x: np.ndarray, m: int, overlapping: bool) -> float:
+    """AVAR at factor ``m`` in units of ``tau0 = 1`` of a gap-free phase record ``x`` (N,) (no checks:
+    for the noise identification, which already holds a validated, gap-filled record); NaN if no term."""
+    s, count = _difference_sum_of_squares_fused(x, m, _SECOND, 1 if overlapping else m)
+    return s / (2.0 * count * m * m) if count > 0 else np.nan
+
+
+def _has_nan(x: np.ndarray) -> bool:
+    """Whether ``x`` holds a NaN, by one reduction (no boolean temporary; ``x`` has no infinities)."""
+    return bool(np.isnan(np.add.reduce(x))) if x.size else False
 
 
 def _difference_variance(
@@ -139,13 +210,15 @@ def _difference_variance(
     """
     var = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
-    work = np.empty((2, _BLOCK))
+    # A decimated term can step over a gap without reading it: with gaps, every m uses the span rule.
+    prefix = nan_prefix(x) if _has_nan(x) else None
     for j, mj in enumerate(m):
         mj = int(mj)
-        if overlapping:
-            s, count = _difference_sum_of_squares(x, mj, order, work)
+        step = 1 if overlapping else mj
+        if prefix is None:
+            s, count = _difference_sum_of_squares_fused(x, mj, order, step)
         else:
-            s, count = _difference_sum_of_squares(x[::mj], 1, order, work)
+            s, count = _difference_sum_of_squares_span(x, prefix, mj, order, step)
         n[j] = count
         if count > 0:
             var[j] = s / (scale * count * (mj * tau0_s) ** 2)
@@ -270,6 +343,39 @@ def _mvar_sum_of_squares(x: np.ndarray, m: int, work: np.ndarray, cumulative: np
     return total, n_terms
 
 
+@numba.njit(cache=True)
+def _mvar_cumulative(x: np.ndarray, m: int, c: np.ndarray) -> int:
+    """``c[0] = 0``, ``c[i+1] = c[i] + (x[i+2m] - 2 x[i+m] + x[i])``: the running sum of the second
+    differences, strictly left to right (no reassociation here); returns their number ``N - 2m``."""
+    n_diff = x.size - 2 * m
+    c[0] = 0.0
+    a, b, e = x[2 * m : 2 * m + n_diff], x[m : m + n_diff], x[:n_diff]
+    for i in range(n_diff):
+        c[i + 1] = c[i] + (a[i] - 2.0 * b[i] + e[i])
+    return n_diff
+
+
+@numba.njit(cache=True, fastmath=_REASSOC)
+def _window_square_sum(c: np.ndarray, m: int, n_terms: int) -> float:
+    """``sum_j (c[j+m] - c[j])**2`` for ``j < n_terms`` (slices; the sum vectorizes)."""
+    hi, lo = c[m : m + n_terms], c[:n_terms]
+    total = 0.0
+    for j in range(n_terms):
+        t = hi[j] - lo[j]
+        total += t * t
+    return total
+
+
+def _mvar_sum_of_squares_fused(x: np.ndarray, m: int, cumulative: np.ndarray) -> tuple[float, int]:
+    """The numba twin of :func:`_mvar_sum_of_squares` (same algorithm: running sum of the second
+    differences, then differences of that sum), without blocks or temporaries."""
+    n_terms = x.size - 3 * m + 1
+    if n_terms <= 0:
+        return 0.0, 0
+    _mvar_cumulative(x, m, cumulative)
+    return _window_square_sum(cumulative, m, n_terms), n_terms
+
+
 def _mvar(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Modified Allan variance (k,) and term counts (k,), NIST SP 1065 eq. (14), O(N) per factor.
 
@@ -278,11 +384,10 @@ def _mvar(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.n
     """
     var = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
-    work = np.empty((2, _BLOCK))
     cumulative = np.empty(x.size + 1)
     for j, mj in enumerate(m):
         mj = int(mj)
-        s, count = _mvar_sum_of_squares(x, mj, work, cumulative)
+        s, count = _mvar_sum_of_squares_fused(x, mj, cumulative)
         if np.isnan(s):
             terms = _mvar_terms_with_gaps(x, mj)
             s, count = sum_of_squares(terms), int(terms.size)

@@ -44,7 +44,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, sum_of_squares
+from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, contiguous_difference_sum, sum_of_squares
 
 __all__ = [
     "totdev_raw",
@@ -135,11 +135,13 @@ def totdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray,
         return np.zeros(0), np.zeros(0, dtype=np.int64)
     xs = _odd_reflection(x)
     mid = n_points - 2  # index of x_1 (0-based x[0]) in xs
-    centre = np.arange(mid + 1, mid + n_points - 1)  # x_2 .. x_{N-1} (1-based)
+    # Centres x_2 .. x_{N-1} (1-based), i.e. xs[mid+1 : mid+N-1]: the lag-m second differences of the
+    # slice that reaches m samples either side (contiguous, summed by the Allan kernels' fused loop).
     dev = np.empty(m.size)
     for k, mk in enumerate(m):
-        d = xs[centre - mk] - 2.0 * xs[centre] + xs[centre + mk]
-        dev[k] = np.sqrt(sum_of_squares(d) / (2.0 * (mk * tau0_s) ** 2 * (n_points - 2)))
+        mk = int(mk)
+        s, _ = contiguous_difference_sum(xs[mid + 1 - mk : mid + n_points - 1 + mk], mk, 2)
+        dev[k] = np.sqrt(s / (2.0 * (mk * tau0_s) ** 2 * (n_points - 2)))
     return dev, np.full(m.size, n_points - 2, dtype=np.int64)
 
 

@@ -16,14 +16,17 @@ spectrum, ``S_y(f) ~ f**alpha``, is identified as an integer in -2..2 (Stable32'
    (classical variance of the ``m``-averages over the non-overlapped Allan variance) is compared with
    its expectation ``B1(N, mu)`` for each noise type, the boundaries being geometric means of
    neighbouring expectations; B1 cannot tell white from flicker PM (both ``mu = -2``), so R(n) =
-   MVAR / AVAR decides between them.
+   MVAR / AVAR decides between them. The AVAR in B1 is the overlapping one for the overlapping and total
+   statistics (non-overlapped for ADEV and HDEV): with ~10 averages the non-overlapped AVAR alone
+   scatters B1 across a boundary (SP 1065's white-FM 1000-point set at m = 100: 0.68, flicker PM; with
+   the overlapping AVAR 0.98, white FM, which gives SP 1065's published HTOTDEV there).
 
 Reproduction of Stable32 (tests/analysis/test_noise_id.py): every ``Alpha`` entry of every Stable32
 table in ``shared/data/stability`` whose row has at least 30 frequency averages is reproduced exactly
 (phasedat, ocxo, gps and Cs5071A, all statistics of the Allan, Hadamard and total families). Working on
 frequency averages with a linear detrend matters: identifying on the decimated phase with a quadratic
 detrend (allantools' choice) gives alpha = 2 instead of Stable32's 0 at m = 10000 of the Cs5071A record.
-The B1/R(n) rows (fewer than 30 averages) are not all reproduced: Stable32's small-sample procedure is
+The B1/R(n) rows (fewer than 30 averages) are not all reproduced (33 of 75): Stable32's small-sample procedure is
 not documented beyond "B1 and R(n)", and its answers even differ between ADEV and OADEV at the same
 ``m`` of the same record (ocxo m = 1024: -2 and -1), which no single B1 rule gives. The Cs5071A TOTDEV
 table reports alpha = 0 at every row (also where ADEV on the same data reports 2 and 1), and the
@@ -33,15 +36,18 @@ Stable32, not an identification, and are not reproduced.
 
 from __future__ import annotations
 
+
+import numba
 import numpy as np
 
-from chronofuse.analysis.stability.kernels_allan import adev_raw, mdev_raw, oadev_raw
+from chronofuse.analysis.stability.kernels_allan import allan_variance_gap_free, mdev_raw, oadev_raw, sum_of_squares
 
 __all__ = [
     "MIN_ACF_POINTS",
     "frequency_averages",
     "lag1_autocorrelation",
     "acf_noise_id",
+    "acf_noise_id_fast",
     "b1_noise_id",
     "b1_expected",
     "identify_noise",
@@ -70,17 +76,22 @@ def lag1_autocorrelation(z: np.ndarray) -> float:
     Riley & Greenhall (2004) eq. (2); ``z`` of shape (n,), n >= 2.
     """
     zc = z - z.mean()
-    den = float(np.dot(zc, zc))
+    den = sum_of_squares(zc)
     if den == 0.0:
         return 0.0
-    return float(np.dot(zc[:-1], zc[1:])) / den
+    return float(np.einsum("i,i->", zc[:-1], zc[1:])) / den
 
 
 def _remove_linear(z: np.ndarray) -> np.ndarray:
-    """Residual of ``z`` (n,) after a least-squares straight line (frequency offset and drift)."""
-    t = np.arange(z.size, dtype=float)
-    coef = np.polyfit(t, z, 1)
-    return z - np.polyval(coef, t)
+    """Residual of ``z`` (n,) after a least-squares straight line (frequency offset and drift).
+
+    Closed form on the centred abscissa ``t_k = k - (n-1)/2``: ``slope = sum t z / sum t**2``,
+    ``intercept = mean(z)`` (``sum t**2 = n (n**2 - 1) / 12``).
+    """
+    n = z.size
+    t = np.arange(n, dtype=float) - 0.5 * (n - 1)
+    slope = float(np.einsum("i,i->", t, z)) / (n * (n * n - 1.0) / 12.0) if n > 1 else 0.0
+    return z - z.mean() - slope * t
 
 
 def acf_noise_id(x: np.ndarray, m: int, dmax: int) -> int | None:
@@ -116,6 +127,86 @@ def acf_noise_id(x: np.ndarray, m: int, dmax: int) -> int | None:
         d += 1
 
 
+@numba.njit(cache=True, fastmath=True)  # reassociated sums: vectorized reductions; the tests compare the twin
+def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
+    """Lag-1 autocorrelation of the ``d``-times differenced frequency averages at factor ``m``, one pass.
+
+    The numba twin of ``lag1_autocorrelation`` applied to ``_remove_linear(frequency_averages(x, m))``
+    differenced ``d`` times (d = 0), or to the plain ``d``-fold difference (d >= 1: differencing removes
+    the line's offset and turns its slope into a constant, which the mean removal takes away). The
+    series ``w`` is the ``(d+1)``-th difference of the decimated phase ``x[::m]`` divided by ``m``,
+    formed once into a scratch array, then fitted and correlated.
+    """
+    xd = x if m == 1 else np.ascontiguousarray(x[::m])  # contiguous slices below: the loops vectorize
+    n = xd.size - 1 - d
+    if n < 2:
+        return 0.0
+    inv_m = 1.0 / m
+    w = np.empty(n)
+    # w = (d+1)-th difference of x[::m] / m, written out per order.
+    if d == 0:
+        a1, a0 = xd[1 : n + 1], xd[:n]
+        for k in range(n):
+            w[k] = (a1[k] - a0[k]) * inv_m
+    elif d == 1:
+        a2, a1, a0 = xd[2 : n + 2], xd[1 : n + 1], xd[:n]
+        for k in range(n):
+            w[k] = (a2[k] - 2.0 * a1[k] + a0[k]) * inv_m
+    elif d == 2:
+        a3, a2, a1, a0 = xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
+        for k in range(n):
+            w[k] = (a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]) * inv_m
+    else:
+        a4, a3, a2, a1, a0 = xd[4 : n + 4], xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
+        for k in range(n):
+            w[k] = (a4[k] - 4.0 * a3[k] + 6.0 * a2[k] - 4.0 * a1[k] + a0[k]) * inv_m
+    w0 = w[0]
+    s1 = 0.0
+    skw = 0.0
+    if d == 0:  # only the d = 0 series is detrended; the others need just their mean
+        for k in range(n):
+            v = w[k] - w0
+            s1 += v
+            skw += k * v
+    else:
+        for k in range(n):
+            s1 += w[k] - w0
+    half = 0.5 * (n - 1)
+    mean = w0 + s1 / n
+    slope = 0.0
+    if d == 0:
+        slope = (skw - half * s1) / (n * (n * n - 1.0) / 12.0)
+    # Pass 2: residuals e_k = w_k - mean - slope (k - half), their energy and lag-1 products.
+    prev = w[0] - mean + slope * half
+    den = prev * prev
+    num = 0.0
+    for k in range(1, n):
+        e = w[k] - mean - slope * (k - half)
+        den += e * e
+        num += prev * e
+        prev = e
+    if den == 0.0:
+        return 0.0
+    return num / den
+
+
+def acf_noise_id_fast(x: np.ndarray, m: int, dmax: int) -> int | None:
+    """:func:`acf_noise_id` with the differencing and detrending fused into one numba pass per ``d``.
+
+    Same result (the tests compare the two); used by :func:`identify_noise_methods`, where the readable
+    twin's array passes (``np.diff``, the detrend, two dot products) dominated the public call's time.
+    """
+    if (x.size - 1) // m < MIN_ACF_POINTS:
+        return None
+    d = 0
+    while True:
+        r1 = _lag1_of_differences(x, m, d)
+        delta = r1 / (1.0 + r1)
+        if delta < _DELTA_STATIONARY or d >= dmax:
+            return int(-round(2.0 * delta)) - 2 * d
+        d += 1
+
+
 def b1_expected(n: int, mu: int) -> float:
     """Expected B1 ratio for ``n`` frequency averages and AVAR tau-exponent ``mu``.
 
@@ -142,18 +233,23 @@ def _rn_expected(m: int, alpha: int) -> float:
     return mvar / avar
 
 
-def b1_noise_id(x: np.ndarray, m: int) -> int | None:
+def b1_noise_id(x: np.ndarray, m: int, overlapping: bool = False) -> int | None:
     """B1-ratio noise identification with R(n) to separate white and flicker PM.
 
     ``x`` (N,) gap-free phase; returns ``alpha`` in -2..2, or None when fewer than 2 frequency averages
-    (or no Allan term) exist at this ``m``.
+    (or no Allan term) exist at this ``m``. ``overlapping``: the Allan variance in the ratio is the
+    overlapping one (for the overlapping and total statistics; Stable32's B1 answers differ between ADEV
+    and OADEV at the same ``m``, as the variance it divides by does). With n = 10 averages the
+    non-overlapped AVAR has about 9 degrees of freedom and its scatter alone moves B1 across the
+    white-PM/white-FM boundary: on SP 1065's white-FM 1000-point set at m = 100 it gives B1 = 0.68
+    (flicker PM) where the overlapping AVAR gives 0.98 (white FM).
     """
     z = frequency_averages(x, m)
     n = z.size
     if n < 3:
         return None
     mm = np.array([m], dtype=np.int64)
-    avar = float(adev_raw(x, mm, 1.0)[0][0]) ** 2
+    avar = allan_variance_gap_free(x, m, overlapping)
     if not np.isfinite(avar) or avar == 0.0:
         return None
     b1 = float(np.var(z, ddof=1)) / avar
@@ -177,7 +273,9 @@ def b1_noise_id(x: np.ndarray, m: int) -> int | None:
     return 1 if rn > np.sqrt(_rn_expected(m, 2) * _rn_expected(m, 1)) else 2
 
 
-def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple[np.ndarray, np.ndarray]:
+def identify_noise_methods(
+    x: np.ndarray, m: np.ndarray, dmax: int = 2, overlapping: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
     """Identify the power-law noise ``alpha`` (integer, -2..2) at each averaging factor.
 
     Parameters
@@ -188,6 +286,8 @@ def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple
         Averaging factors.
     dmax : int
         2 for the Allan and total families, 3 for the Hadamard family.
+    overlapping : bool
+        The B1 fallback divides by the overlapping Allan variance (see :func:`b1_noise_id`).
 
     Returns
     -------
@@ -202,16 +302,17 @@ def identify_noise_methods(x: np.ndarray, m: np.ndarray, dmax: int = 2) -> tuple
     m = np.asarray(m, dtype=np.int64)
     alpha = np.zeros(m.size, dtype=np.int64)
     method = np.full(m.size, "held", dtype="<U4")
+    x = np.ascontiguousarray(x, dtype=np.float64)
     for j, mj in enumerate(m):
-        a = acf_noise_id(x, int(mj), dmax)
+        a = acf_noise_id_fast(x, int(mj), dmax)
         if a is not None:
             method[j] = "acf"
         else:
-            a = b1_noise_id(x, int(mj))
+            a = b1_noise_id(x, int(mj), overlapping)
             if a is not None:
                 method[j] = "b1"
         if a is not None:
-            alpha[j] = int(np.clip(a, -2, 2))
+            alpha[j] = min(max(int(a), -2), 2)
     known = method != "held"
     if not known.all():
         held = 0

@@ -44,6 +44,11 @@ class Deviation:
         statistics that cannot skip gaps; 0 otherwise.
     skipped : int
         Number of missing (NaN) phase samples whose terms were skipped.
+    gap_rule : str
+        How missing samples were handled: ``"span"`` (every term whose span, first to last phase sample
+        it covers, holds a missing sample is skipped: no term bridges a gap with an assumed value),
+        ``"window"`` (MTIE: each window's extremes over the samples present in it) or ``"fill"`` (gaps
+        interpolated linearly, ends trimmed).
     """
 
     statistic: str
@@ -59,6 +64,7 @@ class Deviation:
     bias_corrected: bool = False
     filled: int = 0
     skipped: int = 0
+    gap_rule: str = "span"
 
     def to_dict(self) -> dict:
         """JSON-ready dict: ``{"tau": [...], "dev": [...], "lo": [...], "hi": [...], ...}`` (NaN -> None)."""
@@ -78,4 +84,5 @@ class Deviation:
             "bias_corrected": self.bias_corrected,
             "filled": self.filled,
             "skipped": self.skipped,
+            "gap_rule": self.gap_rule,
         }

@@ -1,10 +1,16 @@
-"""Averaging-time grids. ``taus`` is always an array; these helpers build the usual ones."""
+"""Averaging-time grids. The engine takes ``tau_s`` as an array only; these helpers build the usual ones.
+
+``tau_grid("octave", n_points, rate_hz, statistic)`` gives the averaging times (seconds) of Stable32's
+octave, decade or all-factors grid within a statistic's range for a record of ``n_points`` samples;
+``parse_taus`` turns the CLI's ``--taus`` text into such an array.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from chronofuse.validation import check_scalar
+from chronofuse.analysis.stability.registry import STATISTICS
+from chronofuse.validation import check_choice, check_scalar
 
 SPACINGS = ("octave", "decade", "all")
 
@@ -31,14 +37,45 @@ def averaging_factors(max_m: int, spacing: str = "octave") -> np.ndarray:
     return m.astype(np.int64)
 
 
-def parse_taus(spec: str, rate_hz: float) -> np.ndarray | str:
-    """Parse a user's tau specification: ``octave``, ``decade``, ``all`` or a comma list of seconds.
+def tau_grid(kind: str, n_points: int, rate_hz: float, statistic: str = "oadev") -> np.ndarray:
+    """Averaging times (s) of a standard grid within ``statistic``'s range, shape (k,).
 
-    Returns the spacing name unchanged, or an array of taus in seconds.
+    Parameters
+    ----------
+    kind : {"octave", "decade", "all"}
+        The grid of averaging factors (see :func:`averaging_factors`).
+    n_points : int
+        Phase samples in the record (N + 1 for N frequency samples).
+    rate_hz : float
+        Sample rate, > 0.
+    statistic : str
+        A key of ``STATISTICS``: its largest averaging factor for ``n_points`` bounds the grid, and Theo1
+        keeps the even factors at ``tau = 0.75 m / rate_hz``.
+
+    Raises
+    ------
+    ValueError
+        When the record is too short for a single averaging time of the statistic.
     """
+    check_choice(kind, "kind", SPACINGS)
+    check_choice(statistic, "statistic", STATISTICS)
+    check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
+    check_scalar(n_points, "n_points", min_val=0, integer=True)
+    spec = STATISTICS[statistic]
+    m = averaging_factors(int(spec.max_m(int(n_points))), kind)
+    if spec.m_step > 1:
+        m = m[m % spec.m_step == 0]
+    if m.size == 0:
+        raise ValueError(f"the record has {n_points} samples, too few for {statistic}")
+    return spec.tau_factor * m / rate_hz
+
+
+def parse_taus(spec: str, n_points: int, rate_hz: float, statistic: str) -> np.ndarray:
+    """Averaging times (s, shape (k,)) for the CLI's ``--taus``: ``octave``, ``decade``, ``all`` (the grid of
+    :func:`tau_grid` for ``statistic``) or a comma list of seconds."""
     spec = spec.strip()
     if spec in SPACINGS:
-        return spec
+        return tau_grid(spec, n_points, rate_hz, statistic)
     try:
         taus = np.array([float(t) for t in spec.split(",") if t.strip()], dtype=float)
     except ValueError as exc:

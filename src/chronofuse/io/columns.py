@@ -1,0 +1,341 @@
+"""Numeric text columns read as the file says: compression by content, BOM, header, delimiter, decimal comma.
+
+The layouts met in practice, each covered by a test in ``tests/io/test_records.py``:
+
+- plain columns, one value per line or ``time value`` (Stable32 ``.dat`` files, e.g. ``PHASE.DAT``:
+  numbers, sometimes indented, no header);
+- a ``#`` or ``;`` comment block first (Keysight 53230A counter logs as in the GPS and Cs5071A records:
+  ``#`` lines, CRLF line ends, ``+2.764966E-07`` style numbers; TimeLab exports: ``;`` lines);
+- a header line of names, possibly behind a UTF-8 byte-order mark (spreadsheet CSV exports);
+- ``;`` or tab between columns with decimal commas (European spreadsheet exports: ``0;1,475``).
+
+The file is *sniffed* (compression from its first bytes, then the first 64 KiB of text, decoded as
+``utf-8-sig`` so a BOM never turns the first sample into a header) and then read in one pass by
+pyarrow's multi-threaded CSV reader; layouts it cannot take (columns separated by runs of spaces,
+comment lines or inline comments among the data) go to pandas' C parser. Only when a fast reader
+refuses the text is the file parsed line by line in Python, to name the line that is wrong.
+
+A comma between two digits is ambiguous: ``1,475`` is one number written with a decimal comma or the
+two columns ``1`` and ``475``. A comma-separated two-column file without a header is read as (time,
+value) only if its first column increases strictly and no second field has a leading zero (``1,05``);
+otherwise it is refused with a message that says so. Decimal commas with ``;`` or tab between the
+columns are unambiguous and read.
+"""
+
+from __future__ import annotations
+
+import bz2
+import gzip
+import io
+import lzma
+import re
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+import pyarrow.csv as pcsv
+
+from chronofuse.validation import InputDataError
+
+__all__ = ["Layout", "sniff", "read_columns", "decimal_text_to_ns", "data_lines"]
+
+_SNIFF_BYTES = 1 << 16
+# Fraction digits kept exactly: 10**17 * 27 (days: ns_per_unit / 10**17 = 27/31250) still fits an int64.
+_FRACTION_DIGITS = 17
+_COMMENT = ("#", ";")
+_NULLS = ["nan", "NaN", "NAN", "-nan", "+nan", "-NaN", "+NaN"]
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
+_MAGIC = (
+    (b"\x1f\x8b", "gzip"),
+    (b"BZh", "bz2"),
+    (b"\xfd7zXZ\x00", "xz"),
+    (b"PK\x03\x04", "zip"),
+    (b"\x28\xb5\x2f\xfd", "zstd"),
+)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What the sniff found.
+
+    Attributes
+    ----------
+    compression : str or None
+        ``"gzip"``, ``"bz2"``, ``"xz"`` (from the file's first bytes, whatever its suffix) or None.
+    delimiter : str or None
+        ``","``, ``";"``, ``"\\t"``, ``" "`` (runs of white space) or None (one column).
+    decimal_comma : bool
+        Numbers are written with a decimal comma.
+    header : list of str or None
+        Column names, when the first non-comment line is not numeric.
+    header_line : int
+        Its 1-based line number (0 without a header).
+    first_data_line : int
+        1-based line number of the first data line.
+    width : int
+        Values per data line.
+    """
+
+    compression: str | None
+    delimiter: str | None
+    decimal_comma: bool
+    header: list[str] | None
+    header_line: int
+    first_data_line: int
+    width: int
+
+
+def _compression(path: Path) -> str | None:
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    for magic, name in _MAGIC:
+        if head.startswith(magic):
+            if name in ("zip", "zstd"):
+                raise InputDataError(f"a {name} archive: extract the record first (gzip, bz2 and xz are read as they are)",
+                                     str(path))
+            return name
+    return None
+
+
+def open_binary(path: Path, compression: str | None):
+    """A binary stream of the file's (decompressed) bytes."""
+    if compression == "gzip":
+        return gzip.open(path, "rb")
+    if compression == "bz2":
+        return bz2.open(path, "rb")
+    if compression == "xz":
+        return lzma.open(path, "rb")
+    return open(path, "rb")
+
+
+def _is_number(token: str) -> bool:
+    try:
+        float(token)
+    except ValueError:
+        return False
+    return True
+
+
+def _strip_comment(line: str) -> str:
+    return line.split("#", 1)[0].strip() if not line.lstrip().startswith(";") else ""
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    if delimiter in (None, " "):
+        return line.split()
+    return [t.strip() for t in line.split(delimiter)]
+
+
+def _guess_delimiter(lines: list[str]) -> str | None:
+    if any("\t" in ln for ln in lines) and not any(";" in ln for ln in lines):
+        return "\t" if all(len(ln.split("\t")) == len(lines[0].split("\t")) for ln in lines) else " "
+    if any(";" in ln for ln in lines):
+        return ";"
+    spaced = [ln.split() for ln in lines]
+    if any(len(t) > 1 for t in spaced) and all(_is_number(x) or _DECIMAL_COMMA.match(x) for t in spaced for x in t):
+        return " "
+    if any("," in ln for ln in lines):
+        return ","
+    return None
+
+
+def sniff(path: Path) -> Layout:
+    """Look at the file's first bytes and first 64 KiB of text; raise :class:`InputDataError` for what
+    cannot be a numeric record (an archive, no data lines, a decimal comma that is ambiguous)."""
+    compression = _compression(path)
+    try:
+        with open_binary(path, compression) as fh:
+            raw = fh.read(_SNIFF_BYTES + 1)
+    except (OSError, EOFError, lzma.LZMAError) as exc:
+        raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
+    text = raw[:_SNIFF_BYTES].decode("utf-8-sig", errors="replace")
+    lines = text.splitlines()
+    if len(raw) > _SNIFF_BYTES and len(lines) > 1:
+        lines = lines[:-1]  # the last line may be cut
+    header, header_line, first, data = None, 0, 0, []
+    for lineno, raw_line in enumerate(lines, start=1):
+        line = _strip_comment(raw_line)
+        if not line:
+            continue
+        if not first and header is None:
+            loose = re.split(r"[,;\s]+", line)
+            if not all(_is_number(t) or _DECIMAL_COMMA.match(t) for t in loose if t):
+                header, header_line = line, lineno
+                continue
+        if not first:
+            first = lineno
+        data.append((lineno, line))
+        if len(data) >= 200:
+            break
+    if not data:
+        raise InputDataError("no data lines (empty file, or only comments and a header)", str(path))
+    delimiter = _guess_delimiter([ln for _, ln in data])
+    tokens = [(lineno, _split(ln, delimiter)) for lineno, ln in data]
+    decimal_comma = delimiter in (";", "\t", " ") and any(_DECIMAL_COMMA.match(t) for _, row in tokens for t in row)
+    names = None
+    if header is not None:
+        names = [t for t in (_split(header, delimiter) if delimiter else [header.strip()]) if t]
+    if delimiter == "," and names is None:
+        _refuse_ambiguous_comma(path, tokens)
+    width = len(tokens[0][1])
+    if names is not None and len(names) != width and delimiter == ",":
+        raise InputDataError(
+            f"header has {len(names)} names but the first data line has {width} comma-separated values "
+            f"({data[0][1]!r}): if the numbers use a decimal comma, separate the columns with ';' or a tab",
+            str(path), data[0][0])
+    for t in tokens[0][1]:
+        if not (_is_number(t) or (decimal_comma and _is_number(t.replace(",", ".")))):
+            raise InputDataError(f"cannot read {t!r} as a number", str(path), data[0][0])
+    return Layout(compression, delimiter, decimal_comma, names, header_line, first, width)
+
+
+def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> None:
+    """A comma file without a header whose fields read better as decimal commas is refused."""
+    widths = {len(row) for _, row in tokens}
+    lineno, row = tokens[0]
+    example = ",".join(row)
+    message = (f"{example!r} looks like a number with a decimal comma, not two columns: write decimal points, "
+               "or separate the columns with ';' or a tab")
+    if widths != {2}:
+        if 1 in widths and 2 in widths:
+            raise InputDataError(message, str(path), lineno)
+        return
+    for lineno, row in tokens:
+        if re.match(r"^0\d", row[1]):
+            raise InputDataError(f"{','.join(row)!r} looks like a number with a decimal comma, not two columns: "
+                                 "write decimal points, or separate the columns with ';' or a tab", str(path), lineno)
+    first = [float(row[0]) for _, row in tokens]
+    for k in range(1, len(first)):
+        if first[k] <= first[k - 1]:
+            raise InputDataError(
+                f"{','.join(tokens[k][1])!r} after {','.join(tokens[k - 1][1])!r}: a first column that does not "
+                "increase is no time column, so these look like numbers with a decimal comma; write decimal "
+                "points, or separate the columns with ';' or a tab", str(path), tokens[k][0])
+
+
+def data_lines(path: Path, layout: Layout):
+    """Yield ``(line number, tokens)`` of every data line (the slow path, used to name a bad line)."""
+    with open_binary(path, layout.compression) as raw:
+        fh = io.TextIOWrapper(raw, encoding="utf-8-sig", errors="replace", newline=None)
+        for lineno, text in enumerate(fh, start=1):
+            if lineno < layout.first_data_line:
+                continue
+            line = _strip_comment(text)
+            if not line:
+                continue
+            yield lineno, _split(line, layout.delimiter)
+
+
+def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | None) -> pa.Table | None:
+    """The chosen columns via pyarrow (simple delimiters) or pandas' C parser (space runs, comments);
+    None when the text needs the line-by-line reader."""
+    names = [f"c{i}" for i in range(layout.width)]
+    types = {f"c{i}": (pa.string() if i == time_col else pa.float64()) for i in columns}
+    skip = layout.first_data_line - 1
+    decimal = "," if layout.decimal_comma else "."
+    if layout.delimiter != " ":
+        try:
+            source = pa.OSFile(str(path)) if layout.compression is None else open_binary(path, layout.compression)
+            with source as fh:  # pyarrow's own file for plain text: no Python in the read loop
+                return pcsv.read_csv(
+                    fh,
+                    read_options=pcsv.ReadOptions(skip_rows=skip, column_names=names),
+                    parse_options=pcsv.ParseOptions(delimiter=layout.delimiter or "\x1f"),
+                    convert_options=pcsv.ConvertOptions(
+                        column_types=types, include_columns=[f"c{i}" for i in columns], null_values=_NULLS,
+                        strings_can_be_null=False, quoted_strings_can_be_null=False, decimal_point=decimal),
+                )
+        except (pa.ArrowInvalid, ValueError):
+            pass
+    if layout.delimiter not in (None, " ", "\t"):
+        return None
+    import pandas as pd  # white-space runs and "#" comments among the data
+
+    try:
+        with open_binary(path, layout.compression) as fh:
+            frame = pd.read_csv(
+                fh, sep=r"\s+", header=None, skiprows=skip, comment="#",
+                dtype={i: (str if i == time_col else "float64") for i in range(layout.width)},
+                decimal=decimal, engine="c", na_values=_NULLS, keep_default_na=False, skip_blank_lines=True,
+                encoding="utf-8-sig",
+            )
+    except (ValueError, TypeError, IndexError, pd.errors.ParserError):
+        return None
+    if frame.shape[1] != layout.width:
+        return None
+    frame = frame[columns]
+    frame.columns = [f"c{i}" for i in columns]
+    if layout.width > 1 and frame.isna().to_numpy().any():
+        return None  # pandas fills a short line with NaN: let the line reader tell a gap from a ragged line
+    return pa.Table.from_pandas(frame, preserve_index=False)
+
+
+def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | None):
+    """``(values (N,) float64, time text (N,) as a pyarrow string array or None, fast: bool)``.
+
+    Raises :class:`InputDataError` naming the line for a ragged line or text where a number belongs.
+    """
+    columns = [value_col] + ([time_col] if time_col is not None else [])
+    table = _fast_table(path, layout, columns, time_col)
+    if table is not None and table.num_rows > 0:
+        values = table.column(f"c{value_col}").to_numpy().astype(np.float64, copy=False)
+        times = None if time_col is None else table.column(f"c{time_col}").combine_chunks()
+        return values, times, True
+    values_l, times_l = [], []
+    for lineno, tokens in data_lines(path, layout):
+        if len(tokens) != layout.width:
+            raise InputDataError(f"{len(tokens)} values on this line, expected {layout.width}", str(path), lineno)
+        try:
+            text = tokens[value_col].replace(",", ".") if layout.decimal_comma else tokens[value_col]
+            values_l.append(float(text))
+            if time_col is not None:
+                float(tokens[time_col])
+                times_l.append(tokens[time_col])
+        except ValueError:
+            bad = next(t for t in tokens if not _is_number(t.replace(",", ".") if layout.decimal_comma else t))
+            raise InputDataError(f"cannot read {bad!r} as a number", str(path), lineno) from None
+    times = None if time_col is None else pa.array(times_l, type=pa.string())
+    return np.array(values_l, dtype=np.float64), times, False
+
+
+def decimal_text_to_ns(text: pa.Array, ns_per_unit: int | Fraction) -> tuple[np.ndarray, int]:
+    """Exact integer nanoseconds of decimal numbers written as text, shape (N,).
+
+    Integer and fraction parts are converted separately (no float64 on the way: at today's MJD a float64
+    of seconds steps by ~1 us, of days by ~0.6 us), the fraction to 17 digits and rounded to the ns:
+    ``ns = int_part * ns_per_unit + round(frac_17_digits * ns_per_unit / 10**17)``, exact for up to 17
+    fraction digits (beyond them, under 1e-3 ns even for days). Numbers with an
+    exponent (``1.7e9``) are converted through :class:`fractions.Fraction`, also exactly. Returns
+    ``(ns, bad)`` where ``bad`` is the index of the first text that is not a decimal number (-1 if none).
+    """
+    ratio = Fraction(ns_per_unit) / 10**_FRACTION_DIGITS
+    s = pc.utf8_trim_whitespace(pc.cast(text, pa.string()))
+    plain = pc.match_substring_regex(s, r"^[+-]?(\d+\.?\d*|\.\d+)$")
+    if not pc.all(plain).as_py():
+        ok = plain.to_numpy(zero_copy_only=False)
+        out = np.zeros(len(s), dtype=np.int64)
+        for k in np.flatnonzero(~ok):
+            try:
+                value = Fraction(s[k].as_py()) * Fraction(ns_per_unit)
+            except (ValueError, ZeroDivisionError):
+                return out, int(k)
+            out[k] = round(value)
+        if ok.any():
+            out[ok] = decimal_text_to_ns(pc.filter(s, plain), ns_per_unit)[0]
+        return out, -1
+    negative = pc.starts_with(s, "-").to_numpy(zero_copy_only=False)
+    s = pc.replace_substring_regex(s, r"^[+-]", "")
+    s = pc.if_else(pc.match_substring(s, "."), s, pc.binary_join_element_wise(s, "", "."))
+    parts = pc.split_pattern(s, ".", max_splits=1)
+    whole = pc.list_element(parts, 0)
+    whole = pc.if_else(pc.equal(whole, ""), "0", whole)
+    frac = pc.utf8_slice_codeunits(pc.utf8_rpad(pc.list_element(parts, 1), _FRACTION_DIGITS, "0"), 0,
+                                   _FRACTION_DIGITS)
+    whole_i = pc.cast(whole, pa.int64()).to_numpy()
+    frac_i = pc.cast(frac, pa.int64()).to_numpy()
+    p, q = ratio.numerator, ratio.denominator
+    ns = whole_i * int(Fraction(ns_per_unit)) + (frac_i * p + q // 2) // q
+    return np.where(negative, -ns, ns), -1
