@@ -73,6 +73,6 @@ def test_every_statistic_a_scenario_may_name_is_in_the_report_as_the_library_com
     # the same statistics again, from the time series the report wrote (ns, 12 significant digits)
     x_s = pd.read_csv(report.out_dir / "timeseries.csv")["rx1_pps_error_ns"].to_numpy() * 1e-9
     for name in names:
-        ours = stability.compute(name, x_s, 1.0, "decade")
+        ours = stability.compute(name, x_s, 1.0, stability.tau_grid("decade", x_s.size, 1.0, name))
         np.testing.assert_allclose(written[name]["dev"], ours.dev, rtol=1e-6, err_msg=name)
     assert set(pd.read_csv(report.out_dir / "stability.csv")["statistic"]) == set(names) | {"oadev"}

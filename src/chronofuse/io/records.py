@@ -363,5 +363,4 @@ def read_record(
 
 def column_names(path: str | Path) -> list[str] | None:
     """The header names of a record file as :func:`read_record` reads them, or None when it has no header."""
-    header, _, _ = _read_rows(Path(path))
-    return header
+    return sniff(Path(path)).header
