@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from chronofuse.analysis.stability import compute
+from chronofuse.analysis.stability import compute, tau_grid
 from chronofuse.timescale import NS_PER_S
 from chronofuse.validation import InputDataError
 
@@ -78,4 +78,5 @@ def _adev(gps_ns: np.ndarray, bias_s: np.ndarray):
         return None
     grid = np.full(int((t[-1] - t[0]) // step) + 1, np.nan)
     grid[((t - t[0]) // step).astype(np.int64)] = x
-    return compute("oadev", grid, NS_PER_S / step, "octave")
+    rate_hz = NS_PER_S / step
+    return compute("oadev", grid, rate_hz, tau_grid("octave", grid.size, rate_hz, "oadev"))
