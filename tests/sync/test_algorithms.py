@@ -11,6 +11,7 @@ from chronofuse.sync.base import NullSync, measurement_array
 from chronofuse.sync.mls import PtpMls, weighted_line_at_zero
 from chronofuse.sync.ptp import PtpOffset, PtpPiServo, pi_gains
 from chronofuse.sync.registry import ALGORITHM_NAMES, make_algorithm
+from chronofuse.sync.regression import ChronyRegression, PtpLinreg, runs_test_passes
 from chronofuse.sync.rvc import RttRvc
 from chronofuse.sync.twoway import ptp_offset_s, rvc_offset_exact_s, rvc_offset_seed_s
 
@@ -110,3 +111,30 @@ def test_mls_is_a_weighted_least_squares_line_evaluated_now():
 def test_mls_window_outside_16_to_64_is_refused():
     with pytest.raises(ValueError, match="window == 8"):
         PtpMls(window=8).fit()
+
+
+def test_linreg_servo_locks_onto_a_skewed_noiseless_link_within_its_first_regressions():
+    ex = exchanges(distance_m=1e3, steps=300, trials=1, offset_s=5e-6, skew=2e-8)
+    z = measurement_array(ex)
+    est = PtpLinreg().fit().run(z).offset_s[0]
+    raw = PtpOffset().fit().run(z).offset_s[0]
+    np.testing.assert_allclose(est[30:], raw[30:], rtol=0, atol=1e-13)
+
+
+def test_linreg_and_chrony_average_white_timestamp_noise_down_like_a_long_line_fit():
+    link = LinkModel(urt_fixed_s=0.0)
+    ex = exchanges(distance_m=1e3, steps=1500, trials=3, link=link, seed=9)
+    z = measurement_array(ex)
+    raw = PtpOffset().fit().run(z).offset_s - ex.offset_s
+    for alg in (PtpLinreg(), ChronyRegression()):
+        err = alg.fit().run(z).offset_s - ex.offset_s
+        # A line's end point from n >= 16 points has at most 4/n of one point's variance (< 1/2 of its sigma).
+        assert np.sqrt(np.mean(err[:, 200:] ** 2)) < 0.5 * np.sqrt(np.mean(raw[:, 200:] ** 2))
+
+
+def test_runs_test_accepts_white_residuals_and_rejects_a_slow_wave():
+    rng = np.random.default_rng(1)
+    white = rng.standard_normal((2000, 48))
+    assert 0.95 < runs_test_passes(white).mean() < 0.995
+    wave = np.sin(np.linspace(0, 2 * np.pi, 48))[None, :] + 0.1 * rng.standard_normal((200, 48))
+    assert runs_test_passes(wave).mean() < 0.05

@@ -3,6 +3,7 @@
 * :mod:`~chronofuse.sync.base`: the one interface (the :mod:`chronofuse.estimation` contract) and the null baseline;
 * :mod:`~chronofuse.sync.twoway`: closed-form offsets of one exchange (seed eqs. 1, 9, 18; IEEE 1588);
 * :mod:`~chronofuse.sync.ptp`: PTP with linuxptp's moving-median delay filter and PI servo;
+* :mod:`~chronofuse.sync.regression`: linuxptp's linreg servo and a chrony-style runs-test regression;
 * :mod:`~chronofuse.sync.mls`: PTP-MLS (moving least squares);
 * :mod:`~chronofuse.sync.rvc`: RTT-RVC (seed eq. 9, and its exact-light-time form);
 * :mod:`~chronofuse.sync.urt`: URT compensation, the seed's "paper" mode and the calibrated fix;

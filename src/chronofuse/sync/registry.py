@@ -8,6 +8,8 @@ model of both nodes (the clock process noise) and the URT mode. What each name m
 null           the do-nothing baseline (estimate 0)
 ptp            IEEE 1588 offset (per-exchange delay) through linuxptp's PI servo
 ptp-median     the same with linuxptp's 10-sample moving-median delay filter
+ptp-linreg     PTP offsets through linuxptp's linear-regression servo
+ptp-chrony     PTP offsets through a chrony-style runs-test regression
 ptp-mls        PTP offsets smoothed by moving least squares (32 exchanges)
 rtt-rvc        seed eq. (9) per exchange with the Doppler velocity
 proposed-no-nn the seed's chain without its network: RVC -> URT -> KF [eps, eps_dot, v], H = [1 0 0]
@@ -24,12 +26,13 @@ from chronofuse.sync.base import NullSync, SyncAlgorithm
 from chronofuse.sync.chain import ProposedChain
 from chronofuse.sync.mls import PtpMls
 from chronofuse.sync.ptp import PtpPiServo
+from chronofuse.sync.regression import ChronyRegression, PtpLinreg
 from chronofuse.sync.rvc import RttRvc
 from chronofuse.validation import check_choice
 
 __all__ = ["ALGORITHM_NAMES", "make_algorithm", "chain_noise"]
 
-ALGORITHM_NAMES = ("null", "ptp", "ptp-median", "ptp-mls", "rtt-rvc", "proposed-no-nn", "ours-doppler", "ours-accel")
+ALGORITHM_NAMES = ("null", "ptp", "ptp-median", "ptp-linreg", "ptp-chrony", "ptp-mls", "rtt-rvc", "proposed-no-nn", "ours-doppler", "ours-accel")
 
 
 def chain_noise(link: LinkModel, oscillator: OscillatorModel, steps: int) -> dict:
@@ -55,6 +58,10 @@ def make_algorithm(name: str, link: LinkModel, *, steps: int = 2000, urt_mode: s
         return PtpPiServo(interval_s=dt)
     if name == "ptp-median":
         return PtpPiServo(delay_filter="median", interval_s=dt)
+    if name == "ptp-linreg":
+        return PtpLinreg(interval_s=dt)
+    if name == "ptp-chrony":
+        return ChronyRegression(interval_s=dt)
     if name == "ptp-mls":
         return PtpMls(interval_s=dt)
     if name == "rtt-rvc":
