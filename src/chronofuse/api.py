@@ -47,6 +47,13 @@ from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, pre
 from chronofuse.models.receiver import SCENARIOS, ReceiverModel, simulate_receivers
 from chronofuse.models.receiver import scenario as receiver_scenario
 from chronofuse.validation import ChronofuseError, InputDataError
+from chronofuse.models.kinematics import Trajectory, constant_acceleration, constant_velocity, manoeuvre
+from chronofuse.models.link import Exchanges, LinkModel, simulate_exchanges
+from chronofuse.sync.base import SyncResult, measurement_array
+from chronofuse.sync.pcrb import link_pcrb
+from chronofuse.sync.registry import ALGORITHM_NAMES as SYNC_ALGORITHMS
+from chronofuse.sync.registry import make_algorithm as make_sync_algorithm
+from chronofuse.experiments.swarm import LinkScenario, run_link, simulate_scenario
 
 __all__ = [
     # truth models
@@ -115,6 +122,22 @@ __all__ = [
     "load_scenario",
     "parse_scenario",
     "run_scenario",
+    # swarm sync (seed 001)
+    "Trajectory",
+    "constant_velocity",
+    "constant_acceleration",
+    "manoeuvre",
+    "LinkModel",
+    "Exchanges",
+    "simulate_exchanges",
+    "measurement_array",
+    "SyncResult",
+    "SYNC_ALGORITHMS",
+    "make_sync_algorithm",
+    "link_pcrb",
+    "LinkScenario",
+    "simulate_scenario",
+    "run_link",
     # errors
     "ChronofuseError",
     "InputDataError",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from chronofuse import __version__
-from chronofuse.cli import detect, reproduce, run, simulate, stability, validate
+from chronofuse.cli import detect, reproduce, run, simulate, stability, swarm, validate
 
 app = typer.Typer(
     name="chronofuse",
@@ -15,7 +15,7 @@ app = typer.Typer(
     pretty_exceptions_enable=False,
 )
 
-for module in (simulate, stability, run, detect, reproduce, validate):
+for module in (simulate, stability, run, detect, reproduce, validate, swarm):
     module.register(app)
 
 

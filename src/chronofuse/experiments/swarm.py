@@ -120,6 +120,7 @@ def run_link(scenario: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int 
                    "rms": float(np.sqrt(np.mean(bound.offset_var_s2)))},
         "urt_fixed_estimate_s": tp,
         "urt_mode": urt_mode,
+        "threshold_s": float(threshold_s),
         "trials": int(trials),
         "scenario": {k: v for k, v in asdict(scenario).items() if k != "link"} | {"link": asdict(scenario.link)},
     }

@@ -1,0 +1,139 @@
+"""``chronofuse swarm ...``: two-way clock synchronization over radio links (SPEC 5, seed 001)."""
+
+from __future__ import annotations
+
+import re
+from contextlib import contextmanager
+
+import typer
+from rich.table import Table
+
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+
+swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (seed 001).", no_args_is_help=True)
+
+# Library parameter names -> the options that set them, so a one-line error names the option.
+_OPTION_OF = {
+    "distance": "--distance", "distance_m": "--distance", "velocity": "--velocity", "reply_delay_s": "--reply-delay",
+    "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr", "toa_model": "--toa-model",
+    "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials", "true_offset": "--true-offset",
+    "true_skew": "--true-skew", "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator",
+    "acceleration_m_s2": "--acceleration", "interval_s": "--interval",
+}
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(swarm_app, name="swarm")
+
+
+@contextmanager
+def option_errors():
+    """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
+    try:
+        yield
+    except ValueError as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        match = re.match(r"^(\w+) ==", text)
+        if match and match.group(1) in _OPTION_OF:
+            text = _OPTION_OF[match.group(1)] + text[len(match.group(1)):]
+        raise ValueError(text) from None
+
+
+def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_jitter, snr, toa_model, exchanges,
+                   true_offset, true_skew, oscillator, interval):
+    """The :class:`LinkScenario` the options describe (validated; errors name the options)."""
+    from chronofuse.experiments.swarm import LinkScenario
+    from chronofuse.models.link import LinkModel
+
+    with option_errors():
+        link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
+                         snr_db=snr, toa_model=toa_model)
+        return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
+                            exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
+                            oscillator=oscillator, link=link)
+
+
+def _scenario_options():
+    return dict(
+        velocity=typer.Option(800.0, "--velocity", help="Radial velocity, m/s (opening > 0)."),
+        distance=typer.Option(80e3, "--distance", help="Initial distance, m."),
+        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration, m/s^2."),
+        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B, s."),
+        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time, s."),
+        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma, s."),
+        snr=typer.Option(10.0, "--snr", help="SNR, dB (4..20 with the seed's table)."),
+        toa_model=typer.Option("table", "--toa-model", help="TOA noise: table (seed) or crb (Cramér-Rao form)."),
+        exchanges=typer.Option(2000, "--exchanges", help="Exchanges per run."),
+        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start, s."),
+        true_skew=typer.Option(0.0, "--true-skew", help="True fractional frequency offset B - A."),
+        oscillator=typer.Option("ocxo", "--oscillator", help="Oscillator preset of both nodes."),
+        interval=typer.Option(0.01, "--interval", help="Exchange interval, s."),
+    )
+
+
+_S = _scenario_options()
+
+
+@swarm_app.command("run")
+def run(
+    algorithm: str = typer.Option("all", "--algorithm",
+                                  help="Comma-separated algorithm names, or 'all' (see chronofuse.sync.registry)."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper (the seed as written) or calibrated."),
+    velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
+    reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
+    snr: float = _S["snr"], toa_model: str = _S["toa_model"], exchanges: int = _S["exchanges"],
+    true_offset: float = _S["true_offset"], true_skew: float = _S["true_skew"], oscillator: str = _S["oscillator"],
+    interval: float = _S["interval"],
+    trials: int = typer.Option(20, "--trials", help="Monte Carlo trials."),
+    seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
+    threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K*, s."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+) -> None:
+    """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
+    from chronofuse.experiments.swarm import run_link
+    from chronofuse.sync.registry import ALGORITHM_NAMES
+
+    with user_errors():
+        scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
+                                  reply_delay=reply_delay, urt=urt, urt_jitter=urt_jitter, snr=snr,
+                                  toa_model=toa_model, exchanges=exchanges, true_offset=true_offset,
+                                  true_skew=true_skew, oscillator=oscillator, interval=interval)
+        names = ALGORITHM_NAMES if algorithm == "all" else tuple(a.strip() for a in algorithm.split(","))
+        for name in names:
+            if name not in ALGORITHM_NAMES:
+                fail(f"--algorithm == {name!r}, must be one of {list(ALGORITHM_NAMES)} or 'all'")
+        if urt_mode not in ("paper", "calibrated"):
+            fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        if trials < 1:
+            fail(f"--trials == {trials}, must be >= 1")
+        with option_errors(), progress_reporter("swarm run"):
+            res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold)
+    doc = link_report(res)
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    table = Table("algorithm", "RMSE (ns)", "RMSE / PCRB", "K*", title=f"{trials} trials, URT mode {urt_mode}")
+    for name, value in doc["rmse_ns"].items():
+        k = doc["convergence_epochs"][name]
+        table.add_row(name, f"{value:.4g}", f"{value / doc['pcrb_ns']['rms']:.3g}", "-" if k is None else str(k))
+    con.print(table)
+    con.print(f"PCRB (same link model): {doc['pcrb_ns']['rms']:.4g} ns RMS over the run, "
+              f"{doc['pcrb_ns']['final']:.4g} ns at the last exchange")
+
+
+def link_report(res: dict) -> dict:
+    """``run_link``'s result with times in ns at the edge, as the CLI prints it."""
+    from chronofuse.sync.metrics import overhead
+
+    return {
+        "rmse_ns": {k: v * 1e9 for k, v in res["rmse_s"].items()},
+        "pcrb_ns": {k: v * 1e9 for k, v in res["pcrb_s"].items()},
+        "convergence_epochs": res["convergence_epochs"],
+        "convergence_threshold_ns": res["threshold_s"] * 1e9,
+        "overhead": overhead(res["scenario"]["link"]["interval_s"]),
+        "urt_mode": res["urt_mode"],
+        "urt_fixed_estimate_ns": res["urt_fixed_estimate_s"] * 1e9,
+        "trials": res["trials"],
+        "scenario": res["scenario"],
+    }
