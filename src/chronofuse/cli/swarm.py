@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import re
+import time
 from contextlib import contextmanager
+from pathlib import Path
 
 import typer
 from rich.table import Table
@@ -120,6 +122,97 @@ def run(
     con.print(table)
     con.print(f"PCRB (same link model): {doc['pcrb_ns']['rms']:.4g} ns RMS over the run, "
               f"{doc['pcrb_ns']['final']:.4g} ns at the last exchange")
+
+
+@swarm_app.command("sweep")
+def sweep(
+    param: str = typer.Option(..., "--param", help="velocity | distance | reply-delay | urt | snr."),
+    values: str = typer.Option(..., "--values", help="Comma-separated values, SI units (m/s, m, s, s, dB)."),
+    algorithms: str = typer.Option("ptp-mls,rtt-rvc,proposed-no-nn,ours-doppler", "--algorithms",
+                                   help="Comma-separated algorithm names."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
+    velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
+    reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
+    snr: float = _S["snr"], toa_model: str = _S["toa_model"], exchanges: int = _S["exchanges"],
+    true_offset: float = _S["true_offset"], true_skew: float = _S["true_skew"], oscillator: str = _S["oscillator"],
+    interval: float = _S["interval"],
+    trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
+    chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
+    seed: int = typer.Option(0, "--seed", help="Root seed."),
+    scheduler: str = typer.Option(None, "--scheduler",
+                                  help="tcp://HOST:PORT of a Dask scheduler; 'serial' for this process; "
+                                       "default a LocalCluster of processes."),
+    out: Path = typer.Option(Path("swarm-sweep"), "--out", help="Folder for the table, summary and figure."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Sweep one parameter over values: a tidy table (CSV and Parquet), a summary and a figure."""
+    from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
+    from chronofuse.report.swarm import plot_sweep, write_sweep
+    from chronofuse.sync.registry import ALGORITHM_NAMES
+
+    with user_errors():
+        if param not in SWEEP_PARAMS:
+            fail(f"--param == {param!r}, must be one of {list(SWEEP_PARAMS)}")
+        try:
+            value_list = [float(v) for v in values.split(",") if v.strip()]
+        except ValueError:
+            fail(f"--values == {values!r}, must be comma-separated numbers")
+        if not value_list:
+            fail("--values is empty, must give at least one number")
+        names = tuple(a.strip() for a in algorithms.split(","))
+        for name in names:
+            if name not in ALGORITHM_NAMES:
+                fail(f"--algorithms == {name!r}, must be among {list(ALGORITHM_NAMES)}")
+        if urt_mode not in ("paper", "calibrated"):
+            fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        if trials < 1 or chunk_trials < 1:
+            fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
+        scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
+                                  reply_delay=reply_delay, urt=urt, urt_jitter=urt_jitter, snr=snr,
+                                  toa_model=toa_model, exchanges=exchanges, true_offset=true_offset,
+                                  true_skew=true_skew, oscillator=oscillator, interval=interval)
+        from chronofuse.experiments.sweep import scenario_at
+
+        with option_errors():
+            for v in value_list:
+                scenario_at(scenario, param, v)
+        start = time.perf_counter()
+        with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
+            table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
+                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance)
+        summary = summarize(table)
+        files = write_sweep(table, summary, out)
+        files.append(plot_sweep(summary, param, SWEEP_PARAMS[param], Path(out) / "sweep.png",
+                                title=f"{trials} trials x {exchanges} exchanges, URT {urt_mode}"))
+        elapsed = time.perf_counter() - start
+    doc = {"param": param, "unit": SWEEP_PARAMS[param], "elapsed_s": elapsed, "files": [str(f) for f in files],
+           "summary": summary.to_dict(orient="records")}
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    table_out = Table("value", "algorithm", "RMSE (ns)", "PCRB (ns)", title=f"sweep over {param}")
+    for row in doc["summary"]:
+        table_out.add_row(f"{row['value']:g}", row["algorithm"], f"{row['rmse_ns']:.4g}", f"{row['pcrb_rms_ns']:.4g}")
+    con.print(table_out)
+    con.print(f"{len(files)} files -> {out}/ in {elapsed:.1f} s")
+
+
+@contextmanager
+def trial_progress(label: str):
+    """A progress bar over trials on stderr (off when stderr is not a terminal); yields ``advance(done, total)``."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from chronofuse.cli.common import err_console
+
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+        task = bar.add_task(label, total=None)
+
+        def advance(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield advance
 
 
 def link_report(res: dict) -> dict:
