@@ -89,27 +89,28 @@ def run(
     trials: int = typer.Option(20, "--trials", help="Monte Carlo trials."),
     seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
     threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K*, s."),
+    model: Path = typer.Option(None, "--model", help="BP model file for 'proposed' (chronofuse swarm train)."),
+    lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
     """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
     from chronofuse.experiments.swarm import run_link
-    from chronofuse.sync.registry import ALGORITHM_NAMES
 
     with user_errors():
         scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
                                   reply_delay=reply_delay, urt=urt, urt_jitter=urt_jitter, snr=snr,
                                   toa_model=toa_model, exchanges=exchanges, true_offset=true_offset,
                                   true_skew=true_skew, oscillator=oscillator, interval=interval)
-        names = ALGORITHM_NAMES if algorithm == "all" else tuple(a.strip() for a in algorithm.split(","))
-        for name in names:
-            if name not in ALGORITHM_NAMES:
-                fail(f"--algorithm == {name!r}, must be one of {list(ALGORITHM_NAMES)} or 'all'")
         if urt_mode not in ("paper", "calibrated"):
             fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        files = _model_files(model, lstm_model)
+        names = _algorithm_names(algorithm, files)
+        networks = _load_models(files, urt_mode)
         if trials < 1:
             fail(f"--trials == {trials}, must be >= 1")
         with option_errors(), progress_reporter("swarm run"):
-            res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold)
+            res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
+                           networks=networks)
     doc = link_report(res)
     if json_out:
         print_json(doc)
@@ -143,12 +144,13 @@ def sweep(
                                   help="tcp://HOST:PORT of a Dask scheduler; 'serial' for this process; "
                                        "default a LocalCluster of processes."),
     out: Path = typer.Option(Path("swarm-sweep"), "--out", help="Folder for the table, summary and figure."),
+    model: Path = typer.Option(None, "--model", help="BP model file for 'proposed'."),
+    lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
 ) -> None:
     """Sweep one parameter over values: a tidy table (CSV and Parquet), a summary and a figure."""
     from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
     from chronofuse.report.swarm import plot_sweep, write_sweep
-    from chronofuse.sync.registry import ALGORITHM_NAMES
 
     with user_errors():
         if param not in SWEEP_PARAMS:
@@ -159,12 +161,11 @@ def sweep(
             fail(f"--values == {values!r}, must be comma-separated numbers")
         if not value_list:
             fail("--values is empty, must give at least one number")
-        names = tuple(a.strip() for a in algorithms.split(","))
-        for name in names:
-            if name not in ALGORITHM_NAMES:
-                fail(f"--algorithms == {name!r}, must be among {list(ALGORITHM_NAMES)}")
         if urt_mode not in ("paper", "calibrated"):
             fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        files = _model_files(model, lstm_model)
+        names = _algorithm_names(algorithms, files, option="--algorithms")
+        _load_models(files, urt_mode)
         if trials < 1 or chunk_trials < 1:
             fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
         scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
@@ -179,7 +180,8 @@ def sweep(
         start = time.perf_counter()
         with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
-                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance)
+                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
+                              model_files={k: str(v) for k, v in files.items()})
         summary = summarize(table)
         files = write_sweep(table, summary, out)
         files.append(plot_sweep(summary, param, SWEEP_PARAMS[param], Path(out) / "sweep.png",
@@ -196,6 +198,81 @@ def sweep(
         table_out.add_row(f"{row['value']:g}", row["algorithm"], f"{row['rmse_ns']:.4g}", f"{row['pcrb_rms_ns']:.4g}")
     con.print(table_out)
     con.print(f"{len(files)} files -> {out}/ in {elapsed:.1f} s")
+
+
+def _model_files(model, lstm_model) -> dict:
+    return {kind: path for kind, path in (("bp", model), ("lstm", lstm_model)) if path is not None}
+
+
+def _algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tuple:
+    """The algorithms asked for; 'all' takes those whose models were given."""
+    from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK
+
+    if text == "all":
+        return tuple(n for n in ALGORITHM_NAMES if NEEDS_NETWORK.get(n, "bp") in files or n not in NEEDS_NETWORK)
+    names = tuple(a.strip() for a in text.split(","))
+    for name in names:
+        if name not in ALGORITHM_NAMES:
+            fail(f"{option} == {name!r}, must be among {list(ALGORITHM_NAMES)}")
+        kind = NEEDS_NETWORK.get(name)
+        if kind is not None and kind not in files:
+            flag = "--model" if kind == "bp" else "--lstm-model"
+            fail(f"{option} == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
+    return names
+
+
+def _load_models(files: dict, urt_mode: str) -> dict:
+    """Load the model files; a file that does not match its configuration is one line naming the option."""
+    from chronofuse.sync.network import load_residual_network
+    from chronofuse.validation import ChronofuseError
+
+    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
+    out = {}
+    for kind, path in files.items():
+        flag = "--model" if kind == "bp" else "--lstm-model"
+        try:
+            out[kind] = load_residual_network(path, chain=chain)
+        except (ChronofuseError, FileNotFoundError, IsADirectoryError) as exc:
+            fail(f"{flag} {exc}")
+        if out[kind].config.kind != kind:
+            fail(f"{flag} {path}: holds a {out[kind].config.kind} network, expected {kind}")
+    return out
+
+
+@swarm_app.command("train")
+def train(
+    out: Path = typer.Option(Path("swarm-models"), "--out", help="Folder for bp.pt, lstm.pt and training.json."),
+    quick: bool = typer.Option(False, "--quick", help="A small data set (6000 samples) and few epochs."),
+    seed: int = typer.Option(0, "--seed", help="Root seed of the data set and the training."),
+    device: str = typer.Option("cpu", "--device", help="cpu, cuda, or auto (the GPU when present)."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="The chain the networks serve: paper or calibrated."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Train the BP 9-32-1 residual network and the LSTM baseline (seed data set: 1e5 samples,
+    v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure the ablation."""
+    import json
+
+    from chronofuse.experiments.swarm import train_networks
+
+    with user_errors():
+        if device not in ("cpu", "cuda", "auto"):
+            fail(f"--device == {device!r}, must be cpu, cuda or auto")
+        if urt_mode not in ("paper", "calibrated"):
+            fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        with progress_reporter("swarm train") as say:
+            summary = train_networks(out, quick=quick, seed=seed, device=device, urt_mode=urt_mode, progress=say)
+        (Path(out) / "training.json").write_text(json.dumps(summary, indent=2))
+    if json_out:
+        print_json(summary)
+        return
+    con = human_console(False)
+    table = Table("network", "parameters", "train (s)", "device", "test residual left (ns)", "ablation with / without (ns)")
+    for kind, r in summary["networks"].items():
+        table.add_row(kind, str(r["parameters"]), f"{r['train_seconds']:.1f}", r["device"],
+                      f"{r['test_left_rms_ns']:.3g} of {r['test_target_rms_ns']:.3g}",
+                      f"{r['ablation']['rmse_with_s'] * 1e9:.3g} / {r['ablation']['rmse_without_s'] * 1e9:.3g}")
+    con.print(table)
+    con.print(f"models -> {out}/")
 
 
 @contextmanager

@@ -58,8 +58,9 @@ def scenario_at(base: LinkScenario, param: str, value: float) -> LinkScenario:
 
 
 def sweep_tasks(base: LinkScenario, param: str, values, algorithms, *, trials: int, seed, chunk_trials: int = 25,
-                urt_mode: str = "calibrated") -> list[dict]:
-    """The task specs of a sweep (plain picklable dicts)."""
+                urt_mode: str = "calibrated", model_files: dict | None = None) -> list[dict]:
+    """The task specs of a sweep (plain picklable dicts); ``model_files`` maps "bp" / "lstm" to saved
+    residual networks, loaded by each task (checked against their configuration)."""
     check_scalar(trials, "trials", min_val=1, integer=True)
     check_scalar(chunk_trials, "chunk_trials", min_val=1, integer=True)
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
@@ -73,7 +74,7 @@ def sweep_tasks(base: LinkScenario, param: str, values, algorithms, *, trials: i
             n = min(int(chunk_trials), int(trials) - start)
             tasks.append({"param": param, "value": float(value), "scenario": scenario, "algorithms": tuple(algorithms),
                           "seed": child_seed(root, key, c), "first_trial": start, "trials": n, "urt_mode": urt_mode,
-                          "urt_fixed_s": tp})
+                          "urt_fixed_s": tp, "model_files": dict(model_files or {})})
     return tasks
 
 
@@ -83,17 +84,26 @@ def run_task(task: dict) -> pd.DataFrame:
     ex = simulate_scenario(sc, task["trials"], task["seed"])
     Z = measurement_array(ex)
     osc = preset(sc.oscillator)
+    networks = _load_networks(task.get("model_files", {}), task["urt_mode"])
     bound = link_pcrb(sc.link, osc, sc.exchanges, sc.distance_m, sc.velocity_m_s)
     pcrb_ns = float(np.sqrt(np.mean(bound.offset_var_s2))) * 1e9
     rows = []
     for name in task["algorithms"]:
         alg = make_algorithm(name, sc.link, steps=sc.exchanges, urt_mode=task["urt_mode"],
-                             urt_fixed_s=task["urt_fixed_s"], oscillator=osc).fit()
+                             urt_fixed_s=task["urt_fixed_s"], oscillator=osc, networks=networks).fit()
         err = alg.run(Z).offset_s - ex.offset_s
         per_trial = np.sqrt(np.nanmean(err**2, axis=1)) * 1e9
         for j, value in enumerate(per_trial):
             rows.append((task["param"], task["value"], name, task["first_trial"] + j, float(value), pcrb_ns))
     return pd.DataFrame(rows, columns=["param", "value", "algorithm", "trial", "rmse_ns", "pcrb_rms_ns"])
+
+
+def _load_networks(files: dict, urt_mode: str) -> dict:
+    """The residual networks named in a task (paths -> loaded, each checked against its configuration)."""
+    from chronofuse.sync.network import load_residual_network
+
+    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
+    return {kind: load_residual_network(path, chain=chain) for kind, path in files.items()}
 
 
 def _client(scheduler: str | None, n_tasks: int):
@@ -114,13 +124,14 @@ def _client(scheduler: str | None, n_tasks: int):
 
 
 def run_sweep(base: LinkScenario, param: str, values, algorithms, *, trials: int = 100, seed=0, chunk_trials: int = 25,
-              urt_mode: str = "calibrated", scheduler: str | None = None, progress=None) -> pd.DataFrame:
+              urt_mode: str = "calibrated", scheduler: str | None = None, progress=None,
+              model_files: dict | None = None) -> pd.DataFrame:
     """Run a sweep (module docstring); ``progress(done_trials, total_trials)`` is called as tasks finish.
 
     Returns the tidy table sorted by (value, algorithm, trial).
     """
     tasks = sweep_tasks(base, param, values, algorithms, trials=trials, seed=seed, chunk_trials=chunk_trials,
-                        urt_mode=urt_mode)
+                        urt_mode=urt_mode, model_files=model_files)
     total = sum(t["trials"] for t in tasks)
     frames, done = [], 0
     if scheduler == "serial":

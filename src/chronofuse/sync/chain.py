@@ -22,8 +22,10 @@ Stages, per exchange, on the :mod:`chronofuse.estimation.kalman` core:
    * ``filter="doppler-accel"`` (ours): as ``doppler`` with an acceleration state ``[eps, eps_dot, v, a]``
      driven by white jerk of density ``jerk_psd`` (the seed's stated limitation, section 3.1).
 
-4. Optionally a residual model (``residual_model``, e.g. the BP 9-32-1 network) adds its clipped
-   prediction after a warm-up fraction of the run (seed pseudo-code lines 18-28).
+4. Optionally a residual model (``residual_model``: ``window`` exchanges of the nine inputs of
+   :data:`FEATURES` -> residual, s; the BP 9-32-1 network or the LSTM of :mod:`chronofuse.sync.network`)
+   adds its prediction clipped to ``clip_s`` after a warm-up fraction of the run (seed pseudo-code
+   lines 18-28).
 """
 
 from __future__ import annotations
@@ -33,13 +35,13 @@ import numpy as np
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.clock import clock_process_noise
-from chronofuse.sync.base import SyncAlgorithm
+from chronofuse.sync.base import ExchangeSample, SyncAlgorithm
 from chronofuse.sync.rvc import rvc_offset
-from chronofuse.sync.twoway import ptp_offset_s, urt_sensitivity
+from chronofuse.sync.twoway import ptp_delay_s, ptp_offset_s, urt_sensitivity
 from chronofuse.sync.urt import UrtCompensation
 from chronofuse.validation import check_choice, check_scalar
 
-__all__ = ["ProposedChain", "FILTERS"]
+__all__ = ["ProposedChain", "FILTERS", "FEATURES", "residual_features"]
 
 FILTERS = ("seed", "doppler", "doppler-accel")
 
@@ -59,6 +61,8 @@ class ProposedChain(SyncAlgorithm):
         The link's noise as the receiver knows it (TOA from its SNR, the URT jitter, Doppler velocity).
     reply_delay_s : float
         ``T_B``, s.
+    snr_db : float
+        The link's SNR, dB (a residual-model input).
     h0, hm2 : float
         White-FM and random-walk-FM coefficients of the two clocks together (``S_y`` of B minus A).
     beta : float
@@ -69,7 +73,7 @@ class ProposedChain(SyncAlgorithm):
         White-jerk spectral density, m^2/s^5 (filter "doppler-accel").
     frequency_sigma : float
         Prior sigma of the fractional frequency offset ``eps_dot``.
-    residual_model : object with ``predict_residual_s(features) -> (trials,)``, optional
+    residual_model : object with ``window`` and ``predict_residual_s(history (trials, window, 9)) -> (trials,)``
     warmup_fraction, steps : float, int
         The residual model starts after ``warmup_fraction * steps`` exchanges (seed: 0.6 of N).
     clip_s : float
@@ -80,7 +84,7 @@ class ProposedChain(SyncAlgorithm):
 
     def __init__(self, filter="seed", light_time="seed", urt_mode="paper", urt_batch=100, urt_refresh_s=10.0,
                  urt_fixed_s=0.0, toa_sigma_s=1.25e-9, urt_jitter_s=2e-9, velocity_sigma_m_s=20.0,
-                 reply_delay_s=4e-3, h0=4e-24, hm2=1e-29, beta=1e-3, accel_psd=1.0, jerk_psd=1.0,
+                 reply_delay_s=4e-3, snr_db=10.0, h0=4e-24, hm2=1e-29, beta=1e-3, accel_psd=1.0, jerk_psd=1.0,
                  frequency_sigma=1e-6, residual_model=None, warmup_fraction=0.6, steps=2000, clip_s=5e-9,
                  interval_s=0.01):
         self.filter = filter
@@ -93,6 +97,7 @@ class ProposedChain(SyncAlgorithm):
         self.urt_jitter_s = urt_jitter_s
         self.velocity_sigma_m_s = velocity_sigma_m_s
         self.reply_delay_s = reply_delay_s
+        self.snr_db = snr_db
         self.h0 = h0
         self.hm2 = hm2
         self.beta = beta
@@ -146,16 +151,17 @@ class ProposedChain(SyncAlgorithm):
 
     def init_state(self, trials):
         n = self.F_.shape[0]
+        window = int(getattr(self.residual_model, "window", 1))
         return {"urt": self.urt_.init_state(trials), "x": np.full((trials, n), np.nan),
-                "P": np.broadcast_to(self.P0_, (trials, n, n)).copy()}
+                "P": np.broadcast_to(self.P0_, (trials, n, n)).copy(), "s0": np.zeros(trials),
+                "v0": np.zeros(trials), "hist": np.zeros((trials, window, len(FEATURES))),
+                "features": np.zeros((trials, len(FEATURES)))}
 
     def _measure(self, sample, tp):
-        """The filter's measurement z (trials, m) and H (trials, m, n) for this exchange."""
+        """The Doppler filters' measurement z (trials, 2) and H (trials, 2, n) for this exchange."""
         n = self.F_.shape[0]
         trials = sample.t_i_s.shape[0]
         comp = -urt_sensitivity(sample.velocity_m_s) * tp
-        if self.filter == "seed":
-            return None, None
         z1 = ptp_offset_s(sample.t_i_s, sample.t_b_s, sample.t_r_s) + comp
         H = np.zeros((trials, 2, n))
         H[:, 0, 0] = 1.0
@@ -169,12 +175,15 @@ class ProposedChain(SyncAlgorithm):
         urt_state, eps_corr, tp = self.urt_.update(state["urt"], sample.k, self.interval_s, eps_rvc,
                                                    sample.velocity_m_s)
         x, P = state["x"], state["P"]
+        s0, v0 = state["s0"], state["v0"]
         if sample.k == 0:
             n = self.F_.shape[0]
             x = np.zeros((eps_corr.shape[0], n))
             x[:, 0] = eps_corr
             x[:, 2] = sample.velocity_m_s
             P = np.broadcast_to(self.P0_, (x.shape[0], n, n)).copy()
+            s0 = C * ptp_delay_s(sample.t_i_s, sample.t_b_s, sample.t_r_s)
+            v0 = sample.velocity_m_s.copy()
         else:
             prior = predict(x, P, self.F_, self.Q_)
             x, P = prior.x, prior.P
@@ -186,8 +195,40 @@ class ProposedChain(SyncAlgorithm):
                 z, H = self._measure(sample, tp)
                 post = update(x, P, z, H, self.R_)
             x, P = post.x, post.P
+        features = residual_features(eps_corr, x[:, 0], x[:, 2], self.snr_db, sample, s0, v0, tp)
+        hist = np.concatenate([state["hist"][:, 1:], features[:, None, :]], axis=1)
         est = x[:, 0].copy()
         if self.residual_model is not None and sample.k >= self.warmup_steps_:
-            features = np.stack([eps_corr, x[:, 0], x[:, 2], sample.t_i_s, sample.t_r_s, tp], axis=1)
-            est = est + np.clip(self.residual_model.predict_residual_s(features), -self.clip_s, self.clip_s)
-        return {"urt": urt_state, "x": x, "P": P}, est
+            r = self.residual_model.predict_residual_s(hist)
+            est = est + np.clip(r, -self.clip_s, self.clip_s)
+        return {"urt": urt_state, "x": x, "P": P, "s0": s0, "v0": v0, "hist": hist, "features": features}, est
+
+    def run_features(self, Z) -> tuple[np.ndarray, np.ndarray]:
+        """The filter's estimates (trials, steps) and the residual model's inputs (trials, steps, 9)
+        along ``Z``, through the same core as ``run`` (for training; the object is not changed)."""
+        self._check_fitted()
+        trials, steps, _ = Z.shape
+        state = self.init_state(trials)
+        est = np.empty((trials, steps))
+        feats = np.empty((trials, steps, len(FEATURES)))
+        for k in range(steps):
+            state, _ = self.update(state, ExchangeSample.from_array(k, self.interval_s, Z[:, k]))
+            est[:, k] = state["x"][:, 0]
+            feats[:, k] = state["features"]
+        return est, feats
+
+
+#: The residual model's inputs (seed eq. 38), scaled to order one. ``eps_corr`` enters relative to the
+#: filter's estimate so that the network does not depend on the size of the offset itself.
+FEATURES = ("eps_corr_minus_eps_kf_ns", "eps_kf_us", "v_kf_km_s", "snr_scaled", "t_i_ms", "t_r_minus_t_b_ms",
+            "s0_100km", "v0_km_s", "t_p_10ns")
+
+
+def residual_features(eps_corr, eps_kf, v_kf, snr_db, sample, s0_m, v0_m_s, tp_s) -> np.ndarray:
+    """Seed eq. (38)'s nine inputs of one exchange, shape (trials, 9), in the units of :data:`FEATURES`."""
+    n = eps_corr.shape[0]
+    return np.stack([
+        (eps_corr - eps_kf) * 1e9, eps_kf * 1e6, v_kf / 1e3, np.full(n, (snr_db - 12.0) / 8.0),
+        sample.t_i_s * 1e3, (sample.t_r_s - sample.t_b_s) * 1e3, s0_m / 1e5, v0_m_s / 1e3,
+        np.broadcast_to(tp_s, (n,)) * 1e8,
+    ], axis=1)
