@@ -307,3 +307,33 @@ def link_report(res: dict) -> dict:
         "trials": res["trials"],
         "scenario": res["scenario"],
     }
+
+
+def reproduce_swarm_command(
+    figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
+    quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
+    out: Path = typer.Option(Path("docs/sync"), "--out", help="Report folder (created)."),
+    model: Path = typer.Option(None, "--model", help="BP model file ('proposed' curves)."),
+    lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file (figure 10)."),
+    scheduler: str = typer.Option("serial", "--scheduler",
+                                  help="'serial', 'local' (a LocalCluster) or tcp://HOST:PORT."),
+    seed: int = typer.Option(0, "--seed", help="Root seed."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Seed 001: figures 6-10 with the PCRB line and the seed's numbers beside ours, written to --out."""
+    from chronofuse.experiments.swarm_reproduce import FIGURES, reproduce_swarm
+
+    with user_errors():
+        figures = tuple(FIGURES) if figure == "all" else (figure,)
+        if any(f not in FIGURES for f in figures):
+            fail(f"--figure == {figure!r}, must be one of {list(FIGURES)} or all")
+        files = _model_files(model, lstm_model)
+        _load_models(files, "calibrated")
+        with option_errors(), progress_reporter("reproduce swarm") as say:
+            doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
+                                  model_files={k: str(v) for k, v in files.items()},
+                                  scheduler=None if scheduler == "local" else scheduler, progress=say)
+    if json_out:
+        print_json({"out": str(out), **doc})
+        return
+    human_console(False).print(f"report -> {out}/README.md ({len(doc['figures'])} figure(s))")
