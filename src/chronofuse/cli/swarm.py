@@ -309,6 +309,76 @@ def link_report(res: dict) -> dict:
     }
 
 
+@swarm_app.command("network")
+def network(
+    followers: int = typer.Option(3, "--followers", help="Followers of the leader."),
+    topology: str = typer.Option("tree", "--topology", help="tree (star: all follow the leader), chain, or consensus."),
+    duration: float = typer.Option(7200.0, "--duration", help="Run length, s."),
+    interval: float = typer.Option(1.0, "--interval", help="Exchange interval, s."),
+    gnss_loss_at: float = typer.Option(1800.0, "--gnss-loss-at", help="When the leader loses GNSS, s (< 0: never)."),
+    gnss_loss_for: float = typer.Option(3600.0, "--gnss-loss-for", help="How long the leader stays in holdover, s."),
+    mean_up: float = typer.Option(float("inf"), "--mean-up", help="Mean time a link stays up, s (inf: always up)."),
+    mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down, s."),
+    snr: float = _S["snr"], oscillator: str = _S["oscillator"],
+    seed: int = typer.Option(0, "--seed", help="Root seed."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+) -> None:
+    """A leader and followers: each follower's time error to the leader and to true time (RMS, ns),
+    through the leader's GNSS loss and links that come and go."""
+    import numpy as np
+
+    from chronofuse.experiments.swarm_network import follow_leader, leader_clock_s, link_availability
+    from chronofuse.models.link import LinkModel
+    from chronofuse.seeding import child_seed, root_seed
+
+    with user_errors():
+        if followers < 1:
+            fail(f"--followers == {followers}, must be >= 1")
+        if topology not in ("tree", "chain", "consensus"):
+            fail(f"--topology == {topology!r}, must be tree, chain or consensus")
+        if duration <= 2 * interval or interval <= 0:
+            fail(f"--duration == {duration} and --interval == {interval}: need interval > 0 and at least 3 exchanges")
+        steps = int(round(duration / interval))
+        base = root_seed(seed)
+        with option_errors():
+            link = LinkModel(interval_s=interval, snr_db=snr)
+            leader = leader_clock_s(steps, interval, child_seed(base, 0), oscillator=oscillator,
+                                    loss_start_s=None if gnss_loss_at < 0 else gnss_loss_at,
+                                    loss_duration_s=gnss_loss_for)
+            up = link_availability(followers, steps, child_seed(base, 1), mean_up_s=mean_up, mean_down_s=mean_down,
+                                   interval_s=interval)
+        parents = tuple(range(followers)) if topology == "chain" else (0,) * followers
+        rng = np.random.default_rng(child_seed(base, 2))
+        with option_errors(), progress_reporter("swarm network"):
+            res = follow_leader(leader, interval_s=interval, parents=parents,
+                                distances_m=tuple(rng.uniform(10e3, 80e3, followers)),
+                                velocities_m_s=tuple(rng.uniform(-10.0, 10.0, followers)), link=link,
+                                oscillator=oscillator, link_up=up, topology="consensus" if topology == "consensus" else "tree",
+                                seed=child_seed(base, 3))
+    def rms(a):
+        return [float(v) for v in np.atleast_1d(np.sqrt(np.mean(a**2, axis=-1)) * 1e9)]
+
+    doc = {"topology": topology, "followers": followers, "steps": steps, "interval_s": interval,
+           "leader_to_true_rms_ns": rms(res.leader_s), "leader_to_true_max_ns": float(np.abs(res.leader_s).max() * 1e9),
+           "to_leader_rms_ns": rms(res.to_leader_s), "to_true_rms_ns": rms(res.to_true_s),
+           "to_leader_max_ns": [float(v) for v in np.abs(res.to_leader_s).max(axis=1) * 1e9],
+           "link_up_fraction": [float(v) for v in res.link_up.mean(axis=1)],
+           "parents": [int(p) for p in res.parents]}
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    table = Table("follower", "parent", "to leader RMS (ns)", "to leader max (ns)", "to true RMS (ns)", "link up",
+                  title=f"{topology}: {steps} exchanges every {interval:g} s")
+    for i in range(followers):
+        table.add_row(str(i + 1), str(doc["parents"][i]), f"{doc['to_leader_rms_ns'][i]:.3g}",
+                      f"{doc['to_leader_max_ns'][i]:.3g}", f"{doc['to_true_rms_ns'][i]:.3g}",
+                      f"{doc['link_up_fraction'][i]:.0%}")
+    con.print(table)
+    con.print(f"leader to true time: {doc['leader_to_true_rms_ns'][0]:.3g} ns RMS, "
+              f"{doc['leader_to_true_max_ns']:.3g} ns max")
+
+
 def reproduce_swarm_command(
     figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
     quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),

@@ -168,6 +168,7 @@ class ProposedChain(SyncAlgorithm):
         H[:, 0, 1] = sample.t_b_s / 2.0  # eq. (1) averages eps over the exchange
         H[:, 0, 2] = -(sample.t_b_s - sample.t_i_s) / (2.0 * C)
         H[:, 1, 2] = 1.0
+        H = np.nan_to_num(H)  # a missing exchange (NaN) is skipped by the update; keep H finite
         return np.stack([z1, sample.velocity_m_s], axis=1), H
 
     def update(self, state, sample):
@@ -189,7 +190,8 @@ class ProposedChain(SyncAlgorithm):
             x, P = prior.x, prior.P
             if self.filter == "seed":
                 x = x.copy()
-                x[:, 2] = sample.velocity_m_s  # x- = A x + B u with u = v_doppler - v
+                # x- = A x + B u with u = v_doppler - v (no control when the exchange is missing)
+                x[:, 2] = np.where(np.isnan(sample.velocity_m_s), x[:, 2], sample.velocity_m_s)
                 post = update(x, P, eps_corr[:, None], np.array([[1.0, 0.0, 0.0]]), self.R_)
             else:
                 z, H = self._measure(sample, tp)
