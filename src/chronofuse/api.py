@@ -54,6 +54,7 @@ from chronofuse.sync.pcrb import link_pcrb
 from chronofuse.sync.registry import ALGORITHM_NAMES as SYNC_ALGORITHMS
 from chronofuse.sync.registry import make_algorithm as make_sync_algorithm
 from chronofuse.experiments.swarm import LinkScenario, run_link, simulate_scenario
+from chronofuse.experiments.swarm_network import SwarmResult, follow_leader, leader_clock_s, link_availability
 
 __all__ = [
     # truth models
@@ -138,6 +139,10 @@ __all__ = [
     "LinkScenario",
     "simulate_scenario",
     "run_link",
+    "SwarmResult",
+    "follow_leader",
+    "leader_clock_s",
+    "link_availability",
     # errors
     "ChronofuseError",
     "InputDataError",

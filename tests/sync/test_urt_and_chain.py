@@ -54,3 +54,11 @@ def test_calibrated_urt_estimate_is_close_to_the_configured_fixed_part():
     tp = calibrated_urt_s(LinkScenario(exchanges=100), seed=1, trials=2, exchanges=3000)
     # GNSS 5 ns per node over 6000 exchanges: sigma of the mean ~ 2 * 7.1 ns / sqrt(6000) = 0.18 ns.
     assert tp == pytest.approx(20e-9, abs=1e-9)
+
+
+@pytest.mark.slow
+def test_the_acceleration_state_removes_the_lag_of_the_velocity_random_walk_under_an_8_g_manoeuvre():
+    sc = LinkScenario(velocity_m_s=300.0, acceleration_m_s2=80.0, exchanges=1500)
+    res = run_link(sc, ["ours-doppler", "ours-accel"], trials=4, seed=3)
+    assert res["rmse_s"]["ours-accel"] < 0.5 * res["rmse_s"]["ours-doppler"]
+    assert res["rmse_s"]["ours-accel"] < 1.5 * res["pcrb_s"]["rms"]
