@@ -28,6 +28,14 @@ def register(app: typer.Typer) -> None:
     app.add_typer(swarm_app, name="swarm")
 
 
+def _quiet_dask() -> None:
+    """Dask's shutdown chatter (worker-kill warnings) would break the one-line/stdout contract."""
+    import logging
+
+    for name in ("distributed", "distributed.nanny", "distributed.worker", "distributed.scheduler"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+
+
 @contextmanager
 def option_errors():
     """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
@@ -178,6 +186,7 @@ def sweep(
             for v in value_list:
                 scenario_at(scenario, param, v)
         start = time.perf_counter()
+        _quiet_dask()
         with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
                               chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
@@ -399,6 +408,7 @@ def reproduce_swarm_command(
             fail(f"--figure == {figure!r}, must be one of {list(FIGURES)} or all")
         files = _model_files(model, lstm_model)
         _load_models(files, "calibrated")
+        _quiet_dask()
         with option_errors(), progress_reporter("reproduce swarm") as say:
             doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
                                   model_files={k: str(v) for k, v in files.items()},
