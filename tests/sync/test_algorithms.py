@@ -138,3 +138,19 @@ def test_runs_test_accepts_white_residuals_and_rejects_a_slow_wave():
     assert 0.95 < runs_test_passes(white).mean() < 0.995
     wave = np.sin(np.linspace(0, 2 * np.pi, 48))[None, :] + 0.1 * rng.standard_normal((200, 48))
     assert runs_test_passes(wave).mean() < 0.05
+
+
+def test_pi_servo_holds_its_state_through_missing_exchanges_and_keeps_its_clock_running():
+    ex = exchanges(distance_m=1e3, steps=800, trials=1, offset_s=3e-6, skew=1e-8)
+    z = measurement_array(ex)
+    z_gap = z.copy()
+    z_gap[:, 500:520, :] = np.nan
+    full = PtpPiServo().fit().run(z).offset_s[0]
+    gap = PtpPiServo().fit().run(z_gap).offset_s[0]
+    np.testing.assert_array_equal(gap[:500], full[:500])
+    assert np.all(np.isfinite(gap))
+    # Through the gap the clock runs on at its last frequency (a straight line) and keeps up with the skew.
+    np.testing.assert_allclose(np.diff(gap[500:521], 2), 0.0, atol=1e-16)
+    err = gap - ex.offset_s[0]
+    assert np.max(np.abs(err[500:520] - err[499])) < 1e-9
+    assert abs(err[-1]) < 2 * abs(full[-1] - ex.offset_s[0, -1]) + 1e-10

@@ -47,6 +47,23 @@ def pi_gains(interval_s: float, kp_scale: float = 0.7, ki_scale: float = 0.3) ->
     return kp, ki
 
 
+def hold_missing(missing: np.ndarray, new: dict, old: dict, clock: str) -> dict:
+    """A servo without a sample keeps its state (linuxptp samples only on a measurement); only the
+    disciplined clock ``clock`` keeps running at its set frequency (taken from ``new``)."""
+    if not missing.any():
+        return new
+    out = {}
+    for key, value in new.items():
+        keep = old[key]
+        if key == clock:
+            out[key] = value
+        elif value.ndim == 1:
+            out[key] = np.where(missing, keep, value)
+        else:
+            out[key] = np.where(missing[:, None], keep, value)
+    return out
+
+
 def _measured_offset(state, sample, delay_filter: str, length: int):
     """(new delay history, measured offset z) for one exchange."""
     delay = ptp_delay_s(sample.t_i_s, sample.t_b_s, sample.t_r_s)
@@ -175,4 +192,5 @@ class PtpPiServo(SyncAlgorithm):
         servo_state[c2] = LOCKED
         new = {"delays": delays, "count": count, "o0": o0, "l0": l0, "o1": o1, "l1": l1, "drift": drift,
                "freq": freq, "u": u, "first_update": first_update, "servo_state": servo_state}
-        return new, u.copy()
+        held = hold_missing(np.isnan(z), new, state, "u")
+        return held, held["u"].copy()
