@@ -48,3 +48,14 @@ def test_bad_input_is_one_line_naming_the_option_with_exit_code_2(args, option):
     assert result.exit_code == 2
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith(f"error: {option}"), result.stderr
+
+
+def test_an_outage_reports_robustness_and_the_filters_recover():
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ptp-mls,ours-doppler", "--outage", "100:200",
+                                 "--true-offset", "1e-6", *SMALL, "--json"])
+    assert result.exit_code == 0, result.output
+    rob = json.loads(result.stdout)["robustness"]
+    assert set(rob) == {"ptp-mls", "ours-doppler"}
+    assert rob["ours-doppler"]["recovery_epochs"] is not None and rob["ours-doppler"]["recovery_epochs"] < 50
+    bad = runner.invoke(app, ["swarm", "run", "--outage", "0:5", "--exchanges", "50", "--trials", "1"])
+    assert bad.exit_code == 2 and bad.stderr.startswith("error: --outage == 0:5")

@@ -154,3 +154,13 @@ def test_pi_servo_holds_its_state_through_missing_exchanges_and_keeps_its_clock_
     err = gap - ex.offset_s[0]
     assert np.max(np.abs(err[500:520] - err[499])) < 1e-9
     assert abs(err[-1]) < 2 * abs(full[-1] - ex.offset_s[0, -1]) + 1e-10
+
+
+def test_linreg_servo_survives_missing_exchanges():
+    ex = exchanges(distance_m=1e3, steps=400, trials=1, offset_s=3e-6, skew=1e-8)
+    z = measurement_array(ex)
+    z[:, 200:230, :] = np.nan
+    est = PtpLinreg().fit().run(z).offset_s[0]
+    raw = PtpOffset().fit().run(measurement_array(ex)).offset_s[0]
+    assert np.all(np.isfinite(est))
+    np.testing.assert_allclose(est[300:], raw[300:], rtol=0, atol=1e-12)

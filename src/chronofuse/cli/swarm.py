@@ -20,7 +20,7 @@ _OPTION_OF = {
     "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr", "toa_model": "--toa-model",
     "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials", "true_offset": "--true-offset",
     "true_skew": "--true-skew", "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator",
-    "acceleration_m_s2": "--acceleration", "interval_s": "--interval",
+    "acceleration_m_s2": "--acceleration", "interval_s": "--interval", "outage": "--outage",
 }
 
 
@@ -99,6 +99,7 @@ def run(
     threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K*, s."),
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed' (chronofuse swarm train)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
+    outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
     """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
@@ -114,11 +115,19 @@ def run(
         files = _model_files(model, lstm_model)
         names = _algorithm_names(algorithm, files)
         networks = _load_models(files, urt_mode)
+        window = None
+        if outage is not None:
+            try:
+                window = tuple(int(k) for k in outage.split(":"))
+            except ValueError:
+                window = ()
+            if len(window) != 2:
+                fail(f"--outage == {outage!r}, must be K0:K1 (two exchange numbers)")
         if trials < 1:
             fail(f"--trials == {trials}, must be >= 1")
         with option_errors(), progress_reporter("swarm run"):
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
-                           networks=networks)
+                           networks=networks, outage=window)
     doc = link_report(res)
     if json_out:
         print_json(doc)
@@ -310,6 +319,8 @@ def link_report(res: dict) -> dict:
         "pcrb_ns": {k: v * 1e9 for k, v in res["pcrb_s"].items()},
         "convergence_epochs": res["convergence_epochs"],
         "convergence_threshold_ns": res["threshold_s"] * 1e9,
+        "robustness": {k: {"delta_rmse_ns": v["delta_rmse_s"] * 1e9, "recovery_epochs": v["recovery_epochs"]}
+                       for k, v in res["robustness"].items()},
         "overhead": overhead(res["scenario"]["link"]["interval_s"]),
         "urt_mode": res["urt_mode"],
         "urt_fixed_estimate_ns": res["urt_fixed_estimate_s"] * 1e9,

@@ -20,7 +20,7 @@ from chronofuse.models.link import Exchanges, LinkModel, node_clock_error_s, sim
 from chronofuse.models.oscillator import preset
 from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
-from chronofuse.sync.metrics import convergence_epochs, rmse_s
+from chronofuse.sync.metrics import convergence_epochs, rmse_s, robustness
 from chronofuse.sync.pcrb import link_pcrb
 from chronofuse.sync.registry import ALGORITHM_NAMES, make_algorithm
 from chronofuse.sync.rvc import rvc_offset_exact_s
@@ -91,28 +91,47 @@ def calibrated_urt_s(scenario: LinkScenario, seed, trials: int = 4, exchanges: i
     return float(np.mean(calibrate_urt(eps, gnss, ex.velocity_m_s)))
 
 
+def hold_last(est: np.ndarray) -> np.ndarray:
+    """Each row with NaN replaced by the last finite value before it (a receiver holds its output)."""
+    idx = np.where(np.isfinite(est), np.arange(est.shape[1]), 0)
+    np.maximum.accumulate(idx, axis=1, out=idx)
+    return np.take_along_axis(est, idx, axis=1)
+
+
 def run_link(scenario: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, seed=0,
-             urt_mode: str = "calibrated", threshold_s: float = 1e-9, networks: dict | None = None) -> dict:
+             urt_mode: str = "calibrated", threshold_s: float = 1e-9, networks: dict | None = None,
+             outage: tuple[int, int] | None = None) -> dict:
     """Run ``algorithms`` on ``trials`` simulated runs of ``scenario``.
 
     Returns a dict: ``rmse_s`` and ``convergence_epochs`` per algorithm (K*: first exchange whose
     running RMSE over trials is <= ``threshold_s``, seed eq. 48; None if never), ``pcrb_s`` (the PCRB of the
     offset at the last exchange and its RMS over the run), ``urt_fixed_estimate_s`` (calibrated mode),
     the scenario and the settings. ``networks`` maps "bp" / "lstm" to trained residual networks (the
-    algorithms "proposed" and "lstm" need them).
+    algorithms "proposed" and "lstm" need them). ``outage = (k0, k1)`` also runs every algorithm with
+    exchanges ``k0 .. k1 - 1`` lost (the stress of seed eqs. 49-50; an algorithm's missing outputs are
+    held) and adds ``robustness``: the RMSE increase and the recovery epochs after ``k1``.
     """
+    if outage is not None:
+        k0, k1 = (int(k) for k in outage)
+        if not 1 <= k0 < k1 <= scenario.exchanges:
+            raise ValueError(f"outage == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= exchanges ({scenario.exchanges})")
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
     base = root_seed(seed)
     ex = simulate_scenario(scenario, trials, child_seed(base, 0))
     Z = measurement_array(ex)
     tp = calibrated_urt_s(scenario, child_seed(base, 1)) if urt_mode == "calibrated" else 0.0
-    rmse, conv = {}, {}
+    rmse, conv, robust = {}, {}, {}
     for name in algorithms:
         alg = make_algorithm(name, scenario.link, steps=scenario.exchanges, urt_mode=urt_mode, urt_fixed_s=tp,
                              oscillator=preset(scenario.oscillator), networks=networks).fit()
         err = alg.run(Z).offset_s - ex.offset_s
         rmse[name] = rmse_s(err)
         conv[name] = convergence_epochs(err, threshold_s)
+        if outage is not None:
+            stressed = Z.copy()
+            stressed[:, k0:k1, :] = np.nan
+            err_stress = hold_last(alg.run(stressed).offset_s) - ex.offset_s
+            robust[name] = robustness(hold_last(err + ex.offset_s) - ex.offset_s, err_stress, threshold_s, k1)
     bound = link_pcrb(scenario.link, preset(scenario.oscillator), scenario.exchanges, scenario.distance_m,
                       scenario.velocity_m_s)
     return {
@@ -121,6 +140,7 @@ def run_link(scenario: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int 
         "pcrb_s": {"final": float(np.sqrt(bound.offset_var_s2[-1])),
                    "rms": float(np.sqrt(np.mean(bound.offset_var_s2)))},
         "urt_fixed_estimate_s": tp,
+        "robustness": robust,
         "urt_mode": urt_mode,
         "threshold_s": float(threshold_s),
         "trials": int(trials),

@@ -21,13 +21,15 @@ __all__ = ["PtpMls", "weighted_line_at_zero"]
 def weighted_line_at_zero(x: np.ndarray, z: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Intercept at ``x = 0`` of the weighted least-squares line through rows of ``(x, z)``.
 
-    ``x``, ``z``, ``w`` of shape (trials, n); NaN ``z`` have no weight. Rows with one point return it.
+    ``x``, ``z``, ``w`` of shape (trials, n); NaN ``z`` have no weight. Rows with one point return it;
+    rows with none, NaN.
     """
     w = np.where(np.isnan(z), 0.0, w)
     z0 = np.where(np.isnan(z), 0.0, z)
     sw = w.sum(axis=1)
-    mx = (w * x).sum(axis=1) / sw
-    mz = (w * z0).sum(axis=1) / sw
+    with np.errstate(invalid="ignore", divide="ignore"):  # a row with no valid point gives NaN
+        mx = (w * x).sum(axis=1) / sw
+        mz = (w * z0).sum(axis=1) / sw
     sxx = (w * (x - mx[:, None]) ** 2).sum(axis=1)
     sxz = (w * (x - mx[:, None]) * (z0 - mz[:, None])).sum(axis=1)
     slope = np.divide(sxz, sxx, out=np.zeros_like(sxz), where=sxx > 0.0)

@@ -76,6 +76,7 @@ class PtpLinreg(SyncAlgorithm):
             px -= x_int[:, None]
             py -= y_int[:, None]
             intercept += x_int[:, None] * slope - y_int[:, None]
+        moved = {"px": px.copy(), "py": py.copy(), "intercept": intercept.copy(), "u": u.copy()}
         offset = u - z
         # add_sample: newest point at column 0 (the ring, newest first).
         px = np.concatenate([np.zeros((px.shape[0], 1)), px[:, :-1]], axis=1)
@@ -127,7 +128,14 @@ class PtpLinreg(SyncAlgorithm):
         first_update = first_update & ~locked
         new = {"px": px, "py": py, "num": num, "slope": slope, "intercept": intercept, "err": err,
                "err_updates": err_updates, "clock_freq": clock_freq, "u": u, "first_update": first_update}
-        return new, u.copy()
+        missing = np.isnan(z)
+        if missing.any():
+            # No sample: time still passes (the reference moved) but nothing is added or re-fitted.
+            for key, value in new.items():
+                keep = moved[key] if key in moved else state[key]
+                mask = missing if value.ndim == 1 else missing[:, None]
+                new[key] = np.where(mask, keep, value)
+        return new, new["u"].copy()
 
 
 def runs_test_passes(residuals: np.ndarray) -> np.ndarray:

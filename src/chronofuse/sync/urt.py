@@ -64,7 +64,7 @@ class UrtCompensation:
 
     def init_state(self, trials: int) -> dict:
         return {"buf": np.full((trials, int(self.batch)), np.nan), "sum": np.zeros(trials),
-                "tp": np.zeros(trials)}
+                "count": np.zeros(trials), "tp": np.zeros(trials)}
 
     def update(self, state: dict, k: int, interval_s: float, eps_s: np.ndarray, velocity_m_s: np.ndarray):
         """(new state, compensated offsets (trials,), URT estimate (trials,)) after offset ``eps_s``."""
@@ -75,13 +75,18 @@ class UrtCompensation:
             tp = np.broadcast_to(np.asarray(self.urt_fixed_s, dtype=np.float64), eps_s.shape)
             return state, eps_s - alpha * tp, tp
         m = int(self.batch)
+        seen = np.isfinite(eps_s)  # a missing exchange (NaN) adds nothing to the batch statistics
         buf = np.concatenate([state["buf"][:, 1:], eps_s[:, None]], axis=1)
-        total = state["sum"] + eps_s
+        total = state["sum"] + np.where(seen, eps_s, 0.0)
+        count = state["count"] + seen
         refresh = max(1, int(round(self.refresh_s / interval_s)))
-        if k + 1 < m:
-            tp = (total / (k + 1)) / alpha  # warm-up: all offsets so far
-        elif (k + 1 - m) % refresh == 0:
-            tp = np.mean(buf, axis=1) / alpha  # eq. (19)-(20)
-        else:
-            tp = state["tp"]
-        return {"buf": buf, "sum": total, "tp": tp}, eps_s - alpha * tp, tp
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if k + 1 < m:
+                tp = (total / count) / alpha  # warm-up: all offsets so far
+            elif (k + 1 - m) % refresh == 0:
+                n = np.isfinite(buf).sum(axis=1)
+                tp = (np.where(np.isfinite(buf), buf, 0.0).sum(axis=1) / n) / alpha  # eq. (19)-(20)
+            else:
+                tp = state["tp"]
+        tp = np.where(np.isfinite(tp), tp, state["tp"])
+        return {"buf": buf, "sum": total, "count": count, "tp": tp}, eps_s - alpha * tp, tp
