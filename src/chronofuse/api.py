@@ -66,6 +66,14 @@ from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, rec
 from chronofuse.models.receiver import ReceiverTruth, simulate_receivers
 from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.validation import ChronofuseError, InputDataError
+from chronofuse.models.kinematics import Trajectory, constant_acceleration, constant_velocity, manoeuvre
+from chronofuse.models.link import Exchanges, LinkModel, simulate_exchanges
+from chronofuse.sync.base import SyncResult, measurement_array
+from chronofuse.sync.pcrb import link_pcrb
+from chronofuse.sync.registry import ALGORITHM_NAMES as SYNC_ALGORITHMS
+from chronofuse.sync.registry import make_algorithm as make_sync_algorithm
+from chronofuse.experiments.swarm import LinkScenario, run_link, simulate_scenario
+from chronofuse.experiments.swarm_network import SwarmResult, follow_leader, leader_clock_s, link_availability
 
 __all__ = [
     # truth models
@@ -179,6 +187,26 @@ __all__ = [
     "load_scenario",
     "parse_scenario",
     "run_scenario",
+    # swarm sync (seed 001)
+    "Trajectory",
+    "constant_velocity",
+    "constant_acceleration",
+    "manoeuvre",
+    "LinkModel",
+    "Exchanges",
+    "simulate_exchanges",
+    "measurement_array",
+    "SyncResult",
+    "SYNC_ALGORITHMS",
+    "make_sync_algorithm",
+    "link_pcrb",
+    "LinkScenario",
+    "simulate_scenario",
+    "run_link",
+    "SwarmResult",
+    "follow_leader",
+    "leader_clock_s",
+    "link_availability",
     # errors
     "ChronofuseError",
     "InputDataError",

@@ -23,10 +23,11 @@ COMMANDS: dict[str, tuple[str, ...]] = {
     "detect": ("detect",),
     "gnssdo": ("gnssdo",),
     "position": ("position",),
+    "swarm": ("swarm",),
     "inspect": ("inspect",),
     "monitor": ("monitor",),
     "validate": ("validate",),
-    "reproduce": ("reproduce", "gnssdo", "position"),
+    "reproduce": ("reproduce", "gnssdo", "position", "swarm"),
 }
 
 

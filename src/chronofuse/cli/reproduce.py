@@ -8,6 +8,7 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.swarm import reproduce_swarm_command
 
 reproduce_app = typer.Typer(help="Reproduce the seed documents' experiments and write their reports.",
                             no_args_is_help=True)
@@ -15,6 +16,9 @@ reproduce_app = typer.Typer(help="Reproduce the seed documents' experiments and 
 
 def register(app: typer.Typer) -> None:
     app.add_typer(reproduce_app, name="reproduce")
+
+
+reproduce_app.command("swarm")(reproduce_swarm_command)
 
 
 @reproduce_app.command("integrity")

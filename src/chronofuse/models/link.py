@@ -151,7 +151,8 @@ class LinkModel:
 
     @property
     def velocity_sigma_m_s(self) -> float:
-        """Sigma of the two-way Doppler radial velocity, m/s: ``c sigma_f / (sqrt(2) f0)``."""
+        """Sigma of the two-way Doppler radial velocity, m/s: ``c sigma_f / (sqrt(2) f0)``; outside the
+        seed's 4..20 dB table (Cramér–Rao TOA model) ``sigma_f`` is held at the table's end value."""
         sigma_f = doppler_sigma_hz(min(max(self.snr_db, SNR_TABLE_DB[0]), SNR_TABLE_DB[-1]))
         return C * sigma_f / (math.sqrt(2.0) * self.carrier_hz)
 

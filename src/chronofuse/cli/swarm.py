@@ -1,0 +1,430 @@
+"""``chronofuse swarm ...``: two-way clock synchronization over radio links (SPEC 5, seed 001)."""
+
+from __future__ import annotations
+
+import re
+import time
+from contextlib import contextmanager
+from pathlib import Path
+
+import typer
+from rich.table import Table
+
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+
+swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (seed 001).", no_args_is_help=True)
+
+# Library parameter names -> the options that set them, so a one-line error names the option.
+_OPTION_OF = {
+    "distance": "--distance", "distance_m": "--distance", "velocity": "--velocity", "reply_delay_s": "--reply-delay",
+    "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr", "toa_model": "--toa-model",
+    "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials", "true_offset": "--true-offset",
+    "true_skew": "--true-skew", "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator",
+    "acceleration_m_s2": "--acceleration", "interval_s": "--interval", "outage": "--outage",
+}
+
+
+def register(app: typer.Typer) -> None:
+    app.add_typer(swarm_app, name="swarm")
+
+
+def _quiet_dask() -> None:
+    """Dask's shutdown chatter (worker-kill warnings) would break the one-line/stdout contract."""
+    import logging
+
+    for name in ("distributed", "distributed.nanny", "distributed.worker", "distributed.scheduler"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+
+
+@contextmanager
+def option_errors():
+    """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
+    try:
+        yield
+    except ValueError as exc:
+        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        match = re.match(r"^(\w+) ==", text)
+        if match and match.group(1) in _OPTION_OF:
+            text = _OPTION_OF[match.group(1)] + text[len(match.group(1)):]
+        raise ValueError(text) from None
+
+
+def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_jitter, snr, toa_model, exchanges,
+                   true_offset, true_skew, oscillator, interval):
+    """The :class:`LinkScenario` the options describe (validated; errors name the options)."""
+    from chronofuse.experiments.swarm import LinkScenario
+    from chronofuse.models.link import LinkModel
+
+    with option_errors():
+        link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
+                         snr_db=snr, toa_model=toa_model)
+        return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
+                            exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
+                            oscillator=oscillator, link=link)
+
+
+def _scenario_options():
+    return dict(
+        velocity=typer.Option(800.0, "--velocity", help="Radial velocity, m/s (opening > 0)."),
+        distance=typer.Option(80e3, "--distance", help="Initial distance, m."),
+        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration, m/s^2."),
+        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B, s."),
+        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time, s."),
+        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma, s."),
+        snr=typer.Option(10.0, "--snr", help="SNR, dB (4..20 with the seed's table)."),
+        toa_model=typer.Option("table", "--toa-model", help="TOA noise: table (seed) or crb (Cramér-Rao form)."),
+        exchanges=typer.Option(2000, "--exchanges", help="Exchanges per run."),
+        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start, s."),
+        true_skew=typer.Option(0.0, "--true-skew", help="True fractional frequency offset B - A."),
+        oscillator=typer.Option("ocxo", "--oscillator", help="Oscillator preset of both nodes."),
+        interval=typer.Option(0.01, "--interval", help="Exchange interval, s."),
+    )
+
+
+_S = _scenario_options()
+
+
+@swarm_app.command("run")
+def run(
+    algorithm: str = typer.Option("all", "--algorithm",
+                                  help="Comma-separated algorithm names, or 'all' (see chronofuse.sync.registry)."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper (the seed as written) or calibrated."),
+    velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
+    reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
+    snr: float = _S["snr"], toa_model: str = _S["toa_model"], exchanges: int = _S["exchanges"],
+    true_offset: float = _S["true_offset"], true_skew: float = _S["true_skew"], oscillator: str = _S["oscillator"],
+    interval: float = _S["interval"],
+    trials: int = typer.Option(20, "--trials", help="Monte Carlo trials."),
+    seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
+    threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K*, s."),
+    model: Path = typer.Option(None, "--model", help="BP model file for 'proposed' (chronofuse swarm train)."),
+    lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
+    outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+) -> None:
+    """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
+    from chronofuse.experiments.swarm import run_link
+
+    with user_errors():
+        scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
+                                  reply_delay=reply_delay, urt=urt, urt_jitter=urt_jitter, snr=snr,
+                                  toa_model=toa_model, exchanges=exchanges, true_offset=true_offset,
+                                  true_skew=true_skew, oscillator=oscillator, interval=interval)
+        if urt_mode not in ("paper", "calibrated"):
+            fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        files = _model_files(model, lstm_model)
+        names = _algorithm_names(algorithm, files)
+        networks = _load_models(files, urt_mode)
+        window = None
+        if outage is not None:
+            try:
+                window = tuple(int(k) for k in outage.split(":"))
+            except ValueError:
+                window = ()
+            if len(window) != 2:
+                fail(f"--outage == {outage!r}, must be K0:K1 (two exchange numbers)")
+        if trials < 1:
+            fail(f"--trials == {trials}, must be >= 1")
+        with option_errors(), progress_reporter("swarm run"):
+            res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
+                           networks=networks, outage=window)
+    doc = link_report(res)
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    table = Table("algorithm", "RMSE (ns)", "RMSE / PCRB", "K*", title=f"{trials} trials, URT mode {urt_mode}")
+    for name, value in doc["rmse_ns"].items():
+        k = doc["convergence_epochs"][name]
+        table.add_row(name, f"{value:.4g}", f"{value / doc['pcrb_ns']['rms']:.3g}", "-" if k is None else str(k))
+    con.print(table)
+    con.print(f"PCRB (same link model): {doc['pcrb_ns']['rms']:.4g} ns RMS over the run, "
+              f"{doc['pcrb_ns']['final']:.4g} ns at the last exchange")
+
+
+@swarm_app.command("sweep")
+def sweep(
+    param: str = typer.Option(..., "--param", help="velocity | distance | reply-delay | urt | snr."),
+    values: str = typer.Option(..., "--values", help="Comma-separated values, SI units (m/s, m, s, s, dB)."),
+    algorithms: str = typer.Option("ptp-mls,rtt-rvc,proposed-no-nn,ours-doppler", "--algorithms",
+                                   help="Comma-separated algorithm names."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
+    velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
+    reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
+    snr: float = _S["snr"], toa_model: str = _S["toa_model"], exchanges: int = _S["exchanges"],
+    true_offset: float = _S["true_offset"], true_skew: float = _S["true_skew"], oscillator: str = _S["oscillator"],
+    interval: float = _S["interval"],
+    trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
+    chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
+    seed: int = typer.Option(0, "--seed", help="Root seed."),
+    scheduler: str = typer.Option(None, "--scheduler",
+                                  help="tcp://HOST:PORT of a Dask scheduler; 'serial' for this process; "
+                                       "default a LocalCluster of processes."),
+    out: Path = typer.Option(Path("swarm-sweep"), "--out", help="Folder for the table, summary and figure."),
+    model: Path = typer.Option(None, "--model", help="BP model file for 'proposed'."),
+    lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Sweep one parameter over values: a tidy table (CSV and Parquet), a summary and a figure."""
+    from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
+    from chronofuse.report.swarm import plot_sweep, write_sweep
+
+    with user_errors():
+        if param not in SWEEP_PARAMS:
+            fail(f"--param == {param!r}, must be one of {list(SWEEP_PARAMS)}")
+        try:
+            value_list = [float(v) for v in values.split(",") if v.strip()]
+        except ValueError:
+            fail(f"--values == {values!r}, must be comma-separated numbers")
+        if not value_list:
+            fail("--values is empty, must give at least one number")
+        if urt_mode not in ("paper", "calibrated"):
+            fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        files = _model_files(model, lstm_model)
+        names = _algorithm_names(algorithms, files, option="--algorithms")
+        _load_models(files, urt_mode)
+        if trials < 1 or chunk_trials < 1:
+            fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
+        scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
+                                  reply_delay=reply_delay, urt=urt, urt_jitter=urt_jitter, snr=snr,
+                                  toa_model=toa_model, exchanges=exchanges, true_offset=true_offset,
+                                  true_skew=true_skew, oscillator=oscillator, interval=interval)
+        from chronofuse.experiments.sweep import scenario_at
+
+        with option_errors():
+            for v in value_list:
+                scenario_at(scenario, param, v)
+        start = time.perf_counter()
+        _quiet_dask()
+        with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
+            table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
+                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
+                              model_files={k: str(v) for k, v in files.items()})
+        summary = summarize(table)
+        files = write_sweep(table, summary, out)
+        files.append(plot_sweep(summary, param, SWEEP_PARAMS[param], Path(out) / "sweep.png",
+                                title=f"{trials} trials x {exchanges} exchanges, URT {urt_mode}"))
+        elapsed = time.perf_counter() - start
+    doc = {"param": param, "unit": SWEEP_PARAMS[param], "elapsed_s": elapsed, "files": [str(f) for f in files],
+           "summary": summary.to_dict(orient="records")}
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    table_out = Table("value", "algorithm", "RMSE (ns)", "PCRB (ns)", title=f"sweep over {param}")
+    for row in doc["summary"]:
+        table_out.add_row(f"{row['value']:g}", row["algorithm"], f"{row['rmse_ns']:.4g}", f"{row['pcrb_rms_ns']:.4g}")
+    con.print(table_out)
+    con.print(f"{len(files)} files -> {out}/ in {elapsed:.1f} s")
+
+
+def _model_files(model, lstm_model) -> dict:
+    return {kind: path for kind, path in (("bp", model), ("lstm", lstm_model)) if path is not None}
+
+
+def _algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tuple:
+    """The algorithms asked for; 'all' takes those whose models were given."""
+    from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK
+
+    if text == "all":
+        return tuple(n for n in ALGORITHM_NAMES if NEEDS_NETWORK.get(n, "bp") in files or n not in NEEDS_NETWORK)
+    names = tuple(a.strip() for a in text.split(","))
+    for name in names:
+        if name not in ALGORITHM_NAMES:
+            fail(f"{option} == {name!r}, must be among {list(ALGORITHM_NAMES)}")
+        kind = NEEDS_NETWORK.get(name)
+        if kind is not None and kind not in files:
+            flag = "--model" if kind == "bp" else "--lstm-model"
+            fail(f"{option} == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
+    return names
+
+
+def _load_models(files: dict, urt_mode: str) -> dict:
+    """Load the model files; a file that does not match its configuration is one line naming the option."""
+    from chronofuse.sync.network import load_residual_network
+    from chronofuse.validation import ChronofuseError
+
+    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
+    out = {}
+    for kind, path in files.items():
+        flag = "--model" if kind == "bp" else "--lstm-model"
+        try:
+            out[kind] = load_residual_network(path, chain=chain)
+        except (ChronofuseError, FileNotFoundError, IsADirectoryError) as exc:
+            fail(f"{flag} {exc}")
+        if out[kind].config.kind != kind:
+            fail(f"{flag} {path}: holds a {out[kind].config.kind} network, expected {kind}")
+    return out
+
+
+@swarm_app.command("train")
+def train(
+    out: Path = typer.Option(Path("swarm-models"), "--out", help="Folder for bp.pt, lstm.pt and training.json."),
+    quick: bool = typer.Option(False, "--quick", help="A small data set (6000 samples) and few epochs."),
+    seed: int = typer.Option(0, "--seed", help="Root seed of the data set and the training."),
+    device: str = typer.Option("cpu", "--device", help="cpu, cuda, or auto (the GPU when present)."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="The chain the networks serve: paper or calibrated."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Train the BP 9-32-1 residual network and the LSTM baseline (seed data set: 1e5 samples,
+    v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure the ablation."""
+    import json
+
+    from chronofuse.experiments.swarm import train_networks
+
+    with user_errors():
+        if device not in ("cpu", "cuda", "auto"):
+            fail(f"--device == {device!r}, must be cpu, cuda or auto")
+        if urt_mode not in ("paper", "calibrated"):
+            fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
+        with progress_reporter("swarm train") as say:
+            summary = train_networks(out, quick=quick, seed=seed, device=device, urt_mode=urt_mode, progress=say)
+        (Path(out) / "training.json").write_text(json.dumps(summary, indent=2))
+    if json_out:
+        print_json(summary)
+        return
+    con = human_console(False)
+    table = Table("network", "parameters", "train (s)", "device", "test residual left (ns)", "ablation with / without (ns)")
+    for kind, r in summary["networks"].items():
+        table.add_row(kind, str(r["parameters"]), f"{r['train_seconds']:.1f}", r["device"],
+                      f"{r['test_left_rms_ns']:.3g} of {r['test_target_rms_ns']:.3g}",
+                      f"{r['ablation']['rmse_with_s'] * 1e9:.3g} / {r['ablation']['rmse_without_s'] * 1e9:.3g}")
+    con.print(table)
+    con.print(f"models -> {out}/")
+
+
+@contextmanager
+def trial_progress(label: str):
+    """A progress bar over trials on stderr (off when stderr is not a terminal); yields ``advance(done, total)``."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from chronofuse.cli.common import err_console
+
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+        task = bar.add_task(label, total=None)
+
+        def advance(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield advance
+
+
+def link_report(res: dict) -> dict:
+    """``run_link``'s result with times in ns at the edge, as the CLI prints it."""
+    from chronofuse.sync.metrics import overhead
+
+    return {
+        "rmse_ns": {k: v * 1e9 for k, v in res["rmse_s"].items()},
+        "pcrb_ns": {k: v * 1e9 for k, v in res["pcrb_s"].items()},
+        "convergence_epochs": res["convergence_epochs"],
+        "convergence_threshold_ns": res["threshold_s"] * 1e9,
+        "robustness": {k: {"delta_rmse_ns": v["delta_rmse_s"] * 1e9, "recovery_epochs": v["recovery_epochs"]}
+                       for k, v in res["robustness"].items()},
+        "overhead": overhead(res["scenario"]["link"]["interval_s"]),
+        "urt_mode": res["urt_mode"],
+        "urt_fixed_estimate_ns": res["urt_fixed_estimate_s"] * 1e9,
+        "trials": res["trials"],
+        "scenario": res["scenario"],
+    }
+
+
+@swarm_app.command("network")
+def network(
+    followers: int = typer.Option(3, "--followers", help="Followers of the leader."),
+    topology: str = typer.Option("tree", "--topology", help="tree (star: all follow the leader), chain, or consensus."),
+    duration: float = typer.Option(7200.0, "--duration", help="Run length, s."),
+    interval: float = typer.Option(1.0, "--interval", help="Exchange interval, s."),
+    gnss_loss_at: float = typer.Option(1800.0, "--gnss-loss-at", help="When the leader loses GNSS, s (< 0: never)."),
+    gnss_loss_for: float = typer.Option(3600.0, "--gnss-loss-for", help="How long the leader stays in holdover, s."),
+    mean_up: float = typer.Option(float("inf"), "--mean-up", help="Mean time a link stays up, s (inf: always up)."),
+    mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down, s."),
+    snr: float = _S["snr"], oscillator: str = _S["oscillator"],
+    seed: int = typer.Option(0, "--seed", help="Root seed."),
+    json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+) -> None:
+    """A leader and followers: each follower's time error to the leader and to true time (RMS, ns),
+    through the leader's GNSS loss and links that come and go."""
+    import numpy as np
+
+    from chronofuse.experiments.swarm_network import follow_leader, leader_clock_s, link_availability
+    from chronofuse.models.link import LinkModel
+    from chronofuse.seeding import child_seed, root_seed
+
+    with user_errors():
+        if followers < 1:
+            fail(f"--followers == {followers}, must be >= 1")
+        if topology not in ("tree", "chain", "consensus"):
+            fail(f"--topology == {topology!r}, must be tree, chain or consensus")
+        if duration <= 2 * interval or interval <= 0:
+            fail(f"--duration == {duration} and --interval == {interval}: need interval > 0 and at least 3 exchanges")
+        steps = int(round(duration / interval))
+        base = root_seed(seed)
+        with option_errors():
+            link = LinkModel(interval_s=interval, snr_db=snr)
+            leader = leader_clock_s(steps, interval, child_seed(base, 0), oscillator=oscillator,
+                                    loss_start_s=None if gnss_loss_at < 0 else gnss_loss_at,
+                                    loss_duration_s=gnss_loss_for)
+            up = link_availability(followers, steps, child_seed(base, 1), mean_up_s=mean_up, mean_down_s=mean_down,
+                                   interval_s=interval)
+        parents = tuple(range(followers)) if topology == "chain" else (0,) * followers
+        rng = np.random.default_rng(child_seed(base, 2))
+        with option_errors(), progress_reporter("swarm network"):
+            res = follow_leader(leader, interval_s=interval, parents=parents,
+                                distances_m=tuple(rng.uniform(10e3, 80e3, followers)),
+                                velocities_m_s=tuple(rng.uniform(-10.0, 10.0, followers)), link=link,
+                                oscillator=oscillator, link_up=up, topology="consensus" if topology == "consensus" else "tree",
+                                seed=child_seed(base, 3))
+    def rms(a):
+        return [float(v) for v in np.atleast_1d(np.sqrt(np.mean(a**2, axis=-1)) * 1e9)]
+
+    doc = {"topology": topology, "followers": followers, "steps": steps, "interval_s": interval,
+           "leader_to_true_rms_ns": rms(res.leader_s), "leader_to_true_max_ns": float(np.abs(res.leader_s).max() * 1e9),
+           "to_leader_rms_ns": rms(res.to_leader_s), "to_true_rms_ns": rms(res.to_true_s),
+           "to_leader_max_ns": [float(v) for v in np.abs(res.to_leader_s).max(axis=1) * 1e9],
+           "link_up_fraction": [float(v) for v in res.link_up.mean(axis=1)],
+           "parents": [int(p) for p in res.parents]}
+    if json_out:
+        print_json(doc)
+        return
+    con = human_console(False)
+    table = Table("follower", "parent", "to leader RMS (ns)", "to leader max (ns)", "to true RMS (ns)", "link up",
+                  title=f"{topology}: {steps} exchanges every {interval:g} s")
+    for i in range(followers):
+        table.add_row(str(i + 1), str(doc["parents"][i]), f"{doc['to_leader_rms_ns'][i]:.3g}",
+                      f"{doc['to_leader_max_ns'][i]:.3g}", f"{doc['to_true_rms_ns'][i]:.3g}",
+                      f"{doc['link_up_fraction'][i]:.0%}")
+    con.print(table)
+    con.print(f"leader to true time: {doc['leader_to_true_rms_ns'][0]:.3g} ns RMS, "
+              f"{doc['leader_to_true_max_ns']:.3g} ns max")
+
+
+def reproduce_swarm_command(
+    figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
+    quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
+    out: Path = typer.Option(Path("docs/sync"), "--out", help="Report folder (created)."),
+    model: Path = typer.Option(None, "--model", help="BP model file ('proposed' curves)."),
+    lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file (figure 10)."),
+    scheduler: str = typer.Option("serial", "--scheduler",
+                                  help="'serial', 'local' (a LocalCluster) or tcp://HOST:PORT."),
+    seed: int = typer.Option(0, "--seed", help="Root seed."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Seed 001: figures 6-10 with the PCRB line and the seed's numbers beside ours, written to --out."""
+    from chronofuse.experiments.swarm_reproduce import FIGURES, reproduce_swarm
+
+    with user_errors():
+        figures = tuple(FIGURES) if figure == "all" else (figure,)
+        if any(f not in FIGURES for f in figures):
+            fail(f"--figure == {figure!r}, must be one of {list(FIGURES)} or all")
+        files = _model_files(model, lstm_model)
+        _load_models(files, "calibrated")
+        _quiet_dask()
+        with option_errors(), progress_reporter("reproduce swarm") as say:
+            doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
+                                  model_files={k: str(v) for k, v in files.items()},
+                                  scheduler=None if scheduler == "local" else scheduler, progress=say)
+    if json_out:
+        print_json({"out": str(out), **doc})
+        return
+    human_console(False).print(f"report -> {out}/README.md ({len(doc['figures'])} figure(s))")

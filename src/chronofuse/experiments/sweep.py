@@ -1,0 +1,169 @@
+"""Parameter sweeps of the two-node link on Dask (orchestration only; SPEC 6 "sweeps scale out on Dask").
+
+A sweep is a list of tasks, one per (parameter value, chunk of ``chunk_trials`` trials). Task
+``(value, c)`` simulates its trials from ``child_seed(root, key(value), c)``, ``key`` the value's
+float64 bit pattern as an integer, and runs every algorithm on them, so its numbers depend only on
+its own spec: not on the other values swept, nor on the process, worker or machine that runs it; a
+Dask run equals a serial one bit for bit. The calibrated URT of a point is learnt once in the driver
+from ``child_seed(root, key(value), CALIBRATION_KEY)``.
+
+Where tasks run: ``scheduler=None`` starts a LocalCluster of worker processes (one thread each);
+``"serial"`` runs them in this process (small runs, tests); ``"tcp://HOST:PORT"`` sends them to an
+existing Dask scheduler. Results are a tidy table: one row per (value, algorithm, trial).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+
+from chronofuse.experiments.swarm import LinkScenario, calibrated_urt_s, simulate_scenario
+from chronofuse.models.oscillator import preset
+from chronofuse.seeding import child_seed, root_seed
+from chronofuse.sync.base import measurement_array
+from chronofuse.sync.pcrb import link_pcrb
+from chronofuse.sync.registry import make_algorithm
+from chronofuse.validation import ChronofuseError, check_choice, check_scalar
+
+__all__ = ["SWEEP_PARAMS", "scenario_at", "sweep_tasks", "run_task", "run_sweep", "summarize"]
+
+#: Sweepable parameters and the unit of their values.
+SWEEP_PARAMS = {"velocity": "m/s", "distance": "m", "reply-delay": "s", "urt": "s", "snr": "dB"}
+CALIBRATION_KEY = 1_000_000
+
+
+def value_key(value: float) -> int:
+    """A swept value's seed key: its float64 bit pattern as a non-negative integer."""
+    return int.from_bytes(np.float64(value).tobytes(), "little")
+
+
+def scenario_at(base: LinkScenario, param: str, value: float) -> LinkScenario:
+    """``base`` with ``param`` (one of :data:`SWEEP_PARAMS`) set to ``value``."""
+    check_choice(param, "param", tuple(SWEEP_PARAMS))
+    if param == "velocity":
+        return replace(base, velocity_m_s=float(value))
+    if param == "distance":
+        return replace(base, distance_m=float(value))
+    link = base.link
+    if param == "reply-delay":
+        link = replace(link, reply_delay_s=float(value))
+    elif param == "urt":
+        link = replace(link, urt_fixed_s=float(value))
+    else:
+        link = replace(link, snr_db=float(value))
+    return replace(base, link=link)
+
+
+def sweep_tasks(base: LinkScenario, param: str, values, algorithms, *, trials: int, seed, chunk_trials: int = 25,
+                urt_mode: str = "calibrated", model_files: dict | None = None) -> list[dict]:
+    """The task specs of a sweep (plain picklable dicts); ``model_files`` maps "bp" / "lstm" to saved
+    residual networks, loaded by each task (checked against their configuration)."""
+    check_scalar(trials, "trials", min_val=1, integer=True)
+    check_scalar(chunk_trials, "chunk_trials", min_val=1, integer=True)
+    check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
+    root = root_seed(seed)
+    tasks = []
+    for value in values:
+        scenario = scenario_at(base, param, value)
+        key = value_key(value)
+        tp = calibrated_urt_s(scenario, child_seed(root, key, CALIBRATION_KEY)) if urt_mode == "calibrated" else 0.0
+        for c, start in enumerate(range(0, int(trials), int(chunk_trials))):
+            n = min(int(chunk_trials), int(trials) - start)
+            tasks.append({"param": param, "value": float(value), "scenario": scenario, "algorithms": tuple(algorithms),
+                          "seed": child_seed(root, key, c), "first_trial": start, "trials": n, "urt_mode": urt_mode,
+                          "urt_fixed_s": tp, "model_files": dict(model_files or {})})
+    return tasks
+
+
+def run_task(task: dict) -> pd.DataFrame:
+    """One task: its trials, every algorithm; rows ``param, value, algorithm, trial, rmse_ns, pcrb_rms_ns``."""
+    sc: LinkScenario = task["scenario"]
+    ex = simulate_scenario(sc, task["trials"], task["seed"])
+    Z = measurement_array(ex)
+    osc = preset(sc.oscillator)
+    networks = _load_networks(task.get("model_files", {}), task["urt_mode"])
+    bound = link_pcrb(sc.link, osc, sc.exchanges, sc.distance_m, sc.velocity_m_s)
+    pcrb_ns = float(np.sqrt(np.mean(bound.offset_var_s2))) * 1e9
+    rows = []
+    for name in task["algorithms"]:
+        alg = make_algorithm(name, sc.link, steps=sc.exchanges, urt_mode=task["urt_mode"],
+                             urt_fixed_s=task["urt_fixed_s"], oscillator=osc, networks=networks).fit()
+        err = alg.run(Z).offset_s - ex.offset_s
+        per_trial = np.sqrt(np.nanmean(err**2, axis=1)) * 1e9
+        for j, value in enumerate(per_trial):
+            rows.append((task["param"], task["value"], name, task["first_trial"] + j, float(value), pcrb_ns))
+    return pd.DataFrame(rows, columns=["param", "value", "algorithm", "trial", "rmse_ns", "pcrb_rms_ns"])
+
+
+def _load_networks(files: dict, urt_mode: str) -> dict:
+    """The residual networks named in a task (paths -> loaded, each checked against its configuration)."""
+    from chronofuse.sync.network import load_residual_network
+
+    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
+    return {kind: load_residual_network(path, chain=chain) for kind, path in files.items()}
+
+
+def _client(scheduler: str | None, n_tasks: int):
+    """(client, cluster) for ``scheduler``; raises ChronofuseError naming an unreachable address."""
+    from distributed import Client, LocalCluster
+
+    if scheduler is None:
+        workers = max(1, min(os.cpu_count() or 1, n_tasks))
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+                               host="127.0.0.1")
+        return Client(cluster), cluster
+    if not scheduler.startswith("tcp://"):
+        raise ChronofuseError(f"--scheduler == {scheduler!r}, must be tcp://HOST:PORT or 'serial'")
+    try:
+        return Client(scheduler, timeout="5s"), None
+    except (OSError, TimeoutError) as exc:
+        raise ChronofuseError(f"--scheduler == {scheduler!r}: no Dask scheduler answers there ({type(exc).__name__})") from None
+
+
+def run_sweep(base: LinkScenario, param: str, values, algorithms, *, trials: int = 100, seed=0, chunk_trials: int = 25,
+              urt_mode: str = "calibrated", scheduler: str | None = None, progress=None,
+              model_files: dict | None = None) -> pd.DataFrame:
+    """Run a sweep (module docstring); ``progress(done_trials, total_trials)`` is called as tasks finish.
+
+    Returns the tidy table sorted by (value, algorithm, trial).
+    """
+    tasks = sweep_tasks(base, param, values, algorithms, trials=trials, seed=seed, chunk_trials=chunk_trials,
+                        urt_mode=urt_mode, model_files=model_files)
+    total = sum(t["trials"] for t in tasks)
+    frames, done = [], 0
+    if scheduler == "serial":
+        for task in tasks:
+            frames.append(run_task(task))
+            done += task["trials"]
+            if progress:
+                progress(done, total)
+    else:
+        from distributed import as_completed
+
+        client, cluster = _client(scheduler, len(tasks))
+        try:
+            futures = client.map(run_task, tasks, pure=False)
+            by_key = {f.key: t for f, t in zip(futures, tasks)}
+            for fut in as_completed(futures):
+                frames.append(fut.result())
+                done += by_key[fut.key]["trials"]
+                if progress:
+                    progress(done, total)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    table = pd.concat(frames, ignore_index=True)
+    return table.sort_values(["value", "algorithm", "trial"], kind="mergesort").reset_index(drop=True)
+
+
+def summarize(table: pd.DataFrame) -> pd.DataFrame:
+    """Per (value, algorithm): RMSE over trials ``sqrt(mean(rmse_trial^2))`` (equal run lengths), the
+    trial count and the PCRB."""
+    g = table.groupby(["value", "algorithm"], sort=True)
+    out = g.agg(trials=("trial", "size"), pcrb_rms_ns=("pcrb_rms_ns", "first"))
+    out["rmse_ns"] = g["rmse_ns"].apply(lambda s: float(np.sqrt(np.mean(np.square(s)))))
+    return out.reset_index()

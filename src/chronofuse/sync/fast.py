@@ -1,0 +1,146 @@
+"""A numba kernel for the seed chain's streaming step, beside its readable numpy twin.
+
+:class:`FastSeedChain` is :class:`~chronofuse.sync.chain.ProposedChain` with ``filter="seed"`` and the
+calibrated URT mode (the configuration a node runs in real time), its per-exchange core fused into one
+numba kernel: RVC (seed eq. 9 or its exact form), URT compensation with the calibrated fixed part,
+the Kalman predict/update with ``H = [1 0 0]`` (Joseph form, as :mod:`chronofuse.estimation.kalman`),
+the nine residual inputs and the BP 9-32-1 forward pass (eqs. 39-43) with the clip and warm-up. The
+numpy twin is ``ProposedChain`` itself (tests/sync/test_fast.py compares them); the kernel exists only
+because a Python step costs about 100 us and the seed claims 1-2 us.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
+from chronofuse.sync.chain import ProposedChain
+
+__all__ = ["FastSeedChain"]
+
+
+@numba.njit(cache=True)
+def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp, dt, Q, R, P0, exact, snr_feat, w1, b1, w2, b2, use_net, warmup,
+            clip_ns):
+    n = x.shape[0]
+    x_out = x.copy()
+    P_out = P.copy()
+    s0_out = s0.copy()
+    v0_out = v0.copy()
+    est = np.empty(n)
+    feat = np.empty(9)
+    for i in range(n):
+        if exact:
+            eps_rvc = (C * (t_i[i] - t_r[i] + t_b[i]) + v[i] * (t_b[i] - t_i[i])) / (2.0 * C)
+        else:
+            eps_rvc = (C * (t_i[i] - t_r[i] + t_b[i]) + v[i] * t_b[i]) / (2.0 * C + v[i])
+        alpha = -C / (2.0 * C + v[i])
+        z = eps_rvc - alpha * tp
+        if k == 0:
+            x_out[i, 0] = z
+            x_out[i, 1] = 0.0
+            x_out[i, 2] = v[i]
+            for a in range(3):
+                for b in range(3):
+                    P_out[i, a, b] = P0[a, b]
+            s0_out[i] = C * (t_i[i] + t_r[i] - t_b[i]) / 2.0
+            v0_out[i] = v[i]
+        else:
+            # predict: x- = F x, P- = F P F' + Q with F = [[1, dt, 0], [0, 1, 0], [0, 0, 1]]
+            x0 = x[i, 0] + dt * x[i, 1]
+            x1 = x[i, 1]
+            x2 = x[i, 2]
+            p = P[i]
+            pp = np.empty((3, 3))
+            fp = np.empty((3, 3))
+            for b in range(3):
+                fp[0, b] = p[0, b] + dt * p[1, b]
+                fp[1, b] = p[1, b]
+                fp[2, b] = p[2, b]
+            for a in range(3):
+                pp[a, 0] = fp[a, 0] + dt * fp[a, 1] + Q[a, 0]
+                pp[a, 1] = fp[a, 1] + Q[a, 1]
+                pp[a, 2] = fp[a, 2] + Q[a, 2]
+            if not math.isnan(v[i]):
+                x2 = v[i]  # B u with u = v_doppler - v
+            if math.isnan(z):
+                x_out[i, 0], x_out[i, 1], x_out[i, 2] = x0, x1, x2
+                P_out[i] = pp
+            else:
+                # update with H = [1 0 0]: S = P00 + R, K = P[:, 0] / S, Joseph form
+                s = pp[0, 0] + R
+                y = z - x0
+                kg = np.empty(3)
+                for a in range(3):
+                    kg[a] = pp[a, 0] / s
+                x_out[i, 0] = x0 + kg[0] * y
+                x_out[i, 1] = x1 + kg[1] * y
+                x_out[i, 2] = x2 + kg[2] * y
+                ikh = np.eye(3)
+                for a in range(3):
+                    ikh[a, 0] -= kg[a]
+                tmp = ikh @ pp @ ikh.T
+                for a in range(3):
+                    for b in range(3):
+                        tmp[a, b] += kg[a] * R * kg[b]
+                for a in range(3):
+                    for b in range(3):
+                        P_out[i, a, b] = 0.5 * (tmp[a, b] + tmp[b, a])
+        e = x_out[i, 0]
+        if use_net and k >= warmup:
+            feat[0] = (z - e) * 1e9
+            feat[1] = e * 1e6
+            feat[2] = x_out[i, 2] / 1e3
+            feat[3] = snr_feat
+            feat[4] = t_i[i] * 1e3
+            feat[5] = (t_r[i] - t_b[i]) * 1e3
+            feat[6] = s0_out[i] / 1e5
+            feat[7] = v0_out[i] / 1e3
+            feat[8] = tp * 1e8
+            r = b2
+            for h in range(w1.shape[0]):
+                acc = b1[h]
+                for j in range(9):
+                    acc += w1[h, j] * feat[j]
+                r += w2[h] * math.tanh(acc)
+            e += min(max(r, -clip_ns), clip_ns) * 1e-9
+        est[i] = e
+    return x_out, P_out, s0_out, v0_out, est
+
+
+class FastSeedChain(ProposedChain):
+    """The seed chain (``filter="seed"``, URT calibrated, optional BP network) through one numba kernel.
+
+    Same parameters as :class:`ProposedChain`; ``residual_model`` must be a BP network (window 1).
+    """
+
+    name = "proposed-fast"
+
+    def _check_params(self):
+        super()._check_params()
+        if self.filter != "seed" or self.urt_mode != "calibrated":
+            raise ValueError(f"filter, urt_mode == {self.filter!r}, {self.urt_mode!r}, must be 'seed', 'calibrated'")
+        net = self.residual_model
+        if net is not None and (net.config.kind != "bp" or not hasattr(net, "_w1")):
+            raise ValueError("residual_model must be a trained BP network for the numba chain")
+        self.tp_ = float(self.urt_fixed_s)
+        if net is None:
+            self.w_ = (np.zeros((1, 9)), np.zeros(1), np.zeros(1), 0.0)
+        else:
+            self.w_ = (net._w1, net._b1, net._w2, net._b2)
+
+    def init_state(self, trials):
+        return {"x": np.zeros((trials, 3)), "P": np.zeros((trials, 3, 3)), "s0": np.zeros(trials),
+                "v0": np.zeros(trials)}
+
+    def update(self, state, sample):
+        w1, b1, w2, b2 = self.w_
+        x, P, s0, v0, est = _kernel(
+            state["x"], state["P"], state["s0"], state["v0"], sample.k, sample.t_i_s, sample.t_b_s, sample.t_r_s,
+            sample.velocity_m_s, self.tp_, float(self.interval_s), self.Q_, float(self.R_[0, 0]), self.P0_,
+            self.light_time == "exact", (float(self.snr_db) - 12.0) / 8.0, w1, b1, w2, b2,
+            self.residual_model is not None, int(self.warmup_steps_), float(self.clip_s) * 1e9)
+        return {"x": x, "P": P, "s0": s0, "v0": v0}, est
