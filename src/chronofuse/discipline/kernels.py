@@ -23,7 +23,7 @@ MODES = {"kf": 0, "wakf": 1, "gated": 2, "huber": 3, "pi": 4, "null": 5}
 
 
 @numba.njit(cache=True)
-def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+def _one(i, zi, vi, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
          wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half, half_span,
          margin, out):
     """Advance loop ``i`` by one second; writes (adj, step, est, innov, used, near) into ``out`` (6,)."""
@@ -31,7 +31,7 @@ def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mod
         zi = 0.0
     jump = False
     if step_thr >= 0.0 and vi:
-        jump = (not started[i]) or abs(zi) > step_thr
+        jump = (not started[i]) or ((not prev_valid[i]) and abs(zi) > step_thr)
     s = -zi if jump else 0.0
     zi = zi + s
     nan = math.nan
@@ -167,6 +167,7 @@ def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mod
         near = abs(vq) >= half_span * (1.0 - margin) - step_V
     u[i] = y_cmd
     started[i] = started[i] or vi
+    prev_valid[i] = vi
     out[0] = y_cmd
     out[1] = s
     out[2] = est
@@ -176,7 +177,7 @@ def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mod
 
 
 @numba.njit(cache=True)
-def servo_step_kernel(z, valid, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+def servo_step_kernel(z, valid, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
                       wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half,
                       half_span, margin):
     """One second for N loops (state arrays updated in place); returns outputs (6, N)."""
@@ -184,7 +185,7 @@ def servo_step_kernel(z, valid, x, P, u, started, window, rejects, integral, F, 
     out = np.empty((6, n_loops))
     tmp = np.empty(6)
     for i in range(n_loops):
-        _one(i, z[i], valid[i], x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+        _one(i, z[i], valid[i], x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
              wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half, half_span,
              margin, tmp)
         for a in range(6):
@@ -193,7 +194,7 @@ def servo_step_kernel(z, valid, x, P, u, started, window, rejects, integral, F, 
 
 
 @numba.njit(cache=True)
-def close_loop_kernel(free, ref, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+def close_loop_kernel(free, ref, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
                       wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half,
                       half_span, margin):
     """The closed loop (module :mod:`.loop`) for (trials, steps); returns phase, offset and outputs (6, trials, steps)."""
@@ -210,7 +211,7 @@ def close_loop_kernel(free, ref, x, P, u, started, window, rejects, integral, F,
             zk = xk - ref[i, k]
             vk = not math.isnan(zk)
             offset[i, k] = zk
-            _one(i, zk, vk, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+            _one(i, zk, vk, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
                  wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half,
                  half_span, margin, tmp)
             for a in range(6):

@@ -11,9 +11,11 @@ only compute an adjustment. Here, per second ``k`` and for ``N`` independent loo
   the servo's estimate of its offset after the update, the innovation, whether the sample was used
   and whether the DAC is near a rail.
 
-Step policy (shared, as in linuxptp's ``servo.c``): the first usable sample, and any usable sample with
-``|z| > step_threshold_s``, steps the regenerated 1PPS by ``-z`` ("jam sync") instead of slewing; the
-backend is told the shift so that its phase state follows. ``step_threshold_s = None`` never steps.
+Step policy (shared, as in linuxptp's ``servo.c`` with its ``first_step_threshold``): the first usable
+sample, and the first usable sample after a stretch without any whose ``|z| > step_threshold_s``, steps
+the regenerated 1PPS by ``-z`` ("jam sync") instead of slewing; the backend is told the shift so that
+its phase state follows. While the reference is continuous it never steps (a single outlier must not
+move the 1PPS). ``step_threshold_s = None`` never steps.
 
 Functional core: :meth:`Servo.update` maps ``(state, z, valid) -> (state', outputs)`` on arrays of
 shape (N,) and returns new arrays (it never writes into the state it was given). :meth:`Servo.step`
@@ -117,6 +119,7 @@ class Servo:
         state = self._initial(int(n))
         state["u"] = np.zeros(int(n))
         state["started"] = np.zeros(int(n), dtype=bool)
+        state["prev_valid"] = np.zeros(int(n), dtype=bool)
         return state
 
     def update(self, state: dict, offset_s: np.ndarray, valid: np.ndarray):
@@ -133,9 +136,10 @@ class Servo:
         return self._numpy_update(state, offset_s, valid)
 
     def _kernel_arrays(self, state: dict) -> tuple:
-        """The kernel's in-place state arrays (x, P, u, started, window, rejects, integral), dummies if unused."""
+        """The kernel's in-place state arrays (x, P, u, started, prev_valid, window, rejects, integral), dummies if unused."""
         n = state["u"].shape[0]
         return (state.get("x", np.zeros((n, 1))), state.get("P", np.zeros((n, 1, 1))), state["u"], state["started"],
+                state["prev_valid"],
                 state.get("window", np.zeros((n, 1))), state.get("rejects", np.zeros(n, dtype=np.int64)),
                 state.get("integral", np.zeros(n)))
 
@@ -165,7 +169,7 @@ class Servo:
         z = np.where(valid, offset_s, 0.0)
         jump = valid & ~state["started"]
         if self.step_threshold_s is not None:
-            jump = jump | (valid & (np.abs(z) > self.step_threshold_s))
+            jump = jump | (valid & ~state["prev_valid"] & (np.abs(z) > self.step_threshold_s))
         else:
             jump = np.zeros_like(jump)
         step = np.where(jump, -z, 0.0)
@@ -177,6 +181,7 @@ class Servo:
             applied, near = self.dac.apply(y_cmd)
         new["u"] = applied
         new["started"] = state["started"] | valid
+        new["prev_valid"] = np.asarray(valid, dtype=bool).copy()
         return new, (applied, step, estimate, innovation, used, near)
 
     # -- streaming -------------------------------------------------------------------------------------
