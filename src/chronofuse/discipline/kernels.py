@@ -17,7 +17,8 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["servo_step_kernel", "close_loop_kernel", "MODES"]
+__all__ = ["servo_step_kernel", "servo_step_packed", "pack_params", "close_loop_kernel", "fusion_kernel",
+           "states_kernel", "MODES"]
 
 MODES = {"kf": 0, "wakf": 1, "gated": 2, "huber": 3, "pi": 4, "null": 5}
 
@@ -191,6 +192,21 @@ def servo_step_kernel(z, valid, x, P, u, started, prev_valid, window, rejects, i
         for a in range(6):
             out[a, i] = tmp[a]
     return out
+
+
+@numba.njit(cache=True)
+def servo_step_packed(z, valid, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, p, out):
+    """:func:`servo_step_kernel` for ONE loop with its scalars packed in ``p`` (float64, see
+    :func:`pack_params`) and the six outputs written into ``out`` (6,): fewer arguments to pass, for the
+    streaming step. Same arithmetic (the same per-loop function)."""
+    _one(0, z, valid, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, p[0], int(p[1]), p[2], p[3],
+         p[4], p[5], p[6], p[7], p[8], int(p[9]), p[10], p[11], p[12], p[13] != 0.0, p[14], p[15], p[16], p[17],
+         p[18], out)
+
+
+def pack_params(params: tuple) -> np.ndarray:
+    """The scalar parameters of :func:`servo_step_kernel` (everything after ``h``) as one float64 array."""
+    return np.array([float(v) for v in params], dtype=np.float64)
 
 
 @numba.njit(cache=True)

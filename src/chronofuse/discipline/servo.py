@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kernels import MODES, servo_step_kernel
+from chronofuse.discipline.kernels import MODES, pack_params, servo_step_kernel, servo_step_packed
 from chronofuse.validation import check_array, check_scalar
 
 __all__ = ["Servo", "ServoOutput", "ServoRun", "NullServo", "freeze"]
@@ -189,14 +189,32 @@ class Servo:
     def reset(self) -> None:
         """Forget everything: the next :meth:`step` starts a fresh loop."""
         self._state = self.initial_state(1)
+        self._packed = None
+
+    def _pack(self) -> tuple:
+        """The streaming state's arrays (shared, advanced in place) and the packed parameters."""
+        params = self._kernel_params(self._state)
+        self._out = np.empty(6)
+        return (*self._kernel_arrays(self._state), *params[:3], pack_params(params[3:]))
 
     def step(self, offset_s: float | None) -> ServoOutput:
-        """Take one measured offset (s; NaN or None = no usable reference this second)."""
+        """Take one measured offset (s; NaN or None = no usable reference this second).
+
+        With ``fast``, the compiled per-loop function advances the streaming state in place (the same
+        arithmetic as :meth:`update`, so step and run agree to the last bit)."""
         if not hasattr(self, "_state"):
             self.reset()
         z = math.nan if offset_s is None else float(offset_s)
-        valid = np.array([math.isfinite(z)])
-        self._state, out = self.update(self._state, np.array([z]), valid)
+        valid = math.isfinite(z)
+        if self.fast:
+            if self._packed is None:
+                self._packed = self._pack()
+            out = self._out
+            servo_step_packed(z, valid, *self._packed, out)
+            return ServoOutput(float(out[0]), float(out[1]), float(out[2]), float(out[3]), out[4] != 0.0,
+                               out[5] != 0.0)
+        self._state, out = self.update(self._state, np.array([z]), np.array([valid]))
+        self._packed = None
         return ServoOutput(*(float(a[0]) if a.dtype != bool else bool(a[0]) for a in out))
 
     # -- batch -----------------------------------------------------------------------------------------
