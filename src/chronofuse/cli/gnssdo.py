@@ -28,6 +28,8 @@ def gnssdo(
     loop_bandwidth: float | None = typer.Option(None, "--loop-bandwidth",
                                                 help="pi only: design the PI from this natural frequency (Hz)."),
     fusion: str = typer.Option("fusion", "--fusion", help="fusion (inverse-variance) or selection (best source)."),
+    integrity_pfa: float | None = typer.Option(None, "--integrity-pfa",
+                                               help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
     reference: Path | None = typer.Option(None, "--reference",
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
@@ -43,7 +45,7 @@ def gnssdo(
     with user_errors():
         setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
                             trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits,
-                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion)
+                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa)
         with progress_reporter("gnssdo") as say:
             if reference is not None:
                 summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say)
