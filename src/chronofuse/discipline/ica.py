@@ -28,9 +28,10 @@ class IcaFusion:
     Learnt: ``weights_`` (receivers,), ``unmixing_`` (receivers, receivers), ``common_index_``.
     """
 
-    def __init__(self, random_state: int = 0, max_iter: int = 400):
+    def __init__(self, random_state: int = 0, max_iter: int = 2000, tol: float = 1e-3):
         self.random_state = random_state
         self.max_iter = max_iter
+        self.tol = tol
 
     def fit(self, z) -> IcaFusion:
         z = check_array(z, "z", ndim=2)
@@ -39,7 +40,7 @@ class IcaFusion:
             raise ValueError(f"z has {receivers} receiver(s), ICA needs at least 2")
         d = np.diff(z, axis=1).T
         ica = FastICA(n_components=receivers, fun="cube", whiten="unit-variance", random_state=self.random_state,
-                      max_iter=self.max_iter)
+                      max_iter=self.max_iter, tol=self.tol)
         ica.fit(d)
         mixing = ica.mixing_
         align = np.abs(mixing.sum(axis=0)) / (np.sqrt(receivers) * np.linalg.norm(mixing, axis=0))
