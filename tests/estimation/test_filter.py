@@ -74,3 +74,25 @@ def test_bad_shapes_are_rejected_with_the_name():
         _clock_filter().run(np.zeros((2, 10)))
     with pytest.raises(RuntimeError, match="fit"):
         KalmanFilter(CLOCK.F, CLOCK.Q, H, R, np.zeros(2), np.eye(2)).run(np.zeros((1, 3, 1)))
+
+
+def test_a_filter_built_on_the_clocks_phi_and_q_is_consistent_with_the_simulated_clock():
+    # The truth sampler and the filter share one process model: on a simulated two-state clock the
+    # normalised innovations squared are chi2(1), mean 1 (Bar-Shalom, Li and Kirubarajan 2001, sec. 5.4).
+    rng = np.random.default_rng(6)
+    z = rng.standard_normal((3, 200, 300))
+    sigma = 1e-9
+    phase = two_state_clock_phase_s(z[0], z[1], z[2], h0=CLOCK.h0, hm2=CLOCK.hm2, dt_s=1.0)
+    Z = (phase + sigma * rng.standard_normal(phase.shape))[..., None]
+    kf = KalmanFilter(CLOCK.F, CLOCK.Q, H, np.array([[sigma**2]]), x0=np.zeros(2), P0=np.diag([1e-30, 1e-30])).fit()
+    d2 = kf.run(Z[:, 1:]).d2  # the state before the first kept epoch is the clock's zero start
+    # a matched filter's innovations are white, so d2 are independent chi2(1) draws of variance 2
+    assert abs(d2.mean() - 1.0) < 4 * np.sqrt(2.0 / d2.size), d2.mean()
+
+
+def test_a_step_output_cannot_write_into_the_filters_state():
+    kf = _clock_filter()
+    out = kf.step(np.array([1e-9]))
+    with pytest.raises(ValueError, match="read-only"):
+        out.x[0] = 1.0
+    assert kf.step(np.array([1e-9])).x_prior[0] == pytest.approx(out.x[0] + out.x[1])
