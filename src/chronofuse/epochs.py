@@ -126,7 +126,8 @@ class ReceiverEpochs:
                 raise ValueError(f"{name} has shape {value.shape}, must be {cube}")
             if value.dtype.kind not in kind:
                 raise ValueError(f"{name} has dtype {value.dtype}, must be of kind {kind!r}")
-            object.__setattr__(self, name, _read_only(value if value.dtype == dtype else self._cast(name, value, dtype)))
+            stored = value if value.dtype == dtype else self._cast(name, value, dtype)
+            object.__setattr__(self, name, _read_only(stored))
         self._check_values()
 
     @staticmethod

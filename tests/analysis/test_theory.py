@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from chronofuse.analysis.theory import adev_theory, avar_components
+from chronofuse.analysis.theory import adev_theory, avar_components, corrected_pps_adev
 from chronofuse.models.oscillator import PowerLaw
+from chronofuse.models.receiver_model import ReceiverModel
 
 TAUS_S = np.array([1.0, 10.0, 100.0, 1000.0])
 
@@ -90,3 +91,43 @@ def test_theory_rejects_bad_inputs_naming_them():
         adev_theory(PowerLaw(h0=1.0), TAUS_S, -1.0)
     with pytest.raises(TypeError, match="h =="):
         adev_theory({"h0": 1.0}, TAUS_S, 1.0)
+
+
+def avar_from_covariance(autocov, n: int, dt_s: float) -> float:
+    """E[(x_{k+2n} - 2 x_{k+n} + x_k)^2] / (2 tau^2) as a quadratic form over the (2n+1)-point covariance
+    matrix of a stationary phase (an independent route to SP 1065 eq. (7)'s expectation)."""
+    lags = np.abs(np.subtract.outer(np.arange(2 * n + 1), np.arange(2 * n + 1)))
+    weights = np.zeros(2 * n + 1)
+    weights[[0, n, 2 * n]] = [1.0, -2.0, 1.0]
+    return float(weights @ autocov(lags) @ weights) / (2.0 * (n * dt_s) ** 2)
+
+
+@pytest.mark.parametrize("dt_s", [1.0, 2.0])
+def test_corrected_pps_adev_is_the_allan_variance_of_the_white_plus_gauss_markov_covariance(dt_s):
+    model = ReceiverModel(white_sigma_s=3e-9, gdop_log_sigma=0.3, multipath_sigma_s=5e-9, multipath_tau_s=12.0,
+                          wander_sigma_s=4e-9, wander_tau_s=900.0)
+    white_var = model.white_sigma_s**2 * math.exp(2 * model.gdop_log_sigma**2)  # E[(G/median)^2], log-normal G
+
+    def autocov(lag):
+        return (np.where(lag == 0, white_var, 0.0)
+                + model.multipath_sigma_s**2 * np.exp(-lag * dt_s / model.multipath_tau_s)
+                + model.wander_sigma_s**2 * np.exp(-lag * dt_s / model.wander_tau_s))
+
+    n = np.array([1, 3, 10, 40])
+    expect = [math.sqrt(avar_from_covariance(autocov, int(k), dt_s)) for k in n]
+    np.testing.assert_allclose(corrected_pps_adev(model, n * dt_s, dt_s), expect, rtol=1e-12)
+
+
+def test_corrected_pps_adev_of_white_phase_noise_is_sqrt3_sigma_over_tau():
+    # White phase noise of variance sigma^2 at dt = 1 s: AVAR = 6 sigma^2 / (2 tau^2) = 3 sigma^2 / tau^2, which is
+    # NIST SP 1065 Table 3's white PM 3 f_h h2 / (4 pi^2 tau^2) for the h2 of that variance (below).
+    model = ReceiverModel(white_sigma_s=2e-9, gdop_log_sigma=0.0, multipath_sigma_s=0.0, wander_sigma_s=0.0)
+    tau = np.array([1.0, 5.0, 100.0])
+    np.testing.assert_allclose(corrected_pps_adev(model, tau), math.sqrt(3.0) * 2e-9 / tau, rtol=1e-14)
+    h2 = 2e-9**2 * 4 * math.pi**2 / 0.5  # the h2 whose one-sided phase PSD integrates to sigma^2 over f_h = 0.5 Hz
+    np.testing.assert_allclose(corrected_pps_adev(model, tau), adev_theory(PowerLaw(h2=h2), tau, 1.0), rtol=1e-12)
+
+
+def test_corrected_pps_adev_refuses_a_tau_that_is_not_a_whole_number_of_steps():
+    with pytest.raises(ValueError, match="tau_s"):
+        corrected_pps_adev(ReceiverModel(), np.array([1.5]))

@@ -26,7 +26,8 @@ receiver aims at local time ``L* = t_k + b_hat_k`` and emits on the nearest tick
 ``T (theta + n)`` (``theta``: the tick phase, uniform per receiver), so the edge carries the sawtooth
 ``q_k = T (round(u_k) - u_k)``, ``u_k = L*_k / T - theta``, within ``[-T/2, T/2]``. Hence
 
-- ``pps_error_s = e + s + q`` (edge time minus true GNSS time; positive = late), NaN without a pulse;
+- ``pps_error_s = e + s + q`` (truth: edge time minus true GNSS time; positive = late), NaN without
+  a pulse; the receiver reports (in :class:`~chronofuse.epochs.ReceiverEpochs`)
 - ``qerr_s = -q`` rounded to 1 ps, the quantization error the receiver announces in advance, with the
   sign of u-blox UBX-TIM-TP ``qErr``: a time-interval counter started by the reference and stopped by
   the receiver's pulse reads ``pps_error_s``, and *adding* ``qErr`` to that reading removes the
@@ -42,8 +43,8 @@ Geometry: a unit-variance Gauss-Markov latent ``z_k`` (time constant ``gdop_tau_
 ``n_sats = clip(round(n_sats_median - n_sats_spread z), 4, n_sats_max)`` (fewer satellites, worse
 geometry). There is no fix during an outage (Poisson starts at ``outage_rate_hz``, geometric lengths of
 mean ``outage_mean_s``), in a jamming window, or when GDOP exceeds ``gdop_fix_max``; without a fix the
-receiver outputs no 1PPS (``pps_error_s``, ``qerr_s``, ``clock_bias_s`` and ``gdop`` are NaN) and
-reports 0 to 3 satellites (0 when jammed).
+receiver outputs no 1PPS (``pps_error_s``, and the reported ``qerr_s``, ``clock_bias_s`` and ``gdop``,
+are NaN) and reports 0 to 3 satellites (0 when jammed).
 
 Reports: ``fix_mode`` 3 (a timing receiver's time fix) with a fix, else 1 (no fix); ``time_valid`` is the
 fix; GDOP is the only dilution modelled (the other DOPs and the clock drift are NaN, absent); ``leap_s``
@@ -159,7 +160,7 @@ class ReceiverTruth:
 
 
 #: The random numbers of one (trial, receiver) stream, drawn in this order whatever the model (so that
-#: two scenarios run with one seed share their noise): name, law, extra length beyond ``steps``.
+#: two environments run with one seed share their noise): name, law, extra length beyond ``steps``.
 _STREAM_LAYOUT = (
     ("white", "normal", 0),
     ("multipath", "normal", 1),
