@@ -33,6 +33,20 @@ from chronofuse.estimation.interface import Estimator, FrozenResult, compare_str
 from chronofuse.estimation.null import HoldLastEstimator
 from chronofuse.estimation.process import ClockProcess
 from chronofuse.estimation.rts import SmootherResult, rts_smooth
+from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
+from chronofuse.discipline.consensus import apply_leap, utc_consensus
+from chronofuse.discipline.counter import MultiPhaseCounter
+from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.fusion import InverseVarianceFusion
+from chronofuse.discipline.holdover import clairvoyant_holdover_error, holdover_error
+from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, HuberKalmanServo, KalmanServo
+from chronofuse.discipline.loop import close_loop
+from chronofuse.discipline.pi import PiServo
+from chronofuse.discipline.qualification import Qualification, usable_epochs
+from chronofuse.discipline.servo import NullServo, Servo
+from chronofuse.discipline.smoothing import smooth_run
+from chronofuse.discipline.states import State, StateConfig, StateMachine
+from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo
 from chronofuse.experiments.main_job import run_scenario
 from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
@@ -182,7 +196,34 @@ __all__ = [
     "channel_clock_biases",
     "identify",
     "detect_file",
+    # discipline (GNSSDO)
+    "Qualification",
+    "usable_epochs",
+    "MultiPhaseCounter",
+    "Dac",
+    "Servo",
+    "NullServo",
+    "PiServo",
+    "KalmanServo",
+    "AdaptiveKalmanServo",
+    "GatedKalmanServo",
+    "HuberKalmanServo",
+    "close_loop",
+    "InverseVarianceFusion",
+    "utc_consensus",
+    "apply_leap",
+    "State",
+    "StateConfig",
+    "StateMachine",
+    "holdover_error",
+    "clairvoyant_holdover_error",
+    "smooth_run",
+    "ChainConfig",
+    "GnssdoRun",
+    "discipline_run",
     # experiments
+    "GnssdoSetup",
+    "run_gnssdo",
     "Scenario",
     "load_scenario",
     "parse_scenario",

@@ -97,12 +97,8 @@ def test_a_reference_record_at_the_wrong_rate_is_refused_naming_file_and_line(tm
 
 
 @pytest.mark.slow
-def test_the_real_gps_record_disciplines_a_simulated_ocxo_within_twice_the_adev_envelope(tmp_path):
-    from pathlib import Path
-
-    data = Path("/work/shared/data/stability/gps/gps_1pps_phase_data.txt.gz")
-    if not data.exists():
-        data = Path(__file__).resolve().parents[3] / "shared/data/stability/gps/gps_1pps_phase_data.txt.gz"
+def test_the_real_gps_record_disciplines_a_simulated_ocxo_within_twice_the_adev_envelope(data_dir):
+    data = data_dir / "stability" / "gps" / "gps_1pps_phase_data.txt.gz"
     res = _run("--reference", str(data), "--json")
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)

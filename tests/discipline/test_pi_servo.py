@@ -91,11 +91,18 @@ def test_batch_replay_does_not_change_the_servo_and_returns_read_only_arrays():
         result.freq_adj[0, 0] = 1.0
 
 
-def test_the_first_sample_jam_syncs_the_1pps_and_a_large_offset_steps_it_again():
+def test_the_first_sample_jam_syncs_the_1pps_and_a_large_offset_after_a_gap_steps_it_again():
     x_free = np.full((1, 200), 3e-3)  # 3 ms off, no frequency error
-    run = close_loop(PiServo(step_threshold_s=1e-6), x_free, np.zeros(200))
+    ref = np.zeros(200)
+    ref[50] = 5e-6  # an outlier within a continuous reference: no step
+    ref[100:110] = np.nan
+    ref[110:] = -4e-6  # back after a gap, 4 us away: step
+    run = close_loop(PiServo(step_threshold_s=1e-6), x_free, ref)
     assert run.phase_step_s[0, 0] == pytest.approx(-3e-3)
-    assert np.all(np.abs(run.phase_s[0, 1:]) < 1e-15)
+    assert np.all(np.abs(run.phase_s[0, 1:50]) < 1e-15)
+    assert run.phase_step_s[0, 50] == 0.0
+    assert np.flatnonzero(run.phase_step_s[0]).tolist() == [0, 110]
+    assert run.phase_step_s[0, 110] == pytest.approx(-(run.phase_s[0, 110] + 4e-6), rel=1e-9)
 
 
 def test_the_null_servo_leaves_the_oscillator_free_running():

@@ -16,7 +16,8 @@ def register(app: typer.Typer) -> None:
 
 def gnssdo(
     scenario: str = typer.Option("open-sky", "--scenario", help="open-sky, urban-canyon, outage, jumps or spoofing."),
-    controller: str = typer.Option("kf", "--controller", help="pi, kf, wakf, gated or huber."),
+    controller: str = typer.Option("gated", "--controller",
+                                   help="pi, kf, wakf, gated or huber (default: gated, picked by measurement)."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),
     duration: int = typer.Option(86_400, "--duration", help="Run length in seconds (>= 3600)."),
     trials: int = typer.Option(1, "--trials", help="Monte Carlo trials (vectorized)."),
@@ -27,6 +28,8 @@ def gnssdo(
     loop_bandwidth: float | None = typer.Option(None, "--loop-bandwidth",
                                                 help="pi only: design the PI from this natural frequency (Hz)."),
     fusion: str = typer.Option("fusion", "--fusion", help="fusion (inverse-variance) or selection (best source)."),
+    integrity_pfa: float | None = typer.Option(None, "--integrity-pfa",
+                                               help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
     reference: Path | None = typer.Option(None, "--reference",
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
@@ -42,7 +45,7 @@ def gnssdo(
     with user_errors():
         setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
                             trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits,
-                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion)
+                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa)
         with progress_reporter("gnssdo") as say:
             if reference is not None:
                 summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say)

@@ -47,3 +47,21 @@ def integrity(
         table.add_row(kind, *("-" if best[d] is None else f"{best[d]:g}" for d in DETECTORS))
     con.print(table)
     con.print(f"report -> {out}/ ({', '.join(summary['files'])})")
+
+
+@reproduce_app.command("gnssdo")
+def gnssdo(
+    quick: bool = typer.Option(False, "--quick", help="Shorter runs and fewer trials (a few minutes)."),
+    out: Path = typer.Option(Path("docs/gnssdo"), "--out", help="Report folder (created)."),
+    json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+) -> None:
+    """Seed 000 section 6: time error, convergence, ADEV, holdover and smoothing against the seed's claims (SPEC 3)."""
+    from chronofuse.experiments.gnssdo_reproduce import reproduce_gnssdo
+
+    with user_errors():
+        with progress_reporter("reproduce gnssdo") as say:
+            summary = reproduce_gnssdo(out, quick=quick, progress=say)
+    if json_out:
+        print_json({"out": str(out), **summary})
+        return
+    human_console(False).print(f"report -> {out}/ ({', '.join(summary['files'])})")

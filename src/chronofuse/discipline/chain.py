@@ -46,6 +46,7 @@ class ChainConfig:
     integrity_train_s : seconds at the start used to fit the detector's noise model.
     alarm_hold_s : a receiver stays excluded this long after its last alarm.
     counter : measure offsets with this multi-phase counter (None: exact).
+    fast : compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
     """
 
     qualification: Qualification = field(default_factory=Qualification)
@@ -57,6 +58,7 @@ class ChainConfig:
     integrity_train_s: float = 600.0
     alarm_hold_s: float = 600.0
     counter: MultiPhaseCounter | None = None
+    fast: bool = True
 
     def __post_init__(self):
         check_choice(self.fusion, "fusion", ("fusion", "selection"))
@@ -151,10 +153,12 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     else:
         alarm = np.zeros(usable.shape, dtype=bool)
     usable = usable & ~alarm
-    fusion = InverseVarianceFusion(config.fusion, interval_s=dt).run(np.where(usable, -e, np.nan), usable)
+    fusion = InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast).run(np.where(usable, -e, np.nan),
+                                                                                       usable)
     ref = -fusion.offset_s  # e_f: fused offset is x - e_f with x = 0 here
     loop = close_loop(servo, free, ref, counter=config.counter, seed=seed)
     any_usable = np.isfinite(ref)
     all_alarmed = alarm.any(axis=1) & ~(usable.any(axis=1))
-    states = run_states(any_usable, loop.offset_s, config.states, alarm=all_alarmed, near_rail=loop.near_rail)
+    states = run_states(any_usable, loop.offset_s, config.states, alarm=all_alarmed, near_rail=loop.near_rail,
+                        fast=config.fast)
     return GnssdoRun(loop.phase_s, ref, usable, alarm, loop, fusion, states, dt)

@@ -17,13 +17,14 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["servo_step_kernel", "close_loop_kernel", "MODES"]
+__all__ = ["servo_step_kernel", "servo_step_packed", "pack_params", "close_loop_kernel", "fusion_kernel",
+           "states_kernel", "MODES"]
 
 MODES = {"kf": 0, "wakf": 1, "gated": 2, "huber": 3, "pi": 4, "null": 5}
 
 
 @numba.njit(cache=True)
-def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+def _one(i, zi, vi, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
          wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half, half_span,
          margin, out):
     """Advance loop ``i`` by one second; writes (adj, step, est, innov, used, near) into ``out`` (6,)."""
@@ -31,7 +32,7 @@ def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mod
         zi = 0.0
     jump = False
     if step_thr >= 0.0 and vi:
-        jump = (not started[i]) or abs(zi) > step_thr
+        jump = (not started[i]) or ((not prev_valid[i]) and abs(zi) > step_thr)
     s = -zi if jump else 0.0
     zi = zi + s
     nan = math.nan
@@ -167,6 +168,7 @@ def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mod
         near = abs(vq) >= half_span * (1.0 - margin) - step_V
     u[i] = y_cmd
     started[i] = started[i] or vi
+    prev_valid[i] = vi
     out[0] = y_cmd
     out[1] = s
     out[2] = est
@@ -176,7 +178,7 @@ def _one(i, zi, vi, x, P, u, started, window, rejects, integral, F, Q, h, r, mod
 
 
 @numba.njit(cache=True)
-def servo_step_kernel(z, valid, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+def servo_step_kernel(z, valid, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
                       wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half,
                       half_span, margin):
     """One second for N loops (state arrays updated in place); returns outputs (6, N)."""
@@ -184,7 +186,7 @@ def servo_step_kernel(z, valid, x, P, u, started, window, rejects, integral, F, 
     out = np.empty((6, n_loops))
     tmp = np.empty(6)
     for i in range(n_loops):
-        _one(i, z[i], valid[i], x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+        _one(i, z[i], valid[i], x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
              wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half, half_span,
              margin, tmp)
         for a in range(6):
@@ -193,7 +195,22 @@ def servo_step_kernel(z, valid, x, P, u, started, window, rejects, integral, F, 
 
 
 @numba.njit(cache=True)
-def close_loop_kernel(free, ref, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+def servo_step_packed(z, valid, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, p, out):
+    """:func:`servo_step_kernel` for ONE loop with its scalars packed in ``p`` (float64, see
+    :func:`pack_params`) and the six outputs written into ``out`` (6,): fewer arguments to pass, for the
+    streaming step. Same arithmetic (the same per-loop function)."""
+    _one(0, z, valid, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, p[0], int(p[1]), p[2], p[3],
+         p[4], p[5], p[6], p[7], p[8], int(p[9]), p[10], p[11], p[12], p[13] != 0.0, p[14], p[15], p[16], p[17],
+         p[18], out)
+
+
+def pack_params(params: tuple) -> np.ndarray:
+    """The scalar parameters of :func:`servo_step_kernel` (everything after ``h``) as one float64 array."""
+    return np.array([float(v) for v in params], dtype=np.float64)
+
+
+@numba.njit(cache=True)
+def close_loop_kernel(free, ref, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
                       wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half,
                       half_span, margin):
     """The closed loop (module :mod:`.loop`) for (trials, steps); returns phase, offset and outputs (6, trials, steps)."""
@@ -210,7 +227,7 @@ def close_loop_kernel(free, ref, x, P, u, started, window, rejects, integral, F,
             zk = xk - ref[i, k]
             vk = not math.isnan(zk)
             offset[i, k] = zk
-            _one(i, zk, vk, x, P, u, started, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
+            _one(i, zk, vk, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
                  wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half,
                  half_span, margin, tmp)
             for a in range(6):

@@ -11,9 +11,11 @@ only compute an adjustment. Here, per second ``k`` and for ``N`` independent loo
   the servo's estimate of its offset after the update, the innovation, whether the sample was used
   and whether the DAC is near a rail.
 
-Step policy (shared, as in linuxptp's ``servo.c``): the first usable sample, and any usable sample with
-``|z| > step_threshold_s``, steps the regenerated 1PPS by ``-z`` ("jam sync") instead of slewing; the
-backend is told the shift so that its phase state follows. ``step_threshold_s = None`` never steps.
+Step policy (shared, as in linuxptp's ``servo.c`` with its ``first_step_threshold``): the first usable
+sample, and the first usable sample after a stretch without any whose ``|z| > step_threshold_s``, steps
+the regenerated 1PPS by ``-z`` ("jam sync") instead of slewing; the backend is told the shift so that
+its phase state follows. While the reference is continuous it never steps (a single outlier must not
+move the 1PPS). ``step_threshold_s = None`` never steps.
 
 Functional core: :meth:`Servo.update` maps ``(state, z, valid) -> (state', outputs)`` on arrays of
 shape (N,) and returns new arrays (it never writes into the state it was given). :meth:`Servo.step`
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kernels import MODES, servo_step_kernel
+from chronofuse.discipline.kernels import MODES, pack_params, servo_step_kernel, servo_step_packed
 from chronofuse.validation import check_array, check_scalar
 
 __all__ = ["Servo", "ServoOutput", "ServoRun", "NullServo", "freeze"]
@@ -117,6 +119,7 @@ class Servo:
         state = self._initial(int(n))
         state["u"] = np.zeros(int(n))
         state["started"] = np.zeros(int(n), dtype=bool)
+        state["prev_valid"] = np.zeros(int(n), dtype=bool)
         return state
 
     def update(self, state: dict, offset_s: np.ndarray, valid: np.ndarray):
@@ -133,9 +136,10 @@ class Servo:
         return self._numpy_update(state, offset_s, valid)
 
     def _kernel_arrays(self, state: dict) -> tuple:
-        """The kernel's in-place state arrays (x, P, u, started, window, rejects, integral), dummies if unused."""
+        """The kernel's in-place state arrays (x, P, u, started, prev_valid, window, rejects, integral), dummies if unused."""
         n = state["u"].shape[0]
         return (state.get("x", np.zeros((n, 1))), state.get("P", np.zeros((n, 1, 1))), state["u"], state["started"],
+                state["prev_valid"],
                 state.get("window", np.zeros((n, 1))), state.get("rejects", np.zeros(n, dtype=np.int64)),
                 state.get("integral", np.zeros(n)))
 
@@ -165,7 +169,7 @@ class Servo:
         z = np.where(valid, offset_s, 0.0)
         jump = valid & ~state["started"]
         if self.step_threshold_s is not None:
-            jump = jump | (valid & (np.abs(z) > self.step_threshold_s))
+            jump = jump | (valid & ~state["prev_valid"] & (np.abs(z) > self.step_threshold_s))
         else:
             jump = np.zeros_like(jump)
         step = np.where(jump, -z, 0.0)
@@ -177,6 +181,7 @@ class Servo:
             applied, near = self.dac.apply(y_cmd)
         new["u"] = applied
         new["started"] = state["started"] | valid
+        new["prev_valid"] = np.asarray(valid, dtype=bool).copy()
         return new, (applied, step, estimate, innovation, used, near)
 
     # -- streaming -------------------------------------------------------------------------------------
@@ -184,14 +189,32 @@ class Servo:
     def reset(self) -> None:
         """Forget everything: the next :meth:`step` starts a fresh loop."""
         self._state = self.initial_state(1)
+        self._packed = None
+
+    def _pack(self) -> tuple:
+        """The streaming state's arrays (shared, advanced in place) and the packed parameters."""
+        params = self._kernel_params(self._state)
+        self._out = np.empty(6)
+        return (*self._kernel_arrays(self._state), *params[:3], pack_params(params[3:]))
 
     def step(self, offset_s: float | None) -> ServoOutput:
-        """Take one measured offset (s; NaN or None = no usable reference this second)."""
+        """Take one measured offset (s; NaN or None = no usable reference this second).
+
+        With ``fast``, the compiled per-loop function advances the streaming state in place (the same
+        arithmetic as :meth:`update`, so step and run agree to the last bit)."""
         if not hasattr(self, "_state"):
             self.reset()
         z = math.nan if offset_s is None else float(offset_s)
-        valid = np.array([math.isfinite(z)])
-        self._state, out = self.update(self._state, np.array([z]), valid)
+        valid = math.isfinite(z)
+        if self.fast:
+            if self._packed is None:
+                self._packed = self._pack()
+            out = self._out
+            servo_step_packed(z, valid, *self._packed, out)
+            return ServoOutput(float(out[0]), float(out[1]), float(out[2]), float(out[3]), out[4] != 0.0,
+                               out[5] != 0.0)
+        self._state, out = self.update(self._state, np.array([z]), np.array([valid]))
+        self._packed = None
         return ServoOutput(*(float(a[0]) if a.dtype != bool else bool(a[0]) for a in out))
 
     # -- batch -----------------------------------------------------------------------------------------

@@ -1,0 +1,323 @@
+"""``chronofuse reproduce gnssdo``: seed 000's section 6 experiment, measured beside its claims and physics.
+
+Set-up as in the seed: 1 Hz, an MTI-260-class OCXO (ADEV 5e-12 at 1 s: the ``ocxo`` preset), a dual-mode
+receiver (two receivers, GPS and BeiDou, independent errors), open sky and urban canyon. "Before" is
+what the seed calls the traditional method: best-source selection with the seed's PI preset; "after"
+is fusion with the default controller; the physical limit is the clairvoyant Kalman servo (true models)
+for the time error and the lower envelope of the oscillator's and the GNSS reference's ADEV for
+stability, and the clairvoyant predictor for holdover (:mod:`chronofuse.discipline.holdover`).
+
+Everything in the note is written by this module from what it measured in this run.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+import chronofuse.analysis.stability as st
+from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.holdover import HOLDOVER_HORIZONS_S, clairvoyant_holdover_error, holdover_error
+from chronofuse.discipline.loop import close_loop
+from chronofuse.discipline.smoothing import smooth_run
+from chronofuse.experiments.gnssdo import (
+    CONTROLLERS,
+    DEFAULT_CONTROLLER,
+    GnssdoSetup,
+    _free_phase,
+    evaluate,
+    make_controller,
+    scenario_environment,
+    simulate_gnssdo,
+)
+from chronofuse.models.oscillator import preset
+from chronofuse.models.receiver import simulate_receivers
+from chronofuse.report.gnssdo import plot_adev, plot_time_error
+from chronofuse.report.jsonio import dumps
+from chronofuse.seeding import child_seed, root_seed
+
+__all__ = ["reproduce_gnssdo", "DEFAULT_CONTROLLER"]
+
+Progress = Callable[[str], None]
+
+RECEIVERS = 2  # the seed's dual-mode (GPS + BeiDou) receiver
+
+
+def _oadev_at(x: np.ndarray, taus: np.ndarray, start: int = 1800) -> np.ndarray:
+    avar = np.array([st.oadev(row[start:], 1.0, taus).dev ** 2 for row in x])
+    return np.sqrt(np.nanmean(avar, axis=0))
+
+
+def _controller_table(duration: int, trials: int, say: Progress) -> tuple[list[dict], dict]:
+    rows, sims = [], {}
+    for scenario in ("open-sky", "urban-canyon", "jumps"):
+        for controller in CONTROLLERS:
+            say(f"controller table: {scenario}, {controller}")
+            sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
+                                              duration_s=duration, trials=trials, seed=1))
+            summary = evaluate(sim)
+            sims[(scenario, controller)] = (sim, summary)
+            rows.append({"scenario": scenario, "controller": controller,
+                         "rms_ns": summary["time_error_rms_ns"], "pp_ns": summary["time_error_pp_ns"],
+                         "optimal_rms_ns": summary["optimal_rms_ns"],
+                         "ratio": summary["time_error_rms_ns"] / summary["optimal_rms_ns"],
+                         "convergence_s": summary["convergence_s"]})
+    return rows, sims
+
+
+def _before_after(duration: int, trials: int, say: Progress) -> dict:
+    """Seed's "before" (selection + PI preset) and "after" (fusion + default) in both environments."""
+    out = {}
+    for scenario in ("open-sky", "urban-canyon"):
+        for label, fusion, controller in (("before", "selection", "pi"), ("after", "fusion", DEFAULT_CONTROLLER)):
+            say(f"{scenario}: {label}")
+            sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
+                                              duration_s=duration, trials=trials, seed=2, fusion=fusion))
+            out[(scenario, label)] = (sim, evaluate(sim))
+    return out
+
+
+def _holdover(locked_stretches_s, trials: int, say: Progress) -> list[dict]:
+    """Holdover error at 1, 4, 24 h after locked stretches of the given lengths, against the clairvoyant
+    predictor on the same oscillator realisations."""
+    osc = preset("ocxo")
+    dac = Dac.for_oscillator(osc)
+    env = scenario_environment("open-sky", 1.0)
+    rows = []
+    for locked in locked_stretches_s:
+        say(f"holdover after {locked / 3600:g} h locked")
+        steps = int(locked + HOLDOVER_HORIZONS_S[-1] + 1)
+        root = root_seed(3)
+        free, noise_only = _free_phase(osc, steps, trials, root)
+        rx = simulate_receivers(env, int(locked), RECEIVERS, child_seed(root, 1), trials=trials)
+        e = rx.pps_error_s + rx.epochs.qerr_s
+        fused = np.nanmean(e, axis=1)  # equal receivers: the fused reference
+        ref = np.full((trials, steps), np.nan)
+        ref[:, : int(locked)] = fused
+        servo = make_controller(DEFAULT_CONTROLLER, osc, env, RECEIVERS, dac)
+        run = close_loop(servo, free, ref)
+        ours = holdover_error(run.phase_s, int(locked), HOLDOVER_HORIZONS_S)
+        limit, windows = clairvoyant_holdover_error(free, int(locked), HOLDOVER_HORIZONS_S, osc.drift_per_s)
+        rows.append({"locked_s": float(locked), "horizons_s": HOLDOVER_HORIZONS_S.tolist(),
+                     "ours_rms_ns": (np.sqrt(np.mean(ours**2, axis=0)) * 1e9).tolist(),
+                     "clairvoyant_rms_ns": (np.sqrt(np.mean(limit**2, axis=0)) * 1e9).tolist(),
+                     "clairvoyant_window_s": windows.tolist()})
+    return rows
+
+
+def _smoothing(sim: dict) -> dict:
+    """Filtered vs RTS-smoothed estimate of the disciplined time error (a recorded run, offline)."""
+    osc, env = sim["oscillator"], sim["environment"]
+    servo = make_controller("kf", osc, env, RECEIVERS, None)
+    loop = sim["run"].loop
+    sm = smooth_run(loop, servo)
+    a = 1800
+    truth = loop.phase_s[:, a:]
+    ok = np.isfinite(sm.smoothed_s[:, a:])
+    return {"filtered_rms_ns": float(np.sqrt(np.mean((sm.filtered_s[:, a:] - truth)[ok] ** 2)) * 1e9),
+            "smoothed_rms_ns": float(np.sqrt(np.mean((sm.smoothed_s[:, a:] - truth)[ok] ** 2)) * 1e9)}
+
+
+def _fusion_gain(duration: int, trials: int, say: Progress) -> dict:
+    out = {}
+    for fusion in ("fusion", "selection"):
+        say(f"urban canyon, 4 receivers: {fusion}")
+        sim = simulate_gnssdo(GnssdoSetup(scenario="urban-canyon", controller=DEFAULT_CONTROLLER, receivers=4,
+                                          duration_s=duration, trials=trials, seed=4, fusion=fusion))
+        ref = sim["run"].reference_error_s
+        out[fusion] = {"te_rms_ns": evaluate(sim)["time_error_rms_ns"],
+                       "reference_rms_ns": float(np.sqrt(np.nanmean(ref[:, 1800:] ** 2)) * 1e9)}
+    return out
+
+
+def _learned(steps: int, say: Progress) -> list[dict]:
+    """FastICA weights and the graph model against inverse-variance fusion on held-out runs (4 receivers)."""
+    from chronofuse.discipline.fusion import InverseVarianceFusion
+    from chronofuse.discipline.graph import GraphFusion, receiver_features
+    from chronofuse.discipline.ica import IcaFusion
+    from chronofuse.discipline.qualification import usable_epochs
+
+    def data(env, seed):
+        rx = simulate_receivers(env, steps, 4, seed=seed)
+        e = (rx.pps_error_s + rx.epochs.qerr_s)[0]
+        u = usable_epochs(rx.epochs)[0]
+        x = np.cumsum(1e-11 * np.random.default_rng(seed).standard_normal(steps))
+        z = np.where(u, x - e, np.nan)
+        return z, e, u, receiver_features(z, u, rx.epochs.gdop[0], rx.epochs.n_sats[0]), x
+
+    say("graph model: training on simulated runs")
+    train = [data(env, s) for env in ("open-sky", "urban-canyon") for s in (11, 12)]
+    graph = GraphFusion().fit(np.concatenate([d[3] for d in train]), np.concatenate([d[2].T for d in train]),
+                              np.concatenate([np.nan_to_num(d[1].T) for d in train]))
+    rows = []
+    for env in ("open-sky", "urban-canyon"):
+        say(f"learnt fusion: held-out {env}")
+        z1, _, u1, _, _ = data(env, 11)
+        ica = IcaFusion().fit(z1[:, u1.all(axis=0)])
+        for seed in (21, 22):
+            z, _, u, f, x = data(env, seed)
+            iv = InverseVarianceFusion().run(z[None], u[None]).offset_s[0] - x
+            gr = graph.fuse(z, f, u) - x
+            all_ok = u.all(axis=0)
+            ic = np.full(x.shape, np.nan)
+            ic[all_ok] = ica.fuse(z[:, all_ok]) - x[all_ok]
+            ok = np.isfinite(iv) & np.isfinite(gr)
+
+            def rms(a, m):
+                return float(np.sqrt(np.mean(a[m] ** 2)) * 1e9)
+
+            rows.append({"environment": env, "seed": seed, "inverse_variance_ns": rms(iv, ok), "graph_ns": rms(gr, ok),
+                         "ica_ns": rms(ic, all_ok & ok), "inverse_variance_where_ica_ns": rms(iv, all_ok & ok)})
+    return rows
+
+
+def _verdict(measured: float, claim: float, limit: float | None, better: str = "lower") -> str:
+    if limit is not None and better == "lower" and claim < 0.9 * limit:
+        return "not reachable: the claim is below the physical limit"
+    ok = measured <= claim * 1.05 if better == "lower" else measured >= claim * 0.95
+    return "reproduced" if ok else "not reproduced"
+
+
+def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = lambda s: None) -> dict:
+    """Run the experiment and write ``README.md``, ``summary.json`` and PNGs into ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    duration = 6 * 3600 if quick else 86_400
+    trials = 2 if quick else 4
+    table, sims = _controller_table(duration, trials, progress)
+    ba = _before_after(duration, trials, progress)
+    hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 8, progress)
+    smooth = _smoothing(sims[("open-sky", "kf")][0])
+    fusion = _fusion_gain(duration // 2, trials, progress)
+    learned = _learned(6000 if quick else 20_000, progress)
+
+    taus = np.array([1.0, 10.0, 100.0])
+    adev = {}
+    for scenario in ("open-sky", "urban-canyon"):
+        sim_after = ba[(scenario, "after")][0]
+        run = sim_after["run"]
+        adev[scenario] = {"free_run": _oadev_at(sim_after["noise_phase_s"], taus).tolist(),
+                          "gnss": _oadev_at(-run.reference_error_s, taus).tolist(),
+                          "disciplined": _oadev_at(run.phase_s, taus).tolist()}
+    files = []
+    for scenario in ("open-sky", "urban-canyon"):
+        sim, summ = ba[(scenario, "after")]
+        t = np.arange(sim["run"].phase_s.shape[1], dtype=float)
+        files.append(plot_time_error(t, sim["run"].phase_s[0], sim["clairvoyant"].phase_s[0],
+                                     sim["run"].states.state[0], out_dir / f"time_error_{scenario}.png",
+                                     f"Time error, {scenario}, {DEFAULT_CONTROLLER}, fusion of {RECEIVERS}").name)
+        files.append(plot_adev(summ["adev"], out_dir / f"adev_{scenario}.png", f"ADEV, {scenario}").name)
+
+    summary = {"quick": quick, "duration_s": duration, "trials": trials, "receivers": RECEIVERS,
+               "default_controller": DEFAULT_CONTROLLER, "controller_table": table,
+               "before_after": {f"{s}/{lab}": {k: v for k, v in summ.items() if k != "adev"}
+                                for (s, lab), (_, summ) in ba.items()},
+               "adev_at_1_10_100_s": adev, "holdover": hold, "smoothing": smooth, "fusion_vs_selection": fusion, "learned_fusion": learned,
+               "files": files}
+    (out_dir / "summary.json").write_text(dumps(summary) + "\n")
+    (out_dir / "README.md").write_text(_note(summary))
+    summary["files"] = files + ["summary.json", "README.md"]
+    return summary
+
+
+def _fmt(v, digits=3, unit: str = "") -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "never"
+    return f"{v:.{digits}g}{unit}"
+
+
+def _note(s: dict) -> str:
+    cmd = "chronofuse reproduce gnssdo" + (" --quick" if s["quick"] else "")
+    ba = s["before_after"]
+    lines = [
+        "# GNSS-disciplined oscillator: seed 000, section 6, reproduced",
+        "",
+        f"Written by `{cmd}` (every number below comes from that run: {s['trials']} trials of "
+        f"{s['duration_s']} s at 1 Hz, OCXO preset (ADEV 5e-12 at 1 s), {s['receivers']} receivers as the "
+        "seed's dual-mode receiver). \"Before\" = best-source selection with the seed's PI preset (Kp 0.5, "
+        f"Ki 0.1); \"after\" = inverse-variance fusion with the default controller (`{s['default_controller']}`). "
+        "Physical limit: the clairvoyant Kalman servo (true models) for time error, the lower envelope of "
+        "oscillator and GNSS ADEV for stability, the clairvoyant predictor for holdover. Time error is the "
+        "disciplined 1PPS against true time from 30 min on, with a usable reference; convergence is the first "
+        "second after which |TE| stays below 100 ns whenever a reference is usable (the jam sync of the first "
+        "sample puts it there at once in open sky; persistent receiver steps in the urban canyon keep moving "
+        "the reference itself).",
+        "",
+        "## Claims beside measurements",
+        "",
+        "| claim (seed) | environment | before | after | physical limit | verdict |",
+        "|---|---|---|---|---|---|",
+    ]
+    for env in ("open-sky", "urban-canyon"):
+        b, a = ba[f"{env}/before"], ba[f"{env}/after"]
+        lines.append(f"| TE rms 35 -> 8 ns | {env} | {_fmt(b['time_error_rms_ns'])} ns | {_fmt(a['time_error_rms_ns'])} ns "
+                     f"| {_fmt(a['optimal_rms_ns'])} ns | {_verdict(a['time_error_rms_ns'], 8.0, a['optimal_rms_ns'])} |")
+        lines.append(f"| TE peak-to-peak 80 -> 20 ns | {env} | {_fmt(b['time_error_pp_ns'])} ns | "
+                     f"{_fmt(a['time_error_pp_ns'])} ns | - | {_verdict(a['time_error_pp_ns'], 20.0, None)} |")
+        conv = a["convergence_s"]
+        lines.append(f"| convergence < 30 min (traditional 2 h) | {env} | {_fmt(b['convergence_s'], unit=' s')} | "
+                     f"{_fmt(conv, unit=' s')} | - | {'reproduced' if conv is not None and conv < 1800 else 'not reproduced'} |")
+    ad = s["adev_at_1_10_100_s"]["open-sky"]
+    seed_before, seed_after = (5.0e-12, 3.2e-12, 2.1e-12), (5.0e-13, 0.8e-13, 0.5e-13)
+    for i, tau in enumerate((1, 10, 100)):
+        limit = min(ad["free_run"][i], ad["gnss"][i])
+        verdict = ("not reachable: below the lower envelope" if seed_after[i] < 0.9 * limit else
+                   ("reproduced" if ad["disciplined"][i] <= 1.05 * seed_after[i] else "not reproduced"))
+        lines.append(f"| ADEV({tau} s): {seed_before[i]:.2g} -> {seed_after[i]:.2g} | open-sky | "
+                     f"{ad['free_run'][i]:.3g} (free run) | {ad['disciplined'][i]:.3g} | {limit:.3g} | {verdict} |")
+    for h in s["holdover"]:
+        if abs(h["horizons_s"][-1] - 86400) < 1 and h is s["holdover"][-1]:
+            ours, lim = h["ours_rms_ns"][-1] / 1e3, h["clairvoyant_rms_ns"][-1] / 1e3
+            verdict = "not reachable: below the clairvoyant limit" if 0.1 < 0.9 * lim else _verdict(ours, 0.1, lim)
+            lines.append(f"| holdover 1 -> 0.1 us/day | after {h['locked_s'] / 3600:g} h locked | - | "
+                         f"{ours:.3g} us at 24 h | {lim:.3g} us | {verdict} |")
+    sm = s["smoothing"]
+    lines.append(f"| RTS smoothing 40 -> 10 ns | open-sky | {_fmt(sm['filtered_rms_ns'])} ns (filter) | "
+                 f"{_fmt(sm['smoothed_rms_ns'])} ns (smoother) | - | "
+                 f"{'reproduced' if sm['smoothed_rms_ns'] <= 0.25 * sm['filtered_rms_ns'] * 1.05 else 'gain smaller than claimed'} |")
+    rows = {(r["scenario"], r["controller"]): r for r in s["controller_table"]}
+    kf, best_robust = rows[("jumps", "kf")]["rms_ns"], min(rows[("jumps", c)]["rms_ns"] for c in ("wakf", "gated", "huber"))
+    gain = 1.0 - best_robust / kf
+    lines.append(f"| adaptive KF 30 % better than KF under jump outliers | jumps | {kf:.3g} ns (KF) | "
+                 f"{best_robust:.3g} ns (best robust) | - | {'reproduced' if gain >= 0.3 else f'not reproduced: {100 * gain:.0f} % better'} |")
+    lines += ["", "Stability in the seed's table is ADEV (x1e-12 before, x1e-13 after). Disciplining cannot improve an "
+              "oscillator at tau = 1 s, far inside any GNSS loop; at 10 and 100 s the seed's values lie below both "
+              "the OCXO and the GNSS reference, i.e. below what any controller can reach.", "",
+              "## Controller table (time-error rms, ns; ratio to the clairvoyant servo)", "",
+              "| scenario | " + " | ".join(CONTROLLERS) + " | clairvoyant |", "|---|" + "---|" * (len(CONTROLLERS) + 1)]
+    for env in ("open-sky", "urban-canyon", "jumps"):
+        cells = [f"{rows[(env, c)]['rms_ns']:.3g} ({rows[(env, c)]['ratio']:.2f})" for c in CONTROLLERS]
+        lines.append(f"| {env} | " + " | ".join(cells) + f" | {rows[(env, 'kf')]['optimal_rms_ns']:.3g} |")
+    means = {c: float(np.mean([rows[(e, c)]["ratio"] for e in ("open-sky", "urban-canyon", "jumps")])) for c in CONTROLLERS}
+    lines += ["", "Mean ratio to the clairvoyant servo: " + ", ".join(f"{c} {v:.3f}" for c, v in means.items())
+              + f". Lowest: `{min(means, key=means.get)}`; the default is `{s['default_controller']}`.", "",
+              "## Holdover (OCXO preset, rms over trials)", "",
+              "| locked before (h) | 1 h: ours / limit (ns) | 4 h | 24 h |", "|---|---|---|---|"]
+    for h in s["holdover"]:
+        cells = [f"{o:.3g} / {c:.3g}" for o, c in zip(h["ours_rms_ns"], h["clairvoyant_rms_ns"])]
+        lines.append(f"| {h['locked_s'] / 3600:g} | " + " | ".join(cells) + " |")
+    lines += ["", "Anchors: vendor OCXO GPSDOs quote 10-25 us after 24 h, rubidium about 1 us, a measured Thunderbolt "
+              "4.5 us; the seed claims 0.1 us/day.", "",
+              "## Fusion against best-source selection (urban canyon, 4 receivers)", "",
+              f"Reference (fused 1PPS) error rms: fusion {s['fusion_vs_selection']['fusion']['reference_rms_ns']:.3g} ns, "
+              f"selection {s['fusion_vs_selection']['selection']['reference_rms_ns']:.3g} ns; disciplined TE rms: fusion "
+              f"{s['fusion_vs_selection']['fusion']['te_rms_ns']:.3g} ns, selection "
+              f"{s['fusion_vs_selection']['selection']['te_rms_ns']:.3g} ns.", "",
+              "## Learnt options against inverse-variance fusion (4 receivers, held-out runs)", "",
+              "Fused reference error rms (ns). The graph model was trained on other simulated runs of both "
+              "environments (supervised with the truth); ICA weights were fitted on one other run of the same "
+              "environment and are compared only where all four receivers are usable.", "",
+              "| environment | seed | inverse-variance | graph model | ICA | inverse-variance (ICA's epochs) |",
+              "|---|---|---|---|---|---|"]
+    for r in s["learned_fusion"]:
+        lines.append(f"| {r['environment']} | {r['seed']} | {r['inverse_variance_ns']:.3g} | {r['graph_ns']:.3g} | "
+                     f"{r['ica_ns']:.3g} | {r['inverse_variance_where_ica_ns']:.3g} |")
+    g = np.mean([r["graph_ns"] / r["inverse_variance_ns"] for r in s["learned_fusion"]])
+    i = np.mean([r["ica_ns"] / r["inverse_variance_where_ica_ns"] for r in s["learned_fusion"]])
+    lines += ["", f"Verdict: the graph model's error is {g:.2f}x inverse-variance fusion's on average, ICA's {i:.2f}x. "
+              "Both stay options; inverse-variance fusion (no training, no truth needed) is the default.", "",
+              "Figures: " + ", ".join(f"[{f}]({f})" for f in s["files"]), ""]
+    return "\n".join(lines)
