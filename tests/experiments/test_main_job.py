@@ -76,3 +76,25 @@ def test_every_statistic_a_scenario_may_name_is_in_the_report_as_the_library_com
         ours = stability.compute(name, x_s, 1.0, stability.tau_grid("decade", x_s.size, 1.0, name))
         np.testing.assert_allclose(written[name]["dev"], ours.dev, rtol=1e-6, err_msg=name)
     assert set(pd.read_csv(report.out_dir / "stability.csv")["statistic"]) == set(names) | {"oadev"}
+
+
+def test_the_main_job_disciplines_the_ocxo_through_an_outage_and_a_swarm_follows_it(tmp_path):
+    text = SHORT.replace("7200", "14400") + "[discipline]\noutage_start_s = 7200\noutage_s = 1800\n[swarm]\nfollowers = 2\n"
+    report = run_scenario(parse_scenario(text, "chain.toml"), tmp_path)
+    d, w = report.summary["discipline"], report.summary["swarm"]
+    # The loop holds the OCXO within a few tens of ns of GNSS time, near the clairvoyant filter on the same data.
+    assert d["time_error_rms_ns"] < 1.25 * d["optimal_rms_ns"] + 1.0
+    assert d["holdover_s"] == 1800 and d["state_seconds"]["holdover"] >= 1800
+    # Followers stay within a few ns of the leader (two-way links), and so carry the leader's own error to truth.
+    assert len(w["to_leader_rms_ns"]) == 2 and max(w["to_leader_rms_ns"]) < 5.0
+    assert abs(w["to_true_rms_ns"][0] - w["leader_to_true_rms_ns"]) < 5.0
+    for name in ("swarm.png", "discipline/time_error.png", "discipline/adev.png", "discipline/holdover.png"):
+        assert (tmp_path / name).stat().st_size > 0
+
+
+def test_an_outage_past_the_end_of_the_run_is_refused_naming_the_key(tmp_path):
+    from chronofuse.experiments.scenario import ScenarioError
+
+    text = SHORT.replace("7200", "14400") + "[discipline]\noutage_start_s = 14000\noutage_s = 3600\n"
+    with pytest.raises(ScenarioError, match="discipline.outage_start_s"):
+        run_scenario(parse_scenario(text, "late.toml"), tmp_path)

@@ -21,7 +21,8 @@ def run(
     out: Path = typer.Option(Path("out/run"), "--out", help="Report folder (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
 ) -> None:
-    """Simulate a scenario (oscillator + GNSS receivers) and write its report: JSON, CSV and PNG plots."""
+    """Simulate a scenario and write its report (JSON, CSV, PNG): the free-running OCXO and the receivers, the
+    OCXO disciplined to them through a GNSS outage, and followers keeping its time over two-way links."""
     with user_errors():
         scn = load_scenario(scenario)
         with progress_reporter(f"run {scn.name}") as say:
@@ -45,4 +46,22 @@ def run(
     if s["mask"] is not None:
         verdicts = ", ".join(f"{k} {'PASS' if v['passed'] else 'FAIL'}" for k, v in s["mask"]["receivers"].items())
         con.print(f"mask {s['mask']['name']}: {verdicts}")
-    con.print(f"report -> {report.out_dir}/ ({', '.join(s['files'])})")
+    if "discipline" in s and "skipped" in s["discipline"]:
+        con.print(f"no disciplining: {s['discipline']['skipped']}")
+    elif "discipline" in s:
+        d = s["discipline"]
+        con.print(f"disciplined ({d['controller']}): time error rms {d['time_error_rms_ns']:.1f} ns "
+                  f"(clairvoyant {d['optimal_rms_ns']:.1f} ns), peak-to-peak {d['time_error_pp_ns']:.1f} ns; "
+                  f"holdover {d.get('holdover_s', 0):g} s -> {d.get('holdover_error_ns', float('nan')):.1f} ns")
+        con.print("states (s): " + ", ".join(f"{k} {v:g}" for k, v in d["state_seconds"].items()))
+    if "swarm" in s:
+        w = s["swarm"]
+        table = Table("follower", "to leader rms (ns)", "to true time rms (ns)", "to leader in the outage (ns)",
+                      title=f"Swarm ({w['algorithm']}, {w['topology']}): leader to true time rms "
+                            f"{w['leader_to_true_rms_ns']:.1f} ns")
+        for i in range(w["followers"]):
+            outage = w["to_leader_in_outage_rms_ns"]
+            table.add_row(str(i + 1), f"{w['to_leader_rms_ns'][i]:.3f}", f"{w['to_true_rms_ns'][i]:.1f}",
+                          "-" if outage is None else f"{outage[i]:.3f}")
+        con.print(table)
+    con.print(f"report -> {report.out_dir}/ ({len(s['files'])} files: summary.json, timeseries.csv, PNG plots)")

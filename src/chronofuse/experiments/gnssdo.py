@@ -83,6 +83,9 @@ class GnssdoSetup:
     loop_bandwidth_hz: float | None = None
     fusion: str = "fusion"
     integrity_pfa: float | None = None
+    #: A GNSS outage added to any scenario: every receiver jammed from ``outage_start_s`` for ``outage_s``.
+    outage_start_s: float | None = None
+    outage_s: float = 0.0
 
     def __post_init__(self):
         check_choice(self.scenario, "--scenario", SCENARIOS)
@@ -100,6 +103,9 @@ class GnssdoSetup:
         if self.integrity_pfa is not None:
             check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
+        if self.outage_start_s is not None:
+            check_scalar(self.outage_start_s, "outage_start_s", min_val=0.0, max_val=self.duration_s)
+            check_scalar(self.outage_s, "outage_s", min_val=0.0, max_val=self.duration_s - self.outage_start_s)
 
 
 def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
@@ -178,6 +184,8 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
         osc = dataclasses.replace(osc, dac_bits=setup.dac_bits)
     dac = Dac.for_oscillator(osc)
     env = scenario_environment(setup.scenario, setup.duration_s)
+    if setup.outage_start_s is not None:
+        env = dataclasses.replace(env, jamming_start_s=setup.outage_start_s, jamming_duration_s=setup.outage_s)
     progress("simulating the oscillator")
     free, noise_only = _free_phase(osc, setup.duration_s, setup.trials, root)
     progress("simulating the receivers")

@@ -21,6 +21,7 @@ from chronofuse.analysis import stability
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.analysis.theory import adev_theory
+from chronofuse.experiments.main_chain import discipline_and_swarm
 from chronofuse.experiments.scenario import Scenario
 from chronofuse.models.oscillator import preset, simulate_oscillator
 from chronofuse.models.receiver import simulate_receivers
@@ -129,6 +130,11 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     files += write_run_figures(out, t_s[:n], dict(zip(labels, pps[:, :n])), scn.receivers.scenario, model.name,
                                osc_x[:n], osc_adev, (theory_tau, theory), rx_devs, mask_limits)
 
+    chain: dict = {}
+    if scn.discipline.enabled:
+        chain, chain_files = discipline_and_swarm(scn, out, say)
+        files += chain_files
+
     summary = {
         "scenario": scn.model_dump(),
         "oscillator": {
@@ -149,7 +155,8 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
             for i, (label, series) in enumerate(zip(labels, pps[:, :n]))
         },
         "mask": mask_doc,
-        "files": [f.name for f in files] + ["summary.json"],
+        **chain,
+        "files": [str(f.relative_to(out)) for f in files] + ["summary.json"],
     }
     files.append(out / "summary.json")
     files[-1].write_text(dumps(summary))

@@ -26,7 +26,9 @@ from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.stability import STATISTICS
 from chronofuse.analysis.stability.taus import SPACINGS
 from chronofuse.models.oscillator import PRESETS
+from chronofuse.experiments.gnssdo import CONTROLLERS, DEFAULT_CONTROLLER
 from chronofuse.models.environment import ENVIRONMENTS
+from chronofuse.sync.registry import ALGORITHM_NAMES
 from chronofuse.validation import InputDataError
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parent / "default.toml"
@@ -38,6 +40,9 @@ EnvironmentName = Literal[tuple(ENVIRONMENTS)]
 StatisticName = Literal[tuple(STATISTICS)]
 MaskName = Literal[tuple(MASKS)]
 SpacingName = Literal[tuple(s for s in SPACINGS if s != "all")]
+ControllerName = Literal[tuple(CONTROLLERS)]
+#: Followers run an algorithm that needs no trained network (the seed's "proposed" and the LSTM do).
+SyncName = Literal[tuple(a for a in ALGORITHM_NAMES if a not in ("proposed", "lstm"))]
 
 
 class ScenarioError(InputDataError):
@@ -67,6 +72,25 @@ class ReceiversSection(_Strict):
     count: int = Field(3, ge=1, le=64)
 
 
+class DisciplineSection(_Strict):
+    """The GNSS-disciplined oscillator: its controller and a GNSS outage (holdover) during the run."""
+
+    enabled: bool = True
+    controller: ControllerName = DEFAULT_CONTROLLER
+    #: Start of the GNSS outage (s); default: the middle of the run.
+    outage_start_s: float | None = Field(None, ge=0)
+    #: Its length (s); default: one hour, or a quarter of a run shorter than four hours. 0: no outage.
+    outage_s: float | None = Field(None, ge=0)
+
+
+class SwarmSection(_Strict):
+    """Followers that keep the disciplined leader's time over two-way radio links."""
+
+    followers: int = Field(3, ge=0, le=16)
+    algorithm: SyncName = "ours-doppler"
+    topology: Literal["tree", "consensus"] = "tree"
+
+
 class AnalysisSection(_Strict):
     """What the report computes."""
 
@@ -86,6 +110,8 @@ class Scenario(_Strict):
     oscillator: OscillatorSection = OscillatorSection()
     receivers: ReceiversSection = ReceiversSection()
     analysis: AnalysisSection = AnalysisSection()
+    discipline: DisciplineSection = DisciplineSection()
+    swarm: SwarmSection = SwarmSection()
 
     @field_validator("rate_hz")
     @classmethod
