@@ -28,6 +28,11 @@ from chronofuse.analysis.stability import (
 )
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory, avar_components, corrected_pps_adev
+from chronofuse.estimation.filter import FilterResult, KalmanFilter
+from chronofuse.estimation.interface import Estimator, FrozenResult, compare_streaming_to_batch, pick_inputs
+from chronofuse.estimation.null import HoldLastEstimator
+from chronofuse.estimation.process import ClockProcess
+from chronofuse.estimation.rts import SmootherResult, rts_smooth
 from chronofuse.experiments.main_job import run_scenario
 from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
@@ -90,6 +95,17 @@ __all__ = [
     "avar_components",
     "corrected_pps_adev",
     "MASKS",
+    # estimation
+    "Estimator",
+    "FrozenResult",
+    "compare_streaming_to_batch",
+    "pick_inputs",
+    "KalmanFilter",
+    "FilterResult",
+    "rts_smooth",
+    "SmootherResult",
+    "HoldLastEstimator",
+    "ClockProcess",
     # integrity
     "HodDetector",
     "DetectionResult",

@@ -54,7 +54,7 @@ def _one_line_error(result, *fragments):
 def test_json_document_has_exactly_the_documented_keys_and_finds_a_drag_off(tmp_path):
     t = 1000.0 + np.arange(1500)
     accel = 0.5 * np.sqrt(6) * NOISE.sigma_rho_m / 299_792_458.0  # df shift 0.5 sigma_df
-    path = _write_csv(tmp_path / "bias.csv", t, _bias(anomaly=Anomaly("drag", 1000.0, accel)))
+    path = _write_csv(tmp_path / "bias.csv", t, _bias(anomaly=Anomaly("drag", 1000.0, accel_s_per_s2=accel)))
     result = _invoke(path, "--rate", 1, *MODEL, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -71,7 +71,7 @@ def test_json_document_has_exactly_the_documented_keys_and_finds_a_drag_off(tmp_
 
 def test_nanosecond_columns_and_column_choice_give_the_same_alarms(tmp_path):
     t = np.arange(800.0)
-    x = _bias(steps=800, anomaly=Anomaly("step", 400.0, 4e-8))
+    x = _bias(steps=800, anomaly=Anomaly("step", 400.0, offset_s=4e-8))
     base = json.loads(_invoke(_write_csv(tmp_path / "s.csv", t, x), "--rate", 1, *MODEL, "--json").stdout)
     ns = tmp_path / "ns.csv"
     ns.write_text("t_s,other_ns,clock_bias_ns\n" + "".join(f"{float(ti)},{1.0},{float(xi) * 1e9!r}\n" for ti, xi in zip(t, x)))
@@ -101,7 +101,7 @@ def test_missing_clock_biases_and_time_gaps_are_skipped_and_counted(tmp_path):
 
 def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path):
     t = np.arange(6000.0)
-    path = _write_csv(tmp_path / "b.csv", t, _bias(steps=6000, seed=4, anomaly=Anomaly("step", 5000.0, 1e-7)))
+    path = _write_csv(tmp_path / "b.csv", t, _bias(steps=6000, seed=4, anomaly=Anomaly("step", 5000.0, offset_s=1e-7)))
     result = _invoke(path, "--rate", 1, "--train", 4000, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -111,7 +111,7 @@ def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path)
 
 
 def test_human_output_is_a_table_of_alarms(tmp_path):
-    path = _write_csv(tmp_path / "b.csv", np.arange(500.0), _bias(steps=500, anomaly=Anomaly("step", 300.0, 1e-7)))
+    path = _write_csv(tmp_path / "b.csv", np.arange(500.0), _bias(steps=500, anomaly=Anomaly("step", 300.0, offset_s=1e-7)))
     result = _invoke(path, "--rate", 1, *MODEL)
     assert result.exit_code == 0, result.output
     text = " ".join(result.stdout.split())

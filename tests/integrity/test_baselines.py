@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
+from chronofuse.estimation.interface import Estimator, compare_streaming_to_batch, pick_inputs
 from chronofuse.integrity.baselines import (
     CusumDetector,
     ReferenceClockDetector,
@@ -57,31 +58,31 @@ def test_hod_innovations_are_unit_normal_under_h0():
     assert np.var(e) == pytest.approx(1.0, abs=0.03)
 
 
-@pytest.mark.parametrize("kind", ["single", "cusum", "reference"])
-def test_baseline_streaming_step_gives_the_same_numbers_as_batch_run(kind):
-    sim, reference = _data(steps=400, trials=1, seed=9)
-    x = sim.measured_s[0].copy()
-    x[120] = np.nan
-    x = inject(x, Anomaly("ramp", 250.0, 2e-10), 1.0)
-    ref = reference[0]
-    if kind == "single":
-        det = SingleEpochDetector(interval_s=1.0, **KNOWN).fit()
-        batch = det.run(x)
-        det.reset()
-        outs = [det.step(v) for v in x]
-    elif kind == "cusum":
-        det = CusumDetector(interval_s=1.0, calibration_steps=20_000, **KNOWN).fit()
-        batch = det.run(x)
-        det.reset()
-        outs = [det.step(v) for v in x]
-    else:
-        det = _reference_detector()
-        batch = det.run(x, ref)
-        det.reset()
-        outs = [det.step(v, r) for v, r in zip(x, ref)]
-    np.testing.assert_allclose([o.statistic for o in outs], batch.statistic, rtol=1e-9, equal_nan=True)
-    assert [o.alarm for o in outs] == batch.alarm.tolist()
-    assert [o.dof for o in outs] == batch.dof.tolist()
+def _every_detector():
+    return {
+        "hod": HodDetector(interval_s=1.0, window=10, **KNOWN).fit(),
+        "single": SingleEpochDetector(interval_s=1.0, **KNOWN).fit(),
+        "cusum": CusumDetector(interval_s=1.0, calibration_steps=20_000, **KNOWN).fit(),
+        "reference": _reference_detector(),
+    }
+
+
+@pytest.mark.parametrize("name", ["hod", "single", "cusum", "reference"])
+def test_every_detector_streams_the_same_numbers_as_its_batch_run_through_the_shared_interface(name):
+    sim, reference = _data(steps=400, trials=2, seed=9)
+    x = inject(sim.measured_s, Anomaly("step", 250.0, offset_s=8e-8), 1.0)
+    x[0, 120] = np.nan
+    x[1, 300:303] = np.nan
+    reference[1, 50] = np.nan
+    det = _every_detector()[name]
+    assert isinstance(det, Estimator)
+    inputs = pick_inputs(det, reference_s=reference)  # the reference reading only where declared
+    assert list(inputs) == (["reference_s"] if name == "reference" else [])
+    assert compare_streaming_to_batch(det, x, rtol=1e-9, **inputs) == []
+    res = det.run(x, **inputs)
+    assert res.alarm[:, 250:].any() and res.n_skipped == 4 + (name == "reference")
+    with pytest.raises(ValueError, match="read-only"):
+        res.alarm[0, 0] = True
 
 
 @pytest.mark.parametrize("pfa", [1e-1, 1e-2])
@@ -106,7 +107,7 @@ def test_reference_clock_detector_learns_offset_and_spread_and_catches_a_small_r
     expected_sigma = math.hypot(NOISE.sigma_rho_m / 299_792_458.0, SIGMA_REF_S)
     assert det.offset_s_ == pytest.approx(offset, abs=1e-10)
     assert det.sigma_s_ == pytest.approx(expected_sigma, rel=0.05)
-    y = inject(sim.measured_s + offset, Anomaly("ramp", 1000.0, 1e-10), 1.0)
+    y = inject(sim.measured_s + offset, Anomaly("ramp", 1000.0, rate_s_per_s=1e-10), 1.0)
     first = det.run(y, reference).first_alarm(1000)
     assert (first >= 0).all() and np.median(first - 1000) < 60
     with pytest.raises(ValueError, match="shape"):

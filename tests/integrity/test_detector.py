@@ -99,7 +99,7 @@ def test_streaming_step_gives_the_same_numbers_as_batch_run():
     x = simulate_clock_bias(NOISE, interval_s=1.0, steps=400, trials=1, seed=8).measured_s[0]
     x[50] = np.nan
     x[200:205] = np.nan
-    x = inject(x, Anomaly("step", 300.0, 5e-8), 1.0)
+    x = inject(x, Anomaly("step", 300.0, offset_s=5e-8), 1.0)
     batch = det.run(x)
     det.reset()
     outs = [det.step(v) for v in x]
@@ -169,7 +169,7 @@ def test_slow_drag_off_missed_by_the_single_epoch_threshold_is_detected_with_its
     accel = 0.3 * math.sqrt(hod.r_[0])
     sim = simulate_clock_bias(NOISE, interval_s=1.0, steps=600, trials=200, seed=21)
     onset = 300
-    y = inject(sim.measured_s, Anomaly("drag", float(onset), accel), 1.0)
+    y = inject(sim.measured_s, Anomaly("drag", float(onset), accel_s_per_s2=accel), 1.0)
     h = hod.run(y)
     s = single.run(y)
     first = h.first_alarm(onset)

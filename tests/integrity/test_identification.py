@@ -36,7 +36,7 @@ def _detector():
 def test_simulated_step_on_one_channel_is_named_despite_a_receiver_clock_jump():
     sim = simulate_channel_biases(
         n_satellites=8, steps=400, interval_s=1.0, sigma_rho_m=np.linspace(0.5, 2.0, 8),
-        rng=np.random.default_rng(11), anomaly=Anomaly("step", start_s=300.0, size=30e-9, channel=3),
+        rng=np.random.default_rng(11), anomaly=Anomaly("step", start_s=300.0, offset_s=30e-9, channel=3),
         clock_jump_s=1e-3, clock_jump_at=200,
     )
     det = HodDetector(interval_s=1.0, window=20, pfa=1e-4)
@@ -78,7 +78,7 @@ def test_per_channel_false_alarm_rate_after_training_is_near_pfa():
 def test_simulated_ramp_is_named_with_a_short_delay():
     sim = simulate_channel_biases(
         n_satellites=6, steps=400, interval_s=1.0, sigma_rho_m=1.0, rng=np.random.default_rng(5),
-        anomaly=Anomaly("ramp", start_s=250.0, size=3e-8, channel=0),
+        anomaly=Anomaly("ramp", start_s=250.0, rate_s_per_s=3e-8, channel=0),
     )
     res = identify(sim.biases, HodDetector(interval_s=1.0, window=20, pfa=1e-4), train_epochs=150)
     assert res.faulty == ["G01"]
@@ -110,7 +110,7 @@ def test_step_of_100ns_on_one_real_channel_is_named(real):
         _, biases = real[station]
         full = [j for j in range(len(biases.satellites)) if np.isfinite(biases.bias_s[:, j]).all()]
         for j in full:
-            faulty = inject(biases.bias_s, Anomaly("step", start_s=1800.0, size=100e-9, channel=j), 30.0)
+            faulty = inject(biases.bias_s, Anomaly("step", start_s=1800.0, offset_s=100e-9, channel=j), 30.0)
             res = identify(channel_clock_biases_from_arrays(faulty, 30.0, biases.satellites), _detector())
             cases += 1
             assert biases.satellites[j] in res.faulty
@@ -124,7 +124,7 @@ def test_step_of_100ns_on_one_real_channel_is_named(real):
 def test_ramp_on_one_real_channel_is_named_within_two_epochs(real):
     _, biases = real["30400920"]
     j = biases.satellites.index("G11")
-    faulty = inject(biases.bias_s, Anomaly("ramp", start_s=1800.0, size=100e-9 / 600.0, channel=j), 30.0)
+    faulty = inject(biases.bias_s, Anomaly("ramp", start_s=1800.0, rate_s_per_s=100e-9 / 600.0, channel=j), 30.0)
     res = identify(channel_clock_biases_from_arrays(faulty, 30.0, biases.satellites), _detector())
     assert res.faulty == ["G11"]
     assert 1800.0 <= res.first_blame_s[j] <= 1860.0

@@ -24,20 +24,19 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from scipy import stats  # noqa: E402
-
-from chronofuse.analysis.metrics import clopper_pearson  # noqa: E402
-from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector  # noqa: E402
-from chronofuse.integrity.detector import HodDetector, noise_intensities  # noqa: E402
-from chronofuse.integrity.inject import KINDS, Anomaly, inject  # noqa: E402
-from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias  # noqa: E402
-from chronofuse.report.jsonio import dumps  # noqa: E402
+from chronofuse.analysis.metrics import clopper_pearson
+from chronofuse.estimation.interface import Estimator, pick_inputs
+from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
+from chronofuse.integrity.detector import HodDetector
+from chronofuse.integrity.inject import KINDS, SIZE_FIELDS, Anomaly, inject
+from chronofuse.integrity.noise_model import noise_intensities
+from chronofuse.integrity.result import DetectionResult
+from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+from chronofuse.report.integrity import integrity_markdown, plot_detection, plot_pfa, plot_training
+from chronofuse.report.jsonio import dumps
 
 Progress = Callable[[str], None]
 
@@ -73,7 +72,8 @@ class IntegrityConfig:
                    training_test_trials=20, training_test_steps=5_000, detection_trials=200)
 
 
-def _detectors(cfg: IntegrityConfig, pfa: float) -> dict:
+def _detectors(cfg: IntegrityConfig, pfa: float) -> dict[str, Estimator]:
+    """The four detectors, fitted with the known noise, by their report name."""
     kw = dict(interval_s=cfg.interval_s, pfa=pfa, h0=cfg.noise.h0, hm2=cfg.noise.hm2, sigma_rho_m=cfg.noise.sigma_rho_m)
     s2 = noise_intensities(cfg.noise.h0, cfg.noise.hm2, cfg.noise.sigma_rho_m)[2]
     return {
@@ -85,8 +85,9 @@ def _detectors(cfg: IntegrityConfig, pfa: float) -> dict:
     }
 
 
-def _run(name: str, det, measured: np.ndarray, reference: np.ndarray):
-    return det.run(measured, reference) if name == "reference" else det.run(measured)
+def _run(det: Estimator, measured: np.ndarray, reference: np.ndarray) -> DetectionResult:
+    """Any detector through the one interface: it gets the reference reading only if it declares that input."""
+    return det.run(measured, **pick_inputs(det, reference_s=reference))
 
 
 def _simulate(cfg: IntegrityConfig, trials: int, steps: int, seed: np.random.SeedSequence):
@@ -110,7 +111,7 @@ def false_alarm_rates(cfg: IntegrityConfig, seed: np.random.SeedSequence, say: P
     for pfa in PFAS:
         say(f"false alarms at P_fa {pfa:g}")
         for name, det in _detectors(cfg, pfa).items():
-            alarm = _run(name, det, sim.measured_s, reference).alarm
+            alarm = _run(det, sim.measured_s, reference).alarm
             k = int(alarm[:, test].sum())
             n = alarm.shape[0] * test.size
             lo, hi = clopper_pearson(k, n)
@@ -144,11 +145,12 @@ def training_effect(cfg: IntegrityConfig, seed: np.random.SeedSequence, say: Pro
 
 def anomaly_of_size(kind: str, multiple: float, sigma_df: float, cfg: IntegrityConfig) -> Anomaly:
     """An anomaly whose effect on ``df`` is ``multiple`` times ``sigma_df``: a step of ``m sigma_df t_s`` (s),
-    a frequency step of ``m sigma_df``, a drag of ``m sigma_df / t_s`` (s/s^2) or a burst of ``m sigma_df t_s``."""
+    a frequency step of ``m sigma_df`` (s/s), a drag of ``m sigma_df / t_s`` (s/s^2) or a burst of
+    ``m sigma_df t_s`` (s)."""
     ts = cfg.interval_s
     size = {"step": multiple * sigma_df * ts, "ramp": multiple * sigma_df, "drag": multiple * sigma_df / ts,
             "burst": multiple * sigma_df * ts}[kind]
-    return Anomaly(kind, cfg.onset * ts, size)
+    return Anomaly(kind, cfg.onset * ts, **{SIZE_FIELDS[kind][0]: size})
 
 
 def detection_performance(cfg: IntegrityConfig, seed: np.random.SeedSequence, say: Progress) -> list[dict]:
@@ -165,103 +167,13 @@ def detection_performance(cfg: IntegrityConfig, seed: np.random.SeedSequence, sa
             anomaly = anomaly_of_size(kind, multiple, sigma_df, cfg)
             measured = inject(sim.measured_s, anomaly, cfg.interval_s, np.random.default_rng(burst_seed))
             for name, det in dets.items():
-                first = _run(name, det, measured, reference).first_alarm(cfg.onset)
+                first = _run(det, measured, reference).first_alarm(cfg.onset)
                 hit = first >= 0
                 delay = (first[hit] - cfg.onset) * cfg.interval_s
-                rows.append({"kind": kind, "size_sigma": multiple, "size": anomaly.size, "detector": name,
+                rows.append({"kind": kind, "size_sigma": multiple, "size": anomaly.magnitude, "detector": name,
                              "p_detect": float(hit.mean()),
                              "median_delay_s": float(np.median(delay)) if delay.size else math.nan})
     return rows
-
-
-def _plot_pfa(rows: list[dict], path: Path) -> None:
-    frame = pd.DataFrame(rows)
-    fig, ax = plt.subplots(figsize=(6.5, 5), constrained_layout=True)
-    for name, grp in frame.groupby("detector", sort=False):
-        rate = grp["rate_independent"].to_numpy()
-        err = np.vstack([rate - grp["ci99_lo"].to_numpy(), grp["ci99_hi"].to_numpy() - rate])
-        ax.errorbar(grp["pfa"], np.maximum(rate, 1e-7), yerr=err, fmt="o-", ms=4, capsize=3, label=name)
-    ax.plot(PFAS, PFAS, "k--", lw=1, label="nominal")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("nominal P_fa")
-    ax.set_ylabel("empirical P_fa (independent epochs, 99 % CI)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def _plot_training(rows: list[dict], path: Path) -> None:
-    frame = pd.DataFrame(rows)
-    fig, ax = plt.subplots(figsize=(6.5, 4.5), constrained_layout=True)
-    for k, (method, grp) in enumerate(frame.groupby("method", sort=False)):
-        x = grp["training_epochs"].to_numpy() * (1.0 + 0.08 * k)
-        med = grp["median_rate"].to_numpy()
-        ax.errorbar(x, med, yerr=[med - grp["p10_rate"], grp["p90_rate"] - med], fmt="o-", capsize=3,
-                    label=f"HOD, noise fitted by {method} (median, 10-90 %)")
-    ax.axhline(frame["pfa"].iloc[0], color="k", ls="--", lw=1, label="nominal")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("training length (epochs)")
-    ax.set_ylabel("empirical P_fa")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def _plot_detection(rows: list[dict], kind: str, path: Path, horizon_s: float) -> None:
-    frame = pd.DataFrame([r for r in rows if r["kind"] == kind])
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
-    for name, grp in frame.groupby("detector", sort=False):
-        ax1.plot(grp["size_sigma"], grp["p_detect"], "o-", ms=4, label=name)
-        ax2.plot(grp["size_sigma"], grp["median_delay_s"], "o-", ms=4, label=name)
-    for ax in (ax1, ax2):
-        ax.set_xscale("log")
-        ax.set_xlabel("anomaly size (sigma_df units)")
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
-    ax1.set_ylabel(f"detection probability within {horizon_s:g} s")
-    ax2.set_ylabel("median delay of first alarm (s)")
-    fig.suptitle(f"{kind}")
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def _markdown(summary: dict, cfg: IntegrityConfig) -> str:
-    lines = [
-        "# Clock-bias integrity: HOD chi-square detector against baselines",
-        "",
-        f"Noise h0 = {cfg.noise.h0:g} s, h-2 = {cfg.noise.hm2:g} /s, sigma_rho = {cfg.noise.sigma_rho_m:g} m, "
-        f"t_s = {cfg.interval_s:g} s, window n = {cfg.window}; reference clock noise {cfg.sigma_reference_s:g} s. "
-        f"Mode: {'quick' if summary['quick'] else 'full'}; seed {cfg.seed}.",
-        "",
-        "## False-alarm rate (independent test epochs, 99 % Clopper-Pearson interval)",
-        "",
-        f"Test epochs are {cfg.window + 2} epochs apart, so HOD, single-epoch and reference windows there share no "
-        "correlated data and the binomial interval is exact for them. CUSUM alarms come in runs (its sums carry "
-        "over), so for CUSUM the interval is too narrow; its threshold is calibrated by simulation.",
-        "",
-        "| detector | nominal | empirical | 99 % CI | nominal inside |",
-        "|---|---|---|---|---|",
-    ]
-    for r in summary["false_alarms"]:
-        lines.append(f"| {r['detector']} | {r['pfa']:g} | {r['rate_independent']:.3g} | "
-                     f"[{r['ci99_lo']:.3g}, {r['ci99_hi']:.3g}] | {'yes' if r['nominal_in_ci99'] else 'no'} |")
-    lines += ["", "## P_fa with noise estimated from training data (HOD)", "",
-              "| fit | training epochs | median P_fa | 10 % | 90 % |", "|---|---|---|---|---|"]
-    for r in summary["training"]:
-        lines.append(f"| {r['method']} | {r['training_epochs']} | {r['median_rate']:.3g} | {r['p10_rate']:.3g} | "
-                     f"{r['p90_rate']:.3g} |")
-    lines += ["", f"## Detection within {cfg.horizon * cfg.interval_s:g} s of onset (P_fa = {cfg.detection_pfa:g})",
-              "", "Smallest size (in sigma_df) detected with probability >= 0.9, per detector:", "",
-              "| anomaly | " + " | ".join(DETECTORS) + " |", "|---|" + "---|" * len(DETECTORS)]
-    for kind, best in summary["min_size_p90"].items():
-        lines.append(f"| {kind} | " + " | ".join("-" if best[d] is None else f"{best[d]:g}" for d in DETECTORS) + " |")
-    lines += ["", "Figures: `pfa.png`, `training.png`, " + ", ".join(f"`detection_{k}.png`" for k in KINDS) + ".",
-              "Tables: `pfa.csv`, `detection.csv`; everything in `summary.json`.", ""]
-    return "\n".join(lines)
 
 
 def run_integrity(out_dir: str | Path = Path("docs/integrity"), *, quick: bool = False,
@@ -279,10 +191,10 @@ def run_integrity(out_dir: str | Path = Path("docs/integrity"), *, quick: bool =
     training_rows = training_effect(cfg, train_seed, say)
     detection_rows = detection_performance(cfg, det_seed, say)
     say("figures")
-    _plot_pfa(pfa_rows, out / "pfa.png")
-    _plot_training(training_rows, out / "training.png")
+    plot_pfa(pfa_rows, PFAS, out / "pfa.png")
+    plot_training(training_rows, out / "training.png")
     for kind in KINDS:
-        _plot_detection(detection_rows, kind, out / f"detection_{kind}.png", cfg.horizon * cfg.interval_s)
+        plot_detection(detection_rows, kind, out / f"detection_{kind}.png", cfg.horizon * cfg.interval_s)
     pd.DataFrame(pfa_rows).to_csv(out / "pfa.csv", index=False)
     pd.DataFrame(detection_rows).to_csv(out / "detection.csv", index=False)
     min_size = {}
@@ -299,5 +211,5 @@ def run_integrity(out_dir: str | Path = Path("docs/integrity"), *, quick: bool =
                "false_alarms": pfa_rows, "training": training_rows, "detection": detection_rows,
                "min_size_p90": min_size, "files": files}
     (out / "summary.json").write_text(dumps(summary) + "\n")
-    (out / "README.md").write_text(_markdown(summary, cfg))
+    (out / "README.md").write_text(integrity_markdown(summary, cfg, DETECTORS))
     return summary

@@ -1,9 +1,11 @@
 """Simple detectors to beat (SPEC 4): single-epoch threshold, CUSUM, comparison with a reference clock.
 
-All share the :class:`~chronofuse.integrity.detector.HodDetector` interface: ``__init__`` stores its
-arguments, ``fit`` learns (``_``-suffixed attributes), ``run`` takes (steps,) or (trials, steps) with NaN for
-a missing epoch and returns a frozen :class:`~chronofuse.integrity.detector.DetectionResult`, and ``step``
-is the streaming path with the same numbers.
+All implement the :mod:`chronofuse.estimation.interface` contract, as the
+:class:`~chronofuse.integrity.detector.HodDetector` does: ``__init__`` stores its arguments, ``fit`` learns
+(``_``-suffixed attributes), ``run`` takes (steps,) or (trials, steps) with NaN for a missing epoch and
+returns a frozen :class:`~chronofuse.integrity.result.DetectionResult` with read-only arrays, and ``step`` is
+the streaming path with the same numbers. The reference-clock detector's extra input, the reference
+reading ``reference_s``, is declared in its ``inputs`` and passed by keyword like any estimator input.
 
 * :class:`SingleEpochDetector`: ``|df(k)| / sqrt(r(0)) > z``, ``z = Phi^-1(1 - P_fa / 2)`` (two-sided normal).
   It equals the HOD test with a window of one (``df^2 / r(0) ~ chi2(1)``).
@@ -24,18 +26,18 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import ClassVar
 
 import numba
 import numpy as np
 from scipy import stats
 
-from chronofuse.integrity.detector import (
-    DetectionResult,
-    HodDetector,
-    StepOutput,
-    chain_dof,
-    high_order_difference,
-)
+from chronofuse.estimation.interface import nan_if_none
+from chronofuse.estimation.process import second_difference
+from chronofuse.integrity.detector import HodDetector
+from chronofuse.integrity.result import DetectionResult, StepOutput
+from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+from chronofuse.integrity.statistic import chain_dof, high_order_difference
 from chronofuse.validation import check_array, check_scalar
 
 # ---------------------------------------------------------------------------------------------------------
@@ -45,6 +47,8 @@ from chronofuse.validation import check_array, check_scalar
 
 class SingleEpochDetector:
     """Alarm when one difference exceeds ``z sqrt(r(0))``; noise parameters as :class:`HodDetector`."""
+
+    inputs: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, *, interval_s: float, pfa: float = 1e-3, h0=None, hm2=None, sigma_rho_m=None):
         self.interval_s = interval_s
@@ -76,10 +80,10 @@ class SingleEpochDetector:
 
     def step(self, clock_bias_s: float) -> StepOutput:
         """One epoch of :meth:`run`."""
-        x = math.nan if clock_bias_s is None else float(clock_bias_s)
+        x = nan_if_none(clock_bias_s)
         p1, p2 = self._prev
         self._prev = [x, p1]
-        df = (x - 2.0 * p1 + p2) / self.interval_s
+        df = second_difference(x, p1, p2, self.interval_s)
         if math.isnan(df):
             return StepOutput(math.nan, False, 0, math.nan, math.isnan(x))
         stat = abs(df) / self.sigma_df_
@@ -133,8 +137,6 @@ _MAX_CALIBRATION_STEPS = 4_000_000
 @lru_cache(maxsize=64)
 def _calibrated_threshold(params: tuple, interval_s: float, window: int, drift: float, pfa: float, steps: int,
                           seed: int) -> float:
-    from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
-
     model = HodDetector(interval_s=interval_s, window=window, h0=params[0], hm2=params[1], sigma_rho_m=params[2]).fit()
     chains = 4
     sim = simulate_clock_bias(ClockNoise(*params), interval_s=interval_s, steps=steps // chains + 1000, trials=chains,
@@ -149,6 +151,8 @@ class CusumDetector:
     ``drift`` is the reference value (in innovation standard deviations), tuned to a mean shift of
     ``2 drift``; ``window`` is the HOD window that predicts each difference.
     """
+
+    inputs: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, *, interval_s: float, window: int = 20, pfa: float = 1e-3, drift: float = 0.5, h0=None,
                  hm2=None, sigma_rho_m=None, calibration_steps: int = 400_000, calibration_seed: int = 20_240):
@@ -209,9 +213,12 @@ class CusumDetector:
 class ReferenceClockDetector:
     """Window mean of ``bias - reference`` against its H0 spread; ``offset_s`` and ``sigma_s`` learnt if None.
 
-    ``run(clock_bias_s, reference_s)`` and ``step(clock_bias_s, reference_s)`` take the reference clock's
-    reading of the receiver clock (s) beside the receiver's clock bias; NaN in either = missing epoch.
+    ``fit(clock_bias_s, reference_s=...)``, ``run(clock_bias_s, reference_s=...)`` and
+    ``step(clock_bias_s, reference_s=...)`` take the reference clock's reading of the receiver clock (s)
+    beside the receiver's clock bias, the extra input it declares in ``inputs``; NaN in either = missing epoch.
     """
+
+    inputs: ClassVar[tuple[str, ...]] = ("reference_s",)
 
     def __init__(self, *, interval_s: float, window: int = 20, pfa: float = 1e-3, sigma_s: float | None = None,
                  offset_s: float | None = None):
@@ -266,8 +273,8 @@ class ReferenceClockDetector:
         self._buf: list[float] = []
 
     def step(self, clock_bias_s: float, reference_s: float) -> StepOutput:
-        x = math.nan if clock_bias_s is None else float(clock_bias_s)
-        ref = math.nan if reference_s is None else float(reference_s)
+        x = nan_if_none(clock_bias_s)
+        ref = nan_if_none(reference_s)
         d = x - ref - self.offset_s_
         if math.isnan(d):
             self._buf = []

@@ -1,20 +1,12 @@
 """Receiver clock-bias truth under H0 from the detector's own noise model (SPEC 4), batched and seeded.
 
 The receiver clock is the two-state model (phase ``x``, fractional frequency ``y``) driven by white FM
-(``q1 = h0/2``) and random-walk FM (``q2 = 2 pi^2 h_-2``), discretised exactly (Brown & Hwang,
-"Introduction to Random Signals and Applied Kalman Filtering", 4th ed., sec. 9.3)::
-
-    y(k+1) = y(k) + w_y(k)
-    x(k+1) = x(k) + y(k) t_s + w_x(k)
-    Q = [[q1 t_s + q2 t_s^3 / 3, q2 t_s^2 / 2],
-         [q2 t_s^2 / 2,          q2 t_s      ]]
-
-and the measured clock bias adds white noise of variance ``s2 = sigma_rho^2 / c^2``. The second difference
-of this measured bias has exactly the ``r(0..2)`` of :func:`chronofuse.integrity.detector.difference_autocorrelation`.
-The noise is drawn without a Cholesky factor so that any intensity may be zero::
-
-    w_y = sqrt(q2 t_s) z2
-    w_x = sqrt(q1 t_s) z1 + sqrt(q2) t_s^1.5 (z2 / 2 + z3 / sqrt(12))
+and random-walk FM, discretised exactly: its ``Phi`` and ``Q`` are those of
+:func:`chronofuse.models.clock.clock_transition` and :func:`~chronofuse.models.clock.clock_process_noise`
+(Brown & Hwang, "Introduction to Random Signals and Applied Kalman Filtering", 4th ed., sec. 9.3), sampled
+by :func:`~chronofuse.models.clock.two_state_clock_phase_s`. The measured clock bias adds white noise of
+variance ``s2 = sigma_rho^2 / c^2``. The second difference of this measured bias has exactly the
+``r(0..2)`` of :func:`chronofuse.integrity.noise_model.difference_autocorrelation`.
 """
 
 from __future__ import annotations
@@ -24,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from chronofuse.integrity.detector import noise_intensities
+from chronofuse.integrity.noise_model import noise_intensities
 from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.seeding import child_rng, root_seed
 from chronofuse.validation import check_scalar
