@@ -2,25 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-
-def read_stable32_table(path: Path) -> dict[str, np.ndarray]:
-    """Read a Stable32 result table: ``AF Tau # Alpha MinSigma Sigma MaxSigma`` or ``AF Tau # Value``.
-
-    Lines starting with ``#`` are comments (Stable32 marks unreliable rows that way too); returns
-    columns ``af, tau, n`` and either ``alpha, lo, dev, hi`` or ``dev``.
-    """
-    rows = [line.split() for line in Path(path).read_text().splitlines() if line.strip() and not line.lstrip().startswith("#")]
-    arr = np.array(rows, dtype=float)
-    out = {"af": arr[:, 0].astype(int), "tau": arr[:, 1], "n": arr[:, 2].astype(int)}
-    if arr.shape[1] >= 7:
-        out.update(alpha=arr[:, 3].astype(int), lo=arr[:, 4], dev=arr[:, 5], hi=arr[:, 6])
-    else:
-        out["dev"] = arr[:, 3]
-    return out
+# The one Stable32 table reader, the library's (re-exported: the tests import it from here).
+from chronofuse.io.stable32 import read_stable32_table  # noqa: F401
 
 
 def assert_close_printed(ours, table, rel_digits: int = 5, name: str = ""):

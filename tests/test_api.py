@@ -1,5 +1,9 @@
 """The public surface: everything in chronofuse.api.__all__ exists and is what its module defines."""
 
+import os
+import subprocess
+import sys
+
 import chronofuse.api as api
 
 
@@ -14,3 +18,23 @@ def test_the_api_reexports_rather_than_redefines():
         module = getattr(obj, "__module__", None)
         if module is not None:
             assert module.startswith("chronofuse.") and module != "chronofuse.api", name
+
+
+def test_importing_the_api_and_drawing_a_figure_leave_the_users_matplotlib_backend_alone(tmp_path):
+    # A fresh interpreter with a non-Agg backend chosen by the user (svg: always available, no screen).
+    script = f"""
+import sys
+import matplotlib
+import numpy as np
+import chronofuse.api as api
+from chronofuse.report.figures import plot_deviations
+
+after_import = matplotlib.get_backend()
+x = np.cumsum(np.random.default_rng(1).standard_normal(1000)) * 1e-9
+plot_deviations({{"adev": api.adev(x, 1.0, np.array([1.0, 10.0]))}}, {str(tmp_path / "a.png")!r})
+print(after_import, matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules)
+"""
+    env = {**os.environ, "MPLBACKEND": "svg"}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["svg", "svg", "False"], done.stderr
+    assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -38,9 +38,12 @@ from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
 from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.modes import detect_file
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
+from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
+from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
@@ -69,6 +72,9 @@ __all__ = [
     "ClockRecord",
     "read_record",
     "read_nav_clock",
+    "ClockBiasInput",
+    "read_clock_bias",
+    "read_stable32_table",
     "read_gps_observations",
     "read_gps_navigation",
     # analysis
@@ -116,6 +122,7 @@ __all__ = [
     "inject",
     "channel_clock_biases",
     "identify",
+    "detect_file",
     # experiments
     "Scenario",
     "load_scenario",

@@ -1,5 +1,6 @@
 """`chronofuse detect`: detection on CSV and UBX, the JSON document, and clear errors on bad input."""
 
+import gzip
 import json
 
 import numpy as np
@@ -156,13 +157,12 @@ def _nav_clock_offsets(blob: bytes) -> list[int]:
     return offsets
 
 
-def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, data_dir):
-    pytest.importorskip("chronofuse.io.ubx")
-    real = data_dir / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log"
+def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, real_data):
+    real = real_data / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log.gz"
     clean = _invoke(real, "--rate", 1, "--train", 300, "--json")
     assert clean.exit_code == 0, clean.output
     clean_doc = json.loads(clean.stdout)
-    blob = bytearray(real.read_bytes())
+    blob = bytearray(gzip.decompress(real.read_bytes()))
     frames = _nav_clock_offsets(bytes(blob))
     blob[frames[300] + 10] ^= 0xFF  # a payload byte of one NAV-CLOCK frame: bad checksum
     cut = frames[-1] + 12  # the last NAV-CLOCK frame cut short
@@ -178,13 +178,12 @@ def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, data_dir):
 
 @pytest.mark.parametrize("name, fragment", [("pygpsdata-BADCK2.log", "longer than the data"),
                                             ("pygpsdata-BADEOF1.log", "no UBX NAV-CLOCK")])
-def test_broken_ubx_captures_give_one_line_errors(data_dir, name, fragment):
-    pytest.importorskip("chronofuse.io.ubx")
-    _one_line_error(_invoke(data_dir / "receivers" / "ubx" / name, "--rate", 1, *MODEL, "--json"), name, fragment)
+def test_broken_ubx_captures_give_one_line_errors(real_data, name, fragment):
+    _one_line_error(_invoke(real_data / "receivers" / "ubx" / name, "--rate", 1, *MODEL, "--json"), name, fragment)
 
 
-def test_rinex_input_needs_nav_and_position_and_a_nav_file_is_not_observations(data_dir):
-    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+def test_rinex_input_needs_nav_and_position_and_a_nav_file_is_not_observations(real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
     _one_line_error(_invoke(rtk / "07590920.05o", "--rate", 1 / 30, *MODEL), "07590920.05o", "--nav")
     _one_line_error(_invoke(rtk / "07590920.05n", "--rate", 1 / 30, *MODEL), "navigation file")
 
@@ -220,9 +219,8 @@ def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch
     return "\n".join(lines) + "\n"
 
 
-def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_real_rinex(tmp_path, data_dir):
-    pytest.importorskip("chronofuse.integrity.identification")
-    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_real_rinex(tmp_path, real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
     clean_obs = tmp_path / "clean.05o"
     clean_obs.write_text((rtk / "07590920.05o").read_text())
     obs = tmp_path / "07590920.05o"
@@ -264,9 +262,8 @@ def _drop_rinex2_epochs(text: str, drop: set[int]) -> str:
     return "\n".join(out) + "\n"
 
 
-def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, data_dir):
-    pytest.importorskip("chronofuse.integrity.identification")
-    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
     obs = tmp_path / "gappy.05o"
     obs.write_text(_drop_rinex2_epochs((rtk / "07590920.05o").read_text(), {50, 51, 90}))
     result = _invoke(obs, "--rate", 1 / 30, "--nav", rtk / "07590920.05n", "--position",
@@ -277,8 +274,8 @@ def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, data_dir):
 
 
 @pytest.mark.parametrize("position", ["1,2,3", "48.1,11.6,520", "-3976.2195,3382.3726,3652.5130"])
-def test_a_position_that_is_not_ecef_metres_on_the_earth_is_refused(tmp_path, data_dir, position):
-    rtk = data_dir / "receivers" / "rinex" / "rtklib"
+def test_a_position_that_is_not_ecef_metres_on_the_earth_is_refused(tmp_path, real_data, position):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
     result = _invoke(rtk / "07590920.05o", "--rate", 1 / 30, "--nav", rtk / "07590920.05n", f"--position={position}",
                      "--train", 1200, "--json")
     assert result.exit_code == 2 and "from the Earth's centre" in result.stderr

@@ -57,3 +57,22 @@ def test_chronofuse_run_with_a_bad_scenario_names_the_key_and_exits_2(tmp_path):
     result = CliRunner().invoke(app, ["run", str(bad), "--out", str(tmp_path / "out")])
     assert result.exit_code == 2
     assert "bad.toml: duration: unknown key" in result.stderr
+
+
+def test_every_statistic_a_scenario_may_name_is_in_the_report_as_the_library_computes_it(tmp_path):
+    import pandas as pd
+
+    from chronofuse.analysis import stability
+
+    names = sorted(stability.STATISTICS)
+    text = SHORT.replace("count = 2", "count = 1").replace("7200", "2000")
+    text += "[analysis]\ndeviations = [" + ", ".join(f'"{n}"' for n in names) + "]\n"
+    report = run_scenario(parse_scenario(text, "all.toml"), tmp_path)
+    written = report.summary["receivers"]["rx1"]["deviations"]
+    assert sorted(written) == names
+    # the same statistics again, from the time series the report wrote (ns, 12 significant digits)
+    x_s = pd.read_csv(report.out_dir / "timeseries.csv")["rx1_pps_error_ns"].to_numpy() * 1e-9
+    for name in names:
+        ours = stability.compute(name, x_s, 1.0, "decade")
+        np.testing.assert_allclose(written[name]["dev"], ours.dev, rtol=1e-6, err_msg=name)
+    assert set(pd.read_csv(report.out_dir / "stability.csv")["statistic"]) == set(names) | {"oadev"}

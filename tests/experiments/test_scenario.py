@@ -4,7 +4,12 @@ from pathlib import Path
 
 import pytest
 
+from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.stability import STATISTICS
+from chronofuse.analysis.stability.taus import SPACINGS
 from chronofuse.experiments.scenario import DEFAULT_SCENARIO, ScenarioError, load_scenario, parse_scenario
+from chronofuse.models.oscillator import PRESETS
+from chronofuse.models.environment import ENVIRONMENTS as SCENARIOS
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -52,3 +57,28 @@ def test_broken_toml_and_missing_files_are_named():
         parse_scenario("duration_s = \n", "my.toml")
     with pytest.raises(ScenarioError, match="no such scenario file"):
         load_scenario("does/not/exist.toml")
+
+
+# Each key that selects from a registry, the registry, and how a value is written in TOML.
+REGISTRY_KEYS = [
+    ("oscillator", "preset", sorted(PRESETS), '"{}"'),
+    ("receivers", "scenario", sorted(SCENARIOS), '"{}"'),
+    ("analysis", "deviations", sorted(STATISTICS), '["{}"]'),
+    ("analysis", "mask", sorted(MASKS), '"{}"'),
+    ("analysis", "taus", [s for s in SPACINGS if s != "all"], '"{}"'),
+]
+
+
+@pytest.mark.parametrize("section, key, names, form", REGISTRY_KEYS, ids=[f"{s}.{k}" for s, k, *_ in REGISTRY_KEYS])
+def test_every_name_in_a_registry_is_accepted_and_any_other_is_refused_naming_the_key(section, key, names, form):
+    for name in names:
+        scn = parse_scenario(f"[{section}]\n{key} = {form.format(name)}\n", "my.toml")
+        value = getattr(getattr(scn, section), key)
+        assert value == ([name] if isinstance(value, list) else name)
+    with pytest.raises(ScenarioError, match=rf"my.toml: {section}.{key}"):
+        parse_scenario(f"[{section}]\n{key} = {form.format('no-such-name')}\n", "my.toml")
+
+
+def test_the_total_deviations_and_theo1_missing_before_are_accepted():
+    scn = parse_scenario('[analysis]\ndeviations = ["mtotdev", "htotdev", "ttotdev", "theo1"]\n', "my.toml")
+    assert scn.analysis.deviations == ["mtotdev", "htotdev", "ttotdev", "theo1"]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import json
 from datetime import datetime, timezone
 
@@ -16,9 +17,9 @@ GPS_EPOCH = datetime(1980, 1, 6, tzinfo=timezone.utc)
 
 
 def _gpsd_clock_bias_ns(chk_path) -> dict[int, int]:
-    """gpsd's TPV clock bias (ns) keyed by GPS time of week (ms), from its regression .chk file."""
+    """gpsd's TPV clock bias (ns) keyed by GPS time of week (ms), from its regression .chk file (gzipped)."""
     out = {}
-    for line in chk_path.read_text(errors="replace").splitlines():
+    for line in gzip.open(chk_path, "rt", errors="replace").read().splitlines():
         if '"clockbias"' not in line or not line.startswith("{"):
             continue
         tpv = json.loads(line)
@@ -28,10 +29,10 @@ def _gpsd_clock_bias_ns(chk_path) -> dict[int, int]:
     return out
 
 
-def test_nav_clock_bias_matches_gpsd_decoding(data_dir):
-    path = data_dir / "receivers" / "gpsd" / "navisys-gr701w.log"
+def test_nav_clock_bias_matches_gpsd_decoding(real_data):
+    path = real_data / "receivers" / "gpsd" / "navisys-gr701w.log"
     rec = read_nav_clock(path)
-    reference = _gpsd_clock_bias_ns(path.with_name(path.name + ".chk"))
+    reference = _gpsd_clock_bias_ns(path.with_name(path.name + ".chk.gz"))
     common = [k for k, itow in enumerate(rec.itow_ms) if int(itow) in reference]
     assert len(common) >= 50
     ours_ns = rec.clock_bias_s[common] * 1e9
@@ -40,8 +41,8 @@ def test_nav_clock_bias_matches_gpsd_decoding(data_dir):
     assert rec.n_skipped_frames == 0
 
 
-def test_nav_clock_times_are_seconds_since_first_epoch(data_dir):
-    rec = read_nav_clock(data_dir / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log")
+def test_nav_clock_times_are_seconds_since_first_epoch(real_data):
+    rec = read_nav_clock(real_data / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log.gz")
     assert rec.itow_ms.dtype == np.int64
     assert rec.t_s[0] == 0.0
     np.testing.assert_array_equal(rec.t_s, (rec.itow_ms - rec.itow_ms[0]) / 1000.0)
@@ -57,8 +58,8 @@ def test_week_rollover_of_itow_is_unwrapped():
     np.testing.assert_array_equal(unwrap_itow_ms(itow), [0, 1000, 2000, 3000])
 
 
-def test_bad_checksum_frame_is_counted(data_dir):
-    rec = read_nav_clock(data_dir / "receivers" / "ubx" / "pygpsdata-BADCK2.log")
+def test_bad_checksum_frame_is_counted(real_data):
+    rec = read_nav_clock(real_data / "receivers" / "ubx" / "pygpsdata-BADCK2.log")
     assert rec.n_skipped_frames == 1
     assert "checksum" in rec.skipped[0][1]
     assert rec.clock_bias_s.size == 1
@@ -66,8 +67,8 @@ def test_bad_checksum_frame_is_counted(data_dir):
 
 @pytest.mark.parametrize("name", ["pygpsdata-BADEOF1.log", "pygpsdata-BADEOF2.log", "pygpsdata-BADEOF3.log",
                                   "pygpsdata-MIXED3BADCK.log"])
-def test_broken_captures_without_nav_clock_name_the_file_and_count_corrupt_frames(data_dir, name):
-    path = data_dir / "receivers" / "ubx" / name
+def test_broken_captures_without_nav_clock_name_the_file_and_count_corrupt_frames(real_data, name):
+    path = real_data / "receivers" / "ubx" / name
     with pytest.raises(InputDataError, match="1 corrupt frame") as info:
         read_nav_clock(path)
     assert info.value.source == str(path)
@@ -82,9 +83,9 @@ def _frames(data: bytes, class_id: bytes) -> list[int]:
     return offsets
 
 
-def test_corrupted_copy_counts_the_bad_checksum_and_the_truncated_frame(data_dir, tmp_path):
-    data = (data_dir / "receivers" / "gpsd" / "navisys-gr701w.log").read_bytes()
-    clean = read_nav_clock(data_dir / "receivers" / "gpsd" / "navisys-gr701w.log")
+def test_corrupted_copy_counts_the_bad_checksum_and_the_truncated_frame(real_data, tmp_path):
+    data = (real_data / "receivers" / "gpsd" / "navisys-gr701w.log").read_bytes()
+    clean = read_nav_clock(real_data / "receivers" / "gpsd" / "navisys-gr701w.log")
     offsets = _frames(data, b"\x01\x22")  # NAV-CLOCK
     broken = bytearray(data)
     broken[offsets[10] + 6 + 4] ^= 0xFF  # flip a byte of clkB in the 11th NAV-CLOCK: the checksum fails
@@ -99,8 +100,8 @@ def test_corrupted_copy_counts_the_bad_checksum_and_the_truncated_frame(data_dir
     assert "checksum" in reasons
 
 
-def test_file_ending_inside_a_header_is_counted(data_dir, tmp_path):
-    data = (data_dir / "receivers" / "gpsd" / "navisys-gr701w.log").read_bytes()
+def test_file_ending_inside_a_header_is_counted(real_data, tmp_path):
+    data = (real_data / "receivers" / "gpsd" / "navisys-gr701w.log").read_bytes()
     path = tmp_path / "lone_sync.ubx"
     path.write_bytes(data + b"\xb5")
     rec = read_nav_clock(path)
@@ -108,11 +109,32 @@ def test_file_ending_inside_a_header_is_counted(data_dir, tmp_path):
     assert rec.skipped[0] == (len(data), rec.skipped[0][1])
 
 
-def test_empty_file_and_nmea_only_file_raise_naming_the_file(data_dir, tmp_path):
+def test_empty_file_and_nmea_only_file_raise_naming_the_file(real_data, tmp_path):
     empty = tmp_path / "empty.ubx"
     empty.write_bytes(b"")
     with pytest.raises(InputDataError, match="empty") as info:
         read_nav_clock(empty)
     assert str(empty) in str(info.value)
     with pytest.raises(InputDataError, match="no UBX NAV-CLOCK"):
-        read_nav_clock(data_dir / "receivers" / "ubx" / "pygpsdata-NMEA.log")
+        read_nav_clock(real_data / "receivers" / "ubx" / "pygpsdata-NMEA.log")
+
+
+def test_a_gzipped_capture_reads_as_the_plain_one(real_data, tmp_path):
+    plain = real_data / "receivers" / "gpsd" / "navisys-gr701w.log"
+    packed = tmp_path / "navisys.ubx.gz"
+    packed.write_bytes(gzip.compress(plain.read_bytes()))
+    ours, reference = read_nav_clock(packed), read_nav_clock(plain)
+    np.testing.assert_array_equal(ours.itow_ms, reference.itow_ms)
+    np.testing.assert_array_equal(ours.clock_bias_s, reference.clock_bias_s)
+    assert ours.n_skipped_frames == reference.n_skipped_frames == 0
+
+
+def test_an_empty_or_broken_gzip_capture_raises_naming_the_file(tmp_path):
+    empty = tmp_path / "empty.ubx.gz"
+    empty.write_bytes(gzip.compress(b""))
+    with pytest.raises(InputDataError, match="empty"):
+        read_nav_clock(empty)
+    broken = tmp_path / "broken.ubx.gz"
+    broken.write_bytes(b"\xb5\x62 not gzip at all")
+    with pytest.raises(InputDataError, match="broken.ubx.gz: cannot read file"):
+        read_nav_clock(broken)

@@ -6,9 +6,6 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.csv as pacsv
-import pyarrow.parquet as pq
 import typer
 from rich.table import Table
 
@@ -16,6 +13,7 @@ from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
 from chronofuse.analysis.metrics import gdop_over_5_fraction
+from chronofuse.io.tables import write_table
 from chronofuse.models.oscillator import PRESETS, preset, simulate_oscillator
 from chronofuse.models.environment import ENVIRONMENTS
 from chronofuse.models.receiver import simulate_receivers
@@ -26,19 +24,6 @@ simulate_app = typer.Typer(help="Simulate clocks and receivers (truth models) an
 
 def register(app: typer.Typer) -> None:
     app.add_typer(simulate_app, name="simulate")
-
-
-def write_table(columns: dict[str, np.ndarray], out: Path) -> None:
-    """Write columns to CSV (or Parquet for a .parquet path) quickly, creating the folder."""
-    out.parent.mkdir(parents=True, exist_ok=True)
-    table = pa.table(columns)
-    if out.suffix == ".parquet":
-        pq.write_table(table, out)
-    else:
-        # A plain header line (pyarrow would quote the names), then the rows.
-        with open(out, "wb") as fh:
-            fh.write((",".join(columns) + "\n").encode())
-            pacsv.write_csv(table, fh, pacsv.WriteOptions(include_header=False, quoting_style="none"))
 
 
 @simulate_app.command("oscillator")

@@ -17,7 +17,7 @@ def register(app: typer.Typer) -> None:
 
 
 def validate(
-    data: Path = typer.Option(..., "--data", help="Real data folder holding stability/ (the project's shared/data)."),
+    data: Path = typer.Option(..., "--data", help="Real data folder holding stability/ (the project's shared/data, or tests/data)."),
     out: Path = typer.Option(Path("docs/figures"), "--out", help="Folder for the figures and validation.json."),
     quick: bool = typer.Option(False, "--quick", help="Short simulations (a smoke run)."),
     seed: int = typer.Option(SEED, "--seed", help="Seed of the simulations."),

@@ -24,7 +24,7 @@ from chronofuse.analysis.theory import adev_theory
 from chronofuse.experiments.scenario import Scenario
 from chronofuse.models.oscillator import preset, simulate_oscillator
 from chronofuse.models.receiver import simulate_receivers
-from chronofuse.report.figures import plot_deviations, plot_time_error
+from chronofuse.report.run_figures import write_run_figures
 from chronofuse.report.jsonio import dumps
 
 Progress = Callable[[str], None]
@@ -125,22 +125,8 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     files.append(out / "stability.csv")
     pd.DataFrame(rows).to_csv(files[-1], index=False, float_format="%.6g")
 
-    files.append(out / "time_error.png")
-    plot_time_error(t_s[:n], {label: s for label, s in zip(labels, pps[:, :n])}, files[-1],
-                    title=f"1PPS time error after qErr correction ({scn.receivers.scenario})")
-    files.append(out / "oscillator_phase.png")
-    plot_time_error(t_s[:n], {f"{model.name} free run": osc_x[:n]}, files[-1], title="Free-running oscillator phase")
-    adev_curves = {f"{model.name} OADEV": osc_adev}
-    adev_curves.update({f"{label} OADEV": devs["oadev"] for label, devs in rx_devs.items() if "oadev" in devs})
-    files.append(out / "adev.png")
-    plot_deviations(adev_curves, files[-1], theory={f"{model.name} theory": (theory_tau, theory)},
-                    ylabel="Allan deviation", title="Stability: oscillator (with theory) and receivers")
-    for stat, ylabel in (("mtie", "MTIE (s)"), ("tdev", "TDEV (s)")):
-        curves = {label: devs[stat] for label, devs in rx_devs.items() if stat in devs}
-        if curves:
-            files.append(out / f"{stat}.png")
-            limits = {k: v for k, v in mask_limits.items() if k.endswith(stat)}
-            plot_deviations(curves, files[-1], limits=limits, ylabel=ylabel, title=f"Receivers' {stat.upper()}")
+    files += write_run_figures(out, t_s[:n], dict(zip(labels, pps[:, :n])), scn.receivers.scenario, model.name,
+                               osc_x[:n], osc_adev, (theory_tau, theory), rx_devs, mask_limits)
 
     summary = {
         "scenario": scn.model_dump(),

@@ -2,6 +2,15 @@
 
 A wrong key, a wrong type or a value out of range raises :class:`ScenarioError` naming the key and the
 file, e.g. ``scenarios/x.toml: oscillator.duration: unknown key (known: preset, h0, ...)``.
+
+The names a key accepts come from the registries they select from, so a statistic, mask, preset or
+receiver environment added there is accepted here at once: ``oscillator.preset`` from
+:data:`~chronofuse.models.oscillator.PRESETS`, ``receivers.scenario`` from
+:data:`~chronofuse.models.environment.ENVIRONMENTS`, ``analysis.deviations`` from
+:data:`~chronofuse.analysis.stability.STATISTICS`, ``analysis.mask`` from
+:data:`~chronofuse.analysis.masks.MASKS` and ``analysis.taus`` from
+:data:`~chronofuse.analysis.stability.taus.SPACINGS` (less ``"all"``: one tau per sample is too many for a
+report).
 """
 
 from __future__ import annotations
@@ -13,9 +22,22 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.stability import STATISTICS
+from chronofuse.analysis.stability.taus import SPACINGS
+from chronofuse.models.oscillator import PRESETS
+from chronofuse.models.environment import ENVIRONMENTS as SCENARIOS
 from chronofuse.validation import InputDataError
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parent / "default.toml"
+
+
+# Literal types built from the registries (Literal[("a", "b")] is Literal["a", "b"]).
+PresetName = Literal[tuple(PRESETS)]
+EnvironmentName = Literal[tuple(SCENARIOS)]
+StatisticName = Literal[tuple(STATISTICS)]
+MaskName = Literal[tuple(MASKS)]
+SpacingName = Literal[tuple(s for s in SPACINGS if s != "all")]
 
 
 class ScenarioError(InputDataError):
@@ -29,7 +51,7 @@ class _Strict(BaseModel):
 class OscillatorSection(_Strict):
     """The free-running oscillator: a preset, optionally with h-coefficient and drift overrides."""
 
-    preset: Literal["tcxo", "ocxo", "rb", "csac"] = "ocxo"
+    preset: PresetName = "ocxo"
     h2: float | None = Field(None, ge=0)
     h1: float | None = Field(None, ge=0)
     h0: float | None = Field(None, ge=0)
@@ -41,20 +63,16 @@ class OscillatorSection(_Strict):
 class ReceiversSection(_Strict):
     """The GNSS timing receivers: scenario name and how many, with independent errors."""
 
-    scenario: Literal["open-sky", "urban-canyon", "jamming", "spoofing"] = "urban-canyon"
+    scenario: EnvironmentName = "urban-canyon"
     count: int = Field(3, ge=1, le=64)
 
 
 class AnalysisSection(_Strict):
     """What the report computes."""
 
-    deviations: list[Literal["adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev", "mtie", "tie_rms"]] = [
-        "oadev",
-        "tdev",
-        "mtie",
-    ]
-    taus: Literal["octave", "decade"] = "decade"
-    mask: Literal["prtc-a", "prtc-b", "g811"] | None = "prtc-a"
+    deviations: list[StatisticName] = ["oadev", "tdev", "mtie"]
+    taus: SpacingName = "decade"
+    mask: MaskName | None = "prtc-a"
 
 
 class Scenario(_Strict):

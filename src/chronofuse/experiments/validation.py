@@ -15,44 +15,39 @@ plotted) into ``out_dir``:
 4. ``cs5071a_mtie.png``, ``cs5071a_tdev.png``: MTIE and TDEV of the Cs 5071A record against the
    PRTC-A, PRTC-B and G.811 masks, with Stable32's MTIE and TDEV tables overlaid.
 
-Run as ``chronofuse validate --data DIR --out docs/figures`` (``--quick``: shorter simulations and a
-shorter MTOTDEV range, for tests).
+This module computes; :mod:`chronofuse.report.validation_figures` draws. Run as ``chronofuse validate
+--data DIR --out docs/figures`` (``--quick``: shorter simulations and a shorter MTOTDEV range, for tests);
+``DIR`` is the project's data store or the repository's ``tests/data``, which holds the same records.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import scipy.signal
+import scipy.stats
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import scipy.signal  # noqa: E402
-import scipy.stats  # noqa: E402
-
-import chronofuse.analysis.stability as st  # noqa: E402
-from chronofuse.analysis.masks import MASKS  # noqa: E402
-from chronofuse.analysis.metrics import pooled_oadev  # noqa: E402
-from chronofuse.analysis.stability.edf import chi2_interval  # noqa: E402
-from chronofuse.analysis.theory import adev_theory  # noqa: E402
-from chronofuse.models.oscillator import PRESETS, simulate_oscillator  # noqa: E402
-from chronofuse.analysis.theory import corrected_pps_adev  # noqa: E402
-from chronofuse.models.environment import receiver_environment  # noqa: E402
-from chronofuse.models.receiver import simulate_receivers  # noqa: E402
-from chronofuse.report.figures import plot_deviations  # noqa: E402
-from chronofuse.report.jsonio import dumps  # noqa: E402
-from chronofuse.validation import check_scalar  # noqa: E402
+import chronofuse.analysis.stability as st
+from chronofuse.analysis.masks import MASKS
+from chronofuse.analysis.metrics import pooled_oadev
+from chronofuse.analysis.theory import adev_theory
+from chronofuse.io.stable32 import read_stable32_table
+from chronofuse.models.oscillator import PRESETS, simulate_oscillator
+from chronofuse.analysis.theory import corrected_pps_adev
+from chronofuse.models.environment import receiver_environment
+from chronofuse.models.receiver import simulate_receivers
+from chronofuse.report import validation_figures as figures
+from chronofuse.report.jsonio import dumps
+from chronofuse.validation import check_scalar
 
 __all__ = [
     "ValidationSettings",
     "FULL",
     "QUICK",
     "write_validation_figures",
-    "read_stable32_columns",
     "record_statistics",
 ]
 
@@ -98,25 +93,6 @@ QUICK = ValidationSettings(
 )
 
 
-def read_stable32_columns(path: Path) -> dict[str, np.ndarray]:
-    """Columns of a Stable32 table ``AF Tau # [Alpha Min Sigma Max] | Value`` (rows starting '#' skipped).
-
-    Returns ``tau`` (k,), ``n`` (k,) and ``dev`` (k,) (the Sigma or Value column), plus ``lo``, ``hi``
-    (k,) for 7-column tables.
-    """
-    lines = Path(path).read_text().splitlines()
-    rows = [line.split() for line in lines if line.strip() and not line.lstrip().startswith("#")]
-    arr = np.array(rows, dtype=float)
-    if arr.ndim != 2 or arr.shape[1] not in (4, 7):
-        raise ValueError(f"{path}: table has shape {arr.shape}, must have 4 or 7 columns")
-    out = {"tau": arr[:, 1], "n": arr[:, 2].astype(np.int64)}
-    if arr.shape[1] == 7:
-        out.update(lo=arr[:, 4], dev=arr[:, 5], hi=arr[:, 6])
-    else:
-        out["dev"] = arr[:, 3]
-    return out
-
-
 def _load_phase(path: Path) -> np.ndarray:
     """Phase record (N,) in seconds, one value per line, '#' comments."""
     return np.loadtxt(path, comments="#", dtype=np.float64)
@@ -128,31 +104,15 @@ def _max_rel_diff(ours: np.ndarray, table: np.ndarray) -> float:
 
 def _gps_figures(out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationSettings) -> tuple[list[Path], dict]:
     tables = {
-        "adev": read_stable32_columns(stab / "gps" / "stable32_ADEV_decade.txt"),
-        "mdev": read_stable32_columns(stab / "gps" / "stable32_MDEV_octave.txt"),
-        "tdev": read_stable32_columns(stab / "gps" / "stable32_TDEV_octave.txt"),
+        "adev": read_stable32_table(stab / "gps" / "stable32_ADEV_decade.txt"),
+        "mdev": read_stable32_table(stab / "gps" / "stable32_MDEV_octave.txt"),
+        "tdev": read_stable32_table(stab / "gps" / "stable32_TDEV_octave.txt"),
     }
     ours = {name: st.compute(name, x, 1.0, tables[name]["tau"]) for name in tables}
     octave_tau_s = st.averaging_factors(st.STATISTICS["mtotdev"].max_m(x.size), "octave").astype(float)
     mtot_tau = octave_tau_s[octave_tau_s <= settings.mtotdev_max_tau_s]
     ours["mtotdev"] = st.mtotdev(x, 1.0, mtot_tau)
-    paths = [
-        _plot_with_references(
-            {"ADEV (ours)": ours["adev"], "MDEV (ours)": ours["mdev"], "MTOTDEV (ours)": ours["mtotdev"]},
-            {"ADEV, Stable32 table": (tables["adev"]["tau"], tables["adev"]["dev"]),
-             "MDEV, Stable32 table": (tables["mdev"]["tau"], tables["mdev"]["dev"])},
-            out_dir / "gps_deviations.png",
-            ylabel="deviation",
-            title=f"GPS 1PPS vs H-maser ({x.size} s): ours (68.3 % CI) and Stable32",
-        ),
-        _plot_with_references(
-            {"TDEV (ours)": ours["tdev"]},
-            {"TDEV, Stable32 table": (tables["tdev"]["tau"], tables["tdev"]["dev"])},
-            out_dir / "gps_tdev.png",
-            ylabel="TDEV (s)",
-            title="GPS 1PPS vs H-maser: TDEV, ours and Stable32",
-        ),
-    ]
+    paths = figures.gps_figures(out_dir, ours, tables, x.size)
     numbers = {
         "n_points": int(x.size),
         "ours": {name: dev.to_dict() for name, dev in ours.items()},
@@ -169,7 +129,7 @@ def record_statistics(x_s: np.ndarray, oadev_table: dict[str, np.ndarray], max_t
     """The statistics behind the open-sky calibration (``chronofuse.models.receiver_model`` docstring), re-measured.
 
     ``x_s`` (N,) the 1 Hz GPS-vs-maser phase in seconds; ``oadev_table`` Stable32's OADEV octave table
-    (:func:`read_stable32_columns`). Returns the Pearson kurtosis of the second difference, the largest
+    (:func:`read_stable32_table`). Returns the Pearson kurtosis of the second difference, the largest
     first difference in units of its standard deviation, the lag-1 correlation of the first difference,
     the median one-sided phase PSD above 0.1 Hz (Welch, 4096-point segments, s^2/Hz) and the white
     sigma it implies (``sqrt(level f_h)``, f_h = 0.5 Hz), and the worst misfit ``|ln(model/table)|`` of
@@ -199,7 +159,7 @@ def record_statistics(x_s: np.ndarray, oadev_table: dict[str, np.ndarray], max_t
 def _receiver_figure(
     out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationSettings, seed: int
 ) -> tuple[list[Path], dict]:
-    table = read_stable32_columns(stab / "gps" / "stable32_ADEV_decade.txt")
+    table = read_stable32_table(stab / "gps" / "stable32_ADEV_decade.txt")
     truth = simulate_receivers("open-sky", settings.receiver_duration_s, 1, np.random.SeedSequence([seed, 2]))
     corrected = truth.pps_error_s[0, 0] + truth.epochs.qerr_s[0, 0]
     raw = np.array(truth.pps_error_s[0, 0])
@@ -208,14 +168,7 @@ def _receiver_figure(
         sim = st.adev(corrected, 1.0, tau)
         sim_raw = st.adev(raw, 1.0, tau)
     analytic = corrected_pps_adev(receiver_environment("open-sky").model, table["tau"])
-    path = plot_deviations(
-        {"simulated open sky, pps_error_s + qerr_s": sim, "simulated open sky, raw pps_error_s": sim_raw},
-        out_dir / "receiver_calibration.png",
-        theory={"corrected_pps_adev (analytic)": (table["tau"], analytic)},
-        limits={"GPS 1PPS vs H-maser, Stable32 ADEV": (table["tau"], table["dev"])},
-        ylabel="ADEV",
-        title=f"Receiver model calibration ({settings.receiver_duration_s} s simulated)",
-    )
+    path = figures.receiver_figure(out_dir, sim, sim_raw, table, analytic, settings.receiver_duration_s)
     keep = np.isin(table["tau"], sim.tau_s)
     numbers = {
         "duration_s": settings.receiver_duration_s,
@@ -228,7 +181,7 @@ def _receiver_figure(
         "ratio_sim_to_stable32": sim.dev / table["dev"][keep],
         "ratio_raw_to_corrected": sim_raw.dev / sim.dev,
         "ratio_analytic_to_stable32": analytic[keep] / table["dev"][keep],
-        "record": record_statistics(x, read_stable32_columns(stab / "gps" / "stable32_OADEV_octave.txt")),
+        "record": record_statistics(x, read_stable32_table(stab / "gps" / "stable32_OADEV_octave.txt")),
     }
     return [path], numbers
 
@@ -242,15 +195,8 @@ def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) 
         )
         dev = pooled_oadev(truth.x_s, 1.0)
         theory = adev_theory(model.h, dev.tau_s, 1.0, model.drift_per_s)
-        paths.append(
-            plot_deviations(
-                {f"{name}: simulated OADEV, {settings.oscillator_trials} trials pooled (68.3 % CI)": dev},
-                out_dir / f"oscillator_{name}.png",
-                theory={"adev_theory (h-coefficients + drift)": (dev.tau_s, theory)},
-                ylabel="Allan deviation",
-                title=f"{name} preset: {settings.oscillator_trials} x {settings.oscillator_duration_s:.0f} s at 1 Hz",
-            )
-        )
+        paths.append(figures.oscillator_figure(out_dir, name, dev, theory, settings.oscillator_trials,
+                                               settings.oscillator_duration_s))
         inside = (theory >= dev.lo) & (theory <= dev.hi)
         numbers[name] = {
             "seed": [seed, 3, i],
@@ -269,61 +215,14 @@ def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) 
     return paths, numbers
 
 
-_MASK_STYLES = {"prtc-a": ("k", "-"), "prtc-b": ("tab:red", "--"), "g811": ("tab:purple", ":")}
-_MASK_LABELS = {"prtc-a": "PRTC-A (G.8272)", "prtc-b": "PRTC-B (G.8272)", "g811": "PRC (G.811)"}
-
-
-def _plot_with_references(deviations: dict, references: dict, path: Path, *, ylabel: str, title: str,
-                          masks: dict | None = None) -> Path:
-    """Log-log plot of our curves (points, CI bars), published values (crosses) and masks (lines).
-
-    ``deviations``: label -> :class:`Deviation`; ``references``: label -> ``(tau_s, value)`` drawn as
-    crosses in the colour of the same-index curve; ``masks``: clock name -> ``(tau_s, limit)``.
-    ``plot_deviations`` draws references as dashed lines hidden under equal points, and every limit
-    in one style, hence this variant.
-    """
-    fig, ax = plt.subplots(figsize=(7.5, 5), constrained_layout=True)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for i, (label, dev) in enumerate(deviations.items()):
-        yerr = np.vstack([dev.dev - dev.lo, dev.hi - dev.dev])
-        yerr = np.where(np.isfinite(yerr), yerr, 0.0)
-        ax.errorbar(dev.tau_s, dev.dev, yerr=yerr, fmt="o-", ms=3, lw=1, capsize=2, color=colors[i], label=label)
-    for i, (label, (tau, value)) in enumerate(references.items()):
-        ax.plot(tau, value, "x", ms=8, mew=1.5, color="k" if i >= len(colors) else colors[(i + 3) % len(colors)],
-                label=label)
-    for clock, (tau, limit) in (masks or {}).items():
-        color, style = _MASK_STYLES.get(clock, ("gray", "-"))
-        ax.plot(tau, limit, color=color, ls=style, lw=1.6, label=f"{_MASK_LABELS.get(clock, clock)} mask")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("tau (s)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    ax.set_title(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
-
-
 def _cs_figures(out_dir: Path, stab: Path) -> tuple[list[Path], dict]:
     x = _load_phase(stab / "Cs5071A" / "5071A_phase.txt.gz")
     paths, numbers = [], {"n_points": int(x.size)}
     cases = (("mtie", "mtie_decade.txt", "MTIE (s)"), ("tdev", "tdev_decade.txt", "TDEV (s)"))
     for metric, table_name, ylabel in cases:
-        table = read_stable32_columns(stab / "Cs5071A" / table_name)
+        table = read_stable32_table(stab / "Cs5071A" / table_name)
         dev = st.compute(metric, x, 1.0, table["tau"])
-        grid = np.logspace(np.log10(0.11), np.log10(max(1e5, float(dev.tau_s[-1]))), 400)
-        paths.append(
-            _plot_with_references(
-                {f"Cs 5071A {metric.upper()} (ours)": dev},
-                {f"{metric.upper()}, Stable32 table": (table["tau"], table["dev"])},
-                out_dir / f"cs5071a_{metric}.png",
-                ylabel=ylabel,
-                title=f"Cs 5071A vs H-maser ({x.size} s): {metric.upper()} against ITU-T masks",
-                masks={clock: (grid, MASKS[clock].limit_s(metric, grid)) for clock in MASKS},
-            )
-        )
+        paths.append(figures.mask_figure(out_dir, metric, dev, table, x.size, ylabel))
         checks = {clock: MASKS[clock].check(dev) for clock in MASKS}
         numbers[metric] = {
             "ours": dev.to_dict(),

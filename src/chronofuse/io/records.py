@@ -293,3 +293,9 @@ def read_record(
         n_gaps=n_gaps,
         column=name,
     )
+
+
+def column_names(path: str | Path) -> list[str] | None:
+    """The header names of a record file as :func:`read_record` reads them, or None when it has no header."""
+    header, _, _ = _read_rows(Path(path))
+    return header

@@ -7,12 +7,14 @@ Corrupt input is skipped and counted, never fatal: a frame with a bad checksum, 
 of the file, an unknown header or an undecodable NMEA line in a mixed stream becomes one entry of
 :attr:`NavClockRecord.skipped` (the byte offset in the file where the reader stood after the bad frame, and
 pyubx2's reason). A file that ends inside a frame header (where pyubx2 itself stops quietly) is counted too.
+A capture compressed with gzip (``.gz``) is read as it is, byte offsets then counting uncompressed bytes.
 Limits, from pyubx2's byte scanning: bytes that start no frame (line noise between frames) are passed
 over uncounted, and a corrupt length field can make one bad frame swallow the next: that counts as one.
 """
 
 from __future__ import annotations
 
+import gzip
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -83,10 +85,16 @@ def unwrap_itow_ms(itow_ms: np.ndarray) -> np.ndarray:
     return itow - itow[0] + weeks * MS_PER_WEEK
 
 
-def read_nav_clock(path) -> NavClockRecord:
-    """Read every UBX-NAV-CLOCK message of a UBX (or mixed UBX/NMEA/RTCM) capture.
+def open_capture(path: Path):
+    """The capture's bytes as a binary stream: gzip-decompressed for a ``.gz`` file."""
+    return gzip.open(path, "rb") if path.suffix == ".gz" else path.open("rb")
 
-    Raises :class:`InputDataError` naming the file when it is empty or holds no NAV-CLOCK message.
+
+def read_nav_clock(path) -> NavClockRecord:
+    """Read every UBX-NAV-CLOCK message of a UBX (or mixed UBX/NMEA/RTCM) capture, plain or gzipped.
+
+    Raises :class:`InputDataError` naming the file when it is empty, not valid gzip, or holds no NAV-CLOCK
+    message.
     """
     path = Path(path)
     source = str(path)
@@ -94,10 +102,17 @@ def read_nav_clock(path) -> NavClockRecord:
         raise InputDataError("no such file", source)
     if path.stat().st_size == 0:
         raise InputDataError("the file is empty", source)
+    try:
+        return _read_nav_clock(path, source)
+    except (OSError, EOFError) as exc:  # gzip.BadGzipFile is an OSError
+        raise InputDataError(f"cannot read file: {exc}", source) from exc
+
+
+def _read_nav_clock(path: Path, source: str) -> NavClockRecord:
     itow, bias, drift, tacc = [], [], [], []
     skipped: list[tuple[int, str]] = []
     consumed = 0
-    with path.open("rb") as stream:
+    with open_capture(path) as stream:
 
         def on_error(err: Exception) -> None:
             skipped.append((stream.tell(), f"{type(err).__name__}: {err}"))
@@ -123,6 +138,8 @@ def read_nav_clock(path) -> NavClockRecord:
         size = stream.tell()
         stream.seek(max(size - _UBX_HEADER_BYTES, 0))
         tail = stream.read()
+    if size == 0:
+        raise InputDataError("the file is empty", source)
     if skipped:
         consumed = max(consumed, skipped[-1][0])
     cut = _cut_header_offset(tail, size)

@@ -1,7 +1,8 @@
 """PNG figures: time-error series and stability plots with theory and masks.
 
-Figures are written with matplotlib's Agg backend (no screen needed). Nanoseconds appear only on
-axes, where people read them.
+Figures are drawn with matplotlib's object-oriented API (a :class:`~matplotlib.figure.Figure` on its own
+Agg canvas): no screen is needed, pyplot is never imported and the user's backend is left as it is.
+Nanoseconds appear only on axes, where people read them.
 """
 
 from __future__ import annotations
@@ -9,12 +10,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from chronofuse.analysis.stability.result import Deviation  # noqa: E402
+from chronofuse.analysis.stability.result import Deviation
 
 _MAX_POINTS = 20_000
 
@@ -36,10 +37,23 @@ def _decimate(t: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return tb[rows[:, None], idx].ravel(), vb[rows[:, None], idx].ravel()
 
 
+def new_figure(figsize: tuple[float, float]) -> tuple[Figure, Axes]:
+    """A figure with one axes on an Agg canvas of its own (constrained layout), outside pyplot."""
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, fig.subplots()
+
+
+def save_figure(fig: Figure, path: str | Path) -> Path:
+    """Write ``fig`` as a PNG at 110 dpi; return the path."""
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    return path
+
+
 def plot_time_error(t_s: np.ndarray, series_s: dict[str, np.ndarray], path: str | Path, *, title: str = "") -> Path:
     """Plot time-error series (seconds in, nanoseconds on the axis) against time in hours."""
-    path = Path(path)
-    fig, ax = plt.subplots(figsize=(9, 4.5), constrained_layout=True)
+    fig, ax = new_figure((9, 4.5))
     for label, values in series_s.items():
         tt, vv = _decimate(np.asarray(t_s, float), np.asarray(values, float) * 1e9)
         ax.plot(tt / 3600.0, vv, lw=0.6, label=label)
@@ -49,9 +63,7 @@ def plot_time_error(t_s: np.ndarray, series_s: dict[str, np.ndarray], path: str 
     ax.legend(loc="best", fontsize=8)
     if title:
         ax.set_title(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_deviations(
@@ -67,8 +79,7 @@ def plot_deviations(
 
     ``theory`` and ``limits`` map a label to ``(tau_s, value)`` arrays.
     """
-    path = Path(path)
-    fig, ax = plt.subplots(figsize=(7.5, 5), constrained_layout=True)
+    fig, ax = new_figure((7.5, 5))
     for label, dev in deviations.items():
         ok = np.isfinite(dev.dev) & (dev.dev > 0)
         if not ok.any():
@@ -92,6 +103,40 @@ def plot_deviations(
     ax.legend(loc="best", fontsize=8)
     if title:
         ax.set_title(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
+
+
+_MASK_STYLES = {"prtc-a": ("k", "-"), "prtc-b": ("tab:red", "--"), "g811": ("tab:purple", ":")}
+_MASK_LABELS = {"prtc-a": "PRTC-A (G.8272)", "prtc-b": "PRTC-B (G.8272)", "g811": "PRC (G.811)"}
+
+
+def plot_with_references(deviations: dict[str, Deviation], references: dict[str, tuple[np.ndarray, np.ndarray]],
+                         path: str | Path, *, ylabel: str, title: str,
+                         masks: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> Path:
+    """Log-log plot of our curves (points, CI bars), published values (crosses) and masks (lines).
+
+    ``deviations``: label -> :class:`Deviation`; ``references``: label -> ``(tau_s, value)`` drawn as
+    crosses in the colour of the same-index curve; ``masks``: clock name -> ``(tau_s, limit)``.
+    :func:`plot_deviations` draws references as dashed lines hidden under equal points, and every limit
+    in one style, hence this variant.
+    """
+    fig, ax = new_figure((7.5, 5))
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, (label, dev) in enumerate(deviations.items()):
+        yerr = np.vstack([dev.dev - dev.lo, dev.hi - dev.dev])
+        yerr = np.where(np.isfinite(yerr), yerr, 0.0)
+        ax.errorbar(dev.tau_s, dev.dev, yerr=yerr, fmt="o-", ms=3, lw=1, capsize=2, color=colors[i], label=label)
+    for i, (label, (tau, value)) in enumerate(references.items()):
+        ax.plot(tau, value, "x", ms=8, mew=1.5, color="k" if i >= len(colors) else colors[(i + 3) % len(colors)],
+                label=label)
+    for clock, (tau, limit) in (masks or {}).items():
+        color, style = _MASK_STYLES.get(clock, ("gray", "-"))
+        ax.plot(tau, limit, color=color, ls=style, lw=1.6, label=f"{_MASK_LABELS.get(clock, clock)} mask")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("tau (s)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+    ax.set_title(title)
+    return save_figure(fig, path)

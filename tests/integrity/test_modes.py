@@ -1,0 +1,74 @@
+"""detect_file: the library call behind `chronofuse detect` gives the document the command prints, and the
+mode follows the file."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from chronofuse.cli.main import app
+from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.modes import EARTH_SURFACE_M, detect_file, parse_position
+from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+from chronofuse.validation import InputDataError
+
+NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
+STATION_0759_M = "-3976219.5082,3382372.5671,3652512.9849"  # the RINEX header's approximate position
+
+
+def _cli_json(*args) -> dict:
+    result = CliRunner().invoke(app, ["detect", *map(str, args), "--json"])
+    assert result.exit_code == 0, result.output
+    return json.loads(result.stdout)
+
+
+def test_a_csv_gives_the_document_the_command_prints_and_finds_the_step(tmp_path):
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=600, trials=1, seed=2).measured_s[0]
+    x = inject(x, Anomaly("step", 400.0, 1e-7), 1.0)
+    path = tmp_path / "b.csv"
+    path.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{float(v)!r}\n" for k, v in enumerate(x)))
+    doc = detect_file(path, 1.0, h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m)
+    cli = _cli_json(path, "--rate", 1, "--h0", NOISE.h0, "--hm2", NOISE.hm2, "--sigma-rho", NOISE.sigma_rho_m)
+    assert json.loads(json.dumps(doc)) == cli
+    assert doc["mode"] == "detection" and any(400 <= a["t"] <= 402 for a in doc["alarms"])
+
+
+def test_a_ubx_capture_with_training_gives_the_command_document(real_data):
+    path = real_data / "receivers/gpsd/navisys-gr701w.log"
+    doc = detect_file(path, 1.0, train_s=40)
+    assert json.loads(json.dumps(doc)) == _cli_json(path, "--rate", 1, "--train", 40)
+    assert doc["mode"] == "detection" and doc["n_epochs"] == 80
+
+
+def test_rinex_observations_with_nav_and_position_select_identification(real_data):
+    rtk = real_data / "receivers/rinex/rtklib"
+    doc = detect_file(rtk / "07590920.05o", 1 / 30, train_s=1200, window=10, nav=rtk / "07590920.05n",
+                      position_m=np.array([float(v) for v in STATION_0759_M.split(",")]))
+    assert doc["mode"] == "identification" and doc["n_epochs"] == 120
+    assert {"faulty", "untested"} <= set(doc)
+
+
+def test_a_position_is_three_ecef_metres_near_the_earth_surface_given_as_text_or_numbers():
+    xyz = parse_position(STATION_0759_M)
+    np.testing.assert_array_equal(parse_position(list(xyz)), xyz)
+    assert EARTH_SURFACE_M[0] <= np.linalg.norm(xyz) <= EARTH_SURFACE_M[1]
+    for bad, fragment in (("1,2", "three finite numbers"), ("a,b,c", "ECEF metres"),
+                          ((48.1, 11.6, 520.0), "from the Earth's centre")):
+        with pytest.raises(InputDataError, match=fragment):
+            parse_position(bad)
+
+
+def test_the_noise_model_or_a_training_stretch_is_required_and_options_must_fit_the_file(tmp_path, real_data):
+    path = tmp_path / "b.csv"
+    path.write_text("t_s,clock_bias_s\n" + "".join(f"{k},0\n" for k in range(50)))
+    with pytest.raises(ValueError, match="train_s"):
+        detect_file(path, 1.0, h0=1e-18)
+    with pytest.raises(ValueError, match="rate_hz == 0"):
+        detect_file(path, 0.0, train_s=10)
+    with pytest.raises(InputDataError, match="b.csv: --nav/--position need a RINEX observation file"):
+        detect_file(path, 1.0, train_s=10, position_m=STATION_0759_M)
+    with pytest.raises(InputDataError, match=r"train_s \(--train\) 10 s holds 10 valid epochs"):
+        detect_file(path, 1.0, train_s=10)
+    with pytest.raises(InputDataError, match="07590920.05n: this is a RINEX navigation file"):
+        detect_file(real_data / "receivers/rinex/rtklib/07590920.05n", 1 / 30, train_s=1200)
