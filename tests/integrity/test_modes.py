@@ -25,7 +25,7 @@ def _cli_json(*args) -> dict:
 
 def test_a_csv_gives_the_document_the_command_prints_and_finds_the_step(tmp_path):
     x = simulate_clock_bias(NOISE, interval_s=1.0, steps=600, trials=1, seed=2).measured_s[0]
-    x = inject(x, Anomaly("step", 400.0, 1e-7), 1.0)
+    x = inject(x, Anomaly("step", 400.0, offset_s=1e-7), 1.0)
     path = tmp_path / "b.csv"
     path.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{float(v)!r}\n" for k, v in enumerate(x)))
     doc = detect_file(path, 1.0, h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m)
