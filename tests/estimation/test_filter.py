@@ -88,3 +88,11 @@ def test_a_filter_built_on_the_clocks_phi_and_q_is_consistent_with_the_simulated
     d2 = kf.run(Z[:, 1:]).d2  # the state before the first kept epoch is the clock's zero start
     # a matched filter's innovations are white, so d2 are independent chi2(1) draws of variance 2
     assert abs(d2.mean() - 1.0) < 4 * np.sqrt(2.0 / d2.size), d2.mean()
+
+
+def test_a_step_output_cannot_write_into_the_filters_state():
+    kf = _clock_filter()
+    out = kf.step(np.array([1e-9]))
+    with pytest.raises(ValueError, match="read-only"):
+        out.x[0] = 1.0
+    assert kf.step(np.array([1e-9])).x_prior[0] == pytest.approx(out.x[0] + out.x[1])

@@ -21,7 +21,7 @@ from chronofuse.validation import check_array
 
 
 @dataclass(frozen=True)
-class FilterStep:
+class FilterStep(FrozenResult):
     """One epoch of one trial: prior ``x_prior`` (n,), ``P_prior`` (n, n); posterior ``x``, ``P``; innovation
     ``y`` (m,), ``S`` (m, m), squared Mahalanobis distance ``d2``; ``skipped`` (the measurement was missing)."""
 

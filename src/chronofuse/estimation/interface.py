@@ -60,7 +60,8 @@ def readonly(a) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True)
 class FrozenResult:
-    """Base of every ``run`` result: a frozen dataclass whose ndarray fields are made read-only views.
+    """Base of every ``run`` result (and of array-holding step outputs): a frozen dataclass whose ndarray
+    fields are made read-only views, so no caller can write into an estimator's state through them.
 
     Subclasses are ``@dataclass(frozen=True)`` too and simply declare their fields.
     """
@@ -114,7 +115,8 @@ def compare_streaming_to_batch(estimator, Z, *, rtol: float = 1e-10, atol: float
     problems = [f"{name}: the result array is writeable" for name, a in arrays.items() if a.flags.writeable]
     for name, a in arrays.items():
         if a.shape[:2] != (trials, steps):
-            raise ValueError(f"result field {name} has shape {a.shape}, must start with (trials, steps) = {Z.shape[:2]}")
+            raise ValueError(f"result field {name} has shape {a.shape}, must start with (trials, steps) = "
+                             f"{Z.shape[:2]}")
     shared: list[str] = []
     for i in range(trials):
         estimator.reset()

@@ -17,7 +17,7 @@ from chronofuse.validation import check_array
 
 
 @dataclass(frozen=True)
-class HoldStep:
+class HoldStep(FrozenResult):
     """One epoch: ``x_prior`` (m,), ``x`` (m,), innovation ``y`` (m,), ``skipped``."""
 
     x_prior: np.ndarray

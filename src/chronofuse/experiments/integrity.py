@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from chronofuse.analysis.metrics import clopper_pearson
 from chronofuse.estimation.interface import Estimator, pick_inputs
@@ -35,8 +34,7 @@ from chronofuse.integrity.inject import KINDS, SIZE_FIELDS, Anomaly, inject
 from chronofuse.integrity.noise_model import noise_intensities
 from chronofuse.integrity.result import DetectionResult
 from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
-from chronofuse.report.integrity import integrity_markdown, plot_detection, plot_pfa, plot_training
-from chronofuse.report.jsonio import dumps
+from chronofuse.report.integrity import REPORT_FILES, write_integrity_report
 
 Progress = Callable[[str], None]
 
@@ -178,25 +176,18 @@ def detection_performance(cfg: IntegrityConfig, seed: np.random.SeedSequence, sa
 
 def run_integrity(out_dir: str | Path = Path("docs/integrity"), *, quick: bool = False,
                   progress: Progress | None = None, config: IntegrityConfig | None = None) -> dict:
-    """Run the three experiments and write figures, tables, ``summary.json`` and ``README.md`` to ``out_dir``.
+    """Run the three experiments; :func:`chronofuse.report.integrity.write_integrity_report` writes the figures,
+    tables, ``summary.json`` and ``README.md`` to ``out_dir``.
 
     Returns the summary dictionary (also written as JSON).
     """
     cfg = config or (IntegrityConfig.quick() if quick else IntegrityConfig())
     say = progress or (lambda message: None)
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     pfa_seed, train_seed, det_seed = np.random.SeedSequence(cfg.seed).spawn(3)
     pfa_rows = false_alarm_rates(cfg, pfa_seed, say)
     training_rows = training_effect(cfg, train_seed, say)
     detection_rows = detection_performance(cfg, det_seed, say)
-    say("figures")
-    plot_pfa(pfa_rows, PFAS, out / "pfa.png")
-    plot_training(training_rows, out / "training.png")
-    for kind in KINDS:
-        plot_detection(detection_rows, kind, out / f"detection_{kind}.png", cfg.horizon * cfg.interval_s)
-    pd.DataFrame(pfa_rows).to_csv(out / "pfa.csv", index=False)
-    pd.DataFrame(detection_rows).to_csv(out / "detection.csv", index=False)
     min_size = {}
     for kind in KINDS:
         min_size[kind] = {}
@@ -204,12 +195,10 @@ def run_integrity(out_dir: str | Path = Path("docs/integrity"), *, quick: bool =
             ok = [r["size_sigma"] for r in detection_rows if r["kind"] == kind and r["detector"] == name
                   and r["p_detect"] >= 0.9]
             min_size[kind][name] = min(ok) if ok else None
-    files = ["pfa.png", "training.png", *[f"detection_{k}.png" for k in KINDS], "pfa.csv", "detection.csv",
-             "summary.json", "README.md"]
     summary = {"quick": quick, "seed": cfg.seed, "window": cfg.window, "interval_s": cfg.interval_s,
                "noise": {"h0": cfg.noise.h0, "hm2": cfg.noise.hm2, "sigma_rho_m": cfg.noise.sigma_rho_m},
                "false_alarms": pfa_rows, "training": training_rows, "detection": detection_rows,
-               "min_size_p90": min_size, "files": files}
-    (out / "summary.json").write_text(dumps(summary) + "\n")
-    (out / "README.md").write_text(integrity_markdown(summary, cfg, DETECTORS))
+               "min_size_p90": min_size, "files": list(REPORT_FILES)}
+    say("figures")
+    write_integrity_report(out, summary, cfg, DETECTORS, PFAS)
     return summary

@@ -38,8 +38,8 @@ Layout. The noise model and its fit are in :mod:`chronofuse.integrity.noise_mode
 holds the detector, which implements the :mod:`chronofuse.estimation.interface` contract. Its batch
 :meth:`HodDetector.run` computes the whitened windows of every epoch at once; the streaming
 :meth:`HodDetector.step` keeps the last two biases and the last ``n`` differences and computes the same
-quadratic form for one window (the second difference from :func:`chronofuse.estimation.process.second_difference`
-in both).
+quadratic form for one window (both take the second difference from
+:func:`chronofuse.estimation.process.second_difference`).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """What every clock-bias detector returns: the frozen :class:`DetectionResult` of ``run`` and the
-:class:`StepOutput` of ``step`` (fields named alike, so :func:`chronofuse.estimation.interface.compare_streaming_to_batch`
-checks one against the other)."""
+:class:`StepOutput` of ``step``, their fields named alike so that
+:func:`chronofuse.estimation.interface.compare_streaming_to_batch` checks one against the other."""
 
 from __future__ import annotations
 

@@ -32,7 +32,7 @@ from chronofuse.validation import check_choice, check_scalar
 
 
 def clock_intensities(h0: float, hm2: float) -> tuple[float, float]:
-    """``(q1, q2) = (h0 / 2, 2 pi^2 h_-2)``: white-FM (s) and random-walk-FM (1/s) spectral densities (module docstring)."""
+    """``(q1, q2) = (h0 / 2, 2 pi^2 h_-2)``: white-FM (s) and random-walk-FM (1/s) spectral densities."""
     return 0.5 * h0, 2.0 * math.pi**2 * hm2
 
 

@@ -1,7 +1,7 @@
-"""Figures and the Markdown summary of ``chronofuse reproduce integrity`` (the detector experiments).
+"""The report of ``chronofuse reproduce integrity`` (the detector experiments): figures, tables, JSON, Markdown.
 
-:mod:`chronofuse.experiments.integrity` computes the rows; this module only draws and writes them.
-Figures use matplotlib's Agg backend.
+:mod:`chronofuse.experiments.integrity` computes the rows and the summary; this module only draws and
+writes them (:func:`write_integrity_report`). Figures use matplotlib's Agg backend.
 """
 
 from __future__ import annotations
@@ -16,6 +16,24 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from chronofuse.integrity.inject import KINDS  # noqa: E402
+from chronofuse.report.jsonio import dumps  # noqa: E402
+
+REPORT_FILES = ("pfa.png", "training.png", *[f"detection_{k}.png" for k in KINDS], "pfa.csv", "detection.csv",
+                "summary.json", "README.md")
+
+
+def write_integrity_report(out_dir: Path, summary: dict, cfg, detectors, pfas) -> None:
+    """Write :data:`REPORT_FILES` to ``out_dir`` (created) from ``run_integrity``'s ``summary`` and config ``cfg``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    plot_pfa(summary["false_alarms"], pfas, out / "pfa.png")
+    plot_training(summary["training"], out / "training.png")
+    for kind in KINDS:
+        plot_detection(summary["detection"], kind, out / f"detection_{kind}.png", cfg.horizon * cfg.interval_s)
+    pd.DataFrame(summary["false_alarms"]).to_csv(out / "pfa.csv", index=False)
+    pd.DataFrame(summary["detection"]).to_csv(out / "detection.csv", index=False)
+    (out / "summary.json").write_text(dumps(summary) + "\n")
+    (out / "README.md").write_text(integrity_markdown(summary, cfg, detectors))
 
 
 def plot_pfa(rows: list[dict], pfas, path: Path) -> None:
