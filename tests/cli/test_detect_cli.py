@@ -24,7 +24,10 @@ def _root() -> None:
 
 NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
 MODEL = ["--h0", "2e-18", "--hm2", "1e-22", "--sigma-rho", "1.0"]
-KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped"}
+KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped", "state",
+        "unavailable_reasons", "n_tested", "n_training", "unavailable", "interval_s"}
+DETECTION_KEYS = KEYS | {"clock_events", "noise"}
+EXIT = {"ok": 0, "alarm": 1, "unavailable": 3}
 
 
 def _bias(steps=1500, seed=1, anomaly=None):
@@ -56,14 +59,16 @@ def test_json_document_has_exactly_the_documented_keys_and_finds_a_drag_off(tmp_
     t = 1000.0 + np.arange(1500)
     accel = 0.5 * np.sqrt(6) * NOISE.sigma_rho_m / 299_792_458.0  # df shift 0.5 sigma_df
     path = _write_csv(tmp_path / "bias.csv", t, _bias(anomaly=Anomaly("drag", 1000.0, accel_s_per_s2=accel)))
-    result = _invoke(path, "--rate", 1, *MODEL, "--json")
-    assert result.exit_code == 0, result.output
+    result = _invoke(path, *MODEL, "--json")
+    assert result.exit_code == 1, result.output  # alarm
     doc = json.loads(result.stdout)
-    assert set(doc) == KEYS
+    assert set(doc) == DETECTION_KEYS
     assert doc["mode"] == "detection" and doc["n_epochs"] == 1500 and doc["window"] == 20 and doc["pfa"] == 1e-3
-    assert doc["n_alarms"] == len(doc["alarms"]) and doc["n_skipped"] == 0
+    assert doc["n_alarms"] == len(doc["alarms"]) and doc["n_skipped"] == 0 and doc["state"] == "alarm"
+    assert doc["interval_s"] == 1.0 and doc["n_tested"] == 1498 and doc["clock_events"] == []
     alarm_t = np.array([a["t"] for a in doc["alarms"]])
-    assert set(doc["alarms"][0]) == {"t", "statistic", "channel"}
+    assert set(doc["alarms"][0]) == {"t_ns", "t", "statistic", "channel"}
+    assert all(a["t_ns"] == round(a["t"] * 1e9) and isinstance(a["t_ns"], int) for a in doc["alarms"])
     assert (alarm_t >= 2000.0).sum() > 400  # times on the file's time axis, from the onset on
     assert 2000.0 <= alarm_t[alarm_t >= 2000.0].min() <= 2020.0
     assert (alarm_t < 2000.0).sum() <= 5  # false alarms before onset at P_fa = 1e-3
@@ -77,7 +82,7 @@ def test_nanosecond_columns_and_column_choice_give_the_same_alarms(tmp_path):
     ns = tmp_path / "ns.csv"
     ns.write_text("t_s,other_ns,clock_bias_ns\n" + "".join(f"{float(ti)},{1.0},{float(xi) * 1e9!r}\n" for ti, xi in zip(t, x)))
     result = _invoke(ns, "--rate", 1, *MODEL, "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
     doc = json.loads(result.stdout)
     assert [a["t"] for a in doc["alarms"]] == [a["t"] for a in base["alarms"]]
     np.testing.assert_allclose([a["statistic"] for a in doc["alarms"]], [a["statistic"] for a in base["alarms"]],
@@ -95,18 +100,23 @@ def test_missing_clock_biases_and_time_gaps_are_skipped_and_counted(tmp_path):
     keep[200:205] = False  # five epochs absent from the time column
     path = _write_csv(tmp_path / "gaps.csv", t[keep], x[keep])
     result = _invoke(path, "--rate", 1, *MODEL, "--json")
-    assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
+    assert result.exit_code == EXIT[doc["state"]], result.output
     assert doc["n_skipped"] == 8 and doc["n_epochs"] == 600
+    # each gap leaves its missing epochs and the next two (no second difference yet) untested
+    untested = {(u["from_ns"] // 10**9, u["to_ns"] // 10**9) for u in doc["unavailable"]}
+    assert {(100, 103), (200, 206), (350, 352), (0, 1)} <= untested
 
 
 def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path):
     t = np.arange(6000.0)
     path = _write_csv(tmp_path / "b.csv", t, _bias(steps=6000, seed=4, anomaly=Anomaly("step", 5000.0, offset_s=1e-7)))
     result = _invoke(path, "--rate", 1, "--train", 4000, "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
     doc = json.loads(result.stdout)
     times = [a["t"] for a in doc["alarms"]]
+    assert min(times) >= 4000 and doc["n_training"] == 4000  # the training stretch is not tested
+    assert set(doc["noise"]) == {"h0", "hm2", "sigma_rho_m"} and all(v >= 0 for v in doc["noise"].values())
     assert any(5000 <= ti <= 5002 for ti in times)
     assert sum(ti < 5000 for ti in times) <= 15
 
@@ -114,9 +124,9 @@ def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path)
 def test_human_output_is_a_table_of_alarms(tmp_path):
     path = _write_csv(tmp_path / "b.csv", np.arange(500.0), _bias(steps=500, anomaly=Anomaly("step", 300.0, offset_s=1e-7)))
     result = _invoke(path, "--rate", 1, *MODEL)
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
     text = " ".join(result.stdout.split())
-    assert "alarm(s)" in text and "detection mode" in text and "300.000" in text
+    assert "alarm(s)" in text and "detection mode" in text and " 300 " in text
 
 
 @pytest.mark.parametrize(
@@ -160,7 +170,7 @@ def _nav_clock_offsets(blob: bytes) -> list[int]:
 def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, real_data):
     real = real_data / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log.gz"
     clean = _invoke(real, "--rate", 1, "--train", 300, "--json")
-    assert clean.exit_code == 0, clean.output
+    assert clean.exit_code in (0, 1), clean.output
     clean_doc = json.loads(clean.stdout)
     blob = bytearray(gzip.decompress(real.read_bytes()))
     frames = _nav_clock_offsets(bytes(blob))
@@ -169,7 +179,7 @@ def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, real_data):
     corrupt = tmp_path / "corrupt.ubx"
     corrupt.write_bytes(bytes(blob[:cut]))
     result = _invoke(corrupt, "--rate", 1, "--train", 300, "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code in (0, 1), result.output
     doc = json.loads(result.stdout)
     # one epoch lost in the middle (its frame and its grid epoch), one lost at the end (frame only)
     assert doc["n_epochs"] == clean_doc["n_epochs"] - 1
@@ -230,9 +240,10 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     clean = _invoke(clean_obs, *args)
     assert clean.exit_code == 0, clean.output
     faulty = _invoke(obs, *args)
-    assert faulty.exit_code == 0, faulty.output
+    assert faulty.exit_code == 1, faulty.output
     doc = json.loads(faulty.stdout)
     assert set(doc) == KEYS | {"faulty", "untested"} and doc["mode"] == "identification" and doc["n_epochs"] == 120
+    assert doc["state"] == "alarm" and json.loads(clean.stdout)["state"] == "ok"
     assert [f["channel"] for f in doc["faulty"]] == ["G20"] and 80 * 30 <= doc["faulty"][0]["t"] <= 90 * 30
     late = [a for a in doc["alarms"] if a["t"] >= 80 * 30]
     assert late and {a["channel"] for a in late} == {"G20"}
@@ -266,7 +277,7 @@ def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, real_data):
     rtk = real_data / "receivers" / "rinex" / "rtklib"
     obs = tmp_path / "gappy.05o"
     obs.write_text(_drop_rinex2_epochs((rtk / "07590920.05o").read_text(), {50, 51, 90}))
-    result = _invoke(obs, "--rate", 1 / 30, "--nav", rtk / "07590920.05n", "--position",
+    result = _invoke(obs, "--nav", rtk / "07590920.05n", "--position",
                      "-3976219.5082,3382372.5671,3652512.9849", "--train", 1200, "--window", 10, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -279,3 +290,33 @@ def test_a_position_that_is_not_ecef_metres_on_the_earth_is_refused(tmp_path, re
     result = _invoke(rtk / "07590920.05o", "--rate", 1 / 30, "--nav", rtk / "07590920.05n", f"--position={position}",
                      "--train", 1200, "--json")
     assert result.exit_code == 2 and "from the Earth's centre" in result.stderr
+
+
+STATION_0759 = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
+
+
+@pytest.mark.parametrize("offset_m", [1_000.0, 10_000.0])
+def test_a_position_kilometres_off_makes_integrity_unavailable_not_alarms_on_healthy_satellites(real_data, offset_m):
+    # issue 10.2: 1 km and 10 km off gave 80 and 51 alarms blaming healthy satellites
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    east = np.array([-np.sin(np.arctan2(STATION_0759[1], STATION_0759[0])), np.cos(np.arctan2(STATION_0759[1], STATION_0759[0])), 0.0])
+    pos = STATION_0759 + offset_m * east
+    result = _invoke(rtk / "07590920.05o", "--nav", rtk / "07590920.05n", f"--position={','.join(map(str, pos))}",
+                     "--train", 1200, "--window", 10, "--json")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 3 and doc["state"] == "unavailable", result.output
+    assert any("single-point fix" in r for r in doc["unavailable_reasons"])
+    assert doc["faulty"] == [] or doc["state"] == "unavailable"
+
+
+def test_a_navigation_file_of_another_day_tests_nothing_and_says_integrity_unavailable(real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    other_day = real_data / "receivers" / "rinex" / "georinex" / "demo.10n"
+    result = _invoke(rtk / "07590920.05o", "--nav", other_day, "--position", ",".join(map(str, STATION_0759)),
+                     "--train", 1200, "--window", 10, "--json")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 3 and doc["state"] == "unavailable" and doc["n_tested"] == 0, result.output
+    assert any("no channel could be tested" in r for r in doc["unavailable_reasons"])
+    human = _invoke(rtk / "07590920.05o", "--nav", other_day, "--position", ",".join(map(str, STATION_0759)),
+                    "--train", 1200, "--window", 10)
+    assert human.exit_code == 3 and "integrity unavailable" in human.stdout and "no alarm" not in human.stdout

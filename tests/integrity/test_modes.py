@@ -17,10 +17,14 @@ NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
 STATION_0759_M = "-3976219.5082,3382372.5671,3652512.9849"  # the RINEX header's approximate position
 
 
+EXIT = {"ok": 0, "alarm": 1, "unavailable": 3}
+
+
 def _cli_json(*args) -> dict:
     result = CliRunner().invoke(app, ["detect", *map(str, args), "--json"])
-    assert result.exit_code == 0, result.output
-    return json.loads(result.stdout)
+    doc = json.loads(result.stdout)
+    assert result.exit_code == EXIT[doc["state"]], result.output
+    return doc
 
 
 def test_a_csv_gives_the_document_the_command_prints_and_finds_the_step(tmp_path):
@@ -68,7 +72,37 @@ def test_the_noise_model_or_a_training_stretch_is_required_and_options_must_fit_
         detect_file(path, 0.0, train_s=10)
     with pytest.raises(InputDataError, match="b.csv: --nav/--position need a RINEX observation file"):
         detect_file(path, 1.0, train_s=10, position_m=STATION_0759_M)
-    with pytest.raises(InputDataError, match=r"train_s \(--train\) 10 s holds 10 valid epochs"):
-        detect_file(path, 1.0, train_s=10)
+    failed = detect_file(path, 1.0, train_s=10)  # training failed: integrity unavailable, not "no alarm"
+    assert failed["state"] == "unavailable" and failed["alarms"] == [] and failed["noise"] is None
+    assert "train_s (--train) 10 s holds 10 valid epochs" in failed["unavailable_reasons"][0]
     with pytest.raises(InputDataError, match="07590920.05n: this is a RINEX navigation file"):
         detect_file(real_data / "receivers/rinex/rtklib/07590920.05n", 1 / 30, train_s=1200)
+
+
+def test_a_file_with_a_time_column_needs_no_rate_and_a_rounded_rate_is_not_refused(tmp_path):
+    # issue 10.7: 300 s data with --rate 0.003333 was refused; the time column gives the interval
+    x = simulate_clock_bias(NOISE, interval_s=300.0, steps=200, trials=1, seed=5).measured_s[0]
+    path = tmp_path / "b.csv"
+    path.write_text("t_s,clock_bias_s\n" + "".join(f"{300 * k},{float(v)!r}\n" for k, v in enumerate(x)))
+    model = dict(h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m)
+    plain = detect_file(path, **model)
+    assert plain["interval_s"] == 300.0 and plain["n_epochs"] == 200
+    assert detect_file(path, 0.003333, **model) == plain
+
+
+def test_millisecond_clock_resets_are_clock_events_not_alarms_and_detection_goes_on(tmp_path):
+    # a free-running receiver clock (drift 2e-7) reset by 1 ms whenever it leaves +-0.5 ms, as the IGS
+    # stations MANA, URUM and TIXJ do; a 100 ns step at 1500 s must still be found
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=3000, trials=1, seed=8).measured_s[0] + 2e-7 * np.arange(3000)
+    steered = x - 1e-3 * np.floor((x + 5e-4) / 1e-3)
+    resets = np.flatnonzero(np.diff(np.floor((x + 5e-4) / 1e-3))) + 1
+    assert resets.size >= 1
+    steered = inject(steered, Anomaly("step", 1500.0, offset_s=1e-7), 1.0)
+    path = tmp_path / "steered.csv"
+    path.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{float(v)!r}\n" for k, v in enumerate(steered)))
+    doc = detect_file(path, h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m)
+    assert [e["t"] for e in doc["clock_events"]] == [float(k) for k in resets]
+    assert all(e["size_s"] == -1e-3 for e in doc["clock_events"])
+    alarms = [a["t"] for a in doc["alarms"]]
+    assert any(1500 <= t <= 1502 for t in alarms)
+    assert not set(alarms) & {float(k) for k in resets} and doc["state"] == "alarm"
