@@ -116,7 +116,8 @@ def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path)
     doc = json.loads(result.stdout)
     times = [a["t"] for a in doc["alarms"]]
     assert min(times) >= 4000 and doc["n_training"] == 4000  # the training stretch is not tested
-    assert set(doc["noise"]) == {"h0", "hm2", "sigma_rho_m"} and all(v >= 0 for v in doc["noise"].values())
+    assert set(doc["noise"]) == {"h0", "hm2", "sigma_rho_m", "inflation"} and all(v >= 0 for v in doc["noise"].values())
+    assert 1.0 < doc["noise"]["inflation"] < 1.1  # 3998 training differences: a few per cent
     assert any(5000 <= ti <= 5002 for ti in times)
     assert sum(ti < 5000 for ti in times) <= 15
 
@@ -198,9 +199,9 @@ def test_rinex_input_needs_nav_and_position_and_a_nav_file_is_not_observations(r
     _one_line_error(_invoke(rtk / "07590920.05n", "--rate", 1 / 30, *MODEL), "navigation file")
 
 
-def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch2: float) -> str:
-    """Add a quadratic drag-off (metres) to the C1 and P2 pseudoranges of ``sat`` in a RINEX 2.10 obs file
-    with 4 observation types (one line per satellite), from epoch ``onset`` on."""
+def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch2: float, fields=(1, 3)) -> str:
+    """Add a quadratic drag-off (metres) to the pseudoranges of ``sat`` in a RINEX 2.10 obs file with 4
+    observation types (one line per satellite; ``fields`` 1 = C1, 3 = P2), from epoch ``onset`` on."""
     lines = text.splitlines()
     k = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
     epoch = 0
@@ -220,7 +221,7 @@ def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch
             if name == sat and epoch >= onset:
                 row = lines[k + j].ljust(64)
                 extra = 0.5 * metres_per_epoch2 * (epoch - onset) ** 2
-                for field in (1, 3):
+                for field in fields:
                     value = float(row[16 * field : 16 * field + 14]) + extra
                     row = row[: 16 * field] + f"{value:14.3f}" + row[16 * field + 14 :]
                 lines[k + j] = row.rstrip()
@@ -242,15 +243,18 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     faulty = _invoke(obs, *args)
     assert faulty.exit_code == 1, faulty.output
     doc = json.loads(faulty.stdout)
-    assert set(doc) == KEYS | {"faulty", "untested"} and doc["mode"] == "identification" and doc["n_epochs"] == 120
+    assert set(doc) == KEYS | {"faulty", "untested", "codes"} and doc["mode"] == "identification"
+    assert doc["n_epochs"] == 120 and doc["codes"] == ["C1", "P2"]
     assert doc["state"] == "alarm" and json.loads(clean.stdout)["state"] == "ok"
-    assert [f["channel"] for f in doc["faulty"]] == ["G20"] and 80 * 30 <= doc["faulty"][0]["t"] <= 90 * 30
+    # the drag is on both code observables: each is named, alone, after the onset
+    assert sorted(f["channel"] for f in doc["faulty"]) == ["G20 C1", "G20 P2"]
+    assert all(80 * 30 <= f["t"] <= 90 * 30 for f in doc["faulty"])
     late = [a for a in doc["alarms"] if a["t"] >= 80 * 30]
-    assert late and {a["channel"] for a in late} == {"G20"}
+    assert late and {a["channel"] for a in late} == {"G20 C1", "G20 P2"}
     assert late[0]["t"] <= 90 * 30  # found within ten 30 s epochs of the onset
-    assert "G08" in json.loads(clean.stdout)["untested"]  # 36 epochs above the 15 deg mask: fewer than train
+    assert "G08 C1" in json.loads(clean.stdout)["untested"]  # 36 epochs above the 15 deg mask: fewer than train
     before = {a["channel"] for a in json.loads(clean.stdout)["alarms"] if a["t"] >= 80 * 30}
-    assert "G20" not in before
+    assert not before & {"G20 C1", "G20 P2"}
 
 
 def _drop_rinex2_epochs(text: str, drop: set[int]) -> str:
@@ -320,3 +324,49 @@ def test_a_navigation_file_of_another_day_tests_nothing_and_says_integrity_unava
     human = _invoke(rtk / "07590920.05o", "--nav", other_day, "--position", ",".join(map(str, STATION_0759)),
                     "--train", 1200, "--window", 10)
     assert human.exit_code == 3 and "integrity unavailable" in human.stdout and "no alarm" not in human.stdout
+
+
+def test_a_fault_on_p2_alone_is_named_on_p2(tmp_path, real_data):
+    # issue 10.7: identification used only C1, so a fault on P2 was invisible
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    text = (rtk / "30400920.05o").read_text()
+    obs = tmp_path / "30400920.05o"
+    obs.write_text(_inject_rinex2_pseudorange(text, "G11", 60, 1.0, fields=(3,)))
+    result = _invoke(obs, "--nav", rtk / "30400920.05n", "--position", _header_position(text), "--train", 1200,
+                     "--window", 10, "--json")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 1, result.output
+    assert [f["channel"] for f in doc["faulty"]] == ["G11 P2"] and doc["faulty"][0]["t"] >= 60 * 30
+
+
+def _header_position(text: str) -> str:
+    line = next(line for line in text.splitlines() if "APPROX POSITION XYZ" in line)
+    return ",".join(line[:42].split())
+
+
+def test_a_rinex_file_whose_last_epoch_is_cut_keeps_the_good_epochs(tmp_path, real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    text = (rtk / "07590920.05o").read_text()
+    cut = tmp_path / "07590920.05o"
+    cut.write_text(text[: len(text) - 120])  # a recording stopped in the middle of the last epoch's data
+    result = _invoke(cut, "--nav", rtk / "07590920.05n", "--position", ",".join(map(str, STATION_0759)),
+                     "--train", 1200, "--window", 10, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["n_epochs"] >= 118 and doc["state"] == "ok"
+
+
+def test_a_glonass_only_file_says_that_gps_is_missing(tmp_path, real_data):
+    from chronofuse.io.rinex import _RINEX2_EPOCH
+
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    lines, body = [], False
+    for line in (rtk / "07590920.05o").read_text().splitlines():
+        if body and _RINEX2_EPOCH.match(line):
+            line = line[:32] + line[32:68].replace("G", "R") + line[68:]
+        body = body or "END OF HEADER" in line
+        lines.append(line)
+    glo = tmp_path / "glonass.05o"
+    glo.write_text("\n".join(lines) + "\n")
+    _one_line_error(_invoke(glo, "--nav", rtk / "07590920.05n", "--position", ",".join(map(str, STATION_0759)),
+                            "--train", 1200, "--json"), "glonass.05o", "it holds GLONASS", "GPS pseudoranges")

@@ -31,7 +31,9 @@ for CSV, GPS time of week for UBX, since the first epoch for RINEX); ``t`` is th
 reading.
 
 Noise parameters: ``h0``, ``hm2`` and ``sigma_rho_m`` together fix the model; ``train_s`` estimates the
-missing ones; the fitted values are reported in ``noise``. ``n_skipped`` counts missing epochs and corrupt
+missing ones, with the covariance scaled so that P_fa stays at or below nominal in
+:data:`TRAINING_CONFIDENCE` of trainings (``inflation``); the fitted values are reported in ``noise``
+and can be given back as ``h0``/``hm2``/``sigma_rho_m`` on the next run. ``n_skipped`` counts missing epochs and corrupt
 frames.
 
 Errors name the command-line option beside the parameter (``train_s (--train)``) so the one message serves
@@ -81,6 +83,10 @@ def parse_position(position) -> np.ndarray:
 
 #: Exit status of ``chronofuse detect`` for each overall state (2 is bad input, :mod:`chronofuse.cli.common`).
 EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}
+
+#: With ``train_s``, the detectors keep P_fa at or below nominal in this share of trainings (the
+#: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`; issue 10.4).
+TRAINING_CONFIDENCE = 0.9
 
 #: Fewest channels with a verdict for an identification epoch to be tested (three for the others' clock).
 MIN_TESTED_CHANNELS = 4
@@ -186,7 +192,8 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
 
 
 def _noise(det: HodDetector) -> dict:
-    return {"h0": float(det.h0_), "hm2": float(det.hm2_), "sigma_rho_m": float(det.sigma_rho_m_)}
+    return {"h0": float(det.h0_), "hm2": float(det.hm2_), "sigma_rho_m": float(det.sigma_rho_m_),
+            "inflation": float(det.inflation_)}
 
 
 def _availability(state: str, reasons: list[str], t_ns, per_epoch, states, n_train: int) -> dict:
@@ -199,60 +206,72 @@ def _availability(state: str, reasons: list[str], t_ns, per_epoch, states, n_tra
     }
 
 
-def position_offsets_m(obs_path, nav_path, position_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(epoch tags (int64 GPS ns), offsets (m))``: per epoch, the median over the epochs so far (causal) of the distance (m) between the data's own
-    single-point fix (:func:`chronofuse.gnss.spp.single_point_position`) and ``position_m`` (NaN: no fix yet)."""
+def position_offsets_m(obs, nav, position_m: np.ndarray) -> np.ndarray:
+    """Per epoch of ``obs`` (:class:`chronofuse.io.rinex.GpsObservations`), the median over the epochs so far
+    (causal) of the distance (m) between the data's own single-point fix
+    (:func:`chronofuse.gnss.spp.single_point_position`) and ``position_m`` (NaN: no fix yet)."""
     from chronofuse.gnss.spp import single_point_position
-    from chronofuse.io.rinex import read_gps_navigation, read_gps_observations
 
-    obs = read_gps_observations(obs_path)
-    pos, _, _ = single_point_position(obs, read_gps_navigation(nav_path))
+    pos, _, _ = single_point_position(obs, nav)
     dist = np.linalg.norm(pos - position_m[None, :], axis=1)
     out = np.full(dist.size, np.nan)
     for k in range(dist.size):
         seen = dist[: k + 1][np.isfinite(dist[: k + 1])]
         if seen.size:
             out[k] = float(np.median(seen))
-    return obs.gps_ns, out
+    return out
 
 
 def identification_document(obs: str | Path, nav: str | Path, position_m, detector: HodDetector,
                             train_s: float | None = None) -> dict:
     """Identification mode on a RINEX observation file with its navigation file and antenna position.
 
-    Returns the document of :func:`detect_file` with ``faulty`` (channels named, with the time each was
-    named, latched to the end), ``untested`` (channels never tested) and the states of the module docstring.
+    Every code observable of the file is tested (issue 10.7: a fault on P2 was invisible when only C1
+    was): with one code, channels are named by satellite (``G20``); with several, by satellite and code
+    (``G20 C1``, ``G20 P2``). Per epoch, the state is ``ok`` when at least :data:`MIN_TESTED_CHANNELS`
+    channels of the L1 code (the one a position/time solution uses) are tested and the position check
+    passes, ``alarm`` from the epoch a channel of any code is named (latched). Returns the document of
+    :func:`detect_file` with ``faulty`` (channels named, with the time each was named), ``untested``
+    (channels never tested), ``codes`` and the states of the module docstring.
     """
     # imported here: the RINEX stack (georinex, xarray) takes a second to import, detection mode needs none of it
     from chronofuse.integrity.identification import identify
-    from chronofuse.io.rinex import channel_clock_biases
+    from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 
     position = parse_position(position_m)
-    biases = channel_clock_biases(obs, nav, position)
-    interval_s = float(biases.interval_s)
-    detector.interval_s = interval_s  # the file's own interval (issue 10.7)
-    n_epochs = int(np.asarray(biases.t_s).size)
-    _check_length(n_epochs, detector.window, str(obs))
-    options = {}
-    n_train = 0
-    if train_s is not None:
-        # each channel's noise fitted on its own first valid epochs of the training length
-        options["train_epochs"] = max(3, int(round(train_s / interval_s)))
-        n_train = min(options["train_epochs"], n_epochs)
-    result = identify(biases, detector, **options)
+    observations = read_gps_observations(obs)
+    navigation = read_gps_navigation(nav)
+    codes = observations.codes
+    runs = []
+    for code in codes:
+        biases = channel_clock_biases(obs, nav, position, code=code, observations=observations, navigation=navigation)
+        if not runs:
+            interval_s = float(biases.interval_s)
+            detector.interval_s = interval_s  # the file's own interval (issue 10.7)
+            n_epochs = int(np.asarray(biases.t_s).size)
+            _check_length(n_epochs, detector.window, str(obs))
+            options = {}
+            n_train = 0
+            if train_s is not None:
+                # each channel's noise fitted on its own first valid epochs of the training length
+                options["train_epochs"] = max(3, int(round(train_s / interval_s)))
+                n_train = min(options["train_epochs"], n_epochs)
+        runs.append((code, identify(biases, detector, **options), biases))
+    label = (lambda sat, code: sat) if len(codes) == 1 else (lambda sat, code: f"{sat} {code}")
     step_ns = int(round(interval_s * 1e9))
     t_ns = np.arange(n_epochs, dtype=np.int64) * step_ns
-    tag_ns, offsets = position_offsets_m(obs, nav, position)
-    slots = np.round((tag_ns - tag_ns[0]) / step_ns).astype(np.int64)
+    offsets = position_offsets_m(observations, navigation, position)
+    slots = np.round((observations.gps_ns - observations.gps_ns[0]) / step_ns).astype(np.int64)
     offset_at = np.full(n_epochs, np.nan)
     offset_at[np.clip(slots, 0, n_epochs - 1)] = offsets
     offset_at = _forward_fill(offset_at)
     far = offset_at > POSITION_TOLERANCE_M
-    tested = result.tested.sum(axis=1)
-    latched = result.faulty_mask.any(axis=1)
+    tested = runs[0][1].tested.sum(axis=1)
+    latched = np.zeros(n_epochs, dtype=bool)
+    for _, result, _ in runs:
+        latched |= result.faulty_mask.any(axis=1)
     states = np.full(n_epochs, "unavailable", dtype=object)
-    ok = (tested >= MIN_TESTED_CHANNELS) & ~far
-    states[ok] = "ok"
+    states[(tested >= MIN_TESTED_CHANNELS) & ~far] = "ok"
     states[latched] = "alarm"
     per_epoch = np.full(n_epochs, "", dtype=object)
     per_epoch[tested < MIN_TESTED_CHANNELS] = f"fewer than {MIN_TESTED_CHANNELS} channels tested"
@@ -262,17 +281,24 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     if np.isfinite(offset_at).any() and np.nanmax(offset_at) > POSITION_TOLERANCE_M:
         reasons.append(f"the position given is {np.nanmax(offset_at):.0f} m from the data's own single-point fix "
                        f"(tolerance {POSITION_TOLERANCE_M:g} m)")
-    if result.untested == result.satellites:
+    if runs[0][1].untested == runs[0][1].satellites:
         reasons.append("no channel could be tested (too few epochs above the elevation mask, or no ephemeris "
                        "for these epochs in the navigation file)")
     state = overall_state(states, n_train, reasons)
-    alarms = [{"t_ns": int(t_ns[a["epoch"]]), "t": t_ns[a["epoch"]] / 1e9, "statistic": a["statistic"],
-               "channel": a["channel"]} for a in result.alarms]
-    doc = _document("identification", n_epochs, detector, alarms, int(result.n_skipped_epochs))
+    alarms, faulty, untested = [], [], []
+    for code, result, _ in runs:
+        alarms += [{"t_ns": int(t_ns[a["epoch"]]), "t": t_ns[a["epoch"]] / 1e9, "statistic": a["statistic"],
+                    "channel": label(a["channel"], code)} for a in result.alarms]
+        faulty += [{"channel": label(ch, code), "t_ns": int(t_ns[result.blamed_at[result.satellites.index(ch)]]),
+                    "t": t_ns[result.blamed_at[result.satellites.index(ch)]] / 1e9} for ch in result.faulty]
+        untested += [label(ch, code) for ch in result.untested]
+    alarms.sort(key=lambda a: (a["t_ns"], a["channel"]))
+    faulty.sort(key=lambda f: (f["t_ns"], f["channel"]))
+    doc = _document("identification", n_epochs, detector, alarms, int(runs[0][1].n_skipped_epochs))
     doc.update(_availability(state, reasons, t_ns, per_epoch, states, n_train))
-    doc["faulty"] = [{"channel": ch, "t_ns": int(t_ns[result.blamed_at[result.satellites.index(ch)]]),
-                      "t": t_ns[result.blamed_at[result.satellites.index(ch)]] / 1e9} for ch in result.faulty]
-    doc["untested"] = result.untested
+    doc["faulty"] = faulty
+    doc["untested"] = untested
+    doc["codes"] = codes
     doc["interval_s"] = interval_s
     return doc
 
@@ -345,7 +371,8 @@ def detect_file(
     kind = sniff_format(path)
     if kind == "rinex-nav":
         raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
-    params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m)
+    params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                  confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     if kind == "rinex-obs":
         if nav is None or position_m is None:
             raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
