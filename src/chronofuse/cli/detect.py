@@ -15,7 +15,7 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, user_errors
-from chronofuse.integrity.modes import EXIT_CODES, detect_file
+from chronofuse.integrity.modes import EXIT_CODES, detect_file, read_noise_file
 
 _MAX_TABLE_ROWS = 50
 
@@ -25,7 +25,7 @@ def register(app: typer.Typer) -> None:
 
 
 def detect(
-    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK) or RINEX observation file."),
+    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file or RINEX clock product (.clk); - with --json-lines: standard input."),
     rate: float | None = typer.Option(None, "--rate", help="Sampling rate (Hz) of a file without a time column."),
     column: str | None = typer.Option(None, "--column", help="CSV clock-bias column (name)."),
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
@@ -37,7 +37,9 @@ def detect(
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
     nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode)."),
     station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
+    noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
 ) -> None:
     """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
 
@@ -52,8 +54,17 @@ def detect(
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     if train is not None and train <= 0:
         fail(f"--train {train:g}: must be > 0 seconds")
+    if noise is not None:
+        with user_errors():
+            model = read_noise_file(noise)
+        h0 = model["h0"] if h0 is None else h0
+        hm2 = model["hm2"] if hm2 is None else hm2
+        sigma_rho = model["sigma_rho_m"] if sigma_rho is None else sigma_rho
     if train is None and None in (h0, hm2, sigma_rho):
         fail("give the noise model (--h0, --hm2 and --sigma-rho) or a training stretch (--train SECONDS)")
+    if json_lines:
+        _stream(file, rate_hz=rate, column=column, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho,
+                train_s=train)
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                           window=window, pfa=pfa, position_m=position, nav=nav, station=station)
@@ -62,6 +73,28 @@ def detect(
     else:
         _print_human(file, doc)
     raise typer.Exit(EXIT_CODES[doc["state"]])
+
+
+def _stream(file: Path, **options) -> None:
+    """``--json-lines``: one JSON line per epoch, flushed as it is decided; exit status from all epochs."""
+    import json
+    import sys
+
+    from chronofuse.integrity.live import stream_verdicts
+
+    states = set()
+    with user_errors():
+        source = sys.stdin if str(file) == "-" else open(file, encoding="utf-8", errors="replace")  # noqa: SIM115
+        try:
+            for verdict in stream_verdicts(source, **options):
+                states.add(verdict.state)
+                sys.stdout.write(json.dumps(verdict.as_json()) + "\n")
+                sys.stdout.flush()
+        finally:
+            if source is not sys.stdin:
+                source.close()
+    state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
+    raise typer.Exit(EXIT_CODES[state])
 
 
 def _print_stations(file: Path, doc: dict) -> None:

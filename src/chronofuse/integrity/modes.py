@@ -100,6 +100,24 @@ MIN_TESTED_FRACTION = 0.5
 POSITION_TOLERANCE_M = 50.0
 
 
+def read_noise_file(path: str | Path) -> dict:
+    """``{"h0", "hm2", "sigma_rho_m"}`` from a JSON file: a ``detect --json`` document (its ``noise``) or the
+    three numbers at the top level, so a model trained once is used on the next run (issue 10.4).
+    Raises :class:`InputDataError` naming the file when they are not there."""
+    import json
+
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as err:
+        raise InputDataError(f"cannot read a noise model from it: {err}", str(path)) from None
+    model = doc.get("noise", doc) if isinstance(doc, dict) else None
+    try:
+        return {name: float(model[name]) for name in ("h0", "hm2", "sigma_rho_m")}
+    except (TypeError, KeyError, ValueError):
+        raise InputDataError("expected a JSON object with h0, hm2 and sigma_rho_m (or a detect --json document "
+                             "with its noise)", str(path)) from None
+
+
 def _check_length(n_epochs: int, window: int, source: str) -> None:
     if n_epochs - 2 < window:
         raise InputDataError(f"window {window} is longer than the data: {n_epochs} epochs give {max(n_epochs - 2, 0)} "
