@@ -106,3 +106,31 @@ def test_millisecond_clock_resets_are_clock_events_not_alarms_and_detection_goes
     alarms = [a["t"] for a in doc["alarms"]]
     assert any(1500 <= t <= 1502 for t in alarms)
     assert not set(alarms) & {float(k) for k in resets} and doc["state"] == "alarm"
+
+
+def test_a_short_or_non_stationary_training_stretch_is_warned_about_and_the_model_can_be_given_back(tmp_path):
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=2000, trials=1, seed=9).measured_s[0]
+    path = tmp_path / "b.csv"
+    path.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{float(v)!r}\n" for k, v in enumerate(x)))
+    short = detect_file(path, train_s=60)
+    assert any(w.startswith("short training") for w in short["warnings"])
+    long = detect_file(path, train_s=1000)
+    assert long["warnings"] == []
+    noisy = x + np.where(np.arange(2000) >= 500, 1.0, 0.0) * np.random.default_rng(2).normal(0, 2e-8, 2000)
+    path.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{float(v)!r}\n" for k, v in enumerate(noisy)))
+    changed = detect_file(path, train_s=1000)
+    assert any(w.startswith("training not stationary") for w in changed["warnings"])
+    # the fitted parameters, written out, give the same verdicts on the next run without training
+    model = tmp_path / "noise.json"
+    model.write_text(json.dumps(long))
+    result = CliRunner().invoke(app, ["detect", str(path), "--noise", str(model), "--json"])
+    again = json.loads(result.stdout)
+    assert again["noise"]["h0"] == long["noise"]["h0"] and again["noise"]["sigma_rho_m"] == long["noise"]["sigma_rho_m"]
+
+
+def test_the_stationarity_screen_stays_quiet_on_stationary_simulated_training():
+    from chronofuse.integrity.modes import training_warnings
+
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=1000, trials=200, seed=11).measured_s
+    flagged = sum(any(w.startswith("training not") for w in training_warnings(np.diff(r, 2))) for r in x)
+    assert flagged <= 2  # two-sided 0.1 % screen: 0.2 expected of 200 (measured: 0)

@@ -119,6 +119,8 @@ def _print_human(file: Path, doc: dict) -> None:
     if doc.get("noise"):
         noise = doc["noise"]
         con.print(f"noise model: h0 {noise['h0']:.3e} s, h-2 {noise['hm2']:.3e} /s, sigma_rho {noise['sigma_rho_m']:.3g} m")
+    for warning in doc.get("warnings", []):
+        con.print(f"[yellow]warning[/yellow]: {warning}")
     if doc.get("untested"):
         con.print(f"not tested: {', '.join(doc['untested'])}")
     for event in doc.get("clock_events", []):

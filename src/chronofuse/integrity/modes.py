@@ -21,7 +21,7 @@ latched); ``unavailable``: integrity could not be tested: an epoch with no test 
 of the difference chain after a gap, training, fewer than :data:`MIN_TESTED_CHANNELS` channels tested,
 the position check failed). Overall the record is ``unavailable`` when training failed, the position is
 off (the single-point fix of the data is farther than :data:`POSITION_TOLERANCE_M` from the position
-given), or fewer than :data:`MIN_TESTED_FRACTION` of the epochs after training were tested; else
+given), or fewer than :data:`MIN_TESTED_FRACTION` of the epochs with data after training were tested; else
 ``alarm`` when any epoch alarmed, else ``ok``. The reasons are listed in ``unavailable_reasons``, the
 untested stretches in ``unavailable`` (``from_ns``/``to_ns``/``reason``). :data:`EXIT_CODES` maps the
 overall state to the command's exit status: 0 ok, 1 alarm, 3 unavailable (2 is bad input).
@@ -99,6 +99,37 @@ MIN_TESTED_FRACTION = 0.5
 #: epoch; 1 km off makes healthy channels alarm (issue 10).
 POSITION_TOLERANCE_M = 50.0
 
+#: Fewer training differences than this: a warning (the P_fa margin is then large, see ``noise.inflation``).
+SHORT_TRAINING_DIFFERENCES = 100
+
+
+def training_warnings(df: np.ndarray) -> list[str]:
+    """Warnings on a training stretch's second differences ``df`` (NaN = missing): too short
+    (< :data:`SHORT_TRAINING_DIFFERENCES`), or not stationary: the mean squares of its two halves differ
+    beyond the two-sided 0.1 % F test, its degrees of freedom ``m / (1 + 2 (rho1^2 + rho2^2))`` for the
+    MA(2) differences (Bartlett's variance of a mean square of a correlated series; a screen, not an
+    exact test)."""
+    from scipy import stats
+
+    d = df[np.isfinite(df)]
+    out = []
+    if d.size < SHORT_TRAINING_DIFFERENCES:
+        out.append(f"short training: {d.size} differences (< {SHORT_TRAINING_DIFFERENCES}); the threshold's "
+                   "margin for the noise estimate is large")
+    half = d.size // 2
+    if half >= 8:
+        a, b = d[:half], d[half:]
+        ratio = float(np.mean(a**2) / np.mean(b**2))
+        # MA(2): a mean square of m differences has the variance of m / (1 + 2 (rho1^2 + rho2^2)) independent ones
+        r0 = float(np.mean(d**2))
+        rho = [float(np.mean(d[k:] * d[:-k])) / r0 for k in (1, 2)]
+        shrink = 1.0 + 2.0 * (rho[0] ** 2 + rho[1] ** 2)
+        lo, hi = stats.f.ppf([0.0005, 0.9995], a.size / shrink, b.size / shrink)
+        if not lo <= ratio <= hi:
+            out.append(f"training not stationary: the second half's difference variance is {1 / ratio:.3g} times "
+                       "the first half's")
+    return out
+
 
 def read_noise_file(path: str | Path) -> dict:
     """``{"h0", "hm2", "sigma_rho_m"}`` from a JSON file: a ``detect --json`` document (its ``noise``) or the
@@ -141,12 +172,19 @@ def _intervals(t_ns: np.ndarray, reasons: np.ndarray) -> list[dict]:
     return out
 
 
-def overall_state(states: np.ndarray, training: int, reasons: list[str]) -> str:
-    """The record's state from its per-epoch ``states`` (module docstring); appends to ``reasons``."""
+def overall_state(states: np.ndarray, training: int, reasons: list[str], present=None) -> str:
+    """The record's state from its per-epoch ``states`` (module docstring); appends to ``reasons``.
+
+    ``present`` (bool per epoch): epochs with data; the share tested is counted over those after training,
+    so a long gap (missing epochs, reported in ``unavailable``) does not make the rest of the record
+    unavailable (issue 10.7: a 1 h 45 min gap made a whole GRG clock file unusable)."""
     after = states[training:]
+    if present is not None:
+        after = after[np.asarray(present, dtype=bool)[training:]]
     tested = int(np.isin(after, ("ok", "alarm")).sum())
     if after.size == 0 or tested < MIN_TESTED_FRACTION * after.size:
-        reasons.append(f"{tested} of {after.size} epochs after training tested (need {MIN_TESTED_FRACTION:.0%})")
+        reasons.append(f"{tested} of {after.size} epochs with data after training tested "
+                       f"(need {MIN_TESTED_FRACTION:.0%})")
     if reasons:
         return "unavailable"
     return "alarm" if (states == "alarm").any() else "ok"
@@ -167,6 +205,7 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
     x = steering.repaired_s
     n_train = _training_rows(data.t_s, train_s)
     reasons: list[str] = []
+    warnings: list[str] = []
     fitted = True
     if train_s is not None:
         training = x[:n_train]
@@ -178,6 +217,7 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         else:
             try:
                 detector.fit(training)
+                warnings.extend(training_warnings(np.diff(training, 2) / detector.interval_s))
             except ValueError as err:
                 reasons.append(f"training failed: {err}")
                 fitted = False
@@ -199,13 +239,14 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
                   for k in np.flatnonzero(alarm)]
     else:
         per_epoch[:] = "training failed"
-    state = overall_state(states, n_train, reasons)
+    state = overall_state(states, n_train, reasons, present=np.isfinite(x))
     doc = _document("detection", n, detector, alarms, data.n_skipped)
     doc.update(_availability(state, reasons, t_ns, per_epoch, states, n_train))
     doc["clock_events"] = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "size_s": float(size), "kind": "clock reset"}
                            for k, size in zip(steering.event_epochs, steering.event_size_s)]
     doc["interval_s"] = float(detector.interval_s)
     doc["noise"] = _noise(detector) if fitted else None
+    doc["warnings"] = warnings
     return doc
 
 
@@ -302,7 +343,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     if runs[0][1].untested == runs[0][1].satellites:
         reasons.append("no channel could be tested (too few epochs above the elevation mask, or no ephemeris "
                        "for these epochs in the navigation file)")
-    state = overall_state(states, n_train, reasons)
+    state = overall_state(states, n_train, reasons, present=np.isfinite(runs[0][2].bias_s).any(axis=1))
     alarms, faulty, untested = [], [], []
     for code, result, _ in runs:
         alarms += [{"t_ns": int(t_ns[a["epoch"]]), "t": t_ns[a["epoch"]] / 1e9, "statistic": a["statistic"],
@@ -376,7 +417,8 @@ def detect_file(
         in :data:`EXIT_CODES`), ``unavailable_reasons``, ``unavailable`` (untested stretches), ``n_epochs``,
         ``n_tested``, ``n_training``, ``interval_s``, ``threshold`` (for a full window), ``window``, ``pfa``,
         ``alarms`` (each ``{"t_ns", "t", "statistic", "channel"}``), ``n_alarms``, ``n_skipped``; detection
-        adds ``clock_events`` (each ``{"t_ns", "t", "size_s", "kind"}``) and ``noise`` (the model used);
+        adds ``clock_events`` (each ``{"t_ns", "t", "size_s", "kind"}``), ``noise`` (the model used) and
+        ``warnings`` (:func:`training_warnings`);
         identification adds ``faulty`` and ``untested``; a clock product without ``station`` gives
         :func:`clock_product_document`.
     """
@@ -436,7 +478,7 @@ def clock_product_document(clocks, params: dict, train_s: float | None = None) -
         else:
             row.update(state=doc["state"], n_tested=doc["n_tested"], n_alarms=doc["n_alarms"],
                        clock_events=doc["clock_events"], unavailable_reasons=doc["unavailable_reasons"],
-                       noise=doc["noise"])
+                       noise=doc["noise"], warnings=doc["warnings"])
         rows.append(row)
     states = {r["state"] for r in rows}
     state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
