@@ -38,11 +38,15 @@ from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
 from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.clock_events import repair_clock_steering
+from chronofuse.integrity.live import stream_verdicts
 from chronofuse.integrity.modes import detect_file
+from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
+from chronofuse.io.rinex_clock import read_station_clocks
 from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.noise import power_law_noise
@@ -123,6 +127,11 @@ __all__ = [
     "channel_clock_biases",
     "identify",
     "detect_file",
+    "StreamingMonitor",
+    "EpochVerdict",
+    "stream_verdicts",
+    "repair_clock_steering",
+    "read_station_clocks",
     # experiments
     "Scenario",
     "load_scenario",
