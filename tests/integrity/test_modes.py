@@ -134,3 +134,13 @@ def test_the_stationarity_screen_stays_quiet_on_stationary_simulated_training():
     x = simulate_clock_bias(NOISE, interval_s=1.0, steps=1000, trials=200, seed=11).measured_s
     flagged = sum(any(w.startswith("training not") for w in training_warnings(np.diff(r, 2))) for r in x)
     assert flagged <= 2  # two-sided 0.1 % screen: 0.2 expected of 200 (measured: 0)
+
+
+def test_the_gr701w_coasting_without_a_fix_is_unavailable_not_healthy(real_data):
+    # issue 10.5: the Navisys GR-701W kept reporting a clock bias after losing its fix (NAV-SOL gpsfixOK = 0)
+    doc = detect_file(real_data / "receivers/gpsd/navisys-gr701w.log", h0=2e-18, hm2=1e-22, sigma_rho_m=1.0,
+                      window=5)
+    coasting = [u for u in doc["unavailable"] if u["reason"] == "receiver status: no valid fix"]
+    assert doc["n_no_fix"] == 29 and len(coasting) == 1
+    assert (coasting[0]["to_ns"] - coasting[0]["from_ns"]) // 10**9 == 28
+    assert not [a for a in doc["alarms"] if coasting[0]["from_ns"] <= a["t_ns"] <= coasting[0]["to_ns"]]

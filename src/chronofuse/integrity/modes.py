@@ -18,7 +18,8 @@ Causal verdicts. Each epoch's verdict uses that epoch and earlier ones only: wit
 States (per epoch and overall, the ``state`` of the document). ``ok``: tested, no fault; ``alarm``: the
 statistic is over its threshold (detection) or a channel is named faulty and stays so (identification,
 latched); ``unavailable``: integrity could not be tested: an epoch with no test (missing data, start-up
-of the difference chain after a gap, training, fewer than :data:`MIN_TESTED_CHANNELS` channels tested,
+of the difference chain after a gap, training, the receiver reporting no valid fix (UBX NAV-SOL/PVT/STATUS),
+fewer than :data:`MIN_TESTED_CHANNELS` channels tested,
 the position check failed). Overall the record is ``unavailable`` when training failed, the position is
 off (the single-point fix of the data is farther than :data:`POSITION_TOLERANCE_M` from the position
 given), or fewer than :data:`MIN_TESTED_FRACTION` of the epochs with data after training were tested; else
@@ -201,7 +202,8 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
 
     _check_length(data.bias_s.size, detector.window, data.source)
     t_ns = data.t_ns
-    steering = repair_clock_steering(data.bias_s)
+    bad_status = np.zeros(data.bias_s.size, bool) if data.receiver_ok is None else ~np.asarray(data.receiver_ok)
+    steering = repair_clock_steering(np.where(bad_status, np.nan, data.bias_s))
     x = steering.repaired_s
     n_train = _training_rows(data.t_s, train_s)
     reasons: list[str] = []
@@ -235,6 +237,7 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         states[tested] = "ok"
         states[alarm] = "alarm"
         per_epoch[~tested & (np.arange(n) >= n_train)] = "no test (missing epoch or difference chain restarting)"
+        per_epoch[bad_status & (np.arange(n) >= n_train)] = "receiver status: no valid fix"
         alarms = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "statistic": float(res.statistic[k]), "channel": None}
                   for k in np.flatnonzero(alarm)]
     else:
@@ -247,6 +250,7 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
     doc["interval_s"] = float(detector.interval_s)
     doc["noise"] = _noise(detector) if fitted else None
     doc["warnings"] = warnings
+    doc["n_no_fix"] = int(bad_status.sum())
     return doc
 
 

@@ -47,6 +47,9 @@ class ClockBiasInput:
         The file read.
     interval_s : float
         Sampling interval (s): from the time column when the file has one, else ``1 / rate_hz``.
+    receiver_ok : ndarray of bool, shape (epochs,), or None
+        The receiver's own status per epoch (UBX: a valid fix, :attr:`chronofuse.io.ubx.NavClockRecord.fix_ok`);
+        None when the file carries none.
     """
 
     bias_s: np.ndarray
@@ -54,6 +57,7 @@ class ClockBiasInput:
     n_skipped: int
     source: str = ""
     interval_s: float = float("nan")
+    receiver_ok: np.ndarray | None = None
 
     @property
     def t_ns(self) -> np.ndarray:
@@ -108,8 +112,12 @@ def read_ubx_bias(path: str | Path, rate_hz: float | None = None) -> ClockBiasIn
                                    rec.source, tolerance=UBX_TIME_TOLERANCE)
     t_s = float(rec.itow_ms[0]) / 1000.0 + t_rel_s
     n_missing = int(np.isnan(bias_s).sum())
+    ok = None
+    if rec.fix_ok is not None:
+        _, ok_grid = regular_grid(t, rec.fix_ok.astype(np.float64), interval_s, rec.source, tolerance=UBX_TIME_TOLERANCE)
+        ok = ~(ok_grid == 0.0)  # a missing epoch is missing, not a bad status
     return ClockBiasInput(bias_s=bias_s, t_s=t_s, n_skipped=n_missing + int(rec.n_skipped_frames), source=rec.source,
-                          interval_s=interval_s)
+                          interval_s=interval_s, receiver_ok=ok)
 
 
 def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None) -> ClockBiasInput:
