@@ -370,3 +370,19 @@ def test_a_glonass_only_file_says_that_gps_is_missing(tmp_path, real_data):
     glo.write_text("\n".join(lines) + "\n")
     _one_line_error(_invoke(glo, "--nav", rtk / "07590920.05n", "--position", ",".join(map(str, STATION_0759)),
                             "--train", 1200, "--json"), "glonass.05o", "it holds GLONASS", "GPS pseudoranges")
+
+
+def test_the_command_exit_codes_are_the_library_states():
+    from chronofuse.integrity.modes import EXIT_CODES
+
+    assert detect_cli._EXIT_CODES == EXIT_CODES == EXIT
+
+
+def test_importing_the_detect_command_does_not_import_the_detector_library():
+    import subprocess
+    import sys
+
+    code = "import sys, chronofuse.cli.detect; print('scipy' in sys.modules, 'chronofuse.integrity.modes' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={"PYTHONPATH": str(__import__("pathlib").Path(detect_cli.__file__).parents[2])})
+    assert out.stdout.split() == ["False", "False"]

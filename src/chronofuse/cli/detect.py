@@ -15,7 +15,10 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, user_errors
-from chronofuse.integrity.modes import EXIT_CODES, detect_file, read_noise_file
+# The library (numpy, scipy, georinex) is imported inside the command, so that `detect --help` and the
+# other subcommands do not pay for it (issue 10.6).
+
+_EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.modes.EXIT_CODES (a test checks)
 
 _MAX_TABLE_ROWS = 50
 
@@ -54,6 +57,8 @@ def detect(
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     if train is not None and train <= 0:
         fail(f"--train {train:g}: must be > 0 seconds")
+    from chronofuse.integrity.modes import detect_file, read_noise_file
+
     if noise is not None:
         with user_errors():
             model = read_noise_file(noise)
@@ -72,7 +77,7 @@ def detect(
         print_json(doc)
     else:
         _print_human(file, doc)
-    raise typer.Exit(EXIT_CODES[doc["state"]])
+    raise typer.Exit(_EXIT_CODES[doc["state"]])
 
 
 def _stream(file: Path, **options) -> None:
@@ -94,7 +99,7 @@ def _stream(file: Path, **options) -> None:
             if source is not sys.stdin:
                 source.close()
     state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
-    raise typer.Exit(EXIT_CODES[state])
+    raise typer.Exit(_EXIT_CODES[state])
 
 
 def _print_stations(file: Path, doc: dict) -> None:
