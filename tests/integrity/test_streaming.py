@@ -120,3 +120,26 @@ def test_a_named_pipe_is_read_as_it_is_written(tmp_path):
     thread.join(timeout=60)
     assert out.returncode in (0, 1), out.stderr
     assert len(out.stdout.splitlines()) == 100
+
+
+def test_a_growing_file_is_followed_until_it_stops_growing(tmp_path):
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=60, trials=1, seed=7).measured_s[0]
+    path = tmp_path / "growing.csv"
+    text = _csv(x).splitlines(keepends=True)
+    path.write_text("".join(text[:20]))
+
+    def writer():
+        import time
+
+        for line in text[20:]:
+            time.sleep(0.02)
+            with open(path, "a") as fh:
+                fh.write(line)
+
+    thread = threading.Thread(target=writer)
+    thread.start()
+    out = _run_cli([str(path), "--json-lines", "--follow", "3", "--h0", str(NOISE.h0), "--hm2", str(NOISE.hm2),
+                    "--sigma-rho", "1"])
+    thread.join(timeout=60)
+    assert out.returncode in (0, 1), out.stderr
+    assert [json.loads(line)["t_ns"] for line in out.stdout.splitlines()] == [k * 10**9 for k in range(60)]

@@ -42,6 +42,7 @@ def detect(
     station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
 ) -> None:
     """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
@@ -68,7 +69,7 @@ def detect(
     if train is None and None in (h0, hm2, sigma_rho):
         fail("give the noise model (--h0, --hm2 and --sigma-rho) or a training stretch (--train SECONDS)")
     if json_lines:
-        _stream(file, rate_hz=rate, column=column, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho,
+        _stream(file, follow, rate_hz=rate, column=column, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho,
                 train_s=train)
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
@@ -80,18 +81,19 @@ def detect(
     raise typer.Exit(_EXIT_CODES[doc["state"]])
 
 
-def _stream(file: Path, **options) -> None:
+def _stream(file: Path, follow: float | None, **options) -> None:
     """``--json-lines``: one JSON line per epoch, flushed as it is decided; exit status from all epochs."""
     import json
     import sys
 
-    from chronofuse.integrity.live import stream_verdicts
+    from chronofuse.integrity.live import follow_lines, stream_verdicts
 
     states = set()
     with user_errors():
         source = sys.stdin if str(file) == "-" else open(file, encoding="utf-8", errors="replace")  # noqa: SIM115
         try:
-            for verdict in stream_verdicts(source, **options):
+            lines = source if follow is None else follow_lines(source, idle_s=follow)
+            for verdict in stream_verdicts(lines, **options):
                 states.add(verdict.state)
                 sys.stdout.write(json.dumps(verdict.as_json()) + "\n")
                 sys.stdout.flush()

@@ -141,4 +141,28 @@ def stream_verdicts(
         last = t_ns
 
 
-__all__ = ["stream_verdicts"]
+def follow_lines(stream, *, idle_s: float = 10.0, poll_s: float = 0.2) -> Iterator[str]:
+    """The complete lines of a file that is still being written (``tail -f``): at the end of the file wait
+    ``poll_s`` and read again; stop when nothing new has come for ``idle_s`` seconds. A last line without
+    its newline is held back until it is complete (or the stream ends)."""
+    import time
+
+    pending = ""
+    quiet_since = time.monotonic()
+    while True:
+        chunk = stream.readline()
+        if chunk:
+            quiet_since = time.monotonic()
+            pending += chunk
+            if pending.endswith("\n"):
+                yield pending
+                pending = ""
+            continue
+        if time.monotonic() - quiet_since >= idle_s:
+            if pending:
+                yield pending
+            return
+        time.sleep(poll_s)
+
+
+__all__ = ["follow_lines", "stream_verdicts"]
