@@ -52,11 +52,15 @@ from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector
 from chronofuse.integrity.detector import DetectionResult, HodDetector
 from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.clock_events import repair_clock_steering
+from chronofuse.integrity.live import stream_verdicts
 from chronofuse.integrity.modes import detect_file
+from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
+from chronofuse.io.rinex_clock import read_station_clocks
 from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.imu import IMU_GRADES, ImuModel, SensorErrors, imu_grade, simulate_imu
@@ -221,6 +225,11 @@ __all__ = [
     "ChainConfig",
     "GnssdoRun",
     "discipline_run",
+    "StreamingMonitor",
+    "EpochVerdict",
+    "stream_verdicts",
+    "repair_clock_steering",
+    "read_station_clocks",
     # experiments
     "GnssdoSetup",
     "run_gnssdo",

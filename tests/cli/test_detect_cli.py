@@ -24,7 +24,10 @@ def _root() -> None:
 
 NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
 MODEL = ["--h0", "2e-18", "--hm2", "1e-22", "--sigma-rho", "1.0"]
-KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped"}
+KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped", "state",
+        "unavailable_reasons", "n_tested", "n_training", "unavailable", "interval_s"}
+DETECTION_KEYS = KEYS | {"clock_events", "noise", "warnings", "n_no_fix"}
+EXIT = {"ok": 0, "alarm": 1, "unavailable": 3}
 
 
 def _bias(steps=1500, seed=1, anomaly=None):
@@ -56,14 +59,16 @@ def test_json_document_has_exactly_the_documented_keys_and_finds_a_drag_off(tmp_
     t = 1000.0 + np.arange(1500)
     accel = 0.5 * np.sqrt(6) * NOISE.sigma_rho_m / 299_792_458.0  # df shift 0.5 sigma_df
     path = _write_csv(tmp_path / "bias.csv", t, _bias(anomaly=Anomaly("drag", 1000.0, accel_s_per_s2=accel)))
-    result = _invoke(path, "--rate", 1, *MODEL, "--json")
-    assert result.exit_code == 0, result.output
+    result = _invoke(path, *MODEL, "--json")
+    assert result.exit_code == 1, result.output  # alarm
     doc = json.loads(result.stdout)
-    assert set(doc) == KEYS
+    assert set(doc) == DETECTION_KEYS
     assert doc["mode"] == "detection" and doc["n_epochs"] == 1500 and doc["window"] == 20 and doc["pfa"] == 1e-3
-    assert doc["n_alarms"] == len(doc["alarms"]) and doc["n_skipped"] == 0
+    assert doc["n_alarms"] == len(doc["alarms"]) and doc["n_skipped"] == 0 and doc["state"] == "alarm"
+    assert doc["interval_s"] == 1.0 and doc["n_tested"] == 1498 and doc["clock_events"] == []
     alarm_t = np.array([a["t"] for a in doc["alarms"]])
-    assert set(doc["alarms"][0]) == {"t", "statistic", "channel"}
+    assert set(doc["alarms"][0]) == {"t_ns", "t", "statistic", "channel"}
+    assert all(a["t_ns"] == round(a["t"] * 1e9) and isinstance(a["t_ns"], int) for a in doc["alarms"])
     assert (alarm_t >= 2000.0).sum() > 400  # times on the file's time axis, from the onset on
     assert 2000.0 <= alarm_t[alarm_t >= 2000.0].min() <= 2020.0
     assert (alarm_t < 2000.0).sum() <= 5  # false alarms before onset at P_fa = 1e-3
@@ -77,7 +82,7 @@ def test_nanosecond_columns_and_column_choice_give_the_same_alarms(tmp_path):
     ns = tmp_path / "ns.csv"
     ns.write_text("t_s,other_ns,clock_bias_ns\n" + "".join(f"{float(ti)},{1.0},{float(xi) * 1e9!r}\n" for ti, xi in zip(t, x)))
     result = _invoke(ns, "--rate", 1, *MODEL, "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
     doc = json.loads(result.stdout)
     assert [a["t"] for a in doc["alarms"]] == [a["t"] for a in base["alarms"]]
     np.testing.assert_allclose([a["statistic"] for a in doc["alarms"]], [a["statistic"] for a in base["alarms"]],
@@ -95,18 +100,24 @@ def test_missing_clock_biases_and_time_gaps_are_skipped_and_counted(tmp_path):
     keep[200:205] = False  # five epochs absent from the time column
     path = _write_csv(tmp_path / "gaps.csv", t[keep], x[keep])
     result = _invoke(path, "--rate", 1, *MODEL, "--json")
-    assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
+    assert result.exit_code == EXIT[doc["state"]], result.output
     assert doc["n_skipped"] == 8 and doc["n_epochs"] == 600
+    # each gap leaves its missing epochs and the next two (no second difference yet) untested
+    untested = {(u["from_ns"] // 10**9, u["to_ns"] // 10**9) for u in doc["unavailable"]}
+    assert {(100, 103), (200, 206), (350, 352), (0, 1)} <= untested
 
 
 def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path):
     t = np.arange(6000.0)
     path = _write_csv(tmp_path / "b.csv", t, _bias(steps=6000, seed=4, anomaly=Anomaly("step", 5000.0, offset_s=1e-7)))
     result = _invoke(path, "--rate", 1, "--train", 4000, "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
     doc = json.loads(result.stdout)
     times = [a["t"] for a in doc["alarms"]]
+    assert min(times) >= 4000 and doc["n_training"] == 4000  # the training stretch is not tested
+    assert set(doc["noise"]) == {"h0", "hm2", "sigma_rho_m", "inflation"} and all(v >= 0 for v in doc["noise"].values())
+    assert 1.0 < doc["noise"]["inflation"] < 1.1  # 3998 training differences: a few per cent
     assert any(5000 <= ti <= 5002 for ti in times)
     assert sum(ti < 5000 for ti in times) <= 15
 
@@ -114,9 +125,9 @@ def test_training_stretch_estimates_the_noise_and_the_test_still_fires(tmp_path)
 def test_human_output_is_a_table_of_alarms(tmp_path):
     path = _write_csv(tmp_path / "b.csv", np.arange(500.0), _bias(steps=500, anomaly=Anomaly("step", 300.0, offset_s=1e-7)))
     result = _invoke(path, "--rate", 1, *MODEL)
-    assert result.exit_code == 0, result.output
+    assert result.exit_code == 1, result.output
     text = " ".join(result.stdout.split())
-    assert "alarm(s)" in text and "detection mode" in text and "300.000" in text
+    assert "alarm(s)" in text and "detection mode" in text and " 300 " in text
 
 
 @pytest.mark.parametrize(
@@ -160,7 +171,7 @@ def _nav_clock_offsets(blob: bytes) -> list[int]:
 def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, real_data):
     real = real_data / "receivers" / "gpsd" / "ublox-zed-f9p_hpg1.11.log.gz"
     clean = _invoke(real, "--rate", 1, "--train", 300, "--json")
-    assert clean.exit_code == 0, clean.output
+    assert clean.exit_code in (0, 1), clean.output
     clean_doc = json.loads(clean.stdout)
     blob = bytearray(gzip.decompress(real.read_bytes()))
     frames = _nav_clock_offsets(bytes(blob))
@@ -169,7 +180,7 @@ def test_corrupt_ubx_frames_are_skipped_and_counted(tmp_path, real_data):
     corrupt = tmp_path / "corrupt.ubx"
     corrupt.write_bytes(bytes(blob[:cut]))
     result = _invoke(corrupt, "--rate", 1, "--train", 300, "--json")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code in (0, 1), result.output
     doc = json.loads(result.stdout)
     # one epoch lost in the middle (its frame and its grid epoch), one lost at the end (frame only)
     assert doc["n_epochs"] == clean_doc["n_epochs"] - 1
@@ -188,9 +199,9 @@ def test_rinex_input_needs_nav_and_position_and_a_nav_file_is_not_observations(r
     _one_line_error(_invoke(rtk / "07590920.05n", "--rate", 1 / 30, *MODEL), "navigation file")
 
 
-def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch2: float) -> str:
-    """Add a quadratic drag-off (metres) to the C1 and P2 pseudoranges of ``sat`` in a RINEX 2.10 obs file
-    with 4 observation types (one line per satellite), from epoch ``onset`` on."""
+def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch2: float, fields=(1, 3)) -> str:
+    """Add a quadratic drag-off (metres) to the pseudoranges of ``sat`` in a RINEX 2.10 obs file with 4
+    observation types (one line per satellite; ``fields`` 1 = C1, 3 = P2), from epoch ``onset`` on."""
     lines = text.splitlines()
     k = next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1
     epoch = 0
@@ -210,7 +221,7 @@ def _inject_rinex2_pseudorange(text: str, sat: str, onset: int, metres_per_epoch
             if name == sat and epoch >= onset:
                 row = lines[k + j].ljust(64)
                 extra = 0.5 * metres_per_epoch2 * (epoch - onset) ** 2
-                for field in (1, 3):
+                for field in fields:
                     value = float(row[16 * field : 16 * field + 14]) + extra
                     row = row[: 16 * field] + f"{value:14.3f}" + row[16 * field + 14 :]
                 lines[k + j] = row.rstrip()
@@ -230,16 +241,20 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     clean = _invoke(clean_obs, *args)
     assert clean.exit_code == 0, clean.output
     faulty = _invoke(obs, *args)
-    assert faulty.exit_code == 0, faulty.output
+    assert faulty.exit_code == 1, faulty.output
     doc = json.loads(faulty.stdout)
-    assert set(doc) == KEYS | {"faulty", "untested"} and doc["mode"] == "identification" and doc["n_epochs"] == 120
-    assert [f["channel"] for f in doc["faulty"]] == ["G20"] and 80 * 30 <= doc["faulty"][0]["t"] <= 90 * 30
+    assert set(doc) == KEYS | {"faulty", "untested", "codes"} and doc["mode"] == "identification"
+    assert doc["n_epochs"] == 120 and doc["codes"] == ["C1", "P2"]
+    assert doc["state"] == "alarm" and json.loads(clean.stdout)["state"] == "ok"
+    # the drag is on both code observables: each is named, alone, after the onset
+    assert sorted(f["channel"] for f in doc["faulty"]) == ["G20 C1", "G20 P2"]
+    assert all(80 * 30 <= f["t"] <= 90 * 30 for f in doc["faulty"])
     late = [a for a in doc["alarms"] if a["t"] >= 80 * 30]
-    assert late and {a["channel"] for a in late} == {"G20"}
+    assert late and {a["channel"] for a in late} == {"G20 C1", "G20 P2"}
     assert late[0]["t"] <= 90 * 30  # found within ten 30 s epochs of the onset
-    assert "G08" in json.loads(clean.stdout)["untested"]  # 36 epochs above the 15 deg mask: fewer than train
+    assert "G08 C1" in json.loads(clean.stdout)["untested"]  # 36 epochs above the 15 deg mask: fewer than train
     before = {a["channel"] for a in json.loads(clean.stdout)["alarms"] if a["t"] >= 80 * 30}
-    assert "G20" not in before
+    assert not before & {"G20 C1", "G20 P2"}
 
 
 def _drop_rinex2_epochs(text: str, drop: set[int]) -> str:
@@ -266,7 +281,7 @@ def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, real_data):
     rtk = real_data / "receivers" / "rinex" / "rtklib"
     obs = tmp_path / "gappy.05o"
     obs.write_text(_drop_rinex2_epochs((rtk / "07590920.05o").read_text(), {50, 51, 90}))
-    result = _invoke(obs, "--rate", 1 / 30, "--nav", rtk / "07590920.05n", "--position",
+    result = _invoke(obs, "--nav", rtk / "07590920.05n", "--position",
                      "-3976219.5082,3382372.5671,3652512.9849", "--train", 1200, "--window", 10, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -279,3 +294,95 @@ def test_a_position_that_is_not_ecef_metres_on_the_earth_is_refused(tmp_path, re
     result = _invoke(rtk / "07590920.05o", "--rate", 1 / 30, "--nav", rtk / "07590920.05n", f"--position={position}",
                      "--train", 1200, "--json")
     assert result.exit_code == 2 and "from the Earth's centre" in result.stderr
+
+
+STATION_0759 = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
+
+
+@pytest.mark.parametrize("offset_m", [1_000.0, 10_000.0])
+def test_a_position_kilometres_off_makes_integrity_unavailable_not_alarms_on_healthy_satellites(real_data, offset_m):
+    # issue 10.2: 1 km and 10 km off gave 80 and 51 alarms blaming healthy satellites
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    east = np.array([-np.sin(np.arctan2(STATION_0759[1], STATION_0759[0])), np.cos(np.arctan2(STATION_0759[1], STATION_0759[0])), 0.0])
+    pos = STATION_0759 + offset_m * east
+    result = _invoke(rtk / "07590920.05o", "--nav", rtk / "07590920.05n", f"--position={','.join(map(str, pos))}",
+                     "--train", 1200, "--window", 10, "--json")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 3 and doc["state"] == "unavailable", result.output
+    assert any("single-point fix" in r for r in doc["unavailable_reasons"])
+    assert doc["faulty"] == [] or doc["state"] == "unavailable"
+
+
+def test_a_navigation_file_of_another_day_tests_nothing_and_says_integrity_unavailable(real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    other_day = real_data / "receivers" / "rinex" / "georinex" / "demo.10n"
+    result = _invoke(rtk / "07590920.05o", "--nav", other_day, "--position", ",".join(map(str, STATION_0759)),
+                     "--train", 1200, "--window", 10, "--json")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 3 and doc["state"] == "unavailable" and doc["n_tested"] == 0, result.output
+    assert any("no channel could be tested" in r for r in doc["unavailable_reasons"])
+    human = _invoke(rtk / "07590920.05o", "--nav", other_day, "--position", ",".join(map(str, STATION_0759)),
+                    "--train", 1200, "--window", 10)
+    assert human.exit_code == 3 and "integrity unavailable" in human.stdout and "no alarm" not in human.stdout
+
+
+def test_a_fault_on_p2_alone_is_named_on_p2(tmp_path, real_data):
+    # issue 10.7: identification used only C1, so a fault on P2 was invisible
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    text = (rtk / "30400920.05o").read_text()
+    obs = tmp_path / "30400920.05o"
+    obs.write_text(_inject_rinex2_pseudorange(text, "G11", 60, 1.0, fields=(3,)))
+    result = _invoke(obs, "--nav", rtk / "30400920.05n", "--position", _header_position(text), "--train", 1200,
+                     "--window", 10, "--json")
+    doc = json.loads(result.stdout)
+    assert result.exit_code == 1, result.output
+    assert [f["channel"] for f in doc["faulty"]] == ["G11 P2"] and doc["faulty"][0]["t"] >= 60 * 30
+
+
+def _header_position(text: str) -> str:
+    line = next(line for line in text.splitlines() if "APPROX POSITION XYZ" in line)
+    return ",".join(line[:42].split())
+
+
+def test_a_rinex_file_whose_last_epoch_is_cut_keeps_the_good_epochs(tmp_path, real_data):
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    text = (rtk / "07590920.05o").read_text()
+    cut = tmp_path / "07590920.05o"
+    cut.write_text(text[: len(text) - 120])  # a recording stopped in the middle of the last epoch's data
+    result = _invoke(cut, "--nav", rtk / "07590920.05n", "--position", ",".join(map(str, STATION_0759)),
+                     "--train", 1200, "--window", 10, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["n_epochs"] >= 118 and doc["state"] == "ok"
+
+
+def test_a_glonass_only_file_says_that_gps_is_missing(tmp_path, real_data):
+    from chronofuse.io.rinex import _RINEX2_EPOCH
+
+    rtk = real_data / "receivers" / "rinex" / "rtklib"
+    lines, body = [], False
+    for line in (rtk / "07590920.05o").read_text().splitlines():
+        if body and _RINEX2_EPOCH.match(line):
+            line = line[:32] + line[32:68].replace("G", "R") + line[68:]
+        body = body or "END OF HEADER" in line
+        lines.append(line)
+    glo = tmp_path / "glonass.05o"
+    glo.write_text("\n".join(lines) + "\n")
+    _one_line_error(_invoke(glo, "--nav", rtk / "07590920.05n", "--position", ",".join(map(str, STATION_0759)),
+                            "--train", 1200, "--json"), "glonass.05o", "it holds GLONASS", "GPS pseudoranges")
+
+
+def test_the_command_exit_codes_are_the_library_states():
+    from chronofuse.integrity.modes import EXIT_CODES
+
+    assert detect_cli._EXIT_CODES == EXIT_CODES == EXIT
+
+
+def test_importing_the_detect_command_does_not_import_the_detector_library():
+    import subprocess
+    import sys
+
+    code = "import sys, chronofuse.cli.detect; print('scipy' in sys.modules, 'chronofuse.integrity.modes' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={"PYTHONPATH": str(__import__("pathlib").Path(detect_cli.__file__).parents[2])})
+    assert out.stdout.split() == ["False", "False"]

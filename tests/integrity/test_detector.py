@@ -207,3 +207,34 @@ def test_fitted_noise_keeps_the_false_alarm_rate_near_nominal_and_short_training
     assert np.all((long_rates > pfa / 2) & (long_rates < 2 * pfa)), long_rates
     spread = lambda r: np.abs(np.log((r + 1e-6) / pfa)).max()  # noqa: E731
     assert spread(short_rates) > spread(long_rates)
+
+
+def _pfa_given_models(fitted: HodDetector, true_r, rng_draws) -> float:
+    """The exact false-alarm rate of a full window of ``fitted`` on data of autocorrelation ``true_r``:
+    ``T = v^T C_hat^-1 v`` with ``v ~ N(0, C)`` is a sum of chi2(1) weighted by the eigenvalues of
+    ``D C D^T``; its tail is evaluated on fixed chi2(1) draws (the same for every training)."""
+    n = fitted.whitener_.shape[0]
+    col = np.zeros(n)
+    col[:3] = true_r
+    d = fitted.whitener_
+    weights = np.linalg.eigvalsh(d @ linalg.toeplitz(col) @ d.T)
+    return float(((rng_draws @ weights) > fitted.threshold_).mean())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("n_train", [100, 1000, 10000])
+def test_a_threshold_with_90_percent_confidence_keeps_pfa_at_or_below_nominal_in_90_percent_of_trainings(n_train):
+    # issue 10.4: after training on short records 2.6-4.6 % of epochs alarmed against a nominal 0.1 %
+    noise = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
+    true_r = difference_autocorrelation(noise.h0, noise.hm2, noise.sigma_rho_m, 1.0)
+    draws = np.random.default_rng(1).standard_normal((400_000, 20)) ** 2
+    trials = 40
+    x = simulate_clock_bias(noise, interval_s=1.0, steps=n_train, trials=trials, seed=7).measured_s
+    rates = np.array([_pfa_given_models(HodDetector(interval_s=1.0, window=20, pfa=1e-3, confidence=0.9).fit(x[i]),
+                                        true_r, draws) for i in range(trials)])
+    assert (rates <= 1e-3).mean() >= 0.9
+    # without the margin, short trainings exceed nominal far more often than 10 % of the time
+    if n_train == 100:
+        plain = np.array([_pfa_given_models(HodDetector(interval_s=1.0, window=20, pfa=1e-3).fit(x[i]), true_r, draws)
+                          for i in range(trials)])
+        assert (plain <= 1e-3).mean() < 0.9

@@ -1,8 +1,9 @@
 """``chronofuse detect FILE``: clock-bias anomaly detection (SPEC 4) on a CSV, UBX or RINEX record.
 
 The work is :func:`chronofuse.integrity.modes.detect_file` (its docstring says how the mode is chosen, how
-the noise model is set and how missing data are counted); this command parses the options, calls it and
-prints its document: ``--json`` as it is, else a summary line and a table of alarms.
+the noise model is set, what the states mean and how missing data are counted); this command parses the
+options, calls it and prints its document: ``--json`` as it is, else a summary, the clock events and a
+table of alarms. Exit status: 0 integrity ok, 1 alarm, 3 integrity unavailable, 2 bad input.
 """
 
 from __future__ import annotations
@@ -14,7 +15,10 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, user_errors
-from chronofuse.integrity.modes import detect_file
+# The library (numpy, scipy, georinex) is imported inside the command, so that `detect --help` and the
+# other subcommands do not pay for it (issue 10.6).
+
+_EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.modes.EXIT_CODES (a test checks)
 
 _MAX_TABLE_ROWS = 50
 
@@ -24,8 +28,8 @@ def register(app: typer.Typer) -> None:
 
 
 def detect(
-    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK) or RINEX observation file."),
-    rate: float = typer.Option(..., "--rate", help="Sampling rate of the clock bias (Hz)."),
+    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file or RINEX clock product (.clk); - with --json-lines: standard input."),
+    rate: float | None = typer.Option(None, "--rate", help="Sampling rate (Hz) of a file without a time column."),
     column: str | None = typer.Option(None, "--column", help="CSV clock-bias column (name)."),
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
     hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
@@ -35,10 +39,18 @@ def detect(
     pfa: float = typer.Option(1e-3, "--pfa", help="False-alarm probability per epoch."),
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
     nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode)."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
+    noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
+    json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
 ) -> None:
-    """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4)."""
-    if rate <= 0 or not math.isfinite(rate):
+    """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
+
+    Exit status: 0 integrity ok (tested, no alarm), 1 alarm, 3 integrity unavailable (too little could be
+    tested, training failed, or the position is off), 2 bad input.
+    """
+    if rate is not None and (rate <= 0 or not math.isfinite(rate)):
         fail(f"--rate {rate:g}: must be a positive number of Hz")
     if window < 1:
         fail(f"--window {window}: must be >= 1")
@@ -46,31 +58,98 @@ def detect(
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     if train is not None and train <= 0:
         fail(f"--train {train:g}: must be > 0 seconds")
+    from chronofuse.integrity.modes import detect_file, read_noise_file
+
+    if noise is not None:
+        with user_errors():
+            model = read_noise_file(noise)
+        h0 = model["h0"] if h0 is None else h0
+        hm2 = model["hm2"] if hm2 is None else hm2
+        sigma_rho = model["sigma_rho_m"] if sigma_rho is None else sigma_rho
     if train is None and None in (h0, hm2, sigma_rho):
         fail("give the noise model (--h0, --hm2 and --sigma-rho) or a training stretch (--train SECONDS)")
+    if json_lines:
+        _stream(file, follow, rate_hz=rate, column=column, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho,
+                train_s=train)
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
-                          window=window, pfa=pfa, position_m=position, nav=nav)
+                          window=window, pfa=pfa, position_m=position, nav=nav, station=station)
     if json_out:
         print_json(doc)
-        return
-    _print_human(file, doc)
+    else:
+        _print_human(file, doc)
+    raise typer.Exit(_EXIT_CODES[doc["state"]])
+
+
+def _stream(file: Path, follow: float | None, **options) -> None:
+    """``--json-lines``: one JSON line per epoch, flushed as it is decided; exit status from all epochs."""
+    import json
+    import sys
+
+    from chronofuse.integrity.live import follow_lines, stream_verdicts
+
+    states = set()
+    with user_errors():
+        source = sys.stdin if str(file) == "-" else open(file, encoding="utf-8", errors="replace")  # noqa: SIM115
+        try:
+            lines = source if follow is None else follow_lines(source, idle_s=follow)
+            for verdict in stream_verdicts(lines, **options):
+                states.add(verdict.state)
+                sys.stdout.write(json.dumps(verdict.as_json()) + "\n")
+                sys.stdout.flush()
+        finally:
+            if source is not sys.stdin:
+                source.close()
+    state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
+    raise typer.Exit(_EXIT_CODES[state])
+
+
+def _print_stations(file: Path, doc: dict) -> None:
+    con = human_console(False)
+    con.print(f"[bold]{file}[/bold]: clock product, {doc['n_stations']} stations, window {doc['window']}, "
+              f"P_fa {doc['pfa']:g}; overall {doc['state']}")
+    table = Table("station", "state", "epochs", "tested", "alarms", "clock events", "reason")
+    for row in doc["stations"]:
+        table.add_row(row["station"], row["state"], str(row["n_epochs"]), str(row["n_tested"]), str(row["n_alarms"]),
+                      str(len(row["clock_events"])), "; ".join(row["unavailable_reasons"]))
+    con.print(table)
 
 
 def _print_human(file: Path, doc: dict) -> None:
+    if doc["mode"] == "clock-product":
+        _print_stations(file, doc)
+        return
     con = human_console(False)
-    con.print(f"[bold]{file}[/bold]: {doc['mode']} mode, {doc['n_epochs']:,} epochs ({doc['n_skipped']} skipped), "
-              f"window {doc['window']}, P_fa {doc['pfa']:g}, threshold {doc['threshold']:.3f}")
+    con.print(f"[bold]{file}[/bold]: {doc['mode']} mode, {doc['n_epochs']:,} epochs ({doc['n_skipped']} skipped, "
+              f"{doc['n_tested']:,} tested), interval {doc['interval_s']:g} s, window {doc['window']}, "
+              f"P_fa {doc['pfa']:g}, threshold {doc['threshold']:.3f}")
+    if doc.get("noise"):
+        noise = doc["noise"]
+        con.print(f"noise model: h0 {noise['h0']:.3e} s, h-2 {noise['hm2']:.3e} /s, sigma_rho {noise['sigma_rho_m']:.3g} m")
+    for warning in doc.get("warnings", []):
+        con.print(f"[yellow]warning[/yellow]: {warning}")
     if doc.get("untested"):
-        con.print(f"not tested (too few epochs above the elevation mask): {', '.join(doc['untested'])}")
+        con.print(f"not tested: {', '.join(doc['untested'])}")
+    for event in doc.get("clock_events", []):
+        con.print(f"clock event: receiver clock reset of {event['size_s'] * 1e3:+g} ms at t = {_t(event['t_ns'])} s")
     if doc.get("faulty"):
-        con.print("faulty: " + ", ".join(f"{f['channel']} (from t = {f['t']:g} s)" for f in doc["faulty"]))
+        con.print("faulty: " + ", ".join(f"{f['channel']} (from t = {_t(f['t_ns'])} s)" for f in doc["faulty"]))
+    if doc["state"] == "unavailable":
+        con.print("[red]integrity unavailable[/red]: " + "; ".join(doc["unavailable_reasons"]))
+    elif not doc["alarms"]:
+        con.print("[green]integrity ok: no alarm[/green]")
     if not doc["alarms"]:
-        con.print("[green]no alarm[/green]")
         return
     table = Table("t (s)", "statistic", "channel", title=f"{doc['n_alarms']} alarm(s)")
     for alarm in doc["alarms"][:_MAX_TABLE_ROWS]:
-        table.add_row(f"{alarm['t']:.3f}", f"{alarm['statistic']:.2f}", alarm["channel"] or "clock")
+        table.add_row(_t(alarm["t_ns"]), f"{alarm['statistic']:.2f}", alarm["channel"] or "clock")
     con.print(table)
     if doc["n_alarms"] > _MAX_TABLE_ROWS:
         con.print(f"... {doc['n_alarms'] - _MAX_TABLE_ROWS} more (use --json for all)")
+
+
+def _t(t_ns: int) -> str:
+    """An epoch of integer nanoseconds as exact seconds (``1800``, ``0.5``, ``-1.000000001``)."""
+    sign = "-" if t_ns < 0 else ""
+    whole, frac = divmod(abs(int(t_ns)), 1_000_000_000)
+    return f"{sign}{whole}" + (f".{frac:09d}".rstrip("0") if frac else "")

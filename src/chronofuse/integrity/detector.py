@@ -48,6 +48,7 @@ import math
 from typing import ClassVar
 
 import numpy as np
+from scipy import stats
 
 from chronofuse.estimation.interface import nan_if_none
 from chronofuse.estimation.process import second_difference
@@ -102,6 +103,14 @@ class HodDetector:
     h0, hm2, sigma_rho_m : float or None
         White FM level (s), random-walk FM level (1/s), mean pseudorange noise (m). Those left None are
         estimated by :meth:`fit` from an anomaly-free training stretch.
+    confidence : float or None
+        When the noise is fitted from training data: keep the false-alarm rate at or below ``pfa`` with
+        this probability over trainings (issue 10.4). The fitted covariance ``C`` is scaled up by
+        ``m / F^-1_chi2(m)(1 - confidence)``, ``m`` the number of training differences: the upper
+        ``confidence`` bound of a variance estimated from ``m`` independent squares (the one-sided
+        chi-square confidence interval of a variance, e.g. NIST/SEMATECH e-Handbook 7.2.3.1), so an
+        underestimated noise level (the cause of the excess false alarms after short trainings) is
+        covered. None (default): the fitted model as it is. The scale is ``inflation_``.
 
     Learnt attributes (after :meth:`fit`): ``h0_``, ``hm2_``, ``sigma_rho_m_``, ``r_`` (r(0..2)),
     ``whitener_`` ((n, n), ``D = L^-1``), ``threshold_`` (gamma for ``n`` dof), ``thresholds_`` ((n+1,), per dof).
@@ -120,6 +129,7 @@ class HodDetector:
         h0: float | None = None,
         hm2: float | None = None,
         sigma_rho_m: float | None = None,
+        confidence: float | None = None,
     ):
         self.interval_s = interval_s
         self.window = window
@@ -127,6 +137,7 @@ class HodDetector:
         self.h0 = h0
         self.hm2 = hm2
         self.sigma_rho_m = sigma_rho_m
+        self.confidence = confidence
 
     # -- fitting ------------------------------------------------------------------------------------------
 
@@ -138,6 +149,9 @@ class HodDetector:
             value = getattr(self, name)
             if value is not None:
                 check_scalar(value, name, min_val=0.0)
+        if getattr(self, "confidence", None) is not None:
+            check_scalar(self.confidence, "confidence", min_val=0.0, max_val=1.0, include_min=False,
+                         include_max=False)
 
     def fit(self, clock_bias_s=None, *, method: str = "whittle") -> HodDetector:
         """Set the noise model, whitener and thresholds; estimate missing noise parameters from training data.
@@ -149,6 +163,7 @@ class HodDetector:
         """
         self._check_params()
         params = (self.h0, self.hm2, self.sigma_rho_m)
+        inflation = 1.0
         if all(p is not None for p in params):
             h0, hm2, sigma = params
         else:
@@ -163,8 +178,13 @@ class HodDetector:
                 h0, hm2, sigma = fit_noise_whittle(df, self.interval_s, **known)
             else:
                 h0, hm2, sigma = fit_noise(empirical_autocorrelation(df), self.interval_s, **known)
+            confidence = getattr(self, "confidence", None)
+            if confidence is not None:
+                m = int(np.isfinite(df).sum())
+                inflation = float(m / stats.chi2.ppf(1.0 - confidence, m))
         self.h0_, self.hm2_, self.sigma_rho_m_ = h0, hm2, sigma
-        self.r_ = difference_autocorrelation(h0, hm2, sigma, self.interval_s)
+        self.inflation_ = inflation
+        self.r_ = inflation * difference_autocorrelation(h0, hm2, sigma, self.interval_s)
         self.whitener_ = toeplitz_whitener(self.r_, int(self.window))
         self.thresholds_ = chi2_thresholds(self.pfa, int(self.window))
         self.threshold_ = float(self.thresholds_[-1])

@@ -72,54 +72,104 @@ def common_clock_s(bias_s: np.ndarray) -> np.ndarray:
     return out
 
 
+def aligned_channels(bias_s: np.ndarray) -> np.ndarray:
+    """Channel biases shifted onto one clock, causally: ``a_n(k) = b_n(k) - o_n``, shape (epochs, sats).
+
+    ``o_n = b_n(k0) - c0(k0)`` is fixed at the first epoch ``k0`` of each unbroken arc of the channel
+    (``c0`` from :func:`common_clock_s`, itself causal), so ``a_n(k)`` uses no epoch after ``k``: a verdict
+    computed from it never changes when later epochs arrive (issue 10: the former alignment, a median
+    over the whole record, let a fault at 1800 s move the residuals at 60 s). A constant offset does not
+    enter the second difference; the per-arc choice only sets where a rising channel sits among the
+    others in the medians of :func:`channel_residuals`.
+    """
+    b = check_array(bias_s, "bias_s", ndim=2, allow_nan=True)
+    c0 = common_clock_s(b)
+    dev = b - c0[:, None]
+    valid = np.isfinite(dev)
+    starts = valid & ~np.vstack([np.zeros((1, b.shape[1]), dtype=bool), valid[:-1]])
+    rows = np.where(starts, np.arange(b.shape[0])[:, None], 0)
+    rows = np.maximum.accumulate(rows, axis=0)
+    offsets = dev[rows, np.arange(b.shape[1])[None, :]]
+    return np.where(valid, b - offsets, np.nan)
+
+
+#: Fewest other channels from which a channel's clock is estimated (one faulty channel among three
+#: cannot carry their median).
+MIN_CLOCK_CHANNELS = 3
+
+
 def channel_residuals(bias_s: np.ndarray, exclude=None) -> tuple[np.ndarray, np.ndarray]:
     """Channel biases with the receiver clock removed, leave-one-out: ``(residual (epochs, sats), common (epochs,))``.
 
-    1. align: ``o_n = median_k(b_n(k) - c0(k))`` over all the channel's epochs, with ``c0`` from
-       :func:`common_clock_s`, ``a_n = b_n - o_n`` (aligning on the training stretch only was tried and
-       measured worse on the real stations: the satellites' residual errors drift by ns over an hour, and
-       the channels then change rank in the medians);
-    2. channel ``n``'s clock is the median over the OTHER channels, ``c_-n(k) = median_{m != n} a_m(k)``,
-       so a channel's residual ``a_n - c_-n`` never contains its own noise through the clock estimate
-       (a median over all channels is at times the channel itself: its residual is then exactly flat
-       and its noise is underestimated), and one faulty channel moves the other channels' clocks by at
-       most one rank of the median.
-    ``common`` is the median of all aligned channels. ``exclude`` (bool, (sats,)): channels left out of
-    every clock estimate (channels already named faulty); their residuals are still computed.
+    1. align causally (:func:`aligned_channels`);
+    2. channel ``n``'s clock follows the median over the OTHER channels: from epoch ``k-1`` to ``k`` it
+       moves by ``median_S a_m(k) - median_S a_m(k-1)`` over the set ``S`` of other channels seen at both
+       epochs and in the estimate at ``k``, so it stays continuous when a satellite rises, sets or is
+       excluded (measured on station 3040: a median over whichever channels are there jumps by ns when
+       one is excluded, and the step made another channel alarm); over a constant set it is the median
+       of the set. A channel's residual ``a_n - c_-n`` never contains its own noise through the clock
+       estimate (a median over all channels is at times the channel itself: its residual is then
+       exactly flat), and one faulty channel moves the others' clocks by at most one rank of the median.
+       Fewer than :data:`MIN_CLOCK_CHANNELS` others: NaN (no clock; the clock restarts at their median).
+
+    ``common`` is the median of all aligned channels not excluded. ``exclude``: channels left out of the
+    clock estimates: bool (sats,) (left out at every epoch) or int (sats,) (``exclude[n]`` = the epoch from
+    which channel ``n`` is left out, as :func:`identify` names it; epochs before keep it, so the residuals
+    there do not change). Excluded channels' own residuals are still computed. Every value at epoch
+    ``k`` uses epochs ``<= k`` only.
     """
     b = check_array(bias_s, "bias_s", ndim=2, allow_nan=True)
-    out = np.zeros(b.shape[1], dtype=bool) if exclude is None else np.asarray(exclude, dtype=bool)
-    if out.shape != (b.shape[1],):
-        raise ValueError(f"exclude has shape {out.shape}, must be ({b.shape[1]},)")
-    c0 = common_clock_s(b[:, ~out])
-    dev = b - c0[:, None]
-    seen = np.isfinite(dev).any(axis=0)
-    offsets = np.zeros(b.shape[1])
-    offsets[seen] = np.nanmedian(dev[:, seen], axis=0)
-    aligned = b - offsets
-    residual = np.full(b.shape, np.nan)
-    for n in range(b.shape[1]):
-        others = aligned[:, (np.arange(b.shape[1]) != n) & ~out]
-        have = np.isfinite(others).any(axis=1)
-        clock = np.full(b.shape[0], np.nan)
-        clock[have] = np.nanmedian(others[have], axis=1)
-        residual[:, n] = aligned[:, n] - clock
-    common = np.full(b.shape[0], np.nan)
-    kept = aligned[:, ~out]
-    rows = np.isfinite(kept).any(axis=1)
-    common[rows] = np.nanmedian(kept[rows], axis=1)
+    epochs, sats = b.shape
+    if exclude is None:
+        exclude_from = np.full(sats, epochs, dtype=np.int64)
+    else:
+        ex = np.asarray(exclude)
+        if ex.shape != (sats,):
+            raise ValueError(f"exclude has shape {ex.shape}, must be ({sats},)")
+        exclude_from = np.where(ex, 0, epochs) if ex.dtype == bool else ex.astype(np.int64)
+    aligned = aligned_channels(b)
+    out = np.arange(epochs)[:, None] >= exclude_from[None, :]
+    usable = np.where(out, np.nan, aligned)
+    residual = aligned - _leave_one_out_clocks(aligned, out)
+    common = np.full(epochs, np.nan)
+    rows = np.isfinite(usable).any(axis=1)
+    common[rows] = np.nanmedian(usable[rows], axis=1)
     return residual, common
+
+
+def _leave_one_out_clocks(aligned: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """Each channel's clock from the other channels, (epochs, sats) (:func:`channel_residuals`, step 2)."""
+    epochs, sats = aligned.shape
+    valid = np.isfinite(aligned)
+    clocks = np.full(aligned.shape, np.nan)
+    for n in range(sats):
+        others = np.ones(sats, dtype=bool)
+        others[n] = False
+        level = np.nan
+        for k in range(epochs):
+            now = valid[k] & ~out[k] & others
+            both = now & valid[k - 1] if k > 0 else np.zeros(sats, dtype=bool)
+            if np.isfinite(level) and both.sum() >= MIN_CLOCK_CHANNELS:
+                level += float(np.median(aligned[k, both]) - np.median(aligned[k - 1, both]))
+            elif now.sum() >= MIN_CLOCK_CHANNELS:
+                level = float(np.median(aligned[k, now]))
+            else:
+                level = np.nan
+            clocks[k, n] = level
+    return clocks
 
 
 @dataclass(frozen=True)
 class IdentificationResult:
-    """Per-channel detection over the common-mode-removed channel biases.
+    """Per-channel detection over the common-mode-removed channel biases, every verdict causal.
 
     ``satellites`` (sats,); ``faulty`` the channels named by exclusion (see :func:`identify`), earliest
     first; ``first_blame_s`` (sats,) the epoch each was named at, ``first_alarm_s`` (sats,) each channel's
     first alarm in the final pass (NaN: none), seconds since the first epoch; ``results`` one
-    :class:`DetectionResult` per channel; ``residual_s`` (epochs, sats) the biases minus ``common_s``
-    (epochs,); ``detectors`` the fitted copy used per channel; ``n_skipped_epochs`` as the input's.
+    :class:`DetectionResult` per channel (no statistic, no alarm while the channel trains);
+    ``trained_at`` (sats,) the epoch whose data completed each channel's training (-1: never), its test
+    starting at the next epoch; ``residual_s`` (epochs, sats) the biases minus ``common_s`` (epochs,);
+    ``detectors`` the fitted copy used per channel; ``n_skipped_epochs`` as the input's.
     """
 
     satellites: list[str]
@@ -132,6 +182,8 @@ class IdentificationResult:
     t_s: np.ndarray
     n_skipped_epochs: int
     detectors: list[HodDetector] = field(default_factory=list)
+    trained_at: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    blamed_at: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     @property
     def untested(self) -> list[str]:
@@ -139,13 +191,25 @@ class IdentificationResult:
         return [sat for sat, res in zip(self.satellites, self.results) if not (res.dof > 0).any()]
 
     @property
+    def tested(self) -> np.ndarray:
+        """Channels with a verdict per epoch, (epochs, sats) bool (trained and a window to test)."""
+        return np.column_stack([r.dof > 0 for r in self.results]) if self.results else np.zeros((self.t_s.size, 0), bool)
+
+    @property
+    def faulty_mask(self) -> np.ndarray:
+        """(epochs, sats) bool: channel named faulty at or before the epoch (latched; :func:`identify`)."""
+        k = np.arange(self.t_s.size)[:, None]
+        return (self.blamed_at[None, :] >= 0) & (k >= self.blamed_at[None, :])
+
+    @property
     def alarms(self) -> list[dict]:
         """Every alarm as ``{"t": s since first epoch, "statistic": T, "channel": name}``, in time order."""
         out = []
         for sat, res in zip(self.satellites, self.results):
             for k in np.flatnonzero(res.alarm):
-                out.append({"t": float(self.t_s[k]), "statistic": float(res.statistic[k]), "channel": sat})
-        return sorted(out, key=lambda a: (a["t"], a["channel"]))
+                out.append({"t": float(self.t_s[k]), "statistic": float(res.statistic[k]), "channel": sat,
+                            "epoch": int(k)})
+        return sorted(out, key=lambda a: (a["epoch"], a["channel"]))
 
 
 def _needs_fit(detector: HodDetector) -> bool:
@@ -163,45 +227,47 @@ def identify(
 ) -> IdentificationResult:
     """Run a fresh copy of ``detector`` on each channel's common-mode-removed bias and name the faulty ones.
 
-    ``detector`` is not changed. When its noise model is incomplete, it is fitted on the first
-    ``train_epochs`` epochs: per channel (``noise="per_channel"``, each channel's first ``train_epochs``
-    valid epochs) or on all channels pooled (``"shared"``). A channel that cannot be fitted (too few
-    epochs) gets no test (all-NaN statistic, no alarm). ``remove_common=False`` tests the raw biases.
+    Causal (issue 10): the verdict at epoch ``k`` uses epochs ``<= k`` only, so running on a longer
+    record never changes an earlier verdict. The residuals are causal (:func:`channel_residuals`);
+    when the noise model is incomplete each channel is fitted on its first ``train_epochs`` valid epochs
+    (``noise="per_channel"``) or all channels on the first ``train_epochs`` epochs pooled (``"shared"``),
+    and a channel is tested only from the epoch after its training stretch (before: no statistic, no
+    alarm; the window is filled with the training residuals). A channel that cannot be fitted gets no
+    test. ``remove_common=False`` tests the raw biases. ``detector`` is not changed.
 
     Naming is exclusion, as in RAIM fault detection and exclusion: at the first epoch with alarms the
-    channel with the largest ``statistic / threshold`` is named and taken out of every other channel's
-    clock estimate (:func:`channel_residuals` ``exclude``), and all channels are tested again; this repeats
-    until no channel left in the clock estimate alarms, ``max_faults`` channels are named, or fewer than
-    three channels would remain for the clock. (A fault left in the clock estimate moves the other
-    channels' medians by one rank: measured on the real 3040 station, a 100 ns step on G11 then made G20
-    alarm too, for many epochs; after exclusion it does not.)
+    channel with the largest ``statistic / threshold`` is named and, from that epoch on (never before),
+    taken out of every other channel's clock estimate; the channels are tested again from there. This
+    repeats until no channel left in the clock estimate alarms, ``max_faults`` channels are named, or
+    fewer than three channels would remain for the clock. A named channel stays named (latched) to the
+    end of the record. (A fault left in the clock estimate moves the other channels' medians by one
+    rank: measured on the real 3040 station, a 100 ns step on G11 then made G20 alarm too.)
     """
     check_choice(noise, "noise", ("per_channel", "shared"))
     check_scalar(train_epochs, "train_epochs", min_val=3, integer=True)
     check_scalar(max_faults, "max_faults", min_val=0, integer=True)
     b = biases.bias_s
     sats = biases.satellites
+    epochs = b.shape[0]
     template = copy.deepcopy(detector)
     template.interval_s = biases.interval_s
-    excluded = np.zeros(b.shape[1], dtype=bool)
+    exclude_from = np.full(len(sats), epochs, dtype=np.int64)
     blamed_at: dict[str, int] = {}
+    fits: dict = {}
+    seen = np.isfinite(b).any(axis=0)
     while True:
         if remove_common:
-            resid, common = channel_residuals(b, exclude=excluded)
+            resid, common = channel_residuals(b, exclude=exclude_from)
         else:
-            resid, common = b.copy(), np.zeros(b.shape[0])
-        results, detectors = _run_channels(template, resid, noise, train_epochs)
-        k, j = _strongest_alarm(results, ~excluded)
-        if k < 0 or max_faults == 0:
+            resid, common = b.copy(), np.zeros(epochs)
+        results, detectors, trained = _run_channels(template, resid, noise, train_epochs, fits)
+        if max_faults == 0 or len(blamed_at) >= max_faults or not remove_common and blamed_at:
+            break
+        k, j = _strongest_alarm(results, exclude_from)
+        if k < 0 or (seen & (exclude_from > k)).sum() - 1 < MIN_CLOCK_CHANNELS:
             break
         blamed_at[sats[j]] = k
-        excluded[j] = True
-        seen = np.isfinite(b).any(axis=0)
-        if not remove_common or len(blamed_at) >= max_faults or (seen & ~excluded).sum() < 3:
-            if remove_common and (seen & ~excluded).sum() >= 3:
-                resid, common = channel_residuals(b, exclude=excluded)
-                results, detectors = _run_channels(template, resid, noise, train_epochs)
-            break
+        exclude_from[j] = k
     first = np.array([biases.t_s[r.first_alarm()] if r.first_alarm() >= 0 else np.nan for r in results])
     return IdentificationResult(
         satellites=list(sats),
@@ -214,34 +280,63 @@ def identify(
         t_s=biases.t_s,
         n_skipped_epochs=biases.n_skipped_epochs,
         detectors=detectors,
+        trained_at=trained,
+        blamed_at=np.array([blamed_at.get(s, -1) for s in sats], dtype=np.int64),
     )
 
 
-def _run_channels(template: HodDetector, resid: np.ndarray, noise: str, train_epochs: int):
-    """One fitted copy of ``template`` per column of ``resid`` (epochs, sats) and its DetectionResult."""
-    shared = None
+def _run_channels(template: HodDetector, resid: np.ndarray, noise: str, train_epochs: int, fits=None):
+    """One fitted copy of ``template`` per column of ``resid`` (epochs, sats), its causal DetectionResult
+    (no verdict up to the end of its training) and the epoch its training ended (-1: not fitted).
+    ``fits`` caches the fits by training data (a stretch that exclusion did not change is not refitted)."""
+    fits = {} if fits is None else fits
+    epochs, sats = resid.shape
+    shared, shared_end = None, -1
     if not _needs_fit(template):
         shared = copy.deepcopy(template).fit()
     elif noise == "shared":
-        shared = copy.deepcopy(template).fit(resid[:train_epochs].T)
+        if epochs >= train_epochs:
+            try:
+                shared = copy.deepcopy(template).fit(resid[:train_epochs].T)
+                shared_end = train_epochs - 1
+            except ValueError:
+                shared = None
     results, detectors = [], []
-    for j in range(resid.shape[1]):
+    trained = np.full(sats, -1, dtype=np.int64)
+    for j in range(sats):
         col = resid[:, j]
-        det = copy.deepcopy(shared) if shared is not None else _fit_channel(template, col, train_epochs)
+        if shared is not None:
+            det, end = copy.deepcopy(shared), shared_end
+        elif noise == "shared" or not _needs_fit(template):
+            det, end = None, -1
+        else:
+            det, end = _fit_channel(template, col, train_epochs, fits)
         if det is None:
             results.append(_no_test(col, template))
             detectors.append(copy.deepcopy(template))
             continue
-        results.append(det.run(col))
+        results.append(_after_training(det.run(col), end))
         detectors.append(det)
-    return results, detectors
+        trained[j] = end
+    return results, detectors, trained
 
 
-def _strongest_alarm(results: list[DetectionResult], candidates: np.ndarray) -> tuple[int, int]:
-    """``(epoch, channel)`` of the largest ``statistic / threshold`` at the first epoch where a candidate
-    channel alarms; ``(-1, -1)`` when none does."""
+def _after_training(res: DetectionResult, end: int) -> DetectionResult:
+    """``res`` with no verdict at epochs ``<= end`` (the training stretch: its model was fitted on them)."""
+    if end < 0:
+        return res
+    stat, dof, thr = res.statistic.copy(), res.dof.copy(), res.threshold.copy()
+    stat[: end + 1] = np.nan
+    dof[: end + 1] = 0
+    thr[: end + 1] = np.nan
+    return DetectionResult.from_statistic(stat, dof, thr, np.where(res.skipped, np.nan, 0.0), res.window, res.pfa)
+
+
+def _strongest_alarm(results: list[DetectionResult], exclude_from: np.ndarray) -> tuple[int, int]:
+    """``(epoch, channel)`` of the largest ``statistic / threshold`` at the first epoch where a channel
+    still in the clock estimate (``epoch < exclude_from``) alarms; ``(-1, -1)`` when none does."""
     ratio = np.column_stack([np.where(r.alarm, r.statistic / r.threshold, -np.inf) for r in results])
-    ratio[:, ~candidates] = -np.inf
+    ratio[np.arange(ratio.shape[0])[:, None] >= exclude_from[None, :]] = -np.inf
     epochs = np.flatnonzero(np.isfinite(ratio).any(axis=1))
     if epochs.size == 0:
         return -1, -1
@@ -249,15 +344,21 @@ def _strongest_alarm(results: list[DetectionResult], candidates: np.ndarray) -> 
     return k, int(np.argmax(ratio[k]))
 
 
-def _fit_channel(template: HodDetector, col: np.ndarray, train_epochs: int) -> HodDetector | None:
+def _fit_channel(template: HodDetector, col: np.ndarray, train_epochs: int, fits: dict) -> tuple[HodDetector | None, int]:
+    """The detector fitted on the channel's first ``train_epochs`` valid epochs, and the last of them."""
     valid = np.flatnonzero(np.isfinite(col))
     if valid.size < max(train_epochs, 4):
-        return None
-    stretch = col[valid[0] : valid[train_epochs - 1] + 1]
-    try:
-        return copy.deepcopy(template).fit(stretch)
-    except ValueError:
-        return None
+        return None, -1
+    end = int(valid[train_epochs - 1])
+    stretch = col[valid[0] : end + 1]
+    key = stretch.tobytes()
+    if key not in fits:
+        try:
+            fits[key] = copy.deepcopy(template).fit(stretch)
+        except ValueError:
+            fits[key] = None
+    det = fits[key]
+    return (None, -1) if det is None else (copy.deepcopy(det), end)
 
 
 def _no_test(col: np.ndarray, template: HodDetector) -> DetectionResult:
@@ -335,6 +436,7 @@ def simulate_channel_biases(
 __all__ = [
     "IdentificationResult",
     "SimulatedChannels",
+    "aligned_channels",
     "channel_residuals",
     "common_clock_s",
     "identify",

@@ -5,16 +5,37 @@ document the command prints with ``--json``:
 
 * a CSV (time and clock-bias columns) or a u-blox UBX capture (NAV-CLOCK ``clkB``) gives one receiver clock
   bias (:func:`chronofuse.io.clockbias.read_clock_bias`): **detection** mode, one
-  :class:`~chronofuse.integrity.detector.HodDetector` over the record;
+  :class:`~chronofuse.integrity.detector.HodDetector` over the record, after the receiver's millisecond
+  clock resets are repaired and reported as clock events (:mod:`chronofuse.integrity.clock_events`);
 * a RINEX observation file with a navigation file and the static antenna's ECEF position gives
   per-satellite clock biases: **identification** mode
   (:func:`chronofuse.integrity.identification.identify`: the common receiver clock removed, each channel's
   noise fitted on its own first ``train_s`` seconds; an alarm names its satellite).
 
+Causal verdicts. Each epoch's verdict uses that epoch and earlier ones only: with ``train_s`` the first
+``train_s`` seconds fit the noise model and are not tested (state ``training``); the test starts after them.
+
+States (per epoch and overall, the ``state`` of the document). ``ok``: tested, no fault; ``alarm``: the
+statistic is over its threshold (detection) or a channel is named faulty and stays so (identification,
+latched); ``unavailable``: integrity could not be tested: an epoch with no test (missing data, start-up
+of the difference chain after a gap, training, the receiver reporting no valid fix (UBX NAV-SOL/PVT/STATUS),
+fewer than :data:`MIN_TESTED_CHANNELS` channels tested,
+the position check failed). Overall the record is ``unavailable`` when training failed, the position is
+off (the single-point fix of the data is farther than :data:`POSITION_TOLERANCE_M` from the position
+given), or fewer than :data:`MIN_TESTED_FRACTION` of the epochs with data after training were tested; else
+``alarm`` when any epoch alarmed, else ``ok``. The reasons are listed in ``unavailable_reasons``, the
+untested stretches in ``unavailable`` (``from_ns``/``to_ns``/``reason``). :data:`EXIT_CODES` maps the
+overall state to the command's exit status: 0 ok, 1 alarm, 3 unavailable (2 is bad input).
+
+Times. Every epoch is an integer number of nanoseconds on the file's time axis (``t_ns``; the time column
+for CSV, GPS time of week for UBX, since the first epoch for RINEX); ``t`` is the same in seconds, for
+reading.
+
 Noise parameters: ``h0``, ``hm2`` and ``sigma_rho_m`` together fix the model; ``train_s`` estimates the
-missing ones from the first ``train_s`` seconds of the record (assumed anomaly-free; the test then runs over
-the whole record). Alarm times ``t`` are seconds on the file's time axis (the time column for CSV, GPS time of
-week for UBX, seconds from the first epoch for RINEX). ``n_skipped`` counts missing epochs and corrupt frames.
+missing ones, with the covariance scaled so that P_fa stays at or below nominal in
+:data:`TRAINING_CONFIDENCE` of trainings (``inflation``); the fitted values are reported in ``noise``
+and can be given back as ``h0``/``hm2``/``sigma_rho_m`` on the next run. ``n_skipped`` counts missing epochs and corrupt
+frames.
 
 Errors name the command-line option beside the parameter (``train_s (--train)``) so the one message serves
 the library and the command.
@@ -22,11 +43,20 @@ the library and the command.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
 
+from chronofuse.integrity.availability import (  # noqa: F401 (EXIT_CODES and the limits are part of this API)
+    EXIT_CODES,
+    MIN_TESTED_CHANNELS,
+    MIN_TESTED_FRACTION,
+    POSITION_TOLERANCE_M,
+    SHORT_TRAINING_DIFFERENCES,
+    availability,
+    overall_state,
+    training_warnings,
+)
 from chronofuse.integrity.detector import HodDetector, chi2_thresholds
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.formats import sniff_format
@@ -62,72 +92,208 @@ def parse_position(position) -> np.ndarray:
     return xyz
 
 
+#: With ``train_s``, the detectors keep P_fa at or below nominal in this share of trainings (the
+#: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`; issue 10.4).
+TRAINING_CONFIDENCE = 0.9
+
+def read_noise_file(path: str | Path) -> dict:
+    """``{"h0", "hm2", "sigma_rho_m"}`` from a JSON file: a ``detect --json`` document (its ``noise``) or the
+    three numbers at the top level, so a model trained once is used on the next run (issue 10.4).
+    Raises :class:`InputDataError` naming the file when they are not there."""
+    import json
+
+    try:
+        doc = json.loads(Path(path).read_text())
+    except (OSError, ValueError) as err:
+        raise InputDataError(f"cannot read a noise model from it: {err}", str(path)) from None
+    model = doc.get("noise", doc) if isinstance(doc, dict) else None
+    try:
+        return {name: float(model[name]) for name in ("h0", "hm2", "sigma_rho_m")}
+    except (TypeError, KeyError, ValueError):
+        raise InputDataError("expected a JSON object with h0, hm2 and sigma_rho_m (or a detect --json document "
+                             "with its noise)", str(path)) from None
+
+
 def _check_length(n_epochs: int, window: int, source: str) -> None:
     if n_epochs - 2 < window:
         raise InputDataError(f"window {window} is longer than the data: {n_epochs} epochs give {max(n_epochs - 2, 0)} "
                              "differences", source)
 
 
-def _fit(det: HodDetector, data: ClockBiasInput, train_s: float | None) -> HodDetector:
-    """Fit ``det`` on its given model, or on the epochs within ``train_s`` of the first one."""
-    if train_s is None:
-        return det.fit()
-    rows = slice(0, int(np.searchsorted(data.t_s - data.t_s[0], train_s, side="left")))
-    training = data.bias_s[rows]
-    n_valid = int(np.isfinite(training).sum())
-    if n_valid < det.window + 3:
-        raise InputDataError(f"train_s (--train) {train_s:g} s holds {n_valid} valid epochs; need at least "
-                             f"window + 3 = {det.window + 3}", data.source)
-    return det.fit(training)
+def _training_rows(t_s: np.ndarray, train_s: float | None) -> int:
+    return 0 if train_s is None else int(np.searchsorted(t_s - t_s[0], train_s, side="left"))
 
 
 def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: float | None = None) -> dict:
-    """Detection mode on one clock bias: fit ``detector`` (on its model or the first ``train_s`` s), run it.
+    """Detection mode on one clock bias (module docstring): repair the clock resets, fit ``detector`` (on its
+    model or the first ``train_s`` s), test every later epoch. ``detector`` is fitted in place."""
+    from chronofuse.integrity.clock_events import repair_clock_steering
 
-    ``detector`` is fitted in place (scikit-learn style). Returns the document of :func:`detect_file`.
-    """
     _check_length(data.bias_s.size, detector.window, data.source)
-    _fit(detector, data, train_s)
-    res = detector.run(data.bias_s)
-    alarms = [{"t": float(data.t_s[k]), "statistic": float(res.statistic[k]), "channel": None}
-              for k in np.flatnonzero(res.alarm)]
-    return _document("detection", data.bias_s.size, detector, alarms, data.n_skipped)
+    t_ns = data.t_ns
+    bad_status = np.zeros(data.bias_s.size, bool) if data.receiver_ok is None else ~np.asarray(data.receiver_ok)
+    steering = repair_clock_steering(np.where(bad_status, np.nan, data.bias_s))
+    x = steering.repaired_s
+    n_train = _training_rows(data.t_s, train_s)
+    reasons: list[str] = []
+    warnings: list[str] = []
+    fitted = True
+    if train_s is not None:
+        training = x[:n_train]
+        n_valid = int(np.isfinite(training).sum())
+        if n_valid < detector.window + 3:
+            reasons.append(f"training failed: train_s (--train) {train_s:g} s holds {n_valid} valid epochs; need at "
+                           f"least window + 3 = {detector.window + 3}")
+            fitted = False
+        else:
+            try:
+                detector.fit(training)
+                warnings.extend(training_warnings(np.diff(training, 2) / detector.interval_s))
+            except ValueError as err:
+                reasons.append(f"training failed: {err}")
+                fitted = False
+    else:
+        detector.fit()
+    n = x.size
+    per_epoch = np.full(n, "", dtype=object)
+    per_epoch[:n_train] = "training"
+    alarms = []
+    states = np.full(n, "unavailable", dtype=object)
+    if fitted:
+        res = detector.run(x)
+        tested = (res.dof > 0) & (np.arange(n) >= n_train)
+        alarm = res.alarm & tested
+        states[tested] = "ok"
+        states[alarm] = "alarm"
+        per_epoch[~tested & (np.arange(n) >= n_train)] = "no test (missing epoch or difference chain restarting)"
+        per_epoch[bad_status & (np.arange(n) >= n_train)] = "receiver status: no valid fix"
+        alarms = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "statistic": float(res.statistic[k]), "channel": None}
+                  for k in np.flatnonzero(alarm)]
+    else:
+        per_epoch[:] = "training failed"
+    state = overall_state(states, n_train, reasons, present=np.isfinite(x))
+    doc = _document("detection", n, detector, alarms, data.n_skipped)
+    doc.update(availability(state, reasons, t_ns, per_epoch, states, n_train))
+    doc["clock_events"] = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "size_s": float(size), "kind": "clock reset"}
+                           for k, size in zip(steering.event_epochs, steering.event_size_s)]
+    doc["interval_s"] = float(detector.interval_s)
+    doc["noise"] = _noise(detector) if fitted else None
+    doc["warnings"] = warnings
+    doc["n_no_fix"] = int(bad_status.sum())
+    return doc
+
+
+def _noise(det: HodDetector) -> dict:
+    return {"h0": float(det.h0_), "hm2": float(det.hm2_), "sigma_rho_m": float(det.sigma_rho_m_),
+            "inflation": float(det.inflation_)}
+
+
+def position_offsets_m(obs, nav, position_m: np.ndarray) -> np.ndarray:
+    """Per epoch of ``obs`` (:class:`chronofuse.io.rinex.GpsObservations`), the median over the epochs so far
+    (causal) of the distance (m) between the data's own single-point fix
+    (:func:`chronofuse.gnss.spp.single_point_position`) and ``position_m`` (NaN: no fix yet)."""
+    from chronofuse.gnss.spp import single_point_position
+
+    pos, _, _ = single_point_position(obs, nav)
+    dist = np.linalg.norm(pos - position_m[None, :], axis=1)
+    out = np.full(dist.size, np.nan)
+    for k in range(dist.size):
+        seen = dist[: k + 1][np.isfinite(dist[: k + 1])]
+        if seen.size:
+            out[k] = float(np.median(seen))
+    return out
 
 
 def identification_document(obs: str | Path, nav: str | Path, position_m, detector: HodDetector,
                             train_s: float | None = None) -> dict:
     """Identification mode on a RINEX observation file with its navigation file and antenna position.
 
-    Returns the document of :func:`detect_file` with ``faulty`` (channels named, with the time each was
-    named) and ``untested`` (channels with too few epochs above the elevation mask).
+    Every code observable of the file is tested (issue 10.7: a fault on P2 was invisible when only C1
+    was): with one code, channels are named by satellite (``G20``); with several, by satellite and code
+    (``G20 C1``, ``G20 P2``). Per epoch, the state is ``ok`` when at least :data:`MIN_TESTED_CHANNELS`
+    channels of the L1 code (the one a position/time solution uses) are tested and the position check
+    passes, ``alarm`` from the epoch a channel of any code is named (latched). Returns the document of
+    :func:`detect_file` with ``faulty`` (channels named, with the time each was named), ``untested``
+    (channels never tested), ``codes`` and the states of the module docstring.
     """
     # imported here: the RINEX stack (georinex, xarray) takes a second to import, detection mode needs none of it
     from chronofuse.integrity.identification import identify
-    from chronofuse.io.rinex import channel_clock_biases
+    from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 
-    biases = channel_clock_biases(obs, nav, parse_position(position_m))
-    interval_s = float(biases.interval_s)
-    if not math.isclose(interval_s, detector.interval_s, rel_tol=1e-6):
-        raise InputDataError(f"observation interval {interval_s:g} s does not match rate_hz (--rate) "
-                             f"({detector.interval_s:g} s): a new interval needs a new detector", str(obs))
-    n_epochs = int(np.asarray(biases.t_s).size)
-    _check_length(n_epochs, detector.window, str(obs))
-    options = {}
-    if train_s is not None:
-        # each channel's noise fitted on its own first valid epochs of the training length
-        options["train_epochs"] = max(3, int(round(train_s / interval_s)))
-    result = identify(biases, detector, **options)
-    n_skipped = int(result.n_skipped_epochs)  # grid epochs not read, unreadable ones included
-    doc = _document("identification", n_epochs, detector, result.alarms, n_skipped)
-    doc["faulty"] = [{"channel": ch, "t": float(result.first_blame_s[result.satellites.index(ch)])}
-                     for ch in result.faulty]
-    doc["untested"] = result.untested
+    position = parse_position(position_m)
+    observations = read_gps_observations(obs)
+    navigation = read_gps_navigation(nav)
+    codes = observations.codes
+    runs = []
+    for code in codes:
+        biases = channel_clock_biases(obs, nav, position, code=code, observations=observations, navigation=navigation)
+        if not runs:
+            interval_s = float(biases.interval_s)
+            detector.interval_s = interval_s  # the file's own interval (issue 10.7)
+            n_epochs = int(np.asarray(biases.t_s).size)
+            _check_length(n_epochs, detector.window, str(obs))
+            options = {}
+            n_train = 0
+            if train_s is not None:
+                # each channel's noise fitted on its own first valid epochs of the training length
+                options["train_epochs"] = max(3, int(round(train_s / interval_s)))
+                n_train = min(options["train_epochs"], n_epochs)
+        runs.append((code, identify(biases, detector, **options), biases))
+    label = (lambda sat, code: sat) if len(codes) == 1 else (lambda sat, code: f"{sat} {code}")
+    step_ns = int(round(interval_s * 1e9))
+    t_ns = np.arange(n_epochs, dtype=np.int64) * step_ns
+    offsets = position_offsets_m(observations, navigation, position)
+    slots = np.round((observations.gps_ns - observations.gps_ns[0]) / step_ns).astype(np.int64)
+    offset_at = np.full(n_epochs, np.nan)
+    offset_at[np.clip(slots, 0, n_epochs - 1)] = offsets
+    offset_at = _forward_fill(offset_at)
+    far = offset_at > POSITION_TOLERANCE_M
+    tested = runs[0][1].tested.sum(axis=1)
+    latched = np.zeros(n_epochs, dtype=bool)
+    for _, result, _ in runs:
+        latched |= result.faulty_mask.any(axis=1)
+    states = np.full(n_epochs, "unavailable", dtype=object)
+    states[(tested >= MIN_TESTED_CHANNELS) & ~far] = "ok"
+    states[latched] = "alarm"
+    per_epoch = np.full(n_epochs, "", dtype=object)
+    per_epoch[tested < MIN_TESTED_CHANNELS] = f"fewer than {MIN_TESTED_CHANNELS} channels tested"
+    per_epoch[:n_train] = "training"
+    per_epoch[far] = f"position more than {POSITION_TOLERANCE_M:g} m from the data's own fix"
+    reasons: list[str] = []
+    if np.isfinite(offset_at).any() and np.nanmax(offset_at) > POSITION_TOLERANCE_M:
+        reasons.append(f"the position given is {np.nanmax(offset_at):.0f} m from the data's own single-point fix "
+                       f"(tolerance {POSITION_TOLERANCE_M:g} m)")
+    if runs[0][1].untested == runs[0][1].satellites:
+        reasons.append("no channel could be tested (too few epochs above the elevation mask, or no ephemeris "
+                       "for these epochs in the navigation file)")
+    state = overall_state(states, n_train, reasons, present=np.isfinite(runs[0][2].bias_s).any(axis=1))
+    alarms, faulty, untested = [], [], []
+    for code, result, _ in runs:
+        alarms += [{"t_ns": int(t_ns[a["epoch"]]), "t": t_ns[a["epoch"]] / 1e9, "statistic": a["statistic"],
+                    "channel": label(a["channel"], code)} for a in result.alarms]
+        faulty += [{"channel": label(ch, code), "t_ns": int(t_ns[result.blamed_at[result.satellites.index(ch)]]),
+                    "t": t_ns[result.blamed_at[result.satellites.index(ch)]] / 1e9} for ch in result.faulty]
+        untested += [label(ch, code) for ch in result.untested]
+    alarms.sort(key=lambda a: (a["t_ns"], a["channel"]))
+    faulty.sort(key=lambda f: (f["t_ns"], f["channel"]))
+    doc = _document("identification", n_epochs, detector, alarms, int(runs[0][1].n_skipped_epochs))
+    doc.update(availability(state, reasons, t_ns, per_epoch, states, n_train))
+    doc["faulty"] = faulty
+    doc["untested"] = untested
+    doc["codes"] = codes
+    doc["interval_s"] = interval_s
     return doc
+
+
+def _forward_fill(values: np.ndarray) -> np.ndarray:
+    idx = np.where(np.isfinite(values), np.arange(values.size), 0)
+    idx = np.maximum.accumulate(idx)
+    return values[idx]
 
 
 def detect_file(
     path: str | Path,
-    rate_hz: float,
+    rate_hz: float | None = None,
     *,
     column: str | None = None,
     h0: float | None = None,
@@ -138,6 +304,7 @@ def detect_file(
     pfa: float = 1e-3,
     position_m=None,
     nav: str | Path | None = None,
+    station: str | None = None,
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -145,15 +312,15 @@ def detect_file(
     ----------
     path : str or Path
         Clock-bias CSV, UBX capture or RINEX observation file.
-    rate_hz : float
-        Sampling rate of the clock bias (Hz); a file on another interval is an error.
+    rate_hz : float, optional
+        Sampling rate (Hz) of a file without a time column; a file's own times give its interval.
     column : str, optional
         The CSV clock-bias column.
     h0, hm2, sigma_rho_m : float, optional
         White FM level (s), random-walk FM level (1/s), mean pseudorange noise (m).
     train_s : float, optional
-        Learn the missing noise parameters from the first ``train_s`` seconds. Either all three noise
-        parameters or ``train_s`` are required.
+        Learn the missing noise parameters from the first ``train_s`` seconds (not tested). Either all
+        three noise parameters or ``train_s`` are required.
     window : int
         Window length n (epochs).
     pfa : float
@@ -162,31 +329,94 @@ def detect_file(
         Static antenna ECEF X, Y, Z (m), for identification mode.
     nav : str or Path, optional
         RINEX navigation file, for identification mode.
+    station : str, optional
+        For a RINEX clock product (``.clk``): the station whose ``AR`` clock is tested (detection mode);
+        without it every station is tested (:func:`clock_product_document`).
 
     Returns
     -------
     dict
-        ``mode`` ("detection" or "identification"), ``n_epochs``, ``threshold`` (for a full window),
-        ``window``, ``pfa``, ``alarms`` (each ``{"t", "statistic", "channel"}``), ``n_alarms``, ``n_skipped``;
-        identification adds ``faulty`` and ``untested``.
+        ``mode`` ("detection" or "identification"), ``state`` ("ok", "alarm" or "unavailable"; exit code
+        in :data:`EXIT_CODES`), ``unavailable_reasons``, ``unavailable`` (untested stretches), ``n_epochs``,
+        ``n_tested``, ``n_training``, ``interval_s``, ``threshold`` (for a full window), ``window``, ``pfa``,
+        ``alarms`` (each ``{"t_ns", "t", "statistic", "channel"}``), ``n_alarms``, ``n_skipped``; detection
+        adds ``clock_events`` (each ``{"t_ns", "t", "size_s", "kind"}``), ``noise`` (the model used) and
+        ``warnings`` (:func:`training_warnings`);
+        identification adds ``faulty`` and ``untested``; a clock product without ``station`` gives
+        :func:`clock_product_document`.
     """
-    check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
+    if rate_hz is not None:
+        check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
     if train_s is not None:
         check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     elif None in (h0, hm2, sigma_rho_m):
         raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
     kind = sniff_format(path)
-    detector = HodDetector(interval_s=1.0 / rate_hz, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m)
     if kind == "rinex-nav":
         raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
+    params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                  confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     if kind == "rinex-obs":
         if nav is None or position_m is None:
             raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
                                  "mode: nav and position_m)", str(path))
-        return identification_document(path, nav, position_m, detector, train_s)
+        return identification_document(path, nav, position_m, HodDetector(interval_s=1.0, **params), train_s)
     if nav is not None or position_m is not None:
         raise InputDataError("--nav/--position need a RINEX observation file (identification mode)", str(path))
-    return detection_document(read_clock_bias(path, rate_hz, column), detector, train_s)
+    if kind == "rinex-clock":
+        from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
+
+        clocks = read_station_clocks(path)
+        if station is None:
+            return clock_product_document(clocks, params, train_s)
+        data = station_clock_bias(clocks, station)
+        doc = detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s)
+        doc["station"] = station
+        return doc
+    if station is not None:
+        raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
+    data = read_clock_bias(path, rate_hz, column)
+    return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s)
+
+
+def clock_product_document(clocks, params: dict, train_s: float | None = None) -> dict:
+    """Every station of a RINEX clock product in detection mode: one row of verdicts per station.
+
+    ``params``: the :class:`HodDetector` parameters but the interval (each station's own). A station too
+    short for the window or the training is ``unavailable`` with its reason, not an error. The overall
+    state is ``alarm`` when a station alarms, ``unavailable`` when no station could be tested, else ``ok``.
+    """
+    from chronofuse.io.rinex_clock import station_clock_bias
+
+    rows = []
+    for name in clocks.stations:
+        data = station_clock_bias(clocks, name)
+        row = {"station": name, "n_epochs": int(data.bias_s.size), "interval_s": float(data.interval_s)}
+        try:
+            if not np.isfinite(data.interval_s):
+                raise InputDataError("one epoch: nothing to difference", data.source)
+            doc = detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s)
+        except InputDataError as err:
+            row.update(state="unavailable", n_tested=0, n_alarms=0, clock_events=[], unavailable_reasons=[str(err)])
+        else:
+            row.update(state=doc["state"], n_tested=doc["n_tested"], n_alarms=doc["n_alarms"],
+                       clock_events=doc["clock_events"], unavailable_reasons=doc["unavailable_reasons"],
+                       noise=doc["noise"], warnings=doc["warnings"])
+        rows.append(row)
+    states = {r["state"] for r in rows}
+    state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
+    det = HodDetector(interval_s=1.0, **params)
+    return {
+        "mode": "clock-product",
+        "state": state,
+        "n_stations": len(rows),
+        "threshold": float(chi2_thresholds(det.pfa, int(det.window))[-1]),
+        "window": int(det.window),
+        "pfa": float(det.pfa),
+        "stations": rows,
+        "n_bad_lines": int(clocks.n_bad_lines),
+        "source": clocks.source,
+    }
 
 
 def _document(mode: str, n_epochs: int, det: HodDetector, alarms: list[dict], n_skipped: int) -> dict:

@@ -45,12 +45,24 @@ class ClockBiasInput:
         Missing epochs plus corrupt frames counted while reading.
     source : str
         The file read.
+    interval_s : float
+        Sampling interval (s): from the time column when the file has one, else ``1 / rate_hz``.
+    receiver_ok : ndarray of bool, shape (epochs,), or None
+        The receiver's own status per epoch (UBX: a valid fix, :attr:`chronofuse.io.ubx.NavClockRecord.fix_ok`);
+        None when the file carries none.
     """
 
     bias_s: np.ndarray
     t_s: np.ndarray
     n_skipped: int
     source: str = ""
+    interval_s: float = float("nan")
+    receiver_ok: np.ndarray | None = None
+
+    @property
+    def t_ns(self) -> np.ndarray:
+        """Epoch times as int64 nanoseconds on the file's axis (``t_s`` rounded to the ns)."""
+        return np.round(np.asarray(self.t_s, dtype=np.float64) * 1e9).astype(np.int64)
 
 
 def bias_column(path: str | Path, column: str | None = None) -> str | None:
@@ -62,34 +74,62 @@ def bias_column(path: str | Path, column: str | None = None) -> str | None:
     return next((name for name in names if name.lower().startswith(_BIAS_PREFIX)), None)
 
 
-def read_csv_bias(path: str | Path, rate_hz: float, column: str | None = None) -> ClockBiasInput:
-    """Clock bias (s) from a CSV/text record via :func:`chronofuse.io.records.read_record` (gaps as NaN)."""
-    record = read_record(path, kind="phase", rate_hz=rate_hz, column=bias_column(path, column))
-    t_s = record.t_ns / 1e9 if record.t_ns is not None else np.arange(record.values.size) / record.rate_hz
-    return ClockBiasInput(bias_s=record.values, t_s=t_s, n_skipped=record.n_gaps, source=record.source)
+def read_csv_bias(path: str | Path, rate_hz: float | None, column: str | None = None) -> ClockBiasInput:
+    """Clock bias (s) from a CSV/text record via :func:`chronofuse.io.records.read_record` (gaps as NaN).
+
+    The interval comes from the time column when there is one (``rate_hz`` is then not used: a rate
+    written as 0.003333 for 300 s need not match it to 1e-6); ``rate_hz`` is needed only without one.
+    """
+    name = bias_column(path, column)
+    try:
+        record = read_record(path, kind="phase", rate_hz=None, column=name)
+    except InputDataError:
+        if rate_hz is None:
+            raise
+        record = read_record(path, kind="phase", rate_hz=rate_hz, column=name)
+    t_s = record.t_s if record.t_s is not None else np.arange(record.values.size) / record.rate_hz
+    return ClockBiasInput(bias_s=record.values, t_s=t_s, n_skipped=record.n_gaps, source=record.source,
+                          interval_s=1.0 / record.rate_hz)
 
 
-def read_ubx_bias(path: str | Path, rate_hz: float) -> ClockBiasInput:
+def read_ubx_bias(path: str | Path, rate_hz: float | None = None) -> ClockBiasInput:
     """Clock bias (s) from UBX NAV-CLOCK frames (corrupt frames skipped and counted by the reader).
 
     Epochs are placed on the ``1/rate_hz`` grid within :data:`UBX_TIME_TOLERANCE` of an interval (the
     receiver tags solutions on its own clock); missing solutions become NaN epochs, counted in ``n_skipped``.
     """
     rec = read_nav_clock(path)
-    t_rel_s, bias_s = regular_grid(np.asarray(rec.t_s, float), np.asarray(rec.clock_bias_s, float), 1.0 / rate_hz,
+    t = np.asarray(rec.t_s, float)
+    if rate_hz is None:
+        if t.size < 2:
+            raise InputDataError("one NAV-CLOCK solution and no --rate: the interval is unknown", rec.source)
+        interval_s = round(float(np.median(np.diff(t))), 3)  # iTOW is in ms
+        if interval_s <= 0:
+            raise InputDataError("NAV-CLOCK times do not increase: the interval is unknown", rec.source)
+    else:
+        interval_s = 1.0 / rate_hz
+    t_rel_s, bias_s = regular_grid(t, np.asarray(rec.clock_bias_s, float), interval_s,
                                    rec.source, tolerance=UBX_TIME_TOLERANCE)
     t_s = float(rec.itow_ms[0]) / 1000.0 + t_rel_s
     n_missing = int(np.isnan(bias_s).sum())
-    return ClockBiasInput(bias_s=bias_s, t_s=t_s, n_skipped=n_missing + int(rec.n_skipped_frames), source=rec.source)
+    ok = None
+    if rec.fix_ok is not None:
+        _, ok_grid = regular_grid(t, rec.fix_ok.astype(np.float64), interval_s, rec.source, tolerance=UBX_TIME_TOLERANCE)
+        ok = ~(ok_grid == 0.0)  # a missing epoch is missing, not a bad status
+    return ClockBiasInput(bias_s=bias_s, t_s=t_s, n_skipped=n_missing + int(rec.n_skipped_frames), source=rec.source,
+                          interval_s=interval_s, receiver_ok=ok)
 
 
-def read_clock_bias(path: str | Path, rate_hz: float, column: str | None = None) -> ClockBiasInput:
+def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None) -> ClockBiasInput:
     """One receiver clock bias from a CSV/text or UBX file (told apart by :func:`sniff_format`).
+
+    The interval is the file's own (time column, UBX iTOW); ``rate_hz`` serves only a file without times.
 
     Raises :class:`InputDataError` naming the file for a RINEX file (many satellites, not one clock bias:
     see :func:`chronofuse.integrity.identification.channel_clock_biases`) or unreadable content.
     """
-    check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
+    if rate_hz is not None:
+        check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
     kind = sniff_format(path)
     if kind.startswith("rinex"):
         raise InputDataError(f"a {kind} file holds no single receiver clock bias", str(path))

@@ -1,4 +1,4 @@
-"""What kind of data file this is, from its first bytes: UBX, RINEX observation/navigation, or text (CSV)."""
+"""What kind of data file this is, from its first bytes: UBX, RINEX observation/navigation/clock, or text (CSV)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 from chronofuse.validation import InputDataError
 
 #: The kinds :func:`sniff_format` tells apart.
-FORMATS = ("ubx", "rinex-obs", "rinex-nav", "csv")
+FORMATS = ("ubx", "rinex-obs", "rinex-nav", "rinex-clock", "csv")
 
 _SNIFF_BYTES = 4096
 _UBX_SYNC = b"\xb5\x62"
@@ -42,6 +42,8 @@ def sniff_format(path: str | Path) -> str:
     if _UBX_SYNC in head:
         return "ubx"
     first = head.split(b"\n", 1)[0].decode("ascii", errors="replace")
+    if "RINEX VERSION / TYPE" in first and first[20:40].strip().upper().startswith("C"):
+        return "rinex-clock"  # RINEX clock 2.00/3.00 "CLOCK DATA" at column 21, 3.04 "C" at column 22
     if "RINEX VERSION / TYPE" in first or "CRINEX VERS" in first:
         kind = first[20:21].upper()
         return "rinex-nav" if kind in _RINEX_NAV_TYPES and "CRINEX" not in first else "rinex-obs"

@@ -37,6 +37,11 @@ from chronofuse.validation import InputDataError, check_array, check_choice
 # Preferred L1 pseudorange codes, best first (RINEX 3 C1C, RINEX 2 C1, then P1 codes).
 L1_PSEUDORANGE_CODES = ("C1C", "C1", "C1W", "C1P", "P1")
 
+#: Every GPS code (pseudorange) observable kept beside the L1 one, for identification on each of them
+#: (RINEX 2 names, then RINEX 3's L1/L2/L5 codes).
+CODE_OBSERVABLES = ("C1", "P1", "P2", "C2", "C5", "C1C", "C1W", "C1P", "C2W", "C2P", "C2L", "C2X", "C2S", "C5Q",
+                    "C5X")
+
 _RINEX2_EPOCH = re.compile(r"^ [ \d]\d [ \d]\d [ \d]\d [ \d]\d [ \d]\d.{11}  [01][ \d]{2}\d")
 _RINEX3_EPOCH = re.compile(r"^>")
 
@@ -104,6 +109,20 @@ class GpsObservations:
     n_unreadable_epochs: int
     problems: list[str] = field(default_factory=list)
     source: str = ""
+    other_codes_m: dict = field(default_factory=dict)
+
+    def code_pseudorange_m(self, code: str | None = None) -> np.ndarray:
+        """The (epochs, sats) pseudoranges of ``code`` (None: the L1 code in ``pseudorange_m``)."""
+        if code is None or code == self.code:
+            return self.pseudorange_m
+        if code not in self.other_codes_m:
+            raise InputDataError(f"no {code} pseudorange (codes: {', '.join(self.codes)})", self.source)
+        return self.other_codes_m[code]
+
+    @property
+    def codes(self) -> list[str]:
+        """Every code observable held: the L1 one first."""
+        return [self.code, *self.other_codes_m]
 
 
 def to_gps_ns(times) -> np.ndarray:
@@ -167,11 +186,19 @@ def read_gps_observations(path, *, codes=L1_PSEUDORANGE_CODES) -> GpsObservation
     path = Path(path)
     if not path.is_file():
         raise InputDataError("no such file", str(path))
-    obs, problems = _load(path, use={"G"})
-    if not hasattr(obs, "data_vars") or obs.attrs.get("rinextype") != "obs":
+    try:
+        obs, problems = _load(path, use={"G"})
+        cut = 0
+    except InputDataError:
+        obs, problems, cut = _load_without_last_epoch(path)
+    empty = not hasattr(obs, "sizes") or obs.sizes.get("time", 0) == 0 or obs.sizes.get("sv", 0) == 0
+    if not empty and obs.attrs.get("rinextype") != "obs":
         raise InputDataError("not a RINEX observation file", str(path))
-    if obs.sizes.get("time", 0) == 0 or obs.sizes.get("sv", 0) == 0:
-        raise InputDataError("no GPS observation epoch in the file", str(path))
+    if empty:
+        systems = _observed_systems(path)
+        raise InputDataError("no GPS observation epoch in the file (it holds "
+                             f"{', '.join(systems) if systems else 'no satellite'}; identification needs GPS "
+                             "pseudoranges and a GPS navigation file)", str(path))
     code = next((c for c in codes if c in obs.data_vars), None)
     if code is None:
         raise InputDataError(f"no L1 pseudorange ({', '.join(codes)}) among {sorted(obs.data_vars)}", str(path))
@@ -189,10 +216,59 @@ def read_gps_observations(path, *, codes=L1_PSEUDORANGE_CODES) -> GpsObservation
         code=code,
         approx_position_m=None if position is None else np.asarray(position, dtype=np.float64),
         interval_s=interval_s,
-        n_unreadable_epochs=max(declared - obs.sizes["time"], 0),
+        n_unreadable_epochs=max(declared - obs.sizes["time"], cut),
         problems=problems,
         source=str(path),
+        other_codes_m={c: obs[c].transpose("time", "sv").values.astype(np.float64)[:, keep]
+                       for c in CODE_OBSERVABLES if c != code and c in obs.data_vars
+                       and np.isfinite(obs[c].values).any()},
     )
+
+
+_SYSTEM_NAMES = {"G": "GPS", "R": "GLONASS", "E": "Galileo", "C": "BeiDou", "J": "QZSS", "S": "SBAS", "I": "NavIC"}
+
+
+def _observed_systems(path: Path) -> list[str]:
+    """The satellite systems named in the file's epoch records (RINEX 2 satellite lists, RINEX 3 data lines)."""
+    found = set()
+    body = False
+    for line in Path(path).read_text(errors="replace").splitlines():
+        if not body:
+            body = "END OF HEADER" in line
+            continue
+        if _RINEX2_EPOCH.match(line):
+            found.update(c for c in line[32:68:3] if c in _SYSTEM_NAMES)
+        elif line[:1] in _SYSTEM_NAMES and line[1:3].strip().isdigit():
+            found.add(line[0])
+    return [_SYSTEM_NAMES[c] for c in sorted(found)]
+
+
+def _load_without_last_epoch(path: Path):
+    """Read a file whose last epoch record is cut short (a recording stopped mid-write): georinex raises on
+    it, so the text up to the last epoch header is read instead and that epoch counted as unreadable.
+    Raises the original error when the file still cannot be read."""
+    import tempfile
+
+    text = path.read_text(errors="replace").splitlines(keepends=True)
+    body = next((i for i, line in enumerate(text) if "END OF HEADER" in line), None)
+    version = text[0][:9].strip() if text else ""
+    try:
+        pattern = _RINEX3_EPOCH if int(float(version)) >= 3 else _RINEX2_EPOCH
+    except ValueError:
+        pattern = None
+    last = None if body is None or pattern is None else next(
+        (i for i in range(len(text) - 1, body, -1) if pattern.match(text[i])), None)
+    if last is None:
+        return (*_load(path, use={"G"}), 0)
+    with tempfile.TemporaryDirectory() as tmp:
+        trimmed = Path(tmp) / path.name
+        trimmed.write_text("".join(text[:last]))
+        try:
+            obs, problems = _load(trimmed, use={"G"})
+        except InputDataError:
+            return (*_load(path, use={"G"}), 0)
+        obs.load()
+    return obs, problems + ["last epoch record cut short: not read"], 1
 
 
 def read_gps_navigation(path) -> GpsNavigation:
@@ -233,7 +309,8 @@ def read_gps_navigation(path) -> GpsNavigation:
 
 
 def channel_clock_biases(
-    obs_path, nav_path, position_ecef_m, *, elevation_mask_deg: float = 15.0, epoch_time: str = "grid"
+    obs_path, nav_path, position_ecef_m, *, elevation_mask_deg: float = 15.0, epoch_time: str = "grid",
+    code: str | None = None, observations: GpsObservations | None = None, navigation: GpsNavigation | None = None,
 ) -> ChannelClockBiases:
     """Per-satellite clock biases ``b_n(k)`` (SPEC 4, :func:`chronofuse.gnss.observables.channel_biases`) from a
     RINEX observation file and a GPS navigation file for a static receiver at ``position_ecef_m`` (3,) (m, ECEF).
@@ -246,15 +323,18 @@ def channel_clock_biases(
     millisecond clock steering) while their pseudoranges agree better with the grid: measured, the
     second-difference noise of the channel residuals drops on 17 of 20 channels with ``"grid"`` (e.g.
     G11 at 0759: 2.3 -> 1.4 ns) and the clean-data false alarms of station 0759 go from four channels
-    to one. ``gps_epoch_ns`` holds the times used. Raises :class:`InputDataError` naming the file
+    to one. ``gps_epoch_ns`` holds the times used. ``code``: the code observable (None: the L1 code;
+    e.g. ``"P2"``: the L1 signal model is applied to it, and the L2 ionosphere and inter-frequency bias
+    it misses are slow, which the second difference removes); ``observations``/``navigation``: files
+    already read. Raises :class:`InputDataError` naming the file
     when an epoch is off the grid.
     """
     check_choice(epoch_time, "epoch_time", ("grid", "tag"))
     position = check_array(position_ecef_m, "position_ecef_m", ndim=1)
     if position.shape != (3,):
         raise ValueError(f"position_ecef_m has shape {position.shape}, must be (3,)")
-    obs = read_gps_observations(obs_path)
-    nav = read_gps_navigation(nav_path)
+    obs = read_gps_observations(obs_path) if observations is None else observations
+    nav = read_gps_navigation(nav_path) if navigation is None else navigation
     gps = obs.gps_ns
     if obs.interval_s is not None:
         step_ns = int(round(obs.interval_s * NS_PER_S))
@@ -272,7 +352,7 @@ def channel_clock_biases(
     epochs = int(index[-1]) + 1
     if epoch_time == "grid":
         gps = gps[0] + index * step_ns
-    bias, elevation = channel_biases(nav, obs.satellites, gps, obs.pseudorange_m, position,
+    bias, elevation = channel_biases(nav, obs.satellites, gps, obs.code_pseudorange_m(code), position,
                                      elevation_mask_deg=elevation_mask_deg)
     tags = gps[0] + np.arange(epochs, dtype=np.int64) * step_ns
     tags[index] = gps

@@ -55,6 +55,11 @@ class NavClockRecord:
         ``clkB`` (s), ``clkD`` (s/s) and the time accuracy estimate ``tAcc`` (s).
     n_skipped_frames : int
         Corrupt frames skipped by the reader.
+    fix_ok : ndarray of bool, shape (n,)
+        The receiver's own fix status at each solution, from the NAV-SOL, NAV-PVT or NAV-STATUS message of the
+        same iTOW: ``gpsFixOk`` set and a fix type of 2D or better (u-blox interface description: ``gpsFix``
+        2, 3, 4 = 2D, 3D, GNSS + dead reckoning; 5 = time only, also accepted). True where the capture
+        has no status message for that iTOW (nothing says it is bad).
     skipped : list of (int, str)
         ``(byte_offset, reason)`` of every skipped frame.
     source : str
@@ -69,6 +74,7 @@ class NavClockRecord:
     n_skipped_frames: int
     skipped: list[tuple[int, str]] = field(default_factory=list)
     source: str = ""
+    fix_ok: np.ndarray | None = None
 
 
 def unwrap_itow_ms(itow_ms: np.ndarray) -> np.ndarray:
@@ -110,6 +116,7 @@ def read_nav_clock(path) -> NavClockRecord:
 
 def _read_nav_clock(path: Path, source: str) -> NavClockRecord:
     itow, bias, drift, tacc = [], [], [], []
+    status: dict[int, bool] = {}
     skipped: list[tuple[int, str]] = []
     consumed = 0
     with open_capture(path) as stream:
@@ -129,7 +136,13 @@ def _read_nav_clock(path: Path, source: str) -> NavClockRecord:
             if msg is None:
                 break
             consumed = stream.tell()
-            if getattr(msg, "identity", None) != "NAV-CLOCK":
+            identity = getattr(msg, "identity", None)
+            if identity in ("NAV-SOL", "NAV-PVT", "NAV-STATUS"):
+                fix_type = int(getattr(msg, "gpsFix", getattr(msg, "fixType", 0)))
+                fix_flag = next((getattr(msg, n) for n in ("gpsfixOK", "gpsFixOk", "gnssFixOk") if hasattr(msg, n)), 0)
+                status[int(msg.iTOW)] = bool(fix_flag) and fix_type in (2, 3, 4, 5)
+                continue
+            if identity != "NAV-CLOCK":
                 continue
             itow.append(int(msg.iTOW))
             bias.append(float(msg.clkB) * _NS)
@@ -160,4 +173,5 @@ def _read_nav_clock(path: Path, source: str) -> NavClockRecord:
         n_skipped_frames=len(skipped),
         skipped=skipped,
         source=source,
+        fix_ok=np.array([status.get(int(k), True) for k in itow_ms], dtype=bool),
     )
