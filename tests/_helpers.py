@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
 # The one Stable32 table reader, the library's (re-exported: the tests import it from here).
@@ -16,3 +19,19 @@ def assert_close_printed(ours, table, rel_digits: int = 5, name: str = ""):
     tol = 0.5 * 10.0 ** (np.floor(np.log10(np.abs(table))) - (rel_digits - 1))
     bad = np.abs(ours - table) > tol * 1.0001
     assert not bad.any(), f"{name}: ours {ours[bad]} vs table {table[bad]} (tol {tol[bad]})"
+
+
+_REPO = Path(__file__).resolve().parents[1]
+
+
+def receivers_dir() -> Path:
+    """Folder holding ``gpsd/``, ``ubx/`` and ``rinex/`` of real receiver captures."""
+    candidates = [_REPO / "tests" / "data" / "receivers"]
+    if "CHRONOFUSE_DATA" in os.environ:
+        candidates.append(Path(os.environ["CHRONOFUSE_DATA"]) / "receivers")
+    candidates += [_REPO.parent / "shared" / "data" / "receivers", _REPO.parents[1] / "shared" / "data" / "receivers"]
+    for path in candidates:
+        # the full set the oracle test runs over (a partial copy, e.g. a few files for other tests, is skipped)
+        if (path / "gpsd").is_dir() and sum(1 for _ in (path / "gpsd").glob("*.log")) >= 199:
+            return path
+    raise RuntimeError(f"receiver captures not found (looked in {', '.join(map(str, candidates))})")

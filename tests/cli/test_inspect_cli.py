@@ -18,8 +18,7 @@ from chronofuse.cli import inspect as inspect_cli
 from chronofuse.epochs import EXPORT_COLUMNS
 from chronofuse.io.inspect import read_capture
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
-from conftest import receivers_dir  # noqa: E402
+from _helpers import receivers_dir  # noqa: E402
 
 runner = CliRunner()
 app = typer.Typer()

@@ -17,8 +17,7 @@ from typer.testing import CliRunner
 
 from chronofuse.cli import monitor as monitor_cli
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
-from conftest import receivers_dir  # noqa: E402
+from _helpers import receivers_dir  # noqa: E402
 
 runner = CliRunner()
 app = typer.Typer()

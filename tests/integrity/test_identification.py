@@ -15,10 +15,8 @@ STATIONS = ("07590920", "30400920")
 
 
 @pytest.fixture(scope="module")
-def real():
-    from conftest import shared_data_dir
-
-    base = shared_data_dir() / "receivers" / "rinex" / "rtklib"
+def real(real_data):
+    base = real_data / "receivers" / "rinex" / "rtklib"
     out = {}
     for st in STATIONS:
         obs = read_gps_observations(base / f"{st}.05o")

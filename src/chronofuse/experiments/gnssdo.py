@@ -317,7 +317,13 @@ def read_reference(path: Path) -> np.ndarray:
     Refused, naming the file and line: another rate than 1 Hz (from a time column), and any gap.
     """
     path = Path(path)
-    rec = read_record(path, kind="phase", rate_hz=1.0)
+    try:  # the time column, when there is one, says the rate (a rate given here would override it)
+        rec = read_record(path, kind="phase")
+    except InputDataError:
+        rec = read_record(path, kind="phase", rate_hz=1.0)
+    if not math.isclose(rec.rate_hz, 1.0, rel_tol=1e-6):
+        raise InputDataError(f"the time column gives a rate of {rec.rate_hz:g} Hz; the reference record must be "
+                             "sampled at 1 Hz", str(path), _data_line(path, 1))
     if rec.n_gaps:
         first = int(np.flatnonzero(np.isnan(rec.values))[0])
         raise InputDataError(f"gap in the reference record ({rec.n_gaps} missing samples, the first at sample "

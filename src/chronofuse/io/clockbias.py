@@ -87,7 +87,8 @@ def read_csv_bias(path: str | Path, rate_hz: float | None, column: str | None = 
         if rate_hz is None:
             raise
         record = read_record(path, kind="phase", rate_hz=rate_hz, column=name)
-    t_s = record.t_s if record.t_s is not None else np.arange(record.values.size) / record.rate_hz
+    # The file's own time axis (absolute seconds of its time column), or sample times from 0 without one.
+    t_s = record.t_ns / 1e9 if record.t_ns is not None else np.arange(record.values.size) / record.rate_hz
     return ClockBiasInput(bias_s=record.values, t_s=t_s, n_skipped=record.n_gaps, source=record.source,
                           interval_s=1.0 / record.rate_hz)
 
