@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, contiguous_difference_sum, sum_of_squares
+from chronofuse.analysis.stability.kernels_differences import check_kernel_inputs, contiguous_difference_sum, sum_of_squares
 from chronofuse.analysis.stability.kernels_reflected import reflected_sum_of_squares
 
 __all__ = [
