@@ -15,7 +15,7 @@ import numpy as np
 from chronofuse.discipline.chain import ChainConfig, discipline_run
 from chronofuse.discipline.dac import Dac
 from chronofuse.experiments.gnssdo import DEFAULT_CONTROLLER, _free_phase, make_controller, scenario_environment
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_seed, root_seed
 

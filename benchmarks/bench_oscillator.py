@@ -21,14 +21,16 @@ import allantools
 import numpy as np
 
 from chronofuse.models.noise import power_law_noise
-from chronofuse.models.oscillator import preset, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import preset
 
 # allantools' phase-PSD exponent b for each S_y coefficient (b = a - 2).
 _PHASE_EXPONENT = {"h2": 0, "h1": -1, "h0": -2, "hm1": -3, "hm2": -4}
 
 _MEMORY_SCRIPT = """
 import resource, sys
-from chronofuse.models.oscillator import preset, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import preset
 truth = simulate_oscillator(preset("ocxo"), float(sys.argv[1]), 1.0, seed=1)
 assert truth.x_s.shape == (1, int(sys.argv[1]))
 try:  # VmHWM belongs to this process image; ru_maxrss also carries the forking parent's peak

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
-from chronofuse.models.oscillator import preset, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_rng, child_seed, root_seed
 

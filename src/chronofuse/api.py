@@ -78,7 +78,8 @@ from chronofuse.positioning.loose import CoupledResult, LooselyCoupled, smooth
 from chronofuse.positioning.scenario import DriveData, simulate_drive
 from chronofuse.gnss.constellation import CONSTELLATIONS, constellation
 from chronofuse.gnss.lsq_position import PositionFix, least_squares_position
-from chronofuse.models.oscillator import PRESETS, OscillatorModel, PowerLaw, preset, simulate_oscillator
+from chronofuse.models.oscillator import OscillatorModel, PowerLaw, simulate_oscillator
+from chronofuse.models.oscillator_presets import PRESETS, preset
 from chronofuse.epochs import ReceiverEpochs
 from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
 from chronofuse.models.receiver import ReceiverTruth, simulate_receivers

@@ -10,6 +10,7 @@ import pytest
 from _helpers import assert_close_printed, read_stable32_table
 
 from chronofuse.analysis.stability import kernels_allan as ka
+from chronofuse.analysis.stability import kernels_differences as kd
 from chronofuse.analysis.stability.convert import frequency_to_phase
 from chronofuse.analysis.stability.taus import averaging_factors
 
@@ -226,7 +227,7 @@ def test_max_averaging_factors_follow_stable32_stop_ratios():
 
 @pytest.mark.parametrize("order", [2, 3])
 def test_the_fused_numba_difference_sums_equal_the_blockwise_numpy_twin(order):
-    """_difference_sum_of_squares_fused (one numba pass) against _difference_sum_of_squares (numpy blocks),
+    """difference_sum_of_squares_fused (one numba pass) against difference_sum_of_squares (numpy blocks),
     overlapping and decimated, with and without missing samples."""
     rng = np.random.default_rng(order)
     x = np.cumsum(rng.standard_normal(70_000)) * 1e-9
@@ -235,10 +236,10 @@ def test_the_fused_numba_difference_sums_equal_the_blockwise_numpy_twin(order):
             x[[5, 6, 40_000]] = np.nan
         for m in (1, 3, 64, 1000):
             for step in (1, m):
-                s_num, n_num = ka._difference_sum_of_squares(x, m, order, step)
-                s_fused, n_fused = ka._difference_sum_of_squares_fused(x, m, order, step)
+                s_num, n_num = kd.difference_sum_of_squares(x, m, order, step)
+                s_fused, n_fused = kd.difference_sum_of_squares_fused(x, m, order, step)
                 if gaps:
-                    s_fused, n_fused = ka._difference_sum_of_squares_span(x, ka.nan_prefix(x), m, order, step)
+                    s_fused, n_fused = kd.difference_sum_of_squares_span(x, kd.nan_prefix(x), m, order, step)
                 assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-12)
 
 

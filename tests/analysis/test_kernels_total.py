@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from _helpers import assert_close_printed
 
+from chronofuse.analysis.stability import kernels_reflected as kr
 from chronofuse.analysis.stability import kernels_total as kt
 from chronofuse.analysis.stability.taus import averaging_factors
 
@@ -191,10 +192,10 @@ def test_mtotdev_and_htotdev_keep_precision_on_random_walk_fm_with_a_large_offse
 def test_reflected_sum_kernel_equals_its_twin_for_samples_and_for_prefix_input(m):
     rng = np.random.default_rng(m)
     y = rng.standard_normal(300) + 0.01 * np.arange(300)
-    expected = kt.reflected_sum_of_squares_numpy(y, m)
-    assert kt.reflected_sum_of_squares(y, m, False) == pytest.approx(expected, rel=1e-12)
+    expected = kr.reflected_sum_of_squares_numpy(y, m)
+    assert kr.reflected_sum_of_squares(y, m, False) == pytest.approx(expected, rel=1e-12)
     prefix = np.concatenate(([0.0], np.cumsum(y)))
-    assert kt.reflected_sum_of_squares(prefix, m, True) == pytest.approx(expected, rel=1e-12)
+    assert kr.reflected_sum_of_squares(prefix, m, True) == pytest.approx(expected, rel=1e-12)
 
 
 # -- properties of the definitions -------------------------------------------------------------------
@@ -257,7 +258,7 @@ def test_parallel_and_serial_drivers_give_identical_block_sums():
     x = np.random.default_rng(11).standard_normal(3000).cumsum()
     for m, is_prefix in ((1, False), (7, True), (100, False)):
         n_sub = x.size - 3 * m if is_prefix else x.size - 3 * m + 1
-        tables = kt._coefficient_table(m)
-        serial = kt._block_sums_serial(x, n_sub, 256, m, is_prefix, *tables)
-        parallel = kt._block_sums_parallel(x, n_sub, 256, m, is_prefix, *tables)
+        tables = kr._coefficient_table(m)
+        serial = kr._block_sums_serial(x, n_sub, 256, m, is_prefix, *tables)
+        parallel = kr._block_sums_parallel(x, n_sub, 256, m, is_prefix, *tables)
         np.testing.assert_array_equal(parallel, serial)

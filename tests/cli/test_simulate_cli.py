@@ -8,7 +8,7 @@ from typer.testing import CliRunner
 
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.main import app
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 
 runner = CliRunner()
 

@@ -10,7 +10,8 @@ from chronofuse.analysis.theory import corrected_pps_adev
 from chronofuse.discipline.chain import ChainConfig, corrected_pps_error, discipline_run
 from chronofuse.discipline.kalman import GatedKalmanServo
 from chronofuse.discipline.states import Reason, State
-from chronofuse.models.oscillator import preset, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 
 

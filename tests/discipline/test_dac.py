@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from chronofuse.discipline.dac import Dac
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 
 
 def test_the_ocxo_dac_quantizes_corrections_to_its_frequency_lsb():

@@ -15,7 +15,8 @@ from chronofuse.discipline.kalman import (
 )
 from chronofuse.discipline.loop import close_loop
 from chronofuse.estimation.filter import KalmanFilter
-from chronofuse.models.oscillator import PowerLaw, preset
+from chronofuse.models.oscillator import PowerLaw
+from chronofuse.models.oscillator_presets import preset
 
 OCXO = preset("ocxo")
 SIGMA = 8e-9

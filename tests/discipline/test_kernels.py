@@ -8,7 +8,7 @@ from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, 
 from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.pi import PiServo
 from chronofuse.discipline.servo import NullServo
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 
 OCXO = preset("ocxo")
 SIGMA = 8e-9

@@ -19,7 +19,7 @@ from chronofuse.experiments.gnssdo import (
     scenario_environment,
     simulate_gnssdo,
 )
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_seed, root_seed
 

@@ -8,7 +8,7 @@ from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.stability import STATISTICS
 from chronofuse.analysis.stability.taus import SPACINGS
 from chronofuse.experiments.scenario import DEFAULT_SCENARIO, ScenarioError, load_scenario, parse_scenario
-from chronofuse.models.oscillator import PRESETS
+from chronofuse.models.oscillator_presets import PRESETS
 from chronofuse.models.environment import ENVIRONMENTS
 
 REPO = Path(__file__).resolve().parents[2]

@@ -16,7 +16,7 @@ from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.main import app
 from chronofuse.experiments import validation
-from chronofuse.models.oscillator import PRESETS
+from chronofuse.models.oscillator_presets import PRESETS
 
 PNGS = [
     "gps_deviations.png",

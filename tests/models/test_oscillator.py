@@ -12,16 +12,8 @@ from scipy.stats import chi2
 from chronofuse.analysis.stability import oadev
 from chronofuse.analysis.stability.edf import greenhall_edf
 from chronofuse.analysis.theory import adev_theory
-from chronofuse.models.oscillator import (
-    PRESET_ADEV_1S,
-    PRESETS,
-    OscillatorModel,
-    OscillatorTruth,
-    PowerLaw,
-    dac_quantize,
-    preset,
-    simulate_oscillator,
-)
+from chronofuse.models.oscillator import OscillatorModel, OscillatorTruth, PowerLaw, dac_quantize, simulate_oscillator
+from chronofuse.models.oscillator_presets import PRESET_ADEV_1S, PRESETS, preset
 
 CI = 0.99  # two-sided confidence of each interval checked below
 

@@ -9,7 +9,7 @@ from chronofuse.sync.base import measurement_array
 from chronofuse.sync.chain import ProposedChain
 from chronofuse.sync.fast import FastSeedChain
 from chronofuse.sync.registry import chain_noise
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 
 
 def _pair(light_time, net=None, steps=300):

@@ -8,7 +8,8 @@ import pytest
 
 from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.link import LinkModel
-from chronofuse.models.oscillator import PowerLaw, preset
+from chronofuse.models.oscillator import PowerLaw
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.sync.pcrb import link_model_matrices, link_pcrb, tichavsky_pcrb
 
 

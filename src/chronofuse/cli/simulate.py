@@ -14,7 +14,8 @@ from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
 from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.io.tables import write_table
-from chronofuse.models.oscillator import PRESETS, preset, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import PRESETS, preset
 from chronofuse.models.environment import ENVIRONMENTS
 from chronofuse.models.receiver import simulate_receivers
 

@@ -44,7 +44,8 @@ from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.states import StateConfig, run_states
 from chronofuse.io.records import read_record
 from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
-from chronofuse.models.oscillator import OscillatorModel, preset, simulate_oscillator
+from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.validation import InputDataError, check_choice, check_scalar

@@ -33,7 +33,7 @@ from chronofuse.experiments.gnssdo import (
     scenario_environment,
     simulate_gnssdo,
 )
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.report.gnssdo import plot_adev, plot_time_error
 from chronofuse.report.jsonio import dumps

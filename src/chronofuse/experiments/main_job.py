@@ -23,7 +23,8 @@ from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.experiments.main_chain import discipline_and_swarm
 from chronofuse.experiments.scenario import Scenario
-from chronofuse.models.oscillator import preset, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.report.run_figures import write_run_figures
 from chronofuse.report.jsonio import dumps

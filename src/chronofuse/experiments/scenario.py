@@ -5,7 +5,7 @@ file, e.g. ``scenarios/x.toml: oscillator.duration: unknown key (known: preset, 
 
 The names a key accepts come from the registries they select from, so a statistic, mask, preset or
 receiver environment added there is accepted here at once: ``oscillator.preset`` from
-:data:`~chronofuse.models.oscillator.PRESETS`, ``receivers.scenario`` from
+:data:`~chronofuse.models.oscillator_presets.PRESETS`, ``receivers.scenario`` from
 :data:`~chronofuse.models.environment.ENVIRONMENTS`, ``analysis.deviations`` from
 :data:`~chronofuse.analysis.stability.STATISTICS`, ``analysis.mask`` from
 :data:`~chronofuse.analysis.masks.MASKS` and ``analysis.taus`` from
@@ -25,7 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.stability import STATISTICS
 from chronofuse.analysis.stability.taus import SPACINGS
-from chronofuse.models.oscillator import PRESETS
+from chronofuse.models.oscillator_presets import PRESETS
 from chronofuse.experiments.gnssdo import CONTROLLERS, DEFAULT_CONTROLLER
 from chronofuse.models.environment import ENVIRONMENTS
 from chronofuse.sync.registry import ALGORITHM_NAMES

@@ -17,7 +17,7 @@ import numpy as np
 
 from chronofuse.models.kinematics import radial_geometry
 from chronofuse.models.link import Exchanges, LinkModel, node_clock_error_s, simulate_exchanges
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
 from chronofuse.sync.metrics import convergence_epochs, rmse_s, robustness

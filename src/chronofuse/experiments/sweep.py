@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from chronofuse.experiments.swarm import LinkScenario, calibrated_urt_s, simulate_scenario
-from chronofuse.models.oscillator import preset
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
 from chronofuse.sync.pcrb import link_pcrb

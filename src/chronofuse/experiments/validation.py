@@ -35,7 +35,8 @@ from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.io.stable32 import read_stable32_table
-from chronofuse.models.oscillator import PRESETS, simulate_oscillator
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import PRESETS
 from chronofuse.analysis.theory import corrected_pps_adev
 from chronofuse.models.environment import receiver_environment
 from chronofuse.models.receiver import simulate_receivers

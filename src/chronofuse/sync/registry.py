@@ -23,7 +23,8 @@ ours-accel     the same with an acceleration state
 from __future__ import annotations
 
 from chronofuse.models.link import LinkModel
-from chronofuse.models.oscillator import OscillatorModel, preset
+from chronofuse.models.oscillator import OscillatorModel
+from chronofuse.models.oscillator_presets import preset
 from chronofuse.sync.base import NullSync, SyncAlgorithm
 from chronofuse.sync.chain import ProposedChain
 from chronofuse.sync.mls import PtpMls

@@ -12,9 +12,10 @@ differences of the phase taken at lag ``m``; the modified variance sums ``m`` co
 differences, which is a difference of two cumulative sums. A term whose span (first to last sample it
 covers) holds a NaN sample is skipped and ``n`` counts only the valid terms. Kernels never modify ``x``.
 
-The sums run in numba loops over contiguous slices with reassociated (vectorized) additions
-(``_difference_sum_of_squares_fused``, ``_mvar_sum_of_squares_fused``); their readable numpy twins
-(``_difference_sum_of_squares``, the blocked ``_mvar_sum_of_squares``) are compared in the tests.
+The Allan and Hadamard sums of squared lagged differences come from
+:mod:`~chronofuse.analysis.stability.kernels_differences`. The MDEV sum runs here in numba loops over
+contiguous slices with reassociated (vectorized) additions (``_mvar_sum_of_squares_fused``); its
+readable numpy twin (the blocked ``_mvar_sum_of_squares``) is compared in the tests.
 
 Reference: W. J. Riley, *Handbook of Frequency Stability Analysis*, NIST SP 1065 (2008), section 5.2.
 The averaging-factor limits are Stable32's "stop ratios" (``max AF = N // ratio``: 5 for ADEV and HDEV,
@@ -26,6 +27,18 @@ from __future__ import annotations
 
 import numba
 import numpy as np
+
+from chronofuse.analysis.stability.kernels_differences import (
+    REASSOC,
+    SECOND,
+    THIRD,
+    check_kernel_inputs,
+    difference_sum_of_squares_fused,
+    difference_sum_of_squares_span,
+    lagged_difference,
+    nan_prefix,
+    sum_of_squares,
+)
 
 __all__ = [
     "adev_raw",
@@ -40,158 +53,18 @@ __all__ = [
     "max_m_tdev",
     "max_m_hdev",
     "max_m_ohdev",
-    "check_kernel_inputs",
-    "sum_of_squares",
+    "allan_variance_gap_free",
 ]
 
-# The two phase differences: second (Allan family, 3 samples) and third (Hadamard family, 4 samples).
-_SECOND = 2
-_THIRD = 3
 # Differences are formed and squared in blocks of this many terms, so they stay in the CPU cache
 # (about 2x faster on 1e6 points than forming the whole difference array at once).
 _BLOCK = 1 << 15
 
 
-def check_kernel_inputs(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Check the shapes and types every raw kernel expects; return ``(x, m, tau0_s)`` as float64/int64/float.
-
-    ``x`` must be 1-D (N,), ``m`` 1-D (k,) of integers >= 1, ``tau0_s`` a positive number. Nothing is
-    reshaped: a 2-D ``x`` or a scalar ``m`` is rejected.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    m_arr = np.asarray(m)
-    if x.ndim != 1:
-        raise ValueError(f"x.shape == {x.shape}, must be (N,)")
-    if m_arr.ndim != 1:
-        raise ValueError(f"m.shape == {m_arr.shape}, must be (k,)")
-    if m_arr.size and not np.issubdtype(m_arr.dtype, np.integer):
-        raise ValueError(f"m.dtype == {m_arr.dtype}, must be an integer type")
-    m_arr = m_arr.astype(np.int64)
-    if np.any(m_arr < 1):
-        raise ValueError(f"m == {m_arr[m_arr < 1].tolist()}, must be >= 1")
-    tau0_s = float(tau0_s)
-    if not (np.isfinite(tau0_s) and tau0_s > 0):
-        raise ValueError(f"tau0_s == {tau0_s}, must be > 0")
-    return x, m_arr, tau0_s
-
-
-def _lagged_difference(x: np.ndarray, m: int, order: int, work: np.ndarray | None = None) -> np.ndarray:
-    """Binomial difference of ``x`` (N,) at lag ``m``, shape (N - order m,).
-
-    ``order == 2``: ``d[i] = x[i+2m] - 2 x[i+m] + x[i]``; ``order == 3``:
-    ``d[i] = x[i+3m] - 3 x[i+2m] + 3 x[i+m] - x[i]``, evaluated left to right as written (the order
-    Stable32 and allantools use). A NaN sample makes every term using it NaN. ``work``, if given, is
-    scratch of shape (2, >= N - order m) reused across calls (no allocation per call); the result is a
-    view of it.
-    """
-    length = x.size - order * m
-    if length <= 0:
-        return np.empty(0)
-    if work is None:
-        work = np.empty((2, length))
-    d, t = work[0, :length], work[1, :length]
-    if order == _SECOND:
-        np.multiply(x[m : m + length], 2.0, out=t)
-        np.subtract(x[2 * m : 2 * m + length], t, out=d)
-        np.add(d, x[:length], out=d)
-        return d
-    np.multiply(x[2 * m : 2 * m + length], 3.0, out=t)
-    np.subtract(x[3 * m : 3 * m + length], t, out=d)
-    np.multiply(x[m : m + length], 3.0, out=t)
-    np.add(d, t, out=d)
-    np.subtract(d, x[:length], out=d)
-    return d
-
-
-def sum_of_squares(d: np.ndarray) -> float:
-    """``sum(d**2)`` of ``d`` (L,) with numpy's own single-threaded loop.
-
-    Not ``np.dot``: OpenBLAS runs large dot products on several threads, which stall when other
-    processes hold the cores (measured: 10x slower medians on a shared 2-core machine).
-    """
-    return float(np.einsum("i,i->", d, d))
-
-
-def nan_prefix(x: np.ndarray) -> np.ndarray:
-    """``c[i]`` = number of NaN in ``x[:i]``, shape (N + 1,): ``x[i : j]`` holds no NaN iff ``c[j] == c[i]``."""
-    return np.concatenate(([0], np.cumsum(np.isnan(x), dtype=np.int64)))
-
-
-def _difference_sum_of_squares(x: np.ndarray, m: int, order: int, step: int = 1) -> tuple[float, int]:
-    """Readable twin of the fused sum: sum of squares of the lagged differences of ``order`` of ``x`` (N,)
-    at lag ``m``, starts ``0, step, 2 step, ...``, skipping every term whose span ``x[i : i + order m + 1]``
-    holds a missing sample; and their count."""
-    d = _lagged_difference(x, m, order).copy()[::step]
-    if np.isnan(x).any():
-        c = nan_prefix(x)
-        starts = np.arange(0, x.size - order * m, step)
-        d = d[c[starts + order * m + 1] == c[starts]]
-    return sum_of_squares(d), int(d.size)
-
-
-# Reassociation only (no "nnan": a NaN sum still tells a gap): with the terms read from slices the sum
-# vectorizes, 5x faster than the strict left-to-right sum on one core.
-_REASSOC = {"reassoc"}
-
-
-@numba.njit(cache=True, fastmath=_REASSOC)
-def contiguous_difference_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
-    """Sum of squares of the lag-``lag`` differences of ``order`` of ``x`` (read through slices)."""
-    count = max(x.size - order * lag, 0)
-    total = 0.0
-    if order == 2:
-        a, b, c = x[2 * lag : 2 * lag + count], x[lag : lag + count], x[:count]
-        for i in range(count):
-            d = a[i] - 2.0 * b[i] + c[i]
-            total += d * d
-    else:
-        a, b, c, e = x[3 * lag : 3 * lag + count], x[2 * lag : 2 * lag + count], x[lag : lag + count], x[:count]
-        for i in range(count):
-            d = a[i] - 3.0 * b[i] + 3.0 * c[i] - e[i]
-            total += d * d
-    return total, count
-
-
-@numba.njit(cache=True, fastmath=_REASSOC)
-def _difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
-    """The numba twin of :func:`_difference_sum_of_squares`: one pass, no temporaries.
-
-    Terms start at ``i = 0, step, 2 step, ...`` (``step = 1``: overlapping; ``step = m``: the phase
-    decimated by ``m``). Returns ``(sum of squares, count)``, or ``(nan, -1)`` when a term is NaN (a
-    record with gaps goes to :func:`_difference_sum_of_squares_span`, which applies the span rule).
-    """
-    if step == 1:
-        total, count = contiguous_difference_sum(x, m, order)  # contiguous slices: the loop vectorizes
-    else:
-        total, count = contiguous_difference_sum(np.ascontiguousarray(x[::step]), 1, order)
-    if total == total:
-        return total, count
-    return np.nan, -1
-
-
-@numba.njit(cache=True)
-def _difference_sum_of_squares_span(x: np.ndarray, c: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
-    """The fused sum on a record with gaps: terms whose span ``x[i : i + order m + 1]`` holds a missing
-    sample (``c`` from :func:`nan_prefix`) are skipped."""
-    last = max(x.size - order * m, 0)
-    total = 0.0
-    count = 0
-    for i in range(0, last, step):
-        if c[i + order * m + 1] != c[i]:
-            continue
-        if order == 2:
-            d = x[i + 2 * m] - 2.0 * x[i + m] + x[i]
-        else:
-            d = x[i + 3 * m] - 3.0 * x[i + 2 * m] + 3.0 * x[i + m] - x[i]
-        total += d * d
-        count += 1
-    return total, count
-
-
 def allan_variance_gap_free(x: np.ndarray, m: int, overlapping: bool) -> float:
     """AVAR at factor ``m`` in units of ``tau0 = 1`` of a gap-free phase record ``x`` (N,) (no checks:
     for the noise identification, which already holds a validated, gap-filled record); NaN if no term."""
-    s, count = _difference_sum_of_squares_fused(x, m, _SECOND, 1 if overlapping else m)
+    s, count = difference_sum_of_squares_fused(x, m, SECOND, 1 if overlapping else m)
     return s / (2.0 * count * m * m) if count > 0 else np.nan
 
 
@@ -216,9 +89,9 @@ def _difference_variance(
         mj = int(mj)
         step = 1 if overlapping else mj
         if prefix is None:
-            s, count = _difference_sum_of_squares_fused(x, mj, order, step)
+            s, count = difference_sum_of_squares_fused(x, mj, order, step)
         else:
-            s, count = _difference_sum_of_squares_span(x, prefix, mj, order, step)
+            s, count = difference_sum_of_squares_span(x, prefix, mj, order, step)
         n[j] = count
         if count > 0:
             var[j] = s / (scale * count * (mj * tau0_s) ** 2)
@@ -249,7 +122,7 @@ def adev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, n
         Number of second differences averaged.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, _SECOND, 2.0, overlapping=False)
+    var, n = _difference_variance(x, m, tau0_s, SECOND, 2.0, overlapping=False)
     return np.sqrt(var), n
 
 
@@ -260,7 +133,7 @@ def oadev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, 
     ``n = N - 2m`` terms without gaps. Shapes as in :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, _SECOND, 2.0, overlapping=True)
+    var, n = _difference_variance(x, m, tau0_s, SECOND, 2.0, overlapping=True)
     return np.sqrt(var), n
 
 
@@ -272,7 +145,7 @@ def hdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, n
     :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, _THIRD, 6.0, overlapping=False)
+    var, n = _difference_variance(x, m, tau0_s, THIRD, 6.0, overlapping=False)
     return np.sqrt(var), n
 
 
@@ -283,7 +156,7 @@ def ohdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, 
     ``n = N - 3m`` terms without gaps. Shapes as in :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, _THIRD, 6.0, overlapping=True)
+    var, n = _difference_variance(x, m, tau0_s, THIRD, 6.0, overlapping=True)
     return np.sqrt(var), n
 
 
@@ -305,7 +178,7 @@ def _mvar_terms_with_gaps(x: np.ndarray, m: int) -> np.ndarray:
     of two cumulative sums); a term is kept only when none of its ``m`` differences is NaN, i.e. when
     none of the samples ``x[j .. j+3m-1]`` it spans is missing.
     """
-    d = _lagged_difference(x, m, _SECOND)
+    d = lagged_difference(x, m, SECOND)
     bad = np.isnan(d)
     terms = _window_sums(np.where(bad, 0.0, d), m)
     return terms[_window_sums(bad.astype(np.float64), m) == 0.0]
@@ -330,7 +203,7 @@ def _mvar_sum_of_squares(x: np.ndarray, m: int, work: np.ndarray, cumulative: np
     c[0] = carry = 0.0
     for start in range(0, n_diff, _BLOCK):
         stop = min(start + _BLOCK, n_diff)
-        d = _lagged_difference(x[start : stop + 2 * m], m, _SECOND, work)
+        d = lagged_difference(x[start : stop + 2 * m], m, SECOND, work)
         block = c[start + 1 : stop + 1]
         np.cumsum(d, out=block)
         block += carry
@@ -355,7 +228,7 @@ def _mvar_cumulative(x: np.ndarray, m: int, c: np.ndarray) -> int:
     return n_diff
 
 
-@numba.njit(cache=True, fastmath=_REASSOC)
+@numba.njit(cache=True, fastmath=REASSOC)
 def _window_square_sum(c: np.ndarray, m: int, n_terms: int) -> float:
     """``sum_j (c[j+m] - c[j])**2`` for ``j < n_terms`` (slices; the sum vectorizes)."""
     hi, lo = c[m : m + n_terms], c[:n_terms]

@@ -31,7 +31,7 @@ import numba
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from chronofuse.analysis.stability.kernels_allan import check_kernel_inputs, nan_prefix, sum_of_squares
+from chronofuse.analysis.stability.kernels_differences import check_kernel_inputs, nan_prefix, sum_of_squares
 
 __all__ = ["tie_rms_raw", "mtie_raw", "mtie_sparse_numpy", "mtie_windows_raw", "max_m_tie_rms", "max_m_mtie"]
 

@@ -40,7 +40,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from chronofuse.analysis.stability.kernels_allan import allan_variance_gap_free, mdev_raw, oadev_raw, sum_of_squares
+from chronofuse.analysis.stability.kernels_allan import allan_variance_gap_free, mdev_raw, oadev_raw
+from chronofuse.analysis.stability.kernels_differences import sum_of_squares
 
 __all__ = [
     "MIN_ACF_POINTS",
