@@ -16,6 +16,7 @@ __all__ = ["attach_pulses", "pulse_gps_ns"]
 
 
 def pulse_gps_ns(pulse: tuple, leap_s: int) -> int:
+    """GPS ns of a pulse ``(week, tow_ms, time_base, qerr_s)``; a UTC time base is moved to GPS with ``leap_s``."""
     week, tow_ms, base, _ = pulse
     return week * NS_PER_WEEK + tow_ms * 1_000_000 + (leap_s * NS_PER_S if base == 1 else 0)
 
