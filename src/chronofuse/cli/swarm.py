@@ -2,86 +2,32 @@
 
 from __future__ import annotations
 
-import re
 import time
-from contextlib import contextmanager
 from pathlib import Path
 
 import typer
 from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.swarm_options import (
+    algorithm_names,
+    build_scenario,
+    load_models,
+    model_files,
+    option_errors,
+    quiet_dask,
+    scenario_options,
+    trial_progress,
+)
 
 swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (seed 001).", no_args_is_help=True)
-
-# Library parameter names -> the options that set them, so a one-line error names the option.
-_OPTION_OF = {
-    "distance": "--distance", "distance_m": "--distance", "velocity": "--velocity", "reply_delay_s": "--reply-delay",
-    "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr", "toa_model": "--toa-model",
-    "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials", "true_offset": "--true-offset",
-    "true_skew": "--true-skew", "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator",
-    "acceleration_m_s2": "--acceleration", "interval_s": "--interval", "outage": "--outage",
-}
 
 
 def register(app: typer.Typer) -> None:
     app.add_typer(swarm_app, name="swarm")
 
 
-def _quiet_dask() -> None:
-    """Dask's shutdown chatter (worker-kill warnings) would break the one-line/stdout contract."""
-    import logging
-
-    for name in ("distributed", "distributed.nanny", "distributed.worker", "distributed.scheduler"):
-        logging.getLogger(name).setLevel(logging.ERROR)
-
-
-@contextmanager
-def option_errors():
-    """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
-    try:
-        yield
-    except ValueError as exc:
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        match = re.match(r"^(\w+) ==", text)
-        if match and match.group(1) in _OPTION_OF:
-            text = _OPTION_OF[match.group(1)] + text[len(match.group(1)):]
-        raise ValueError(text) from None
-
-
-def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_jitter, snr, toa_model, exchanges,
-                   true_offset, true_skew, oscillator, interval):
-    """The :class:`LinkScenario` the options describe (validated; errors name the options)."""
-    from chronofuse.experiments.swarm import LinkScenario
-    from chronofuse.models.link import LinkModel
-
-    with option_errors():
-        link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
-                         snr_db=snr, toa_model=toa_model)
-        return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
-                            exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
-                            oscillator=oscillator, link=link)
-
-
-def _scenario_options():
-    return dict(
-        velocity=typer.Option(800.0, "--velocity", help="Radial velocity, m/s (opening > 0)."),
-        distance=typer.Option(80e3, "--distance", help="Initial distance, m."),
-        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration, m/s^2."),
-        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B, s."),
-        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time, s."),
-        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma, s."),
-        snr=typer.Option(10.0, "--snr", help="SNR, dB (4..20 with the seed's table)."),
-        toa_model=typer.Option("table", "--toa-model", help="TOA noise: table (seed) or crb (Cramér-Rao form)."),
-        exchanges=typer.Option(2000, "--exchanges", help="Exchanges per run."),
-        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start, s."),
-        true_skew=typer.Option(0.0, "--true-skew", help="True fractional frequency offset B - A."),
-        oscillator=typer.Option("ocxo", "--oscillator", help="Oscillator preset of both nodes."),
-        interval=typer.Option(0.01, "--interval", help="Exchange interval, s."),
-    )
-
-
-_S = _scenario_options()
+_S = scenario_options()
 
 
 @swarm_app.command("run")
@@ -104,6 +50,7 @@ def run(
 ) -> None:
     """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
     from chronofuse.experiments.swarm import run_link
+    from chronofuse.experiments.swarm_documents import link_report
 
     with user_errors():
         scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
@@ -112,9 +59,9 @@ def run(
                                   true_skew=true_skew, oscillator=oscillator, interval=interval)
         if urt_mode not in ("paper", "calibrated"):
             fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
-        files = _model_files(model, lstm_model)
-        names = _algorithm_names(algorithm, files)
-        networks = _load_models(files, urt_mode)
+        files = model_files(model, lstm_model)
+        names = algorithm_names(algorithm, files)
+        networks = load_models(files, urt_mode)
         window = None
         if outage is not None:
             try:
@@ -180,9 +127,9 @@ def sweep(
             fail("--values is empty, must give at least one number")
         if urt_mode not in ("paper", "calibrated"):
             fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
-        files = _model_files(model, lstm_model)
-        names = _algorithm_names(algorithms, files, option="--algorithms")
-        _load_models(files, urt_mode)
+        files = model_files(model, lstm_model)
+        names = algorithm_names(algorithms, files, option="--algorithms")
+        load_models(files, urt_mode)
         if trials < 1 or chunk_trials < 1:
             fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
         scenario = build_scenario(velocity=velocity, distance=distance, acceleration=acceleration,
@@ -195,7 +142,7 @@ def sweep(
             for v in value_list:
                 scenario_at(scenario, param, v)
         start = time.perf_counter()
-        _quiet_dask()
+        quiet_dask()
         with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
                               chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
@@ -216,45 +163,6 @@ def sweep(
         table_out.add_row(f"{row['value']:g}", row["algorithm"], f"{row['rmse_ns']:.4g}", f"{row['pcrb_rms_ns']:.4g}")
     con.print(table_out)
     con.print(f"{len(files)} files -> {out}/ in {elapsed:.1f} s")
-
-
-def _model_files(model, lstm_model) -> dict:
-    return {kind: path for kind, path in (("bp", model), ("lstm", lstm_model)) if path is not None}
-
-
-def _algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tuple:
-    """The algorithms asked for; 'all' takes those whose models were given."""
-    from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK
-
-    if text == "all":
-        return tuple(n for n in ALGORITHM_NAMES if NEEDS_NETWORK.get(n, "bp") in files or n not in NEEDS_NETWORK)
-    names = tuple(a.strip() for a in text.split(","))
-    for name in names:
-        if name not in ALGORITHM_NAMES:
-            fail(f"{option} == {name!r}, must be among {list(ALGORITHM_NAMES)}")
-        kind = NEEDS_NETWORK.get(name)
-        if kind is not None and kind not in files:
-            flag = "--model" if kind == "bp" else "--lstm-model"
-            fail(f"{option} == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
-    return names
-
-
-def _load_models(files: dict, urt_mode: str) -> dict:
-    """Load the model files; a file that does not match its configuration is one line naming the option."""
-    from chronofuse.sync.network import load_residual_network
-    from chronofuse.validation import ChronofuseError
-
-    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
-    out = {}
-    for kind, path in files.items():
-        flag = "--model" if kind == "bp" else "--lstm-model"
-        try:
-            out[kind] = load_residual_network(path, chain=chain)
-        except (ChronofuseError, FileNotFoundError, IsADirectoryError) as exc:
-            fail(f"{flag} {exc}")
-        if out[kind].config.kind != kind:
-            fail(f"{flag} {path}: holds a {out[kind].config.kind} network, expected {kind}")
-    return out
 
 
 @swarm_app.command("train")
@@ -293,42 +201,6 @@ def train(
     con.print(f"models -> {out}/")
 
 
-@contextmanager
-def trial_progress(label: str):
-    """A progress bar over trials on stderr (off when stderr is not a terminal); yields ``advance(done, total)``."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    from chronofuse.cli.common import err_console
-
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-        task = bar.add_task(label, total=None)
-
-        def advance(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
-
-        yield advance
-
-
-def link_report(res: dict) -> dict:
-    """``run_link``'s result with times in ns at the edge, as the CLI prints it."""
-    from chronofuse.sync.metrics import overhead
-
-    return {
-        "rmse_ns": {k: v * 1e9 for k, v in res["rmse_s"].items()},
-        "pcrb_ns": {k: v * 1e9 for k, v in res["pcrb_s"].items()},
-        "convergence_epochs": res["convergence_epochs"],
-        "convergence_threshold_ns": res["threshold_s"] * 1e9,
-        "robustness": {k: {"delta_rmse_ns": v["delta_rmse_s"] * 1e9, "recovery_epochs": v["recovery_epochs"]}
-                       for k, v in res["robustness"].items()},
-        "overhead": overhead(res["scenario"]["link"]["interval_s"]),
-        "urt_mode": res["urt_mode"],
-        "urt_fixed_estimate_ns": res["urt_fixed_estimate_s"] * 1e9,
-        "trials": res["trials"],
-        "scenario": res["scenario"],
-    }
-
-
 @swarm_app.command("network")
 def network(
     followers: int = typer.Option(3, "--followers", help="Followers of the leader."),
@@ -345,11 +217,7 @@ def network(
 ) -> None:
     """A leader and followers: each follower's time error to the leader and to true time (RMS, ns),
     through the leader's GNSS loss and links that come and go."""
-    import numpy as np
-
-    from chronofuse.experiments.swarm_network import follow_leader, leader_clock_s, link_availability
-    from chronofuse.models.link import LinkModel
-    from chronofuse.seeding import child_seed, root_seed
+    from chronofuse.experiments.swarm_documents import network_document
 
     with user_errors():
         if followers < 1:
@@ -358,32 +226,11 @@ def network(
             fail(f"--topology == {topology!r}, must be tree, chain or consensus")
         if duration <= 2 * interval or interval <= 0:
             fail(f"--duration == {duration} and --interval == {interval}: need interval > 0 and at least 3 exchanges")
-        steps = int(round(duration / interval))
-        base = root_seed(seed)
-        with option_errors():
-            link = LinkModel(interval_s=interval, snr_db=snr)
-            leader = leader_clock_s(steps, interval, child_seed(base, 0), oscillator=oscillator,
-                                    loss_start_s=None if gnss_loss_at < 0 else gnss_loss_at,
-                                    loss_duration_s=gnss_loss_for)
-            up = link_availability(followers, steps, child_seed(base, 1), mean_up_s=mean_up, mean_down_s=mean_down,
-                                   interval_s=interval)
-        parents = tuple(range(followers)) if topology == "chain" else (0,) * followers
-        rng = np.random.default_rng(child_seed(base, 2))
         with option_errors(), progress_reporter("swarm network"):
-            res = follow_leader(leader, interval_s=interval, parents=parents,
-                                distances_m=tuple(rng.uniform(10e3, 80e3, followers)),
-                                velocities_m_s=tuple(rng.uniform(-10.0, 10.0, followers)), link=link,
-                                oscillator=oscillator, link_up=up, topology="consensus" if topology == "consensus" else "tree",
-                                seed=child_seed(base, 3))
-    def rms(a):
-        return [float(v) for v in np.atleast_1d(np.sqrt(np.mean(a**2, axis=-1)) * 1e9)]
-
-    doc = {"topology": topology, "followers": followers, "steps": steps, "interval_s": interval,
-           "leader_to_true_rms_ns": rms(res.leader_s), "leader_to_true_max_ns": float(np.abs(res.leader_s).max() * 1e9),
-           "to_leader_rms_ns": rms(res.to_leader_s), "to_true_rms_ns": rms(res.to_true_s),
-           "to_leader_max_ns": [float(v) for v in np.abs(res.to_leader_s).max(axis=1) * 1e9],
-           "link_up_fraction": [float(v) for v in res.link_up.mean(axis=1)],
-           "parents": [int(p) for p in res.parents]}
+            doc = network_document(followers=followers, topology=topology, duration_s=duration, interval_s=interval,
+                                   gnss_loss_at_s=gnss_loss_at, gnss_loss_for_s=gnss_loss_for, mean_up_s=mean_up,
+                                   mean_down_s=mean_down, snr_db=snr, oscillator=oscillator, seed=seed)
+    steps = doc["steps"]
     if json_out:
         print_json(doc)
         return
@@ -417,9 +264,9 @@ def reproduce_swarm_command(
         figures = tuple(FIGURES) if figure == "all" else (figure,)
         if any(f not in FIGURES for f in figures):
             fail(f"--figure == {figure!r}, must be one of {list(FIGURES)} or all")
-        files = _model_files(model, lstm_model)
-        _load_models(files, "calibrated")
-        _quiet_dask()
+        files = model_files(model, lstm_model)
+        load_models(files, "calibrated")
+        quiet_dask()
         with option_errors(), progress_reporter("reproduce swarm") as say:
             doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
                                   model_files={k: str(v) for k, v in files.items()},

@@ -4,14 +4,10 @@ Channel clock bias. For a receiver at a known position every satellite ``n`` giv
 ``b_n(k)`` of the receiver clock bias (SPEC 4; :mod:`chronofuse.gnss.observables` computes them,
 :func:`chronofuse.io.rinex.channel_clock_biases` from RINEX files).
 
-Common-mode removal (the choice made here). Every ``b_n`` holds the same receiver clock; a clock jump or
-steering of the receiver would alarm every channel at once (measured in simulation: a 1 ms jump alarms
-all 8 raw channels at the jump) and tells nothing about a satellite. :func:`channel_residuals` aligns the
-channels (per-channel median offset against a median-of-increments clock, continuous when satellites rise
-or set) and gives channel ``n`` the residual against the median of the OTHER channels (leave-one-out: a
-median over all channels is sometimes the channel itself, whose residual is then flat and whose noise is
-underestimated: on station 0759, G11's residual stayed within 0.1 ns for 7 epochs that way). With at least
-three other channels one faulty channel cannot carry the others' clock.
+Common-mode removal. Every ``b_n`` holds the same receiver clock, so each channel is tested on its residual
+against the median of the OTHER channels (:func:`chronofuse.integrity.common_mode.channel_residuals`; its
+module docstring says why). Simulated channels for tests and experiments:
+:func:`chronofuse.integrity.channel_sim.simulate_channel_biases`.
 
 Naming (:func:`identify`) is exclusion, as in RAIM: at the first alarm epoch the channel with the largest
 ``statistic / threshold`` is named and removed from every other channel's clock, and all are tested again.
@@ -37,126 +33,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
-from chronofuse.gnss.observables import ChannelClockBiases, channel_clock_biases_from_arrays
+from chronofuse.gnss.observables import ChannelClockBiases
+from chronofuse.integrity.channel_sim import SimulatedChannels, simulate_channel_biases  # noqa: F401 (re-exported)
+from chronofuse.integrity.common_mode import (  # noqa: F401 (re-exported: callers import them from here)
+    MIN_CLOCK_CHANNELS,
+    aligned_channels,
+    channel_residuals,
+    common_clock_s,
+)
 from chronofuse.integrity.detector import DetectionResult, HodDetector
-from chronofuse.integrity.inject import Anomaly, inject
-from chronofuse.validation import check_array, check_choice, check_scalar
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Identification
-# ---------------------------------------------------------------------------------------------------------
-
-
-def common_clock_s(bias_s: np.ndarray) -> np.ndarray:
-    """Common receiver clock (s), shape (epochs,): cumulative cross-channel median of the increments
-    ``b_n(k) - b_n(k-1)`` over channels seen at both epochs (continuous when satellites rise or set).
-    Starts at the median of the first epoch; after an epoch with no channel it restarts at the median of
-    the biases. Used to align the channels (:func:`channel_residuals`)."""
-    b = check_array(bias_s, "bias_s", ndim=2, allow_nan=True)
-    out = np.full(b.shape[0], np.nan)
-    level = np.nan
-    prev_row = np.full(b.shape[1], np.nan)
-    for k, row in enumerate(b):
-        inc = row - prev_row
-        inc = inc[np.isfinite(inc)]
-        if inc.size:
-            level = level + float(np.median(inc))
-        elif np.isfinite(row).any():
-            level = float(np.median(row[np.isfinite(row)]))
-        else:
-            level = np.nan
-        out[k] = level
-        prev_row = row
-    return out
-
-
-def aligned_channels(bias_s: np.ndarray) -> np.ndarray:
-    """Channel biases shifted onto one clock, causally: ``a_n(k) = b_n(k) - o_n``, shape (epochs, sats).
-
-    ``o_n = b_n(k0) - c0(k0)`` is fixed at the first epoch ``k0`` of each unbroken arc of the channel
-    (``c0`` from :func:`common_clock_s`, itself causal), so ``a_n(k)`` uses no epoch after ``k``: a verdict
-    computed from it never changes when later epochs arrive (issue 10: the former alignment, a median
-    over the whole record, let a fault at 1800 s move the residuals at 60 s). A constant offset does not
-    enter the second difference; the per-arc choice only sets where a rising channel sits among the
-    others in the medians of :func:`channel_residuals`.
-    """
-    b = check_array(bias_s, "bias_s", ndim=2, allow_nan=True)
-    c0 = common_clock_s(b)
-    dev = b - c0[:, None]
-    valid = np.isfinite(dev)
-    starts = valid & ~np.vstack([np.zeros((1, b.shape[1]), dtype=bool), valid[:-1]])
-    rows = np.where(starts, np.arange(b.shape[0])[:, None], 0)
-    rows = np.maximum.accumulate(rows, axis=0)
-    offsets = dev[rows, np.arange(b.shape[1])[None, :]]
-    return np.where(valid, b - offsets, np.nan)
-
-
-#: Fewest other channels from which a channel's clock is estimated (one faulty channel among three
-#: cannot carry their median).
-MIN_CLOCK_CHANNELS = 3
-
-
-def channel_residuals(bias_s: np.ndarray, exclude=None) -> tuple[np.ndarray, np.ndarray]:
-    """Channel biases with the receiver clock removed, leave-one-out: ``(residual (epochs, sats), common (epochs,))``.
-
-    1. align causally (:func:`aligned_channels`);
-    2. channel ``n``'s clock follows the median over the OTHER channels: from epoch ``k-1`` to ``k`` it
-       moves by ``median_S a_m(k) - median_S a_m(k-1)`` over the set ``S`` of other channels seen at both
-       epochs and in the estimate at ``k``, so it stays continuous when a satellite rises, sets or is
-       excluded (measured on station 3040: a median over whichever channels are there jumps by ns when
-       one is excluded, and the step made another channel alarm); over a constant set it is the median
-       of the set. A channel's residual ``a_n - c_-n`` never contains its own noise through the clock
-       estimate (a median over all channels is at times the channel itself: its residual is then
-       exactly flat), and one faulty channel moves the others' clocks by at most one rank of the median.
-       Fewer than :data:`MIN_CLOCK_CHANNELS` others: NaN (no clock; the clock restarts at their median).
-
-    ``common`` is the median of all aligned channels not excluded. ``exclude``: channels left out of the
-    clock estimates: bool (sats,) (left out at every epoch) or int (sats,) (``exclude[n]`` = the epoch from
-    which channel ``n`` is left out, as :func:`identify` names it; epochs before keep it, so the residuals
-    there do not change). Excluded channels' own residuals are still computed. Every value at epoch
-    ``k`` uses epochs ``<= k`` only.
-    """
-    b = check_array(bias_s, "bias_s", ndim=2, allow_nan=True)
-    epochs, sats = b.shape
-    if exclude is None:
-        exclude_from = np.full(sats, epochs, dtype=np.int64)
-    else:
-        ex = np.asarray(exclude)
-        if ex.shape != (sats,):
-            raise ValueError(f"exclude has shape {ex.shape}, must be ({sats},)")
-        exclude_from = np.where(ex, 0, epochs) if ex.dtype == bool else ex.astype(np.int64)
-    aligned = aligned_channels(b)
-    out = np.arange(epochs)[:, None] >= exclude_from[None, :]
-    usable = np.where(out, np.nan, aligned)
-    residual = aligned - _leave_one_out_clocks(aligned, out)
-    common = np.full(epochs, np.nan)
-    rows = np.isfinite(usable).any(axis=1)
-    common[rows] = np.nanmedian(usable[rows], axis=1)
-    return residual, common
-
-
-def _leave_one_out_clocks(aligned: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """Each channel's clock from the other channels, (epochs, sats) (:func:`channel_residuals`, step 2)."""
-    epochs, sats = aligned.shape
-    valid = np.isfinite(aligned)
-    clocks = np.full(aligned.shape, np.nan)
-    for n in range(sats):
-        others = np.ones(sats, dtype=bool)
-        others[n] = False
-        level = np.nan
-        for k in range(epochs):
-            now = valid[k] & ~out[k] & others
-            both = now & valid[k - 1] if k > 0 else np.zeros(sats, dtype=bool)
-            if np.isfinite(level) and both.sum() >= MIN_CLOCK_CHANNELS:
-                level += float(np.median(aligned[k, both]) - np.median(aligned[k - 1, both]))
-            elif now.sum() >= MIN_CLOCK_CHANNELS:
-                level = float(np.median(aligned[k, now]))
-            else:
-                level = np.nan
-            clocks[k, n] = level
-    return clocks
+from chronofuse.validation import check_choice, check_scalar
 
 
 @dataclass(frozen=True)
@@ -372,64 +258,6 @@ def _no_test(col: np.ndarray, template: HodDetector) -> DetectionResult:
         n_skipped=int(skipped.sum()),
         window=int(template.window),
         pfa=float(template.pfa),
-    )
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Simulation
-# ---------------------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class SimulatedChannels:
-    """A simulated static receiver: ``biases`` (what identification sees), ``receiver_clock_s`` (epochs,)
-    the common clock truth, ``faulty_channel`` (column index, or None) and the ``anomaly`` injected."""
-
-    biases: ChannelClockBiases
-    receiver_clock_s: np.ndarray
-    faulty_channel: int | None
-    anomaly: Anomaly | None
-
-
-def simulate_channel_biases(
-    *,
-    n_satellites: int,
-    steps: int,
-    interval_s: float,
-    sigma_rho_m,
-    rng: np.random.Generator,
-    anomaly: Anomaly | None = None,
-    clock_drift_s_per_s: float = 1e-8,
-    clock_jump_s: float = 0.0,
-    clock_jump_at: int | None = None,
-) -> SimulatedChannels:
-    """Per-channel clock biases of a static receiver: a common receiver clock (offset + drift, optionally a
-    millisecond-style jump at epoch ``clock_jump_at``, as receivers that steer their clock do) plus white
-    pseudorange noise ``sigma_rho_m / c`` per channel (scalar or (n_satellites,)), and ``anomaly`` (with
-    its ``channel``) on one channel. Shapes: (steps, n_satellites)."""
-    check_scalar(n_satellites, "n_satellites", min_val=1, integer=True)
-    check_scalar(steps, "steps", min_val=3, integer=True)
-    check_scalar(interval_s, "interval_s", min_val=0.0, include_min=False)
-    sigma = np.broadcast_to(np.asarray(sigma_rho_m, dtype=np.float64), (n_satellites,))
-    if np.any(sigma < 0) or not np.all(np.isfinite(sigma)):
-        raise ValueError(f"sigma_rho_m == {sigma_rho_m}, must be finite and >= 0")
-    t = np.arange(steps) * float(interval_s)
-    clock = 1e-4 + clock_drift_s_per_s * t
-    if clock_jump_at is not None:
-        clock = clock + np.where(np.arange(steps) >= clock_jump_at, clock_jump_s, 0.0)
-    noise = rng.standard_normal((steps, n_satellites)) * (sigma / SPEED_OF_LIGHT_M_PER_S)
-    bias = clock[:, None] + noise
-    channel = None
-    if anomaly is not None:
-        if anomaly.channel is None:
-            raise ValueError("anomaly.channel is None: identification needs the anomaly on one satellite channel")
-        bias = inject(bias, anomaly, interval_s, rng)
-        channel = int(anomaly.channel)
-    return SimulatedChannels(
-        biases=channel_clock_biases_from_arrays(bias, interval_s),
-        receiver_clock_s=clock,
-        faulty_channel=channel,
-        anomaly=anomaly,
     )
 
 

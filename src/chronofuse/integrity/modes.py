@@ -58,6 +58,11 @@ from chronofuse.integrity.availability import (  # noqa: F401 (EXIT_CODES and th
     training_warnings,
 )
 from chronofuse.integrity.detector import HodDetector, chi2_thresholds
+from chronofuse.integrity.inputs import (  # noqa: F401 (re-exported: the CLI and tests import them from here)
+    EARTH_SURFACE_M,
+    parse_position,
+    read_noise_file,
+)
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.formats import sniff_format
 from chronofuse.validation import InputDataError, check_scalar
@@ -65,53 +70,9 @@ from chronofuse.validation import InputDataError, check_scalar
 #: The modes of :func:`detect_file`.
 MODES = ("detection", "identification")
 
-# Geocentric radius of a static receiver: the WGS 84 polar radius minus the Dead Sea shore, to the
-# equatorial radius plus a high mountain (metres).
-EARTH_SURFACE_M = (6_350_000.0, 6_390_000.0)
-
-
-def parse_position(position) -> np.ndarray:
-    """A static antenna's ECEF position (3,) in metres from ``"X,Y,Z"`` text or three numbers.
-
-    Raises :class:`InputDataError` when it is not three finite numbers or lies outside
-    :data:`EARTH_SURFACE_M` from the Earth's centre (degrees or kilometres given by mistake).
-    """
-    text = position if isinstance(position, str) else ",".join(map(str, np.ravel(position)))
-    try:
-        xyz = np.array([float(v) for v in text.split(",")])
-    except ValueError:
-        raise InputDataError(f"--position {text!r}: expected X,Y,Z in ECEF metres") from None
-    if xyz.shape != (3,) or not np.isfinite(xyz).all():
-        raise InputDataError(f"--position {text!r}: expected three finite numbers X,Y,Z (ECEF metres)")
-    radius_m = float(np.linalg.norm(xyz))
-    lo_m, hi_m = EARTH_SURFACE_M
-    if not lo_m <= radius_m <= hi_m:
-        raise InputDataError(f"--position {text!r}: {radius_m / 1e3:.1f} km from the Earth's centre, must be a static "
-                             f"receiver near the surface ({lo_m / 1e3:.0f}..{hi_m / 1e3:.0f} km; "
-                             "ECEF metres, not degrees or km)")
-    return xyz
-
-
 #: With ``train_s``, the detectors keep P_fa at or below nominal in this share of trainings (the
 #: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`; issue 10.4).
 TRAINING_CONFIDENCE = 0.9
-
-def read_noise_file(path: str | Path) -> dict:
-    """``{"h0", "hm2", "sigma_rho_m"}`` from a JSON file: a ``detect --json`` document (its ``noise``) or the
-    three numbers at the top level, so a model trained once is used on the next run (issue 10.4).
-    Raises :class:`InputDataError` naming the file when they are not there."""
-    import json
-
-    try:
-        doc = json.loads(Path(path).read_text())
-    except (OSError, ValueError) as err:
-        raise InputDataError(f"cannot read a noise model from it: {err}", str(path)) from None
-    model = doc.get("noise", doc) if isinstance(doc, dict) else None
-    try:
-        return {name: float(model[name]) for name in ("h0", "hm2", "sigma_rho_m")}
-    except (TypeError, KeyError, ValueError):
-        raise InputDataError("expected a JSON object with h0, hm2 and sigma_rho_m (or a detect --json document "
-                             "with its noise)", str(path)) from None
 
 
 def _check_length(n_epochs: int, window: int, source: str) -> None:

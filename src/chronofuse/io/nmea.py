@@ -9,7 +9,7 @@ Sentences used (NMEA 0183 v4.11; talkers GP, GN, GL, GA, BD/GB (BeiDou), GQ, GI)
   constellation, each with a system ID (field 18); they describe ONE solution, so their satellites are
   pooled and their (identical) DOPs taken once.
 * GSV: satellites in view, with elevation and azimuth: GSA carries no GDOP or TDOP, so they are computed
-  from the geometry of the satellites GSA lists as used (:func:`geometry_dops`, as gpsd does).
+  from the geometry of the satellites GSA lists as used (:func:`chronofuse.io.dop.geometry_dops`, as gpsd does).
 * GST: pseudorange error statistics (counted by the framer, not decoded: no field of the record).
 * GNS: fix mode per constellation and satellites used (a GGA substitute of multi-GNSS receivers).
 * GLL: UTC time and status, like RMC without the date (some receivers close their burst with it).
@@ -41,6 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pynmeagps import NMEAReader
 
+from chronofuse.io.dop import geometry_dops  # noqa: F401 (re-exported: callers import it from here)
 from chronofuse.io.frames import KNOWN_TALKERS
 from chronofuse.timescale import (
     NS_PER_S,
@@ -120,27 +121,6 @@ def _system(talker: str, svid: int) -> int:
     if 201 <= svid <= 264:
         return 4
     return 1
-
-
-def geometry_dops(elev_az_deg) -> tuple[float, float, float]:
-    """GDOP and TDOP of satellites at (elevation, azimuth) in degrees, one receiver clock:
-    ``G = (H^T H)^-1`` with rows ``H_i = [cos e sin a, cos e cos a, sin e, 1]``, ``GDOP = sqrt(tr G)``,
-    ``TDOP = sqrt(G_44)``, ``PDOP = sqrt(G_11 + G_22 + G_33)`` (Misra & Enge, *Global Positioning
-    System*, 2nd ed., section 6.1.3; gpsd's ``fill_dop`` does the same for receivers that send no GDOP).
-    Returns (GDOP, TDOP, PDOP); NaN with fewer than 4 satellites or a singular geometry."""
-    if len(elev_az_deg) < 4:
-        return math.nan, math.nan, math.nan
-    ea = np.radians(np.asarray(elev_az_deg, dtype=np.float64))
-    el, az = ea[:, 0], ea[:, 1]
-    h = np.column_stack((np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), np.ones(el.size)))
-    try:
-        g = np.linalg.inv(h.T @ h)
-    except np.linalg.LinAlgError:
-        return math.nan, math.nan, math.nan
-    tr, g44 = float(np.trace(g)), float(g[3, 3])
-    if not (tr > 0 and 0 < g44 < tr):
-        return math.nan, math.nan, math.nan
-    return math.sqrt(tr), math.sqrt(g44), math.sqrt(tr - g44)
 
 
 def _num(value) -> float:

@@ -33,6 +33,7 @@ import numpy as np
 from pyubx2 import UBXReader
 from pyubx2.ubxhelpers import calc_checksum
 
+from chronofuse.io.ubx_pulses import attach_pulses, pulse_gps_ns
 from chronofuse.timescale import (
     MS_PER_WEEK,
     NS_PER_S,
@@ -209,7 +210,7 @@ class UbxEpochBuilder:
         rows = self.pop_complete(stats, max_undated=0)
         self._epochs = []
         if self._pulses and rows is not None:
-            rows = _attach_pulses(rows, self._pulses)
+            rows = attach_pulses(rows, self._pulses)
         self._pulses = []
         return rows
 
@@ -289,13 +290,13 @@ class UbxEpochBuilder:
             dated[0] = False  # the carried anchor is no epoch of this batch
         rows = {k: v[dated] for k, v in rows.items()}
         if not streaming:
-            return _attach_pulses(rows, self._pulses)
+            return attach_pulses(rows, self._pulses)
         if rows["gps_ns"].size == 0:
             return rows
         last_gps = int(rows["gps_ns"][-1])
-        ready = [p for p in self._pulses if _pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
+        ready = [p for p in self._pulses if pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
         self._pulses = [p for p in self._pulses if p not in ready]
-        return _attach_pulses(rows, ready)
+        return attach_pulses(rows, ready)
 
 
 def _count_used(m) -> int:
@@ -345,48 +346,6 @@ def _fill_leap(leap: np.ndarray, own: np.ndarray, gps_ns: np.ndarray, dated: np.
     elif dated.any():
         out[dated] = gps_minus_utc_s(gps_ns[dated])
     return out
-
-
-def _pulse_gps_ns(pulse: tuple, leap_s: int) -> int:
-    week, tow_ms, base, _ = pulse
-    return week * NS_PER_WEEK + tow_ms * 1_000_000 + (leap_s * NS_PER_S if base == 1 else 0)
-
-
-def _attach_pulses(rows: dict, pulses: list) -> dict:
-    """Put each TIM-TP ``qErr`` on the epoch of the pulse it describes (GPS ns of the pulse; a UTC
-    time base is moved to GPS with that epoch's leap count); a pulse without an epoch gets its own row."""
-    if not pulses:
-        return rows
-    gps = rows["gps_ns"]
-    order = np.argsort(gps, kind="stable")
-    rows = {k: v[order] for k, v in rows.items()}
-    gps = rows["gps_ns"]
-    extra = []
-    for week, tow_ms, base, qerr in pulses:
-        t = week * NS_PER_WEEK + tow_ms * 1_000_000
-        if base == 1:  # UTC time base: towMS counts UTC seconds of the week
-            j = np.searchsorted(gps, t, side="right") - 1
-            leap = int(rows["leap_s"][max(j, 0)]) if gps.size else int(gps_minus_utc_s(t))
-            t += leap * NS_PER_S
-        j = np.searchsorted(gps, t)
-        if j < gps.size and gps[j] == t:
-            rows["qerr_s"][j] = qerr
-        else:
-            extra.append((t, qerr))
-    if extra:
-        n_extra = len(extra)
-        add = {k: np.resize(np.zeros(1, v.dtype), n_extra) for k, v in rows.items()}
-        add["gps_ns"] = np.array([t for t, _ in extra], dtype=np.int64)
-        add["qerr_s"] = np.array([q for _, q in extra])
-        for k in ("gdop", "pdop", "hdop", "vdop", "tdop", "clock_bias_s", "clock_drift_s_per_s"):
-            add[k] = np.full(n_extra, np.nan)
-        add["n_sats"] = np.full(n_extra, -1, dtype=np.int16)
-        j = np.clip(np.searchsorted(gps, add["gps_ns"]) - 1, 0, max(gps.size - 1, 0))
-        add["leap_s"] = rows["leap_s"][j] if gps.size else gps_minus_utc_s(add["gps_ns"]).astype(np.int16)
-        rows = {k: np.concatenate([rows[k], add[k]]) for k in rows}
-        order = np.argsort(rows["gps_ns"], kind="stable")
-        rows = {k: v[order] for k, v in rows.items()}
-    return rows
 
 
 def decode_ubx(frames, builder: UbxEpochBuilder, stats: UbxDecodeStats) -> None:
