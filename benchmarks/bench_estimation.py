@@ -8,27 +8,18 @@ predict/update per epoch. The two agree to 1e-9 (checked here on the slice).
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 from filterpy.kalman import KalmanFilter as FilterpyKF
 
 from chronofuse.estimation.filter import KalmanFilter
 from chronofuse.estimation.process import ClockProcess
 
+from _timing import best_of
+
 CLOCK = ClockProcess(dt_s=1.0, h0=2e-18, hm2=1e-22, drift_psd_per_s3=1e-36, states=3)
 H = np.array([[1.0, 0.0, 0.0]])
 R = np.array([[1e-18]])
 P0 = np.diag([1e-16, 1e-20, 1e-28])
-
-
-def _best_of(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _filterpy(Z: np.ndarray) -> np.ndarray:
@@ -45,9 +36,9 @@ def run(quick: bool = False) -> list[dict]:
     rng = np.random.default_rng(1)
     Z = np.cumsum(1e-9 * rng.standard_normal((trials, steps, 1)), axis=1)
     kf = KalmanFilter(CLOCK.F, CLOCK.Q, H, R, np.zeros(3), P0).fit()
-    ours = _best_of(lambda: kf.run(Z), 2 if quick else 3)
+    ours = best_of(lambda: kf.run(Z), 2 if quick else 3)
     n_base = 10 if quick else 40
-    base = _best_of(lambda: _filterpy(Z[:n_base]), 1) * trials / n_base
+    base = best_of(lambda: _filterpy(Z[:n_base]), 1) * trials / n_base
     ref = _filterpy(Z[:n_base])
     scale = np.abs(ref).max(axis=(0, 1))
     np.testing.assert_allclose(kf.run(Z[:n_base]).x / scale, ref / scale, rtol=1e-9, atol=1e-9)

@@ -7,25 +7,16 @@ of ``C``) and sum the squares. It is timed on a slice of the record and scaled t
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 from scipy import linalg
 
 from chronofuse.integrity.detector import HodDetector, high_order_difference
 from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
 
+from _timing import best_of
+
 WINDOW = 20
 NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
-
-
-def _best_of(fn, repeats: int) -> float:
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 def _direct_loop(det: HodDetector, x: np.ndarray) -> np.ndarray:
@@ -44,9 +35,9 @@ def run(quick: bool = False) -> list[dict]:
     n_batch = 200_000 if quick else 2_000_000
     x = simulate_clock_bias(NOISE, interval_s=1.0, steps=n_batch, trials=1, seed=1).measured_s[0]
     det.run(x[:1000])
-    ours = _best_of(lambda: det.run(x), 2 if quick else 3)
+    ours = best_of(lambda: det.run(x), 2 if quick else 3)
     n_base = 5_000 if quick else 20_000
-    base_part = _best_of(lambda: _direct_loop(det, x[:n_base]), 1)
+    base_part = best_of(lambda: _direct_loop(det, x[:n_base]), 1)
     base = base_part * n_batch / n_base
     # the two agree
     np.testing.assert_allclose(det.run(x[:n_base]).statistic[WINDOW + 1 :], _direct_loop(det, x[:n_base])[WINDOW + 1 :],
@@ -87,8 +78,8 @@ def run(quick: bool = False) -> list[dict]:
             w = linalg.solve_triangular(chol[:k, :k], np.array(buf), lower=True, check_finite=False)
             float(w @ w)
 
-    per_step = _best_of(stream, 3) / n_step
-    per_step_base = _best_of(stream_direct, 1) / n_step
+    per_step = best_of(stream, 3) / n_step
+    per_step_base = best_of(stream_direct, 1) / n_step
     rows.append({
         "name": f"hod streaming step, n={WINDOW}",
         "ours_s": per_step,
@@ -110,7 +101,7 @@ def run(quick: bool = False) -> list[dict]:
         for k, v in enumerate(xs):
             step(k, v)
 
-    per_epoch = _best_of(monitor_stream, 3) / n_step
+    per_epoch = best_of(monitor_stream, 3) / n_step
     rows.append({
         "name": f"streaming monitor step (clock resets, latch, HOD step), n={WINDOW}",
         "ours_s": per_epoch,

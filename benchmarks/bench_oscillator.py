@@ -24,6 +24,8 @@ from chronofuse.models.noise import power_law_noise
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
 
+from _timing import best_of
+
 # allantools' phase-PSD exponent b for each S_y coefficient (b = a - 2).
 _PHASE_EXPONENT = {"h2": 0, "h1": -1, "h0": -2, "hm1": -3, "hm2": -4}
 
@@ -57,15 +59,6 @@ def _allantools_ocxo_phase(n: int) -> np.ndarray:
     return total
 
 
-def _best_of(func, repeat: int) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        start = time.perf_counter()
-        func()
-        best = min(best, time.perf_counter() - start)
-    return best
-
-
 def peak_memory_mib(n: int) -> float:
     """Peak RSS (MiB) of simulating ``n`` OCXO steps in a fresh Python process."""
     result = subprocess.run(
@@ -79,8 +72,8 @@ def run(quick: bool = False) -> list[dict]:
     repeat = 2 if quick else 1
     np.random.seed(0)  # allantools draws from numpy's global generator
 
-    ours_s = _best_of(lambda: simulate_oscillator(preset("ocxo"), float(n), 1.0, seed=1), repeat)
-    base_s = _best_of(lambda: _allantools_ocxo_phase(n), repeat)
+    ours_s = best_of(lambda: simulate_oscillator(preset("ocxo"), float(n), 1.0, seed=1), repeat)
+    base_s = best_of(lambda: _allantools_ocxo_phase(n), repeat)
     rows = [
         {
             "name": f"ocxo_phase_{n:.0e}",
@@ -94,12 +87,12 @@ def run(quick: bool = False) -> list[dict]:
         }
     ]
 
-    ours_s = _best_of(lambda: power_law_noise(-1.0, n, np.random.default_rng(1)), repeat)
+    ours_s = best_of(lambda: power_law_noise(-1.0, n, np.random.default_rng(1)), repeat)
 
     def baseline_flicker():
         allantools.Noise(nr=n, qd=1.0, b=-1).generateNoise()
 
-    base_s = _best_of(baseline_flicker, repeat)
+    base_s = best_of(baseline_flicker, repeat)
     rows.append(
         {
             "name": f"flicker_generator_{n:.0e}",

@@ -38,3 +38,25 @@ print(after_import, matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules
     done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["svg", "svg", "False"], done.stderr
     assert (tmp_path / "a.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_importing_the_report_modules_and_drawing_leave_the_users_matplotlib_backend_alone(tmp_path):
+    # integrity, swarm and gnssdo reports once called matplotlib.use("Agg") at import; the user's choice must stay.
+    script = f"""
+import sys
+import matplotlib
+import pandas as pd
+import chronofuse.report.integrity
+import chronofuse.report.gnssdo
+from chronofuse.report.swarm import plot_sweep
+
+after_import = matplotlib.get_backend()
+summary = pd.DataFrame({{"algorithm": ["a", "a"], "value": [1.0, 2.0], "rmse_ns": [3.0, 4.0],
+                         "pcrb_rms_ns": [1.0, 1.5]}})
+plot_sweep(summary, "rate", "Hz", {str(tmp_path / "s.png")!r})
+print(after_import, matplotlib.get_backend(), "matplotlib.pyplot" in sys.modules)
+"""
+    env = {**os.environ, "MPLBACKEND": "svg"}
+    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["svg", "svg", "False"], done.stderr
+    assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -65,6 +65,19 @@ def progress_reporter(label: str):
         yield say
 
 
+def run_reproduction(label: str, reproduce, out, *, quick: bool, json_out: bool) -> dict | None:
+    """Run a ``chronofuse reproduce`` experiment, ``reproduce(out, quick=quick, progress=say)``, with one-line
+    errors and a progress display; with ``json_out`` print ``{"out": ..., **summary}`` and return None, else
+    return the summary for the human tables."""
+    with user_errors():
+        with progress_reporter(label) as say:
+            summary = reproduce(out, quick=quick, progress=say)
+    if json_out:
+        print_json({"out": str(out), **summary})
+        return None
+    return summary
+
+
 @contextmanager
 def collected_warnings():
     """Collect the library's warnings (e.g. taus dropped beyond a statistic's range) into a list of

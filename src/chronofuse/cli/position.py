@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, run_reproduction, user_errors
 from chronofuse.cli.reproduce import reproduce_app
 from chronofuse.gnss.simulate import ENVIRONMENTS
 from chronofuse.positioning.scenario import MAX_SPEED_M_PER_S, SYSTEMS
@@ -75,11 +75,9 @@ def reproduce_positioning(
     """Seed 000 section 6.3: GPS+BDS+INS with smoothing against the claimed CEP95 and vertical 95 %."""
     from chronofuse.experiments.positioning_claims import reproduce_positioning_claims
 
-    with user_errors():
-        with progress_reporter("reproduce positioning") as say:
-            summary = reproduce_positioning_claims(out, quick=quick, progress=say)
-    if json_out:
-        print_json({"out": str(out), **summary})
+    summary = run_reproduction("reproduce positioning", reproduce_positioning_claims, out, quick=quick,
+                               json_out=json_out)
+    if summary is None:
         return
     con = human_console(False)
     table = Table("claim", "seed", "ours", "physical floor", "verdict", title="Seed 000 section 6.3, measured")

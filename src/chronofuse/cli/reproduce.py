@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import human_console, run_reproduction
 from chronofuse.cli.swarm import reproduce_swarm_command
 
 reproduce_app = typer.Typer(help="Reproduce the seed documents' experiments and write their reports.",
@@ -30,11 +30,8 @@ def integrity(
     """Seed 002: false-alarm rate, training effect, and detection of steps, ramps, drag-off and bursts (SPEC 4)."""
     from chronofuse.experiments.integrity import DETECTORS, run_integrity
 
-    with user_errors():
-        with progress_reporter("reproduce integrity") as say:
-            summary = run_integrity(out, quick=quick, progress=say)
-    if json_out:
-        print_json({"out": str(out), **summary})
+    summary = run_reproduction("reproduce integrity", run_integrity, out, quick=quick, json_out=json_out)
+    if summary is None:
         return
     con = human_console(False)
     table = Table("detector", "nominal P_fa", "empirical", "99 % CI", title="False-alarm rate (independent epochs)")
@@ -58,10 +55,7 @@ def gnssdo(
     """Seed 000 section 6: time error, convergence, ADEV, holdover and smoothing against the seed's claims (SPEC 3)."""
     from chronofuse.experiments.gnssdo_reproduce import reproduce_gnssdo
 
-    with user_errors():
-        with progress_reporter("reproduce gnssdo") as say:
-            summary = reproduce_gnssdo(out, quick=quick, progress=say)
-    if json_out:
-        print_json({"out": str(out), **summary})
+    summary = run_reproduction("reproduce gnssdo", reproduce_gnssdo, out, quick=quick, json_out=json_out)
+    if summary is None:
         return
     human_console(False).print(f"report -> {out}/ ({', '.join(summary['files'])})")

@@ -24,6 +24,34 @@ MODES = {"kf": 0, "wakf": 1, "gated": 2, "huber": 3, "pi": 4, "null": 5}
 
 
 @numba.njit(cache=True)
+def _matmul(A, B):
+    """``A @ B`` of small square matrices, each entry summed over ``c`` in order (the predict and Joseph steps)."""
+    n = A.shape[0]
+    out = np.zeros((n, n))
+    for a in range(n):
+        for b in range(n):
+            acc = 0.0
+            for c in range(n):
+                acc += A[a, c] * B[c, b]
+            out[a, b] = acc
+    return out
+
+
+@numba.njit(cache=True)
+def _matmul_bt_plus(A, B, C):
+    """``A @ B.T + C`` of small square matrices: ``F P F' + Q`` and the Joseph form's ``(I-KH) P (I-KH)' + K r K'``."""
+    n = A.shape[0]
+    out = np.zeros((n, n))
+    for a in range(n):
+        for b in range(n):
+            acc = 0.0
+            for c in range(n):
+                acc += A[a, c] * B[b, c]
+            out[a, b] = acc + C[a, b]
+    return out
+
+
+@numba.njit(cache=True)
 def _one(i, zi, vi, x, P, u, started, prev_valid, window, rejects, integral, F, Q, h, r, mode, dt, steer, step_thr,
          wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki, dac_on, gain, step_V, half, half_span,
          margin, out):
@@ -60,20 +88,7 @@ def _one(i, zi, vi, x, P, u, started, prev_valid, window, rejects, integral, F, 
             for b in range(n):
                 acc += xs[b] * F[a, b]
             xp[a] = acc
-        FP = np.zeros((n, n))
-        for a in range(n):
-            for b in range(n):
-                acc = 0.0
-                for c in range(n):
-                    acc += F[a, c] * P[i, c, b]
-                FP[a, b] = acc
-        Pp = np.zeros((n, n))
-        for a in range(n):
-            for b in range(n):
-                acc = 0.0
-                for c in range(n):
-                    acc += FP[a, c] * F[b, c]
-                Pp[a, b] = acc + Q[a, b]
+        Pp = _matmul_bt_plus(_matmul(F, P[i]), F, Q)
         xp[0] = xp[0] + dt * u[i]
         if step_thr >= 0.0 and vi and not started[i]:
             xp[0] = zi
@@ -136,19 +151,11 @@ def _one(i, zi, vi, x, P, u, started, prev_valid, window, rejects, integral, F, 
             for a in range(n):
                 for b in range(n):
                     IKH[a, b] -= K[a] * h[b]
-            T = np.zeros((n, n))
+            KrK = np.zeros((n, n))
             for a in range(n):
                 for b in range(n):
-                    acc = 0.0
-                    for c in range(n):
-                        acc += IKH[a, c] * Pp[c, b]
-                    T[a, b] = acc
-            for a in range(n):
-                for b in range(n):
-                    acc = 0.0
-                    for c in range(n):
-                        acc += T[a, c] * IKH[b, c]
-                    Pp[a, b] = acc + K[a] * r_k * K[b]
+                    KrK[a, b] = K[a] * r_k * K[b]
+            Pp = _matmul_bt_plus(_matmul(IKH, Pp), IKH, KrK)
         for a in range(n):
             for b in range(a, n):
                 sym = 0.5 * (Pp[a, b] + Pp[b, a])

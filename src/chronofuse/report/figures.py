@@ -51,6 +51,16 @@ def save_figure(fig: Figure, path: str | Path) -> Path:
     return path
 
 
+def log_log_axes(ax: Axes, xlabel: str, ylabel: str) -> None:
+    """Finish a log-log plot: both axes logarithmic, labelled, a light grid at every tick, a small legend."""
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+
+
 def plot_time_error(t_s: np.ndarray, series_s: dict[str, np.ndarray], path: str | Path, *, title: str = "") -> Path:
     """Plot time-error series (seconds in, nanoseconds on the axis) against time in hours."""
     fig, ax = new_figure((9, 4.5))
@@ -95,12 +105,7 @@ def plot_deviations(
         ax.plot(tau, value, "--", lw=1.2, label=label)
     for label, (tau, value) in (limits or {}).items():
         ax.plot(tau, value, "k-", lw=1.5, alpha=0.7, label=label)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("tau (s)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    log_log_axes(ax, "tau (s)", ylabel)
     if title:
         ax.set_title(title)
     return save_figure(fig, path)
@@ -132,11 +137,6 @@ def plot_with_references(deviations: dict[str, Deviation], references: dict[str,
     for clock, (tau, limit) in (masks or {}).items():
         color, style = _MASK_STYLES.get(clock, ("gray", "-"))
         ax.plot(tau, limit, color=color, ls=style, lw=1.6, label=f"{_MASK_LABELS.get(clock, clock)} mask")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("tau (s)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    log_log_axes(ax, "tau (s)", ylabel)
     ax.set_title(title)
     return save_figure(fig, path)

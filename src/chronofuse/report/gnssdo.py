@@ -4,13 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from chronofuse.discipline.states import State  # noqa: E402
+from chronofuse.discipline.states import State
 
 _STATE_COLOURS = {State.FREE_RUN: "#dddddd", State.ACQUIRING: "#fde9b0", State.LOCKED: "#d8f0d8",
                   State.HOLDOVER: "#f7c6c6", State.RECOVERY: "#cfe0fb"}
@@ -23,7 +21,9 @@ def _decimated(t: np.ndarray, v: np.ndarray, keep: int = 20_000):
 
 def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> Path:
     """Time error of trial 0 (ns) against hours, the clairvoyant servo's beside it, states shaded."""
-    fig, ax = plt.subplots(figsize=(9, 4))
+    fig = Figure(figsize=(9, 4))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     hours = t_s / 3600.0
     edges = np.flatnonzero(np.diff(states)) + 1
     starts = np.concatenate([[0], edges])
@@ -44,13 +44,14 @@ def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> 
     ax.legend(loc="upper right", fontsize=7, ncol=3)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def plot_adev(adev: dict, path: Path, title: str) -> Path:
     """ADEV of the free-running oscillator, the GNSS reference and the disciplined output, and their envelope."""
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    fig = Figure(figsize=(6.5, 4.5))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     styles = {"free_run": ("free-running oscillator", "C7"), "gnss": ("GNSS reference (fused 1PPS)", "C1"),
               "disciplined": ("disciplined output", "C0")}
     for key, (label, colour) in styles.items():
@@ -66,14 +67,15 @@ def plot_adev(adev: dict, path: Path, title: str) -> Path:
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def plot_holdover(t_s, phase_s, optimal_s, start_s: float, stop_s: float, path: Path, title: str) -> Path:
     """Time error accumulated over the outage (trial 0), ours and the clairvoyant KF's."""
     a, b = int(start_s), int(min(stop_s, t_s.size - 1))
-    fig, ax = plt.subplots(figsize=(6.5, 4))
+    fig = Figure(figsize=(6.5, 4))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     hours = (t_s[a:b] - t_s[a]) / 3600.0
     ax.plot(hours, (phase_s[a:b] - phase_s[a]) * 1e9, label="controller")
     ax.plot(hours, (optimal_s[a:b] - optimal_s[a]) * 1e9, label="clairvoyant KF")
@@ -84,7 +86,6 @@ def plot_holdover(t_s, phase_s, optimal_s, start_s: float, stop_s: float, path: 
     ax.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 

@@ -1,22 +1,22 @@
 """The report of ``chronofuse reproduce integrity`` (the detector experiments): figures, tables, JSON, Markdown.
 
 :mod:`chronofuse.experiments.integrity` computes the rows and the summary; this module only draws and
-writes them (:func:`write_integrity_report`). Figures use matplotlib's Agg backend.
+writes them (:func:`write_integrity_report`). Figures are drawn on their own Agg canvas (no pyplot), so the
+user's matplotlib backend is left as it is.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-
-from chronofuse.integrity.inject import KINDS  # noqa: E402
-from chronofuse.report.jsonio import dumps  # noqa: E402
+from chronofuse.integrity.inject import KINDS
+from chronofuse.report.figures import log_log_axes, new_figure, save_figure
+from chronofuse.report.jsonio import dumps
 
 REPORT_FILES = ("pfa.png", "training.png", *[f"detection_{k}.png" for k in KINDS], "pfa.csv", "detection.csv",
                 "summary.json", "README.md")
@@ -39,46 +39,36 @@ def write_integrity_report(out_dir: Path, summary: dict, cfg, detectors, pfas) -
 def plot_pfa(rows: list[dict], pfas, path: Path) -> None:
     """Empirical against nominal P_fa per detector, with the 99 % Clopper-Pearson bars (``pfa.png``)."""
     frame = pd.DataFrame(rows)
-    fig, ax = plt.subplots(figsize=(6.5, 5), constrained_layout=True)
+    fig, ax = new_figure((6.5, 5))
     for name, grp in frame.groupby("detector", sort=False):
         rate = grp["rate_independent"].to_numpy()
         err = np.vstack([rate - grp["ci99_lo"].to_numpy(), grp["ci99_hi"].to_numpy() - rate])
         ax.errorbar(grp["pfa"], np.maximum(rate, 1e-7), yerr=err, fmt="o-", ms=4, capsize=3, label=name)
     ax.plot(pfas, pfas, "k--", lw=1, label="nominal")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("nominal P_fa")
-    ax.set_ylabel("empirical P_fa (independent epochs, 99 % CI)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    log_log_axes(ax, "nominal P_fa", "empirical P_fa (independent epochs, 99 % CI)")
+    save_figure(fig, path)
 
 
 def plot_training(rows: list[dict], path: Path) -> None:
     """HOD P_fa against training length, per noise-fit method (``training.png``)."""
     frame = pd.DataFrame(rows)
-    fig, ax = plt.subplots(figsize=(6.5, 4.5), constrained_layout=True)
+    fig, ax = new_figure((6.5, 4.5))
     for k, (method, grp) in enumerate(frame.groupby("method", sort=False)):
         x = grp["training_epochs"].to_numpy() * (1.0 + 0.08 * k)
         med = grp["median_rate"].to_numpy()
         ax.errorbar(x, med, yerr=[med - grp["p10_rate"], grp["p90_rate"] - med], fmt="o-", capsize=3,
                     label=f"HOD, noise fitted by {method} (median, 10-90 %)")
     ax.axhline(frame["pfa"].iloc[0], color="k", ls="--", lw=1, label="nominal")
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("training length (epochs)")
-    ax.set_ylabel("empirical P_fa")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    log_log_axes(ax, "training length (epochs)", "empirical P_fa")
+    save_figure(fig, path)
 
 
 def plot_detection(rows: list[dict], kind: str, path: Path, horizon_s: float) -> None:
     """Detection probability and median delay against anomaly size for one kind (``detection_<kind>.png``)."""
     frame = pd.DataFrame([r for r in rows if r["kind"] == kind])
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5), constrained_layout=True)
+    fig = Figure(figsize=(11, 4.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    (ax1, ax2) = fig.subplots(1, 2)
     for name, grp in frame.groupby("detector", sort=False):
         ax1.plot(grp["size_sigma"], grp["p_detect"], "o-", ms=4, label=name)
         ax2.plot(grp["size_sigma"], grp["median_delay_s"], "o-", ms=4, label=name)
@@ -91,7 +81,6 @@ def plot_detection(rows: list[dict], kind: str, path: Path, horizon_s: float) ->
     ax2.set_ylabel("median delay of first alarm (s)")
     fig.suptitle(f"{kind}")
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def integrity_markdown(summary: dict, cfg, detectors) -> str:

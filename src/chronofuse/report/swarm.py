@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import pandas as pd  # noqa: E402
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 __all__ = ["plot_sweep", "write_sweep"]
 
@@ -17,7 +15,9 @@ def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *
                seed_points: dict | None = None) -> Path:
     """RMSE (ns, log axis) of each algorithm against the swept value, the PCRB as a dashed line, and the
     seed's reported numbers (``{algorithm: [(value, rmse_ns), ...]}``) as open markers."""
-    fig, ax = plt.subplots(figsize=(7.0, 4.5))
+    fig = Figure(figsize=(7.0, 4.5))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     for name, group in summary.groupby("algorithm", sort=False):
         ax.plot(group["value"], group["rmse_ns"], marker="o", label=name)
     pcrb = summary.drop_duplicates("value").sort_values("value")
@@ -35,7 +35,6 @@ def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
 
 

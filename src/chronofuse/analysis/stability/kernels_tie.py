@@ -95,12 +95,9 @@ def _fmax(a: float, b: float) -> float:
 
 @numba.njit(cache=True)
 def _fmin(a: float, b: float) -> float:
-    """``np.fmin``: the smaller, ignoring one NaN."""
-    if a != a:
-        return b
-    if b != b:
-        return a
-    return a if a < b else b
+    """``np.fmin``: the smaller, ignoring one NaN; :func:`_fmax` of the negatives (exact: negation only flips
+    the sign bit, so ties and signed zeros come out as before)."""
+    return -_fmax(-a, -b)
 
 
 @numba.njit(cache=True)
