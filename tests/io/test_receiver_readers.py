@@ -178,6 +178,18 @@ def test_fuzzed_bytes_never_crash_the_readers_and_every_byte_is_accounted(pieces
     assert [(f.offset, f.raw) for f in split_frames] == [(f.offset, f.raw) for f in whole_frames]
 
 
+def test_a_hash_after_a_stray_byte_is_not_a_comment_even_when_the_stray_byte_came_in_an_earlier_chunk():
+    """'#' opens a comment line only at a line start; a byte-at-a-time feed must not forget the byte
+    before it (found by the fuzzer: b'\\x00#' then an RMC lost the RMC when fed one byte at a time)."""
+    data = b"\x00#" + _burst("120001")
+    whole, _ = scan_bytes(data)
+    scanner = FrameScanner()
+    split = [f for k in range(len(data)) for f in scanner.feed(data[k:k + 1])] + scanner.close()
+    assert [f.offset for f in split] == [f.offset for f in whole]
+    assert whole[0].offset == 2 and whole[0].name == "GPRMC"
+    assert scanner.stats.comment_lines == 0
+
+
 def test_a_capture_is_the_one_receiver_epochs_record_and_exports_its_columns(receivers):
     from chronofuse.epochs import EXPORT_COLUMNS
 

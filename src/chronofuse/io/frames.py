@@ -140,20 +140,27 @@ class FrameScanner:
         self.stats = FrameStats()
         self._tail = b""
         self._offset = 0  # stream offset of self._tail[0]
+        self._at_line_start = True  # the byte before self._tail[0] ends a line (or there is none)
 
     def feed(self, data: bytes) -> list[Frame]:
         self.stats.n_bytes += len(data)
         buf = self._tail + bytes(data) if self._tail else bytes(data)
         frames, used = self._scan(buf, final=False)
         self._tail = buf[used:]
-        self._offset += used
+        self._consumed(buf, used)
         return frames
 
     def close(self) -> list[Frame]:
         buf, self._tail = self._tail, b""
         frames, used = self._scan(buf, final=True)
-        self._offset += used
+        self._consumed(buf, used)
         return frames
+
+    def _consumed(self, buf: bytes, used: int) -> None:
+        used = min(used, len(buf))  # a last sentence without its line end reports one past the end
+        self._offset += used
+        if used:
+            self._at_line_start = buf[used - 1] == 0x0A
 
     # -- the scan ---------------------------------------------------------------------------------
     def _scan(self, buf: bytes, final: bool) -> tuple[list[Frame], int]:
@@ -315,7 +322,7 @@ class FrameScanner:
                 frames.append(Frame("rtcm3", name, base + i, buf[i:end]))
                 i = end
             else:  # '#': a comment line of a recording (gpsd's logs), or one stray byte
-                if i == 0 or buf[i - 1] == 0x0A:
+                if (buf[i - 1] == 0x0A) if i else self._at_line_start:
                     nl = find(b"\n", i)
                     if nl < 0:
                         if not final:
