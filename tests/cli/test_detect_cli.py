@@ -26,7 +26,7 @@ NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
 MODEL = ["--h0", "2e-18", "--hm2", "1e-22", "--sigma-rho", "1.0"]
 KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped", "state",
         "unavailable_reasons", "n_tested", "n_training", "unavailable", "interval_s"}
-DETECTION_KEYS = KEYS | {"clock_events", "noise", "warnings", "n_no_fix"}
+DETECTION_KEYS = KEYS | {"clock_events", "noise", "noise_change", "warnings", "n_no_fix"}
 EXIT = {"ok": 0, "alarm": 1, "unavailable": 3}
 
 
@@ -243,7 +243,7 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     faulty = _invoke(obs, *args)
     assert faulty.exit_code == 1, faulty.output
     doc = json.loads(faulty.stdout)
-    assert set(doc) == KEYS | {"faulty", "untested", "codes"} and doc["mode"] == "identification"
+    assert set(doc) == KEYS | {"faulty", "untested", "codes", "channel_events"} and doc["mode"] == "identification"
     assert doc["n_epochs"] == 120 and doc["codes"] == ["C1", "P2"]
     assert doc["state"] == "alarm" and json.loads(clean.stdout)["state"] == "ok"
     # the drag is on both code observables: each is named, alone, after the onset

@@ -108,11 +108,30 @@ def _print_stations(file: Path, doc: dict) -> None:
     con = human_console(False)
     con.print(f"[bold]{file}[/bold]: clock product, {doc['n_stations']} stations, window {doc['window']}, "
               f"P_fa {doc['pfa']:g}; overall {doc['state']}")
-    table = Table("station", "state", "epochs", "tested", "alarms", "clock events", "reason")
+    table = Table("station", "state", "epochs", "tested", "alarms", "rate", "clock events", "noise ratio", "p",
+                  "reason")
     for row in doc["stations"]:
+        change = row.get("noise_change") or {}
+        ratio, p_value = change.get("ratio", math.nan), change.get("p_value", math.nan)
+        rate = row["n_alarms"] / row["n_tested"] if row["n_tested"] else math.nan
         table.add_row(row["station"], row["state"], str(row["n_epochs"]), str(row["n_tested"]), str(row["n_alarms"]),
-                      str(len(row["clock_events"])), "; ".join(row["unavailable_reasons"]))
+                      _num(rate, ".1%"), str(len(row["clock_events"])), _num(ratio, ".3g"), _num(p_value, ".2g"),
+                      "; ".join(row["unavailable_reasons"]))
     con.print(table)
+    fa = doc.get("false_alarms")
+    if fa:
+        con.print(f"false alarms over the {len(fa['no_event'])} stations with no clock event and no noise change "
+                  f"(F test p >= {fa['alpha']:g}): {fa['n_alarms']} in {fa['n_tested']} tested epochs = "
+                  f"{_num(fa['rate'], '.2%')} (nominal {fa['nominal']:.2%})")
+        con.print(f"  over every station without a clock event: {fa['all_n_alarms']} in {fa['all_n_tested']} = "
+                  f"{_num(fa['all_rate'], '.2%')}")
+        for key, label in (("clock_event", "clock events"), ("noise_changed", "noise changed after training"),
+                           ("untested", "not tested"), ("no_event", "no event")):
+            con.print(f"  {label} ({len(fa[key])}): {', '.join(fa[key]) or '-'}", soft_wrap=False)
+
+
+def _num(value: float | None, spec: str) -> str:
+    return "-" if value is None or not math.isfinite(value) else format(value, spec)
 
 
 def _print_human(file: Path, doc: dict) -> None:

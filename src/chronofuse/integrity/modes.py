@@ -16,8 +16,8 @@ Causal verdicts. Each epoch's verdict uses that epoch and earlier ones only: wit
 ``train_s`` seconds fit the noise model and are not tested (state ``training``); the test starts after them.
 
 States (per epoch and overall, the ``state`` of the document). ``ok``: tested, no fault; ``alarm``: the
-statistic is over its threshold (detection) or a channel is named faulty and stays so (identification,
-latched); ``unavailable``: integrity could not be tested: an epoch with no test (missing data, start-up
+statistic is over its threshold (detection) or a channel is faulty (identification: raised when named,
+cleared when consistent with the others again); ``unavailable``: integrity could not be tested: an epoch with no test (missing data, start-up
 of the difference chain after a gap, training, the receiver reporting no valid fix (UBX NAV-SOL/PVT/STATUS),
 fewer than :data:`MIN_TESTED_CHANNELS` channels tested,
 the position check failed). Overall the record is ``unavailable`` when training failed, the position is
@@ -63,6 +63,7 @@ from chronofuse.integrity.inputs import (  # noqa: F401 (re-exported: the CLI an
     parse_position,
     read_noise_file,
 )
+from chronofuse.integrity.stationarity import NOISE_CHANGE_ALPHA, false_alarm_summary, noise_change
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.formats import sniff_format
 from chronofuse.validation import InputDataError, check_scalar
@@ -139,6 +140,16 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
                            for k, size in zip(steering.event_epochs, steering.event_size_s)]
     doc["interval_s"] = float(detector.interval_s)
     doc["noise"] = _noise(detector) if fitted else None
+    doc["noise_change"] = None
+    if fitted and train_s is not None:
+        df = np.full(n, np.nan)
+        df[2:] = np.diff(x, 2) / detector.interval_s
+        tested_df = np.where(states == "unavailable", np.nan, df)
+        ratio, p_value = noise_change(df[:n_train], tested_df[n_train:], detector.r_ / detector.inflation_)
+        doc["noise_change"] = {"ratio": ratio, "p_value": p_value}
+        if p_value < NOISE_CHANGE_ALPHA:
+            warnings.append(f"noise changed after training: the tested differences' mean square is {ratio:.3g} times "
+                            f"the training's (F test p = {p_value:.2g}); alarms may be the noise model going stale")
     doc["warnings"] = warnings
     doc["n_no_fix"] = int(bad_status.sum())
     return doc
@@ -173,11 +184,14 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     was): with one code, channels are named by satellite (``G20``); with several, by satellite and code
     (``G20 C1``, ``G20 P2``). Per epoch, the state is ``ok`` when at least :data:`MIN_TESTED_CHANNELS`
     channels of the L1 code (the one a position/time solution uses) are tested and the position check
-    passes, ``alarm`` from the epoch a channel of any code is named (latched). Returns the document of
+    passes, ``alarm`` while a channel of any code is faulty: raised when identification names it, cleared
+    when it is consistent with the others again (:mod:`chronofuse.integrity.channel_latch`; each raise and
+    clear is in ``channel_events`` with its reason). Returns the document of
     :func:`detect_file` with ``faulty`` (channels named, with the time each was named), ``untested``
     (channels never tested), ``codes`` and the states of the module docstring.
     """
     # imported here: the RINEX stack (georinex, xarray) takes a second to import, detection mode needs none of it
+    from chronofuse.integrity.channel_latch import latch_channels
     from chronofuse.integrity.identification import identify
     from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 
@@ -211,8 +225,12 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     far = offset_at > POSITION_TOLERANCE_M
     tested = runs[0][1].tested.sum(axis=1)
     latched = np.zeros(n_epochs, dtype=bool)
-    for _, result, _ in runs:
-        latched |= result.faulty_mask.any(axis=1)
+    channel_events = []
+    for code, result, _ in runs:
+        mask, events = latch_channels(result)
+        latched |= mask.any(axis=1)
+        channel_events += [{"t_ns": int(t_ns[e.epoch]), "t": t_ns[e.epoch] / 1e9, "channel": label(e.channel, code),
+                            "kind": e.kind, "reason": e.reason} for e in events]
     states = np.full(n_epochs, "unavailable", dtype=object)
     states[(tested >= MIN_TESTED_CHANNELS) & ~far] = "ok"
     states[latched] = "alarm"
@@ -240,6 +258,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     doc = _document("identification", n_epochs, detector, alarms, int(runs[0][1].n_skipped_epochs))
     doc.update(availability(state, reasons, t_ns, per_epoch, states, n_train))
     doc["faulty"] = faulty
+    doc["channel_events"] = sorted(channel_events, key=lambda e: (e["t_ns"], e["channel"]))
     doc["untested"] = untested
     doc["codes"] = codes
     doc["interval_s"] = interval_s
@@ -362,7 +381,7 @@ def clock_product_document(clocks, params: dict, train_s: float | None = None) -
         else:
             row.update(state=doc["state"], n_tested=doc["n_tested"], n_alarms=doc["n_alarms"],
                        clock_events=doc["clock_events"], unavailable_reasons=doc["unavailable_reasons"],
-                       noise=doc["noise"], warnings=doc["warnings"])
+                       noise=doc["noise"], warnings=doc["warnings"], noise_change=doc["noise_change"])
         rows.append(row)
     states = {r["state"] for r in rows}
     state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
@@ -375,6 +394,7 @@ def clock_product_document(clocks, params: dict, train_s: float | None = None) -
         "window": int(det.window),
         "pfa": float(det.pfa),
         "stations": rows,
+        "false_alarms": false_alarm_summary(rows, det.pfa) if train_s is not None else None,
         "n_bad_lines": int(clocks.n_bad_lines),
         "source": clocks.source,
     }
