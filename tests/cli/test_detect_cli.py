@@ -386,3 +386,20 @@ def test_importing_the_detect_command_does_not_import_the_detector_library():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={"PYTHONPATH": str(__import__("pathlib").Path(detect_cli.__file__).parents[2])})
     assert out.stdout.split() == ["False", "False"]
+
+
+def test_detect_help_imports_no_numpy():
+    # issue 10.6: `detect --help` under 0.5 s; numpy (through cli.common and report.jsonio, 0.12 s of the
+    # import time measured with -X importtime) is what the command module itself pulled in before (typer
+    # renders its help with rich's tables itself)
+    import subprocess
+    import sys
+
+    code = ("import sys; sys.argv = ['chronofuse', 'detect', '--help']\n"
+            "from chronofuse.cli.main import main\n"
+            "try:\n    main()\nexcept SystemExit:\n    pass\n"
+            "print('numpy' in sys.modules, 'chronofuse.cli.common' in sys.modules, file=sys.stderr)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={"PYTHONPATH": str(__import__("pathlib").Path(detect_cli.__file__).parents[2])})
+    assert "--train" in out.stdout
+    assert out.stderr.split()[-2:] == ["False", "False"]
