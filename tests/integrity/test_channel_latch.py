@@ -45,8 +45,8 @@ def test_a_step_that_ends_is_raised_at_onset_and_cleared_after_it_ends_never_bef
             assert [(e.channel, e.kind) for e in events] == [(name, "raise"), (name, "clear")], (station, events)
             raised, cleared = (res.t_s[e.epoch] for e in events)
             assert raised == ONSET_S
-            # cleared only once the channel has been back for a window (10 epochs) after the end
-            assert END_S + 10 * 30.0 <= cleared < res.t_s[-1]
+            # cleared once the channel has been back for a window (10 epochs) after the end, within two
+            assert END_S + 10 * 30.0 <= cleared <= END_S + 20 * 30.0
             assert "back to" in events[1].reason
             on = res.t_s[faulty[:, j]]
             assert on.min() == ONSET_S and on.max() < cleared

@@ -20,6 +20,9 @@ _EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.mo
 
 _MAX_TABLE_ROWS = 50
 
+# chronofuse.integrity.receiver_status.DEFAULT_MAX_TIME_ACC_S in ns (a test checks; not imported for --help)
+_DEFAULT_MAX_TACC_NS = 100.0
+
 
 def register(app: typer.Typer) -> None:
     app.command("detect")(detect)
@@ -38,6 +41,7 @@ def detect(
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
     nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode)."),
     station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
+    max_tacc_ns: float = typer.Option(_DEFAULT_MAX_TACC_NS, "--max-tacc-ns", help="UBX: epochs whose receiver time accuracy (NAV-CLOCK tAcc) is over this many ns are not tested (unavailable); 0: not used."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
@@ -58,6 +62,8 @@ def detect(
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     if train is not None and train <= 0:
         fail(f"--train {train:g}: must be > 0 seconds")
+    if not (max_tacc_ns >= 0 and math.isfinite(max_tacc_ns)):
+        fail(f"--max-tacc-ns {max_tacc_ns:g}: must be >= 0 ns (0: not used)")
     from chronofuse.integrity.modes import detect_file, read_noise_file
 
     if noise is not None:
@@ -73,7 +79,8 @@ def detect(
                 train_s=train)
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
-                          window=window, pfa=pfa, position_m=position, nav=nav, station=station)
+                          window=window, pfa=pfa, position_m=position, nav=nav, station=station,
+                          max_time_acc_s=max_tacc_ns / 1e9 if max_tacc_ns > 0 else None)
     if json_out:
         print_json(doc)
     else:
@@ -162,6 +169,8 @@ def _print_human(file: Path, doc: dict) -> None:
         con.print(f"clock event: receiver clock reset of {event['size_s'] * 1e3:+g} ms at t = {_t(event['t_ns'])} s")
     if doc.get("faulty"):
         con.print("faulty: " + ", ".join(f"{f['channel']} (from t = {_t(f['t_ns'])} s)" for f in doc["faulty"]))
+    for event in doc.get("channel_events", []):
+        con.print(f"{event['kind']} {event['channel']} at t = {_t(event['t_ns'])} s: {event['reason']}")
     if doc["state"] == "unavailable":
         con.print("[red]integrity unavailable[/red]: " + "; ".join(doc["unavailable_reasons"]))
     elif not doc["alarms"]:

@@ -46,7 +46,7 @@ def noise_change(train_df, test_df, r) -> tuple[float, float]:
 def false_alarm_summary(rows: list[dict], pfa: float, alpha: float = NOISE_CHANGE_ALPHA) -> dict:
     """Alarms over the tested epochs of the stations with no clock event and no noise change (``p`` of
     :func:`noise_change` at or above ``alpha``), from the rows of
-    :func:`chronofuse.integrity.modes.clock_product_document`.
+    :func:`chronofuse.integrity.products.clock_product_document`.
 
     Returns ``no_event`` (station names), ``clock_event`` and ``noise_changed`` (names set aside),
     ``untested`` (no test), ``n_tested``, ``n_alarms`` and ``rate`` over ``no_event``, ``nominal`` (``pfa``),
