@@ -1,6 +1,8 @@
 """False alarms after training on real station clocks (issue 10, "Must show"): the threshold's margin for a
 noise fitted from few differences, the noise-change screen, and the rate over the stations with no event."""
 
+import math
+
 import numpy as np
 import pytest
 from scipy import linalg, stats
@@ -101,3 +103,53 @@ def test_every_millisecond_reset_of_the_grg_product_is_a_clock_event_not_an_alar
         sizes = np.array([e["size_s"] for e in events])
         np.testing.assert_allclose(np.abs(sizes), np.round(np.abs(sizes) / 1e-3) * 1e-3)
         assert rows[name]["n_alarms"] == 0, name
+
+
+@pytest.mark.parametrize("n_diff", [18, 100, 1000])
+def test_the_outlier_screen_leaves_a_clean_training_alone(n_diff):
+    from chronofuse.integrity.noise_model import training_outliers
+
+    x = simulate_clock_bias(ClockNoise(3e-20, 1e-25, 0.09), interval_s=30.0, steps=n_diff + 2, trials=300,
+                            seed=17).measured_s
+    # at 6 robust sigma: ~2e-9 per difference for Gaussian noise, a few times more at 18 (the MAD varies)
+    assert training_outliers(x).any(axis=1).mean() <= 0.01
+
+
+@pytest.mark.parametrize("kind", ["spike", "step"])
+def test_one_outlier_in_training_neither_inflates_the_fitted_noise_nor_is_missed(kind):
+    noise = ClockNoise(3e-20, 1e-25, 0.09)
+    clean = simulate_clock_bias(noise, interval_s=30.0, steps=102, trials=1, seed=23).measured_s[0]
+    x = clean.copy()
+    size = 40.0 * math.sqrt(difference_autocorrelation(noise.h0, noise.hm2, noise.sigma_rho_m, 30.0)[0]) * 30.0
+    if kind == "spike":
+        x[60] += size
+    else:
+        x[60:] += size
+    fitted = HodDetector(interval_s=30.0, window=5, pfa=0.01).fit(x)
+    plain = HodDetector(interval_s=30.0, window=5, pfa=0.01).fit(x, robust=False)
+    reference = HodDetector(interval_s=30.0, window=5, pfa=0.01).fit(clean)
+    assert fitted.training_outliers_[60]
+    assert fitted.r_[0] == pytest.approx(reference.r_[0], rel=0.3)
+    assert plain.r_[0] > 5 * reference.r_[0]  # what one outlier did to the fit before
+
+
+@pytest.mark.slow
+def test_a_spike_in_a_grg_stations_training_is_left_out_and_no_longer_blinds_it(grg, real_data):
+    # NRIL: a spike of ~40 ns against ~1 ns of noise in the last minute of its 600 s training
+    from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
+
+    clocks = read_station_clocks(real_data / "receivers/rinex/gnss_lib_py/grg21553.clk.gz")
+    d2 = np.diff(station_clock_bias(clocks, "NRIL").bias_s[:20], 2)
+    assert np.abs(d2).max() > 30e-9 and 1.4826 * np.median(np.abs(d2 - np.median(d2))) < 2e-9
+    row = next(r for r in grg["stations"] if r["station"] == "NRIL")
+    assert any(w.startswith("training outliers: 2 epoch(s)") for w in row["warnings"])
+    assert row["noise"]["sigma_rho_m"] < 0.5  # ~1 ns of second-difference noise, not the spike's ~10 ns
+    assert row["n_alarms"] > 0  # the ~16 ns jump after the gap is seen
+
+
+def test_a_reference_clock_written_coarser_than_its_noise_is_not_screened_and_does_not_alarm(real_data):
+    # CODE's WAB200CHE: second differences of 0 and +-1e-18 s (the file's last digit); those ticks are not outliers
+    path = real_data / "receivers/rinex/gnss_lib_py/COD0MGXFIN_20211180000_01D_30S_CLK.CLK"
+    doc = detect_file(path, station="WAB200CHE", train_s=600.0, window=5, pfa=0.01)
+    assert not any(w.startswith("training outliers") for w in doc["warnings"])
+    assert doc["n_tested"] > 90 and doc["n_alarms"] == 0

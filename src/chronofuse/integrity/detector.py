@@ -53,11 +53,13 @@ from scipy import stats
 from chronofuse.estimation.interface import nan_if_none
 from chronofuse.estimation.process import second_difference
 from chronofuse.integrity.noise_model import (
+    contiguous_runs,
     difference_autocorrelation,
     empirical_autocorrelation,
     fit_noise,
     fit_noise_whittle,
     noise_intensities,
+    training_outliers,
 )
 from chronofuse.integrity.result import DetectionResult, StepOutput
 from chronofuse.integrity.statistic import (
@@ -185,28 +187,37 @@ class HodDetector:
             check_scalar(self.confidence, "confidence", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
 
-    def fit(self, clock_bias_s=None, *, method: str = "whittle") -> HodDetector:
+    def fit(self, clock_bias_s=None, *, method: str = "whittle", robust: bool = True) -> HodDetector:
         """Set the noise model, whitener and thresholds; estimate missing noise parameters from training data.
 
         ``clock_bias_s``: anomaly-free training clock biases (s), shape (steps,) or (trials, steps), NaN =
         missing; not needed (None) when ``h0``, ``hm2`` and ``sigma_rho_m`` are all given. ``method``:
         ``"whittle"`` (default, :func:`fit_noise_whittle`, the spectrum of ``df``) or ``"autocorrelation"``
         (:func:`fit_noise`, the SPEC 4 ``r(0..2)`` formulas solved for the empirical ``r(0..2)``, clipped >= 0).
+        ``robust`` (default): epochs with an outlying second difference are left out of the fit
+        (:func:`chronofuse.integrity.noise_model.training_outliers`: one spike or step in training would
+        otherwise inflate the fitted noise and blind the detector); ``training_outliers_`` marks them (bool,
+        the input's shape). When no unbroken run of 8 differences is left for Whittle's fit, the
+        autocorrelation fit (which takes gaps) is used.
         """
         self._check_params()
         params = (self.h0, self.hm2, self.sigma_rho_m)
         inflation = 1.0
         if all(p is not None for p in params):
             h0, hm2, sigma = params
+            self.training_outliers_ = np.zeros(0, dtype=bool)
         else:
             if clock_bias_s is None:
                 missing = [n for n, p in zip(("h0", "hm2", "sigma_rho_m"), params) if p is None]
                 raise ValueError(f"{', '.join(missing)} not given: fit() needs anomaly-free training clock biases")
             x = check_array(clock_bias_s, "clock_bias_s", ndim=(1, 2), allow_nan=True, min_length=3)
             check_choice(method, "method", ("whittle", "autocorrelation"))
+            outliers = training_outliers(x) if robust else np.zeros(x.shape, dtype=bool)
+            self.training_outliers_ = outliers
+            x = np.where(outliers, np.nan, x)
             df = high_order_difference(x, self.interval_s)
             known = dict(h0=self.h0, hm2=self.hm2, sigma_rho_m=self.sigma_rho_m)
-            if method == "whittle":
+            if method == "whittle" and not (outliers.any() and not contiguous_runs(df, 8)):
                 h0, hm2, sigma = fit_noise_whittle(df, self.interval_s, **known)
             else:
                 h0, hm2, sigma = fit_noise(empirical_autocorrelation(df), self.interval_s, **known)

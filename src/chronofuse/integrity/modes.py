@@ -116,6 +116,15 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         else:
             try:
                 detector.fit(training)
+                left_out = np.flatnonzero(detector.training_outliers_)
+                if left_out.size:
+                    # the epochs of an outlier (spike, step) in training: out of the fit and of the first windows
+                    x = x.copy()
+                    x[left_out] = np.nan
+                    training = x[:n_train]
+                    warnings.append(f"training outliers: {left_out.size} epoch(s) left out of the noise fit (t_ns "
+                                    f"{', '.join(str(int(t_ns[k])) for k in left_out[:5])}"
+                                    f"{', ...' if left_out.size > 5 else ''})")
                 warnings.extend(training_warnings(np.diff(training, 2) / detector.interval_s))
             except ValueError as err:
                 reasons.append(f"training failed: {err}")
