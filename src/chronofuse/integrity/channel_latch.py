@@ -12,13 +12,16 @@ channel's residual against the other channels' clock (:func:`chronofuse.integrit
     average over the window before the one that raised the fault. The second difference sees only
     changes: a step that persists looks quiet after one window while the channel stays off by the step
     (a ramp, by a growing amount), so (b) keeps it raised until the offset is gone. The standard deviation
-    is that of the difference of two window means one window apart under the SPEC 4 model with the
-    channel's fitted noise (inflation included): ``2 s2 / n + q1 n t_s + q2 (n t_s)^3 / 3`` (white phase
-    noise averaged over ``n`` epochs; white FM and random-walk FM over ``n`` intervals, Brown & Hwang sec.
-    9.3). It is not grown with the fault's duration: on the real Trimble stations the fitted random-walk
-    FM of a channel's residual, extrapolated over 15 min, allowed 150-220 ns at 5 sigma, and a 100 ns step
-    still in place was cleared; with one window's spread it is not, and a channel whose residual wandered
-    by more than that during a long fault stays raised (integrity errs on the side of an alarm).
+    is that of the difference of two window means ``L`` epochs apart (``L``: from the reference window to
+    now), the smaller of (i) the SPEC 4 model with the channel's fitted noise (inflation included),
+    ``2 s2 / n + q1 L t_s + q2 (L t_s)^3 / 3`` (white phase noise averaged over ``n`` epochs; white FM and
+    random-walk FM over ``L`` intervals, Brown & Hwang sec. 9.3), and (ii) the rms of that difference
+    measured one window apart on the channel's residual over the ``3 n`` epochs before the raise, grown as
+    ``sqrt(L / n)`` (a random walk, the white-FM term of the model), but not below the white-phase term
+    ``2 s2 / n``. Why (ii): the fitted random-walk FM of a residual is loosely determined by a short
+    training; on the real Trimble stations the model alone, extrapolated over the 15-25 min of a fault,
+    allowed 40 to 220 ns at 5 sigma, and 30 ns and 100 ns steps still in place were cleared, while the
+    measured spread of those residuals is a few ns.
 
 An untested epoch neither raises nor clears. After a clear, the channel is raised again at its next alarm.
 :class:`ChannelLatch` is the streaming form (one channel, one epoch); :func:`latch_channels` runs one latch
@@ -58,8 +61,9 @@ class ChannelLatch:
         self._q = tuple(v * scale for v in noise_intensities(detector.h0_, detector.hm2_, detector.sigma_rho_m_))
         self.faulty = False
         self._quiet = 0
-        self._history: deque = deque([math.nan] * (3 * self.window + 1), maxlen=3 * self.window + 1)
+        self._history: deque = deque([math.nan] * (4 * self.window + 1), maxlen=4 * self.window + 1)
         self._ref = math.nan
+        self._spread = math.nan
         self._raised_at = -1
 
     def _level(self, end: int) -> float:
@@ -68,10 +72,27 @@ class ChannelLatch:
         values = [h[len(h) - 1 - end - i] for i in range(self.window)]
         return math.fsum(values) / self.window
 
-    def _sigma(self, epochs_apart: int) -> float:
+    def _model_sigma(self, epochs_apart: int) -> float:
         q1, q2, s2 = self._q
         span = epochs_apart * self.interval_s
         return math.sqrt(2.0 * s2 / self.window + q1 * span + q2 * span**3 / 3.0)
+
+    def _measured_spread(self) -> float:
+        """The rms of a window mean minus the one a window earlier, over the ``3 n`` epochs before now (NaN
+        when fewer than ``n/2 + 1`` such pairs are complete)."""
+        diffs = [self._level(end) - self._level(end + self.window) for end in range(self.window, 2 * self.window + 1)]
+        diffs = [d for d in diffs if math.isfinite(d)]
+        if len(diffs) < self.window // 2 + 1:
+            return math.nan
+        return math.sqrt(math.fsum(d * d for d in diffs) / len(diffs))
+
+    def _sigma(self, epochs_apart: int) -> float:
+        """Standard deviation of the difference of two window means ``epochs_apart`` apart (docstring, (b))."""
+        model = self._model_sigma(epochs_apart)
+        if not math.isfinite(self._spread):
+            return model
+        grown = self._spread * math.sqrt(epochs_apart / self.window)
+        return max(min(model, grown), math.sqrt(2.0 * self._q[2] / self.window))
 
     def step(self, epoch: int, residual_s: float, *, tested: bool, alarm: bool, named: bool = False) -> str | None:
         """One epoch of the channel: its residual (s; NaN = missing), whether it was tested and alarmed, and
@@ -82,6 +103,7 @@ class ChannelLatch:
             if named or (self._raised_at >= 0 and tested and alarm):
                 self.faulty, self._quiet, self._raised_at = True, 0, epoch
                 self._ref = self._level(self.window)
+                self._spread = self._measured_spread()
                 return ("raise: named faulty (its statistic over its threshold, the largest among the channels)"
                         if named else "raise: over its threshold again after a clear")
             return None
@@ -92,7 +114,7 @@ class ChannelLatch:
             return None
         self._quiet += 1
         offset = abs(self._level(0) - self._ref)
-        sigma = self._sigma(self.window)
+        sigma = self._sigma(epoch - self._raised_at + self.window)
         back = offset <= self.clear_sigma * sigma  # NaN (a missing epoch in either window): not back
         if self._quiet >= self.clear_after and back:
             self.faulty = False
