@@ -47,6 +47,10 @@ def test_without_its_fix_flags_the_coasting_gr701w_is_caught_by_its_own_time_acc
     clock = [struct.unpack_from("<IiiI", p) for _, c, m, p in _frames(gr701w) if (c, m) == (0x01, 0x22)]
     over = [itow for itow, _, _, tacc in clock if tacc > DEFAULT_MAX_TIME_ACC_S * 1e9]
     assert len(over) == 10 and over == list(range(over[0], over[-1] + 1000, 1000))
+    # NAV-SOL (iTOW U4 at 0, flags X1 at 11, bit 0 gpsFixOk): the coasting epochs, and their tAcc from 41 to 172 ns
+    no_fix = {struct.unpack_from("<I", p)[0] for _, c, m, p in _frames(gr701w) if (c, m) == (0x01, 0x06) and not p[11] & 1}
+    coasting = [tacc for itow, _, _, tacc in clock if itow in no_fix]
+    assert len(coasting) == 29 and (coasting[0], max(coasting)) == (41, 172) and set(over) <= no_fix
     doc = detect_file(path, **MODEL)
     assert doc["n_no_fix"] == 0 and doc["n_time_accuracy_over"] == 10
     spans = [u for u in doc["unavailable"] if u["reason"].startswith("receiver status: time accuracy over 100 ns")]
