@@ -143,3 +143,16 @@ def test_a_growing_file_is_followed_until_it_stops_growing(tmp_path):
     thread.join(timeout=60)
     assert out.returncode in (0, 1), out.stderr
     assert [json.loads(line)["t_ns"] for line in out.stdout.splitlines()] == [k * 10**9 for k in range(60)]
+
+
+def test_a_training_outlier_is_left_out_of_the_fit_and_the_window_the_same_way_streaming_and_batch(tmp_path):
+    x = _series()
+    x[995] += 2e-7  # a 200 ns spike 5 epochs before the end of the 1000 s training: inside the first test windows
+    path = tmp_path / "b.csv"
+    path.write_text(_csv(x))
+    batch = detect_file(path, train_s=1000.0)
+    assert any(w.startswith("training outliers") for w in batch["warnings"])
+    verdicts = list(stream_verdicts(path.read_text().splitlines(), train_s=1000.0))
+    assert [v.t_ns for v in verdicts if v.alarm] == [a["t_ns"] for a in batch["alarms"]]
+    # the spike neither blinds the fit nor alarms in the first tested windows: only the step at 2000 s alarms
+    assert batch["alarms"] and all(2000 <= a["t"] <= 2025 for a in batch["alarms"])

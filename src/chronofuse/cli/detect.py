@@ -12,15 +12,16 @@ import math
 from pathlib import Path
 
 import typer
-from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, user_errors
-# The library (numpy, scipy, georinex) is imported inside the command, so that `detect --help` and the
-# other subcommands do not pay for it (issue 10.6).
+# The library (numpy, scipy, georinex), chronofuse.cli.common (numpy through report.jsonio) and rich's table
+# are imported inside the command, so that `detect --help` pays only for typer (issue 10.6: under 0.5 s).
 
 _EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.modes.EXIT_CODES (a test checks)
 
 _MAX_TABLE_ROWS = 50
+
+# chronofuse.integrity.receiver_status.DEFAULT_MAX_TIME_ACC_S in ns (a test checks; not imported for --help)
+_DEFAULT_MAX_TACC_NS = 100.0
 
 
 def register(app: typer.Typer) -> None:
@@ -40,6 +41,7 @@ def detect(
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
     nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode)."),
     station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
+    max_tacc_ns: float = typer.Option(_DEFAULT_MAX_TACC_NS, "--max-tacc-ns", help="UBX: epochs whose receiver time accuracy (NAV-CLOCK tAcc) is over this many ns are not tested (unavailable); 0: not used."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
@@ -50,6 +52,8 @@ def detect(
     Exit status: 0 integrity ok (tested, no alarm), 1 alarm, 3 integrity unavailable (too little could be
     tested, training failed, or the position is off), 2 bad input.
     """
+    from chronofuse.cli.common import fail, print_json, user_errors
+
     if rate is not None and (rate <= 0 or not math.isfinite(rate)):
         fail(f"--rate {rate:g}: must be a positive number of Hz")
     if window < 1:
@@ -58,6 +62,8 @@ def detect(
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     if train is not None and train <= 0:
         fail(f"--train {train:g}: must be > 0 seconds")
+    if not (max_tacc_ns >= 0 and math.isfinite(max_tacc_ns)):
+        fail(f"--max-tacc-ns {max_tacc_ns:g}: must be >= 0 ns (0: not used)")
     from chronofuse.integrity.modes import detect_file, read_noise_file
 
     if noise is not None:
@@ -73,7 +79,8 @@ def detect(
                 train_s=train)
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
-                          window=window, pfa=pfa, position_m=position, nav=nav, station=station)
+                          window=window, pfa=pfa, position_m=position, nav=nav, station=station,
+                          max_time_acc_s=max_tacc_ns / 1e9 if max_tacc_ns > 0 else None)
     if json_out:
         print_json(doc)
     else:
@@ -86,6 +93,7 @@ def _stream(file: Path, follow: float | None, **options) -> None:
     import json
     import sys
 
+    from chronofuse.cli.common import user_errors
     from chronofuse.integrity.live import follow_lines, stream_verdicts
 
     states = set()
@@ -105,20 +113,47 @@ def _stream(file: Path, follow: float | None, **options) -> None:
 
 
 def _print_stations(file: Path, doc: dict) -> None:
+    from rich.table import Table
+
+    from chronofuse.cli.common import human_console
+
     con = human_console(False)
     con.print(f"[bold]{file}[/bold]: clock product, {doc['n_stations']} stations, window {doc['window']}, "
               f"P_fa {doc['pfa']:g}; overall {doc['state']}")
-    table = Table("station", "state", "epochs", "tested", "alarms", "clock events", "reason")
+    table = Table("station", "state", "epochs", "tested", "alarms", "rate", "clock events", "noise ratio", "p",
+                  "reason")
     for row in doc["stations"]:
+        change = row.get("noise_change") or {}
+        ratio, p_value = change.get("ratio", math.nan), change.get("p_value", math.nan)
+        rate = row["n_alarms"] / row["n_tested"] if row["n_tested"] else math.nan
         table.add_row(row["station"], row["state"], str(row["n_epochs"]), str(row["n_tested"]), str(row["n_alarms"]),
-                      str(len(row["clock_events"])), "; ".join(row["unavailable_reasons"]))
+                      _num(rate, ".1%"), str(len(row["clock_events"])), _num(ratio, ".3g"), _num(p_value, ".2g"),
+                      "; ".join(row["unavailable_reasons"]))
     con.print(table)
+    fa = doc.get("false_alarms")
+    if fa:
+        con.print(f"false alarms over the {len(fa['no_event'])} stations with no clock event and no noise change "
+                  f"(F test p >= {fa['alpha']:g}): {fa['n_alarms']} in {fa['n_tested']} tested epochs = "
+                  f"{_num(fa['rate'], '.2%')} (nominal {fa['nominal']:.2%})")
+        con.print(f"  over every station without a clock event: {fa['all_n_alarms']} in {fa['all_n_tested']} = "
+                  f"{_num(fa['all_rate'], '.2%')}")
+        for key, label in (("clock_event", "clock events"), ("noise_changed", "noise changed after training"),
+                           ("untested", "not tested"), ("no_event", "no event")):
+            con.print(f"  {label} ({len(fa[key])}): {', '.join(fa[key]) or '-'}", soft_wrap=False)
+
+
+def _num(value: float | None, spec: str) -> str:
+    return "-" if value is None or not math.isfinite(value) else format(value, spec)
 
 
 def _print_human(file: Path, doc: dict) -> None:
     if doc["mode"] == "clock-product":
         _print_stations(file, doc)
         return
+    from rich.table import Table
+
+    from chronofuse.cli.common import human_console
+
     con = human_console(False)
     con.print(f"[bold]{file}[/bold]: {doc['mode']} mode, {doc['n_epochs']:,} epochs ({doc['n_skipped']} skipped, "
               f"{doc['n_tested']:,} tested), interval {doc['interval_s']:g} s, window {doc['window']}, "
@@ -134,6 +169,8 @@ def _print_human(file: Path, doc: dict) -> None:
         con.print(f"clock event: receiver clock reset of {event['size_s'] * 1e3:+g} ms at t = {_t(event['t_ns'])} s")
     if doc.get("faulty"):
         con.print("faulty: " + ", ".join(f"{f['channel']} (from t = {_t(f['t_ns'])} s)" for f in doc["faulty"]))
+    for event in doc.get("channel_events", []):
+        con.print(f"{event['kind']} {event['channel']} at t = {_t(event['t_ns'])} s: {event['reason']}")
     if doc["state"] == "unavailable":
         con.print("[red]integrity unavailable[/red]: " + "; ".join(doc["unavailable_reasons"]))
     elif not doc["alarms"]:

@@ -53,11 +53,13 @@ from scipy import stats
 from chronofuse.estimation.interface import nan_if_none
 from chronofuse.estimation.process import second_difference
 from chronofuse.integrity.noise_model import (
+    contiguous_runs,
     difference_autocorrelation,
     empirical_autocorrelation,
     fit_noise,
     fit_noise_whittle,
     noise_intensities,
+    training_outliers,
 )
 from chronofuse.integrity.result import DetectionResult, StepOutput
 from chronofuse.integrity.statistic import (
@@ -78,6 +80,7 @@ __all__ = [
     "chain_dof",
     "chi2_thresholds",
     "difference_autocorrelation",
+    "effective_squares",
     "empirical_autocorrelation",
     "fit_noise",
     "fit_noise_whittle",
@@ -85,8 +88,40 @@ __all__ = [
     "last_innovation",
     "noise_intensities",
     "toeplitz_whitener",
+    "training_inflation",
     "window_statistic",
 ]
+
+
+def effective_squares(m: int, r, n_free: int = 0) -> float:
+    """The number of independent squares a mean square of ``m`` consecutive differences of autocorrelation
+    ``r = [r(0), r(1), r(2)]`` is worth, less ``n_free`` fitted parameters: ``(m - n_free) / (1 + 2 (rho1^2 +
+    rho2^2))``, ``rho_k = r(k) / r(0)``, at least 1.
+
+    Bartlett's variance of a sample autocovariance of a Gaussian series, ``Var(r_hat(0)) = (2 r(0)^2 / m)
+    sum_k rho_k^2`` over all lags (M. S. Bartlett, "On the theoretical specification and sampling properties of
+    autocorrelated time-series", JRSS Suppl. 8, 1946; M. B. Priestley, "Spectral Analysis and Time Series",
+    1981, eq. 5.3.21), equals that of ``chi2(m_eff) / m_eff`` with ``m_eff = m / (1 + 2 sum_{k>=1} rho_k^2)``;
+    the differences are MA(2), so the sum stops at lag 2. The fitted parameters are taken off as the
+    residual degrees of freedom of a regression (an approximation whose effect on P_fa is checked by
+    simulation in ``tests/integrity/test_detector.py`` at 18, 100, 1000 and 10000 training differences).
+    """
+    r = np.asarray(r, dtype=np.float64)
+    rho = r[1:3] / r[0] if r[0] > 0 else np.zeros(2)
+    return max(1.0, (m - n_free) / (1.0 + 2.0 * float(rho @ rho)))
+
+
+def training_inflation(m: int, r, n_free: int, confidence: float) -> float:
+    """Scale of a fitted covariance that keeps P_fa at or below nominal in ``confidence`` of trainings.
+
+    The upper ``confidence`` bound of a variance estimated from ``m_eff`` independent squares
+    (:func:`effective_squares`): ``m_eff / F^-1_chi2(m_eff)(1 - confidence)`` (the one-sided chi-square
+    confidence interval of a variance, NIST/SEMATECH e-Handbook of Statistical Methods 7.2.3.1, with
+    Bartlett's equivalent degrees of freedom). ``m`` training differences, ``r`` the fitted ``r(0..2)``,
+    ``n_free`` the noise parameters fitted.
+    """
+    m_eff = effective_squares(m, r, n_free)
+    return float(m_eff / stats.chi2.ppf(1.0 - confidence, m_eff))
 
 
 class HodDetector:
@@ -106,11 +141,10 @@ class HodDetector:
     confidence : float or None
         When the noise is fitted from training data: keep the false-alarm rate at or below ``pfa`` with
         this probability over trainings (issue 10.4). The fitted covariance ``C`` is scaled up by
-        ``m / F^-1_chi2(m)(1 - confidence)``, ``m`` the number of training differences: the upper
-        ``confidence`` bound of a variance estimated from ``m`` independent squares (the one-sided
-        chi-square confidence interval of a variance, e.g. NIST/SEMATECH e-Handbook 7.2.3.1), so an
-        underestimated noise level (the cause of the excess false alarms after short trainings) is
-        covered. None (default): the fitted model as it is. The scale is ``inflation_``.
+        :func:`training_inflation`: the upper ``confidence`` bound of a variance estimated from the
+        training's effective number of independent squares (its ``m`` correlated differences, less the
+        parameters fitted), so an underestimated noise level (the cause of the excess false alarms after
+        short trainings) is covered. None (default): the fitted model as it is. The scale is ``inflation_``.
 
     Learnt attributes (after :meth:`fit`): ``h0_``, ``hm2_``, ``sigma_rho_m_``, ``r_`` (r(0..2)),
     ``whitener_`` ((n, n), ``D = L^-1``), ``threshold_`` (gamma for ``n`` dof), ``thresholds_`` ((n+1,), per dof).
@@ -153,35 +187,45 @@ class HodDetector:
             check_scalar(self.confidence, "confidence", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
 
-    def fit(self, clock_bias_s=None, *, method: str = "whittle") -> HodDetector:
+    def fit(self, clock_bias_s=None, *, method: str = "whittle", robust: bool = True) -> HodDetector:
         """Set the noise model, whitener and thresholds; estimate missing noise parameters from training data.
 
         ``clock_bias_s``: anomaly-free training clock biases (s), shape (steps,) or (trials, steps), NaN =
         missing; not needed (None) when ``h0``, ``hm2`` and ``sigma_rho_m`` are all given. ``method``:
         ``"whittle"`` (default, :func:`fit_noise_whittle`, the spectrum of ``df``) or ``"autocorrelation"``
         (:func:`fit_noise`, the SPEC 4 ``r(0..2)`` formulas solved for the empirical ``r(0..2)``, clipped >= 0).
+        ``robust`` (default): epochs with an outlying second difference are left out of the fit
+        (:func:`chronofuse.integrity.noise_model.training_outliers`: one spike or step in training would
+        otherwise inflate the fitted noise and blind the detector); ``training_outliers_`` marks them (bool,
+        the input's shape). When no unbroken run of 8 differences is left for Whittle's fit, the
+        autocorrelation fit (which takes gaps) is used.
         """
         self._check_params()
         params = (self.h0, self.hm2, self.sigma_rho_m)
         inflation = 1.0
         if all(p is not None for p in params):
             h0, hm2, sigma = params
+            self.training_outliers_ = np.zeros(0, dtype=bool)
         else:
             if clock_bias_s is None:
                 missing = [n for n, p in zip(("h0", "hm2", "sigma_rho_m"), params) if p is None]
                 raise ValueError(f"{', '.join(missing)} not given: fit() needs anomaly-free training clock biases")
             x = check_array(clock_bias_s, "clock_bias_s", ndim=(1, 2), allow_nan=True, min_length=3)
             check_choice(method, "method", ("whittle", "autocorrelation"))
+            outliers = training_outliers(x) if robust else np.zeros(x.shape, dtype=bool)
+            self.training_outliers_ = outliers
+            x = np.where(outliers, np.nan, x)
             df = high_order_difference(x, self.interval_s)
             known = dict(h0=self.h0, hm2=self.hm2, sigma_rho_m=self.sigma_rho_m)
-            if method == "whittle":
+            if method == "whittle" and not (outliers.any() and not contiguous_runs(df, 8)):
                 h0, hm2, sigma = fit_noise_whittle(df, self.interval_s, **known)
             else:
                 h0, hm2, sigma = fit_noise(empirical_autocorrelation(df), self.interval_s, **known)
             confidence = getattr(self, "confidence", None)
             if confidence is not None:
-                m = int(np.isfinite(df).sum())
-                inflation = float(m / stats.chi2.ppf(1.0 - confidence, m))
+                r_fit = difference_autocorrelation(h0, hm2, sigma, self.interval_s)
+                n_free = sum(p is None for p in params)
+                inflation = training_inflation(int(np.isfinite(df).sum()), r_fit, n_free, confidence)
         self.h0_, self.hm2_, self.sigma_rho_m_ = h0, hm2, sigma
         self.inflation_ = inflation
         self.r_ = inflation * difference_autocorrelation(h0, hm2, sigma, self.interval_s)

@@ -125,8 +125,9 @@ def identify(
     channel with the largest ``statistic / threshold`` is named and, from that epoch on (never before),
     taken out of every other channel's clock estimate; the channels are tested again from there. This
     repeats until no channel left in the clock estimate alarms, ``max_faults`` channels are named, or
-    fewer than three channels would remain for the clock. A named channel stays named (latched) to the
-    end of the record. (A fault left in the clock estimate moves the other channels' medians by one
+    fewer than three channels would remain for the clock. A named channel stays named, and out of the
+    others' clock, to the end of the record; whether it is still faulty (raised, or cleared once it is
+    consistent with the others again) is :func:`chronofuse.integrity.channel_latch.latch_channels`. (A fault left in the clock estimate moves the other channels' medians by one
     rank: measured on the real 3040 station, a 100 ns step on G11 then made G20 alarm too.)
     """
     check_choice(noise, "noise", ("per_channel", "shared"))

@@ -106,8 +106,8 @@ def stream_verdicts(
         values = np.array([b for _, b in training])
         det.fit(repair_clock_steering(values).repaired_s)
         mon = StreamingMonitor(det)
-        for t, b in training:
-            mon.step(t, b)
+        for (t, b), left_out in zip(training, det.training_outliers_):
+            mon.step(t, math.nan if left_out else b)  # training outliers are out of the window, as in the batch
         return mon
 
     for t_ns, bias, number in _epochs(lines, column):

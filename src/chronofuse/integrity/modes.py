@@ -16,9 +16,10 @@ Causal verdicts. Each epoch's verdict uses that epoch and earlier ones only: wit
 ``train_s`` seconds fit the noise model and are not tested (state ``training``); the test starts after them.
 
 States (per epoch and overall, the ``state`` of the document). ``ok``: tested, no fault; ``alarm``: the
-statistic is over its threshold (detection) or a channel is named faulty and stays so (identification,
-latched); ``unavailable``: integrity could not be tested: an epoch with no test (missing data, start-up
-of the difference chain after a gap, training, the receiver reporting no valid fix (UBX NAV-SOL/PVT/STATUS),
+statistic is over its threshold (detection) or a channel is faulty (identification: raised when named,
+cleared when consistent with the others again); ``unavailable``: integrity could not be tested: an epoch with no test (missing data, start-up
+of the difference chain after a gap, training, the receiver reporting no valid fix (UBX NAV-SOL/PVT/STATUS)
+or a time accuracy (UBX NAV-CLOCK tAcc) over ``max_time_acc_s``,
 fewer than :data:`MIN_TESTED_CHANNELS` channels tested,
 the position check failed). Overall the record is ``unavailable`` when training failed, the position is
 off (the single-point fix of the data is farther than :data:`POSITION_TOLERANCE_M` from the position
@@ -63,6 +64,8 @@ from chronofuse.integrity.inputs import (  # noqa: F401 (re-exported: the CLI an
     parse_position,
     read_noise_file,
 )
+from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S, NO_FIX, status_reasons, ubx_time_accuracy_s
+from chronofuse.integrity.stationarity import NOISE_CHANGE_ALPHA, noise_change
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.formats import sniff_format
 from chronofuse.validation import InputDataError, check_scalar
@@ -85,14 +88,18 @@ def _training_rows(t_s: np.ndarray, train_s: float | None) -> int:
     return 0 if train_s is None else int(np.searchsorted(t_s - t_s[0], train_s, side="left"))
 
 
-def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: float | None = None) -> dict:
+def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: float | None = None,
+                       time_acc_s=None, max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S) -> dict:
     """Detection mode on one clock bias (module docstring): repair the clock resets, fit ``detector`` (on its
-    model or the first ``train_s`` s), test every later epoch. ``detector`` is fitted in place."""
+    model or the first ``train_s`` s), test every later epoch. ``detector`` is fitted in place. Epochs whose
+    receiver reports no fix (``data.receiver_ok``) or a time accuracy ``time_acc_s`` over ``max_time_acc_s``
+    are not tested (:mod:`chronofuse.integrity.receiver_status`)."""
     from chronofuse.integrity.clock_events import repair_clock_steering
 
     _check_length(data.bias_s.size, detector.window, data.source)
     t_ns = data.t_ns
-    bad_status = np.zeros(data.bias_s.size, bool) if data.receiver_ok is None else ~np.asarray(data.receiver_ok)
+    status = status_reasons(data.receiver_ok, time_acc_s, max_time_acc_s, data.bias_s.size)
+    bad_status = status != ""
     steering = repair_clock_steering(np.where(bad_status, np.nan, data.bias_s))
     x = steering.repaired_s
     n_train = _training_rows(data.t_s, train_s)
@@ -109,6 +116,15 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         else:
             try:
                 detector.fit(training)
+                left_out = np.flatnonzero(detector.training_outliers_)
+                if left_out.size:
+                    # the epochs of an outlier (spike, step) in training: out of the fit and of the first windows
+                    x = x.copy()
+                    x[left_out] = np.nan
+                    training = x[:n_train]
+                    warnings.append(f"training outliers: {left_out.size} epoch(s) left out of the noise fit (t_ns "
+                                    f"{', '.join(str(int(t_ns[k])) for k in left_out[:5])}"
+                                    f"{', ...' if left_out.size > 5 else ''})")
                 warnings.extend(training_warnings(np.diff(training, 2) / detector.interval_s))
             except ValueError as err:
                 reasons.append(f"training failed: {err}")
@@ -127,7 +143,8 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         states[tested] = "ok"
         states[alarm] = "alarm"
         per_epoch[~tested & (np.arange(n) >= n_train)] = "no test (missing epoch or difference chain restarting)"
-        per_epoch[bad_status & (np.arange(n) >= n_train)] = "receiver status: no valid fix"
+        after = np.arange(n) >= n_train
+        per_epoch[bad_status & after] = status[bad_status & after]
         alarms = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "statistic": float(res.statistic[k]), "channel": None}
                   for k in np.flatnonzero(alarm)]
     else:
@@ -139,8 +156,20 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
                            for k, size in zip(steering.event_epochs, steering.event_size_s)]
     doc["interval_s"] = float(detector.interval_s)
     doc["noise"] = _noise(detector) if fitted else None
+    doc["noise_change"] = None
+    if fitted and train_s is not None:
+        df = np.full(n, np.nan)
+        df[2:] = np.diff(x, 2) / detector.interval_s
+        tested_df = np.where(states == "unavailable", np.nan, df)
+        ratio, p_value = noise_change(df[:n_train], tested_df[n_train:], detector.r_ / detector.inflation_)
+        doc["noise_change"] = {"ratio": ratio, "p_value": p_value}
+        if p_value < NOISE_CHANGE_ALPHA:
+            warnings.append(f"noise changed after training: the tested differences' mean square is {ratio:.3g} times "
+                            f"the training's (F test p = {p_value:.2g}); alarms may be the noise model going stale")
     doc["warnings"] = warnings
-    doc["n_no_fix"] = int(bad_status.sum())
+    doc["n_no_fix"] = int((status == NO_FIX).sum())
+    doc["n_time_accuracy_over"] = int((bad_status & (status != NO_FIX)).sum())
+    doc["max_time_acc_s"] = max_time_acc_s
     return doc
 
 
@@ -173,11 +202,14 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     was): with one code, channels are named by satellite (``G20``); with several, by satellite and code
     (``G20 C1``, ``G20 P2``). Per epoch, the state is ``ok`` when at least :data:`MIN_TESTED_CHANNELS`
     channels of the L1 code (the one a position/time solution uses) are tested and the position check
-    passes, ``alarm`` from the epoch a channel of any code is named (latched). Returns the document of
+    passes, ``alarm`` while a channel of any code is faulty: raised when identification names it, cleared
+    when it is consistent with the others again (:mod:`chronofuse.integrity.channel_latch`; each raise and
+    clear is in ``channel_events`` with its reason). Returns the document of
     :func:`detect_file` with ``faulty`` (channels named, with the time each was named), ``untested``
     (channels never tested), ``codes`` and the states of the module docstring.
     """
     # imported here: the RINEX stack (georinex, xarray) takes a second to import, detection mode needs none of it
+    from chronofuse.integrity.channel_latch import latch_channels
     from chronofuse.integrity.identification import identify
     from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 
@@ -211,8 +243,12 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     far = offset_at > POSITION_TOLERANCE_M
     tested = runs[0][1].tested.sum(axis=1)
     latched = np.zeros(n_epochs, dtype=bool)
-    for _, result, _ in runs:
-        latched |= result.faulty_mask.any(axis=1)
+    channel_events = []
+    for code, result, _ in runs:
+        mask, events = latch_channels(result)
+        latched |= mask.any(axis=1)
+        channel_events += [{"t_ns": int(t_ns[e.epoch]), "t": t_ns[e.epoch] / 1e9, "channel": label(e.channel, code),
+                            "kind": e.kind, "reason": e.reason} for e in events]
     states = np.full(n_epochs, "unavailable", dtype=object)
     states[(tested >= MIN_TESTED_CHANNELS) & ~far] = "ok"
     states[latched] = "alarm"
@@ -240,6 +276,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     doc = _document("identification", n_epochs, detector, alarms, int(runs[0][1].n_skipped_epochs))
     doc.update(availability(state, reasons, t_ns, per_epoch, states, n_train))
     doc["faulty"] = faulty
+    doc["channel_events"] = sorted(channel_events, key=lambda e: (e["t_ns"], e["channel"]))
     doc["untested"] = untested
     doc["codes"] = codes
     doc["interval_s"] = interval_s
@@ -266,6 +303,7 @@ def detect_file(
     position_m=None,
     nav: str | Path | None = None,
     station: str | None = None,
+    max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S,
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -292,7 +330,10 @@ def detect_file(
         RINEX navigation file, for identification mode.
     station : str, optional
         For a RINEX clock product (``.clk``): the station whose ``AR`` clock is tested (detection mode);
-        without it every station is tested (:func:`clock_product_document`).
+        without it every station is tested (:func:`chronofuse.integrity.products.clock_product_document`).
+    max_time_acc_s : float or None
+        Largest receiver time accuracy estimate (s; UBX NAV-CLOCK tAcc) of an epoch to be tested; None: not
+        used (:mod:`chronofuse.integrity.receiver_status`).
 
     Returns
     -------
@@ -303,8 +344,8 @@ def detect_file(
         ``alarms`` (each ``{"t_ns", "t", "statistic", "channel"}``), ``n_alarms``, ``n_skipped``; detection
         adds ``clock_events`` (each ``{"t_ns", "t", "size_s", "kind"}``), ``noise`` (the model used) and
         ``warnings`` (:func:`training_warnings`);
-        identification adds ``faulty`` and ``untested``; a clock product without ``station`` gives
-        :func:`clock_product_document`.
+        identification adds ``faulty``, ``channel_events`` and ``untested``; a clock product without ``station``
+        gives :func:`chronofuse.integrity.products.clock_product_document`.
     """
     if rate_hz is not None:
         check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
@@ -325,6 +366,7 @@ def detect_file(
     if nav is not None or position_m is not None:
         raise InputDataError("--nav/--position need a RINEX observation file (identification mode)", str(path))
     if kind == "rinex-clock":
+        from chronofuse.integrity.products import clock_product_document
         from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
 
         clocks = read_station_clocks(path)
@@ -336,48 +378,11 @@ def detect_file(
         return doc
     if station is not None:
         raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
+    if max_time_acc_s is not None:
+        check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
     data = read_clock_bias(path, rate_hz, column)
-    return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s)
-
-
-def clock_product_document(clocks, params: dict, train_s: float | None = None) -> dict:
-    """Every station of a RINEX clock product in detection mode: one row of verdicts per station.
-
-    ``params``: the :class:`HodDetector` parameters but the interval (each station's own). A station too
-    short for the window or the training is ``unavailable`` with its reason, not an error. The overall
-    state is ``alarm`` when a station alarms, ``unavailable`` when no station could be tested, else ``ok``.
-    """
-    from chronofuse.io.rinex_clock import station_clock_bias
-
-    rows = []
-    for name in clocks.stations:
-        data = station_clock_bias(clocks, name)
-        row = {"station": name, "n_epochs": int(data.bias_s.size), "interval_s": float(data.interval_s)}
-        try:
-            if not np.isfinite(data.interval_s):
-                raise InputDataError("one epoch: nothing to difference", data.source)
-            doc = detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s)
-        except InputDataError as err:
-            row.update(state="unavailable", n_tested=0, n_alarms=0, clock_events=[], unavailable_reasons=[str(err)])
-        else:
-            row.update(state=doc["state"], n_tested=doc["n_tested"], n_alarms=doc["n_alarms"],
-                       clock_events=doc["clock_events"], unavailable_reasons=doc["unavailable_reasons"],
-                       noise=doc["noise"], warnings=doc["warnings"])
-        rows.append(row)
-    states = {r["state"] for r in rows}
-    state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
-    det = HodDetector(interval_s=1.0, **params)
-    return {
-        "mode": "clock-product",
-        "state": state,
-        "n_stations": len(rows),
-        "threshold": float(chi2_thresholds(det.pfa, int(det.window))[-1]),
-        "window": int(det.window),
-        "pfa": float(det.pfa),
-        "stations": rows,
-        "n_bad_lines": int(clocks.n_bad_lines),
-        "source": clocks.source,
-    }
+    tacc = ubx_time_accuracy_s(path, data.interval_s, data.bias_s.size) if kind == "ubx" else None
+    return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s, tacc, max_time_acc_s)
 
 
 def _document(mode: str, n_epochs: int, det: HodDetector, alarms: list[dict], n_skipped: int) -> dict:
