@@ -8,7 +8,8 @@ added to that one channel's clock bias from 1800 s (epoch 60) to the end, and
 first 40 epochs with the 90 % confidence margin of :data:`chronofuse.integrity.modes.TRAINING_CONFIDENCE`)
 runs on that code's channels. A row records what was named, whether the faulty channel was named
 alone, its naming delay, whether any alarm or naming of it came before the onset, and whether it stayed
-named (latched) to the end of the record. Orchestration only: the table is written by
+raised to the end of the record by the per-channel raise/clear latch
+(:func:`chronofuse.integrity.channel_latch.latch_channels`: a fault that lasts must never be cleared). Orchestration only: the table is written by
 :func:`chronofuse.report.integrity_real.write_trimble_table`.
 
 Run: ``python -m chronofuse.experiments.integrity_real [DATA_DIR] [OUT_DIR]`` (defaults: ``tests/data``
@@ -24,6 +25,7 @@ import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.gnss.observables import channel_clock_biases_from_arrays
+from chronofuse.integrity.channel_latch import latch_channels
 from chronofuse.integrity.detector import HodDetector
 from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
@@ -61,13 +63,14 @@ def trimble_cases(data_dir: Path) -> list[dict]:
                     onset = int(ONSET_S / INTERVAL_S)
                     own = [a["epoch"] for a in res.alarms if a["channel"] == sat]
                     blamed = int(res.blamed_at[j])
+                    raised, _ = latch_channels(res)
                     rows.append({
                         "station": station, "code": code, "fault": kind, "satellite": sat,
                         "named": " ".join(res.faulty) or "-",
                         "alone": res.faulty == [sat],
                         "delay_s": (blamed - onset) * INTERVAL_S if blamed >= 0 else None,
                         "before_onset": bool(any(k < onset for k in own) or 0 <= blamed < onset),
-                        "latched_to_end": bool(blamed >= 0 and res.faulty_mask[blamed:, j].all()),
+                        "latched_to_end": bool(blamed >= 0 and raised[blamed:, j].all()),
                     })
     return rows
 
