@@ -9,7 +9,6 @@ UBX epochs are taken first and NMEA fills the fields UBX did not send (and epoch
 
 from __future__ import annotations
 
-import gzip
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
+from chronofuse.io.formats import open_data
 from chronofuse.io.frames import FrameScanner, FrameStats
 from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs, rinex_kind
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
@@ -108,7 +108,7 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
 
 
 def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None = None) -> Capture:
-    """Read a recording file (plain, or gzip when its name ends in ``.gz``): NMEA/UBX, or a RINEX
+    """Read a recording file (plain, or gzip told by its content): NMEA/UBX, or a RINEX
     observation or clock file (:mod:`chronofuse.io.rinex_epochs`; ``receiver`` picks a clock file's
     station, the first by default).
 
@@ -125,9 +125,11 @@ def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None
     kind = rinex_kind(path)
     if kind is not None:
         return _read_rinex(path, kind, receiver)
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rb") as stream:
-        return read_bytes(iter(lambda: stream.read(_CHUNK), b""), str(path), reference_gps_ns)
+    try:
+        with open_data(path) as stream:
+            return read_bytes(iter(lambda: stream.read(_CHUNK), b""), str(path), reference_gps_ns)
+    except (OSError, EOFError) as exc:  # gzip.BadGzipFile is an OSError; a gzip stream cut short: EOFError
+        raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
 
 
 def _read_rinex(path: Path, kind: tuple[str, str], receiver: str | None) -> Capture:

@@ -1,0 +1,70 @@
+"""Any recording `chronofuse inspect` reads goes straight into `chronofuse stability` and `chronofuse
+detect`: its clock bias against an independent computation (allantools on the NAV-CLOCK values decoded by
+hand from the interface description; the detector on the same values written as a CSV), and a one-line
+refusal for a recording that carries no clock bias."""
+
+from __future__ import annotations
+
+import gzip
+import json
+import sys
+from pathlib import Path
+
+import allantools
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from chronofuse.cli.main import build_app
+
+from _helpers import receivers_dir
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "io"))
+from ubx_by_hand import nav_clock_by_hand  # noqa: E402
+
+runner = CliRunner()
+app = build_app(("stability", "detect", "inspect"))
+F9P = receivers_dir() / "gpsd" / "ublox-zed-f9p_hpg1.11.log.gz"  # 655 NAV-CLOCK solutions, NMEA mixed in
+
+
+def _json(*args):
+    result = runner.invoke(app, [*map(str, args)])
+    assert result.exit_code in (0, 1), result.output
+    return json.loads(result.stdout)
+
+
+def test_stability_of_a_ubx_capture_is_allantools_adev_of_its_nav_clock_bias():
+    _, bias, _ = nav_clock_by_hand(gzip.decompress(F9P.read_bytes()))
+    doc = _json("stability", F9P, "--dev", "adev,oadev", "--json")
+    assert doc["n"] == bias.size == 655 and doc["rate"] == 1.0 and doc["gaps"] == 0
+    for ours, theirs in (("adev", allantools.adev), ("oadev", allantools.oadev)):
+        taus = np.asarray(doc["deviations"][ours]["tau"])
+        tau_ref, dev_ref, _, _ = theirs(bias, rate=1.0, data_type="phase", taus=taus)
+        np.testing.assert_array_equal(tau_ref, taus)
+        np.testing.assert_allclose(doc["deviations"][ours]["dev"], dev_ref, rtol=1e-9)
+
+
+def test_detect_on_a_capture_is_detect_on_its_clock_bias_written_as_a_table(tmp_path):
+    itow, bias, _ = nav_clock_by_hand(gzip.decompress(F9P.read_bytes()))
+    table = tmp_path / "bias.csv"
+    table.write_text("t_ms,clock_bias_s\n" + "".join(f"{t},{float(b)!r}\n" for t, b in zip(itow, bias)))
+    ours = _json("detect", F9P, "--train", 300, "--json")
+    ref = _json("detect", table, "--train", 300, "--json")
+    assert ours["n_epochs"] == ref["n_epochs"] == 655 and ours["interval_s"] == 1.0
+    for key in ("mode", "state", "n_tested", "n_training", "threshold", "n_alarms"):
+        assert ours[key] == ref[key], key
+    assert [a["t_ns"] for a in ours["alarms"]] == [a["t_ns"] for a in ref["alarms"]]
+    np.testing.assert_allclose([a["statistic"] for a in ours["alarms"]], [a["statistic"] for a in ref["alarms"]],
+                               rtol=1e-9)
+
+
+@pytest.mark.parametrize("command", ["stability", "detect"])
+def test_an_nmea_recording_is_refused_in_one_line_saying_nmea_has_no_clock_bias(command):
+    path = receivers_dir() / "gpsd" / "ac12.log"
+    extra = ["--train", "60"] if command == "detect" else []
+    result = runner.invoke(app, [command, str(path), *extra, "--json"])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:") and str(path) in lines[0], result.stderr
+    assert "NMEA 0183 carries no receiver clock bias" in lines[0] and "NAV-CLOCK" in lines[0]
+    assert result.stdout == ""
