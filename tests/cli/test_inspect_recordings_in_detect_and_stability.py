@@ -68,3 +68,29 @@ def test_an_nmea_recording_is_refused_in_one_line_saying_nmea_has_no_clock_bias(
     assert len(lines) == 1 and lines[0].startswith("error:") and str(path) in lines[0], result.stderr
     assert "NMEA 0183 carries no receiver clock bias" in lines[0] and "NAV-CLOCK" in lines[0]
     assert result.stdout == ""
+
+
+def test_stability_of_a_gzipped_rinex_clock_product_is_allantools_on_its_first_stations_ar_lines():
+    path = receivers_dir() / "rinex" / "rtklib" / "igs15904.clk.gz"
+    lines = gzip.decompress(path.read_bytes()).decode("ascii").splitlines()
+    body = lines[next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1:]
+    first = next(line.split()[1] for line in body if line.startswith("AR "))
+    # RINEX clock 2.00: AR, station, y m d h min s, number of values, bias (s)
+    bias = np.array([float(line.split()[9]) for line in body if line.startswith("AR ") and line.split()[1] == first])
+    doc = _json("stability", path, "--dev", "oadev", "--json")
+    assert doc["n"] == bias.size == 12 and doc["rate"] == pytest.approx(1 / 300)
+    assert any(first in note and "176 stations" in note for note in doc["warnings"])
+    taus = np.asarray(doc["deviations"]["oadev"]["tau"])
+    _, dev_ref, _, _ = allantools.oadev(bias, rate=1 / 300, data_type="phase", taus=taus)
+    np.testing.assert_allclose(doc["deviations"]["oadev"]["dev"], dev_ref, rtol=1e-9)
+
+
+@pytest.mark.parametrize("relative, fragment", [("rinex/rtklib/07590920.05o", "--nav NAVFILE --position"),
+                                                ("rinex/rtklib/07590920.05n", "nav file holds no receiver epochs"),
+                                                ("gpsd/ublox-neo-m8t.log", "no UBX NAV-CLOCK message")])
+def test_stability_on_a_recording_without_a_clock_says_what_to_do_in_one_line(relative, fragment):
+    path = receivers_dir() / relative
+    result = runner.invoke(app, ["stability", str(path), "--json"])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and str(path) in lines[0] and fragment in lines[0], result.stderr

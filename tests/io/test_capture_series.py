@@ -106,3 +106,15 @@ def test_the_stability_record_of_a_capture_is_its_bias_as_phase_or_its_drift_as_
     np.testing.assert_array_equal(phase.values, bias)
     np.testing.assert_array_equal(freq.values, drift)
     np.testing.assert_array_equal(phase.t_ns % NS_PER_WEEK, itow * 1_000_000)
+
+
+def test_a_gzipped_rinex_clock_product_reads_as_the_plain_one(receivers):
+    plain = read_capture(receivers / "rinex" / "gnss_lib_py" / "grg21553.clk")
+    packed = read_capture(receivers / "rinex" / "gnss_lib_py" / "grg21553.clk.gz")
+    assert packed.receivers == plain.receivers and plain.n_epochs == 44
+    np.testing.assert_array_equal(packed.rows["gps_ns"], plain.rows["gps_ns"])
+    np.testing.assert_array_equal(packed.rows["clock_bias_s"], plain.rows["clock_bias_s"])
+    series = read_clock_series(receivers / "rinex" / "gnss_lib_py" / "grg21553.clk.gz")
+    have = np.isfinite(plain.rows["clock_bias_s"])
+    assert series.interval_ns == 30 * 10**9 and series.gps_ns.size - series.n_missing == int(have.sum())
+    np.testing.assert_array_equal(series.clock_bias_s[np.isfinite(series.clock_bias_s)], plain.rows["clock_bias_s"][have])

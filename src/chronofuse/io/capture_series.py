@@ -17,6 +17,7 @@ the receiver's clock from GNSS time): a recording without NAV-CLOCK is refused w
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -79,6 +80,9 @@ class ClockBiasSeries:
 
 def _no_bias_reason(capture: Capture) -> str:
     """Why a recording gives no clock bias, naming what it holds and what would carry one."""
+    if "rinex-obs" in capture.protocols:
+        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: test it with "
+                "chronofuse detect FILE --nav NAVFILE --position X,Y,Z (identification mode)")
     if "ubx" in capture.protocols:
         held = ", ".join(sorted(capture.ubx.decoded)) or "no decodable UBX navigation message"
         return (f"no {_CLOCK_MESSAGE} message, so no receiver clock bias (the recording holds {held}); enable "
@@ -141,9 +145,14 @@ def read_clock_series(path: str | Path, rate_hz: float | None = None) -> ClockBi
 def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None = None) -> ClockRecord:
     """A recording's clock as the phase or frequency record ``chronofuse stability`` analyses: the clock
     bias (phase, s) or the clock drift (``kind="freq"``: fractional frequency, s/s) at the recording's
-    interval (``rate_hz`` sets it instead), gaps as NaN; ``t_ns`` holds the GPS epochs."""
+    interval (``rate_hz`` sets it instead), gaps as NaN; ``t_ns`` holds the GPS epochs. A RINEX clock product
+    gives its first station's clock (with a warning naming it)."""
     check_choice(kind, "kind", KINDS)
-    series = read_clock_series(path, rate_hz)
+    capture = read_capture(path)
+    if len(capture.receivers) > 1:
+        warnings.warn(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
+                      f"{capture.receivers[0]}, is analysed (chronofuse detect --station picks any)", stacklevel=2)
+    series = capture_clock_series(capture, rate_hz)
     values, column = ((series.clock_bias_s, "clock_bias_s") if kind == "phase"
                       else (series.clock_drift_s_per_s, "clock_drift_s_per_s"))
     if np.isnan(values).all():

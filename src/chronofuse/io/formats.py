@@ -4,17 +4,19 @@ text (CSV); and whether it is gzip-compressed, told by content (the magic bytes)
 from __future__ import annotations
 
 import gzip
+import io
 import re
 from pathlib import Path
 
 from chronofuse.validation import InputDataError
 
-__all__ = ["FORMATS", "CAPTURE_FORMATS", "sniff_format", "capture_format", "is_gzip", "open_data"]
+__all__ = ["FORMATS", "CAPTURE_FORMATS", "sniff_format", "capture_format", "is_gzip", "open_data", "open_text"]
 
 #: The kinds :func:`sniff_format` tells apart.
 FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock", "csv")
-#: Receiver recordings :func:`chronofuse.io.inspect.read_capture` reads into epochs (not RINEX, not CSV).
-CAPTURE_FORMATS = ("ubx", "nmea")
+#: Recordings :func:`chronofuse.io.inspect.read_capture` reads into receiver epochs (every kind but CSV text;
+#: a RINEX navigation file is refused there, naming the file).
+CAPTURE_FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock")
 
 _SNIFF_BYTES = 4096
 _GZIP_MAGIC = b"\x1f\x8b"  # RFC 1952 section 2.3.1: ID1 = 31, ID2 = 139
@@ -35,6 +37,11 @@ def is_gzip(path: str | Path) -> bool:
 def open_data(path: str | Path):
     """A binary stream of the file's bytes, gzip-decompressed when its content is gzip (not its suffix)."""
     return gzip.open(path, "rb") if is_gzip(path) else open(path, "rb")
+
+
+def open_text(path: str | Path):
+    """A text stream of the file (undecodable bytes replaced), gzip-decompressed when its content is gzip."""
+    return io.TextIOWrapper(open_data(path), errors="replace")
 
 
 def _looks_like_nmea(head: bytes) -> bool:
