@@ -117,4 +117,5 @@ def test_a_gzipped_rinex_clock_product_reads_as_the_plain_one(receivers):
     series = read_clock_series(receivers / "rinex" / "gnss_lib_py" / "grg21553.clk.gz")
     have = np.isfinite(plain.rows["clock_bias_s"])
     assert series.interval_ns == 30 * 10**9 and series.gps_ns.size - series.n_missing == int(have.sum())
-    np.testing.assert_array_equal(series.clock_bias_s[np.isfinite(series.clock_bias_s)], plain.rows["clock_bias_s"][have])
+    on_grid = series.clock_bias_s[np.isfinite(series.clock_bias_s)]
+    np.testing.assert_array_equal(on_grid, plain.rows["clock_bias_s"][have])
