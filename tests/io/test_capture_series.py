@@ -15,6 +15,7 @@ from pyubx2 import ERR_IGNORE, UBX_PROTOCOL, UBXReader
 from chronofuse.io.capture_series import TIME_TOLERANCE, capture_record, read_clock_series
 from chronofuse.io.clockbias import read_clock_bias
 from chronofuse.io.inspect import read_capture
+from chronofuse.io.ubx import read_nav_clock
 from chronofuse.timescale import NS_PER_WEEK
 from chronofuse.validation import InputDataError
 
@@ -74,6 +75,10 @@ def test_the_receivers_no_fix_epochs_are_flagged_for_the_detector(receivers):
     no_fix = capture.rows["fix_mode"][with_bias] == 1
     assert no_fix.any() and int((~series.receiver_ok).sum()) == int(no_fix.sum())
     assert read_clock_bias(path).receiver_ok.sum() == series.receiver_ok.sum()
+    # the same epochs as pyubx2's stream reader flags from NAV-SOL's gpsFixOk and gpsFix
+    ref = read_nav_clock(path)
+    slot = (ref.itow_ms - ref.itow_ms[0]) // 1000
+    np.testing.assert_array_equal(series.receiver_ok[slot], ref.fix_ok)
 
 
 @pytest.mark.parametrize("name, fragments", [
