@@ -108,9 +108,11 @@ def read_capture_bias(path: str | Path, rate_hz: float | None = None) -> ClockBi
 
 
 def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None) -> ClockBiasInput:
-    """One receiver clock bias from a CSV/text or UBX file (told apart by :func:`sniff_format`).
+    """One receiver clock bias from a CSV/text file or a receiver recording (UBX alone or with NMEA; told
+    apart by :func:`sniff_format`).
 
-    The interval is the file's own (time column, UBX iTOW); ``rate_hz`` serves only a file without times.
+    The interval is the file's own (time column, UBX iTOW); ``rate_hz`` serves a CSV without times and sets
+    a recording's grid interval.
 
     Raises :class:`InputDataError` naming the file for a RINEX file (many satellites, not one clock bias:
     see :func:`chronofuse.integrity.identification.channel_clock_biases`) or unreadable content.
