@@ -52,6 +52,11 @@ def test_a_solution_cut_out_of_the_capture_leaves_a_gap_at_its_epoch_not_a_shift
     tow_ms = (series.gps_ns % NS_PER_WEEK) // 1_000_000
     assert np.abs(np.delete(tow_ms, 200) - np.delete(itow, 200)).max() <= TIME_TOLERANCE * 1000
     assert set(np.diff(itow)) == {999, 1000, 1001}
+    # ... and the series says how far: 1 ms at most, the rms over the solutions
+    kept = np.delete(itow, 200)
+    off_ms = (kept - kept[0]) - np.rint((kept - kept[0]) / 1000) * 1000
+    assert series.jitter_max_s == pytest.approx(np.abs(off_ms).max() / 1000) == pytest.approx(1e-3)
+    assert series.jitter_rms_s == pytest.approx(np.sqrt(np.mean(off_ms**2)) / 1000)
 
 
 def test_gzip_content_without_a_gz_name_reads_as_the_plain_capture(receivers, tmp_path):

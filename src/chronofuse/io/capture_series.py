@@ -58,6 +58,8 @@ class ClockBiasSeries:
         Frames of the recording lost to damage: UBX checksum failures, truncated frames, frames pyubx2 refused.
     source : str
         The file read.
+    jitter_rms_s, jitter_max_s : float
+        Rms and largest distance of the solutions' time tags from their grid slots (s).
     """
 
     gps_ns: np.ndarray
@@ -68,6 +70,8 @@ class ClockBiasSeries:
     n_missing: int
     n_damaged: int
     source: str
+    jitter_rms_s: float = 0.0
+    jitter_max_s: float = 0.0
 
     @property
     def interval_s(self) -> float:
@@ -125,6 +129,7 @@ def capture_clock_series(capture: Capture, rate_hz: float | None = None) -> Cloc
         raise InputDataError(
             f"clock solution {bad + 1}: time step {step_s:g} s is not a whole number of "
             f"{interval_ns / NS_PER_S:g} s intervals (the output rate changed; check --rate)", source)
+    off_s = ((t_ns - t_ns[0]) - slots * interval_ns) / NS_PER_S
     bias = place_on_grid(slots, rows["clock_bias_s"][have])
     drift = place_on_grid(slots, rows["clock_drift_s_per_s"][have])
     no_fix = place_on_grid(slots, (rows["fix_mode"][have] == 1).astype(np.float64))
@@ -134,7 +139,7 @@ def capture_clock_series(capture: Capture, rate_hz: float | None = None) -> Cloc
         clock_bias_s=bias, clock_drift_s_per_s=drift, receiver_ok=~(no_fix == 1.0), interval_ns=interval_ns,
         n_missing=int(np.isnan(bias).sum()),
         n_damaged=int(frames.ubx_bad_checksum + frames.truncated + capture.ubx.parse_errors),
-        source=source)
+        source=source, jitter_rms_s=float(np.sqrt(np.mean(off_s**2))), jitter_max_s=float(np.abs(off_s).max()))
 
 
 def read_clock_series(path: str | Path, rate_hz: float | None = None) -> ClockBiasSeries:
@@ -158,4 +163,5 @@ def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None 
     if np.isnan(values).all():
         raise InputDataError(f"every {column} value is missing", series.source)
     return ClockRecord(values=values, rate_hz=series.rate_hz, kind=kind, t_ns=series.gps_ns, source=series.source,
-                       n_gaps=int(np.isnan(values).sum()), column=column)
+                       n_gaps=int(np.isnan(values).sum()), column=column, jitter_rms_s=series.jitter_rms_s,
+                       jitter_max_s=series.jitter_max_s)
