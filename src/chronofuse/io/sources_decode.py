@@ -82,14 +82,15 @@ class StreamDecoder:
         if rows is not None and rows["gps_ns"].size:
             self._pending[name].append(rows)
             last = int(rows["gps_ns"].max())
-            self._closed[name] = max(self._closed.get(name) or _NEVER, last)
+            previous = self._closed.get(name)
+            self._closed[name] = last if previous is None else max(previous, last)
             if self._first_closed is None:
                 self._first_closed = last
 
     def _horizon(self) -> int:
         """The latest epoch every live protocol has closed: the slowest protocol's mark, leaving out one
         that is more than ``max_wait_ns`` behind the fastest (silent, or not on this port any more); a
-        protocol that has closed no epoch yet counts as standing just before the stream's first closed epoch."""
+        protocol that has closed no epoch yet stands just before the stream's first closed epoch."""
         if self._first_closed is None:
             return _NEVER
         marks = [self._first_closed - 1 if t is None else t for t in self._closed.values()]
