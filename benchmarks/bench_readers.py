@@ -9,7 +9,7 @@ command (``read_capture`` + ``summarize``: framing with checksums, decoding, epo
 ours costs at most 1.3x the baseline (ratio = baseline_s / ours_s >= 1/1.3). MB/s of both are in the
 note. ``quick`` uses 4 MB recordings.
 
-Run alone: ``.venv/bin/python benchmarks/bench_readers.py [--quick] [--mb N]``.
+Run alone: ``.venv/bin/python benchmarks/bench_readers.py [--quick] [--mb N] [--only NMEA|UBX]``.
 """
 
 from __future__ import annotations
@@ -74,12 +74,16 @@ def _timed(fn, path):
     return time.perf_counter() - start, out
 
 
-def run(quick: bool = False, mb: float | None = None) -> list[dict]:
+def run(quick: bool = False, mb: float | None = None, only: str | None = None) -> list[dict]:
+    """One row per recording kind (``only``: "NMEA" or "UBX" for one of them)."""
     size = int((mb if mb is not None else (4 if quick else 100)) * 1e6)
     rows = []
+    cases = (("NMEA", _NMEA_SOURCES, bare_nmea, "pynmeagps NMEAReader"),
+             ("UBX", _UBX_SOURCES, bare_ubx, "pyubx2 UBXReader"))
     with tempfile.TemporaryDirectory() as tmp:
-        for label, sources, bare, baseline in (("NMEA", _NMEA_SOURCES, bare_nmea, "pynmeagps NMEAReader"),
-                                               ("UBX", _UBX_SOURCES, bare_ubx, "pyubx2 UBXReader")):
+        for label, sources, bare, baseline in cases:
+            if only is not None and label != only.upper():
+                continue
             path = build_recording(Path(tmp), f"rec.{label.lower()}", sources, size)
             megabytes = path.stat().st_size / 1e6
             base_s, n_messages = _timed(bare, path)
@@ -103,5 +107,6 @@ def run(quick: bool = False, mb: float | None = None) -> list[dict]:
 if __name__ == "__main__":  # pragma: no cover
     quick = "--quick" in sys.argv
     mb = float(sys.argv[sys.argv.index("--mb") + 1]) if "--mb" in sys.argv else None
-    for row in run(quick=quick, mb=mb):
+    only = sys.argv[sys.argv.index("--only") + 1] if "--only" in sys.argv else None
+    for row in run(quick=quick, mb=mb, only=only):
         print(row)

@@ -16,6 +16,7 @@ import typer
 from typer.testing import CliRunner
 
 from chronofuse.cli import monitor as monitor_cli
+from chronofuse.io.inspect import read_capture
 
 from _helpers import receivers_dir  # noqa: E402
 
@@ -23,7 +24,7 @@ runner = CliRunner()
 app = typer.Typer()
 monitor_cli.register(app)
 REPO = Path(__file__).resolve().parents[2]
-F9P = receivers_dir() / "gpsd" / "ublox-zed-f9p_hpg1.11.log"  # 655 s of NAV-CLOCK at 1 Hz
+F9P = receivers_dir() / "gpsd" / "ublox-zed-f9p_hpg1.11.log"  # 655 s of NAV-CLOCK at 1 Hz, NMEA mixed in
 M8T = receivers_dir() / "gpsd" / "u-blox-m8t-time.log"
 
 
@@ -59,7 +60,10 @@ def test_a_replay_logs_every_epoch_of_the_recording_and_the_report_plots_it(tmp_
                                  str(db), "--json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
-    assert doc["acknowledged"] == 153 + 655 == sqlite3.connect(db).execute("SELECT COUNT(*) FROM epochs").fetchone()[0]
+    # every epoch the file reader finds, the F9P's NMEA-only epoch included (NMEA and UBX merged live as in files)
+    expected = read_capture(M8T).n_epochs + read_capture(F9P).n_epochs
+    assert expected == 153 + 656
+    assert doc["acknowledged"] == expected == sqlite3.connect(db).execute("SELECT COUNT(*) FROM epochs").fetchone()[0]
     out = tmp_path / "report"
     result = runner.invoke(app, ["monitor", "--report", str(db), "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output

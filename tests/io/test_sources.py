@@ -113,7 +113,7 @@ def test_a_serial_device_that_disappears_and_returns_is_read_again(tmp_path):
 
 
 def test_several_sources_at_once_each_deliver_all_their_bytes(tmp_path):
-    packed = tmp_path / "m8t.log.gz"
+    packed = tmp_path / "m8t.log"  # gzip content without a .gz name: told by its magic bytes
     packed.write_bytes(gzip.compress(CAPTURE.read_bytes()))
     other = receivers_dir() / "gpsd" / "ublox-zed-f9t-ubx_nmea_l5.log"
     sources = [FileSource(packed, name="a"), FileSource(other, name="b", chunk=1000)]
@@ -151,7 +151,7 @@ def test_gpsd_json_from_a_gpsd_server_becomes_epochs_with_gpsd_time_mode_and_dop
 
 
 def test_the_live_decoder_gives_the_batch_readers_epochs_whatever_the_split(receivers):
-    # one protocol per capture (with both, the batch reader merges NMEA into UBX epochs, the live one takes UBX)
+    # one protocol per capture (mixed ones: the next test)
     for name in ("ublox-neo-m8t.log", "bundg_zeus_9.log", "u-blox-m8t-time.log", "navisys-gr701w.log"):
         data = (receivers / "gpsd" / name).read_bytes()
         batch = read_bytes([data]).rows
@@ -169,3 +169,51 @@ def test_the_live_decoder_gives_the_batch_readers_epochs_whatever_the_split(rece
                                        ("rec.nmea", FileSource)])
 def test_source_specs_name_their_kind(spec, kind):
     assert isinstance(parse_source(spec), kind)
+
+
+MIXED = ("ublox-zed-f9p_hpg1.11.log", "ublox-zed-f9r.log", "ublox-zed-f9t-ubx_nmea_l5.log", "ublox8-uniqid-monhw.log")
+
+
+def _live(decoder: StreamDecoder, data: bytes, rng) -> tuple[list[dict], list[dict]]:
+    """Feed ``data`` in random chunks of 1 to 3000 bytes: (epochs from feed, epochs from close)."""
+    fed, k = [], 0
+    while k < len(data):
+        n = int(rng.integers(1, 3000))
+        fed += decoder.feed(data[k:k + n])
+        k += n
+    return fed, decoder.close()
+
+
+@pytest.mark.parametrize("name", MIXED)
+def test_a_receiver_sending_nmea_and_ubx_on_one_port_gives_the_file_readers_merged_epochs(receivers, name):
+    data = (receivers / "gpsd" / name).read_bytes()
+    batch = read_capture(receivers / "gpsd" / name)
+    assert set(batch.protocols) == {"nmea", "ubx"}
+    for seed in range(3):
+        fed, closed = _live(StreamDecoder(), data, np.random.default_rng(seed))
+        live = fed + closed
+        for field in batch.rows:
+            got = np.array([e[field] for e in live])
+            np.testing.assert_array_equal(got, batch.rows[field], err_msg=f"{name} seed {seed}: {field}")
+        # released as the stream goes, not only at its end (at most the epoch in progress and one behind)
+        assert len(closed) <= 3, (name, len(closed))
+
+
+def test_when_ubx_falls_silent_the_nmea_epochs_keep_coming_after_the_wait(receivers):
+    from chronofuse.io.frames import FrameScanner
+
+    data = (receivers / "gpsd" / "ublox-zed-f9p_hpg1.11.log").read_bytes()
+    scanner = FrameScanner()
+    frames = scanner.feed(data) + scanner.close()
+    half = frames[len(frames) // 2].offset
+    # the receiver stops its UBX output half-way: only NMEA (and RTCM) frames after that
+    tail = b"".join(f.raw for f in frames if f.offset >= half and f.kind != "ubx")
+    stream = data[:half] + tail
+    decoder = StreamDecoder(max_wait_s=3.0)
+    fed, closed = _live(decoder, stream, np.random.default_rng(7))
+    batch = read_bytes([stream]).rows
+    assert len(fed) + len(closed) == batch["gps_ns"].size
+    # the last epochs wait for UBX at most max_wait_s of NMEA time, then NMEA alone carries the stream
+    assert batch["gps_ns"][-1] - fed[-1]["gps_ns"] <= 4 * 10**9 and len(closed) <= 5
+    late = [e for e in fed if e["gps_ns"] > batch["gps_ns"][-1] - 100 * 10**9]
+    assert late and all(np.isnan(e["clock_bias_s"]) for e in late)

@@ -135,6 +135,6 @@ def test_an_empty_or_broken_gzip_capture_raises_naming_the_file(tmp_path):
     with pytest.raises(InputDataError, match="empty"):
         read_nav_clock(empty)
     broken = tmp_path / "broken.ubx.gz"
-    broken.write_bytes(b"\xb5\x62 not gzip at all")
+    broken.write_bytes(gzip.compress(b"\xb5\x62" * 5000)[:30])  # gzip by its magic bytes, cut short
     with pytest.raises(InputDataError, match="broken.ubx.gz: cannot read file"):
         read_nav_clock(broken)

@@ -1,14 +1,14 @@
-"""One receiver clock bias on a regular grid, from a clock-bias CSV or a u-blox UBX capture.
+"""One receiver clock bias on a regular grid, from a clock-bias CSV or a receiver recording (UBX, NMEA + UBX).
 
 CSV/text files go through :func:`chronofuse.io.records.read_record` (one parser for every text record):
 the bias column is ``column`` if given, else the first header name starting with ``clock_bias`` (its unit
-suffix ``_s``/``_ns``... scales it), else the only non-time column. UBX captures give ``clkB`` of every
-NAV-CLOCK frame (:func:`chronofuse.io.ubx.read_nav_clock`), placed on the ``1/rate`` grid by
-:func:`chronofuse.io.grid.regular_grid`.
+suffix ``_s``/``_ns``... scales it), else the only non-time column. Receiver recordings give ``clkB`` of
+every NAV-CLOCK message through the capture reader every other command uses
+(:func:`chronofuse.io.capture_series.read_clock_series`), on the recording's own interval.
 
 Missing data are counted, never dropped silently: NaN biases and whole missing intervals of a time column
-become NaN epochs, and so do missing UBX solutions; UBX frames that fail their checksum or are cut short add
-to ``n_skipped`` too.
+become NaN epochs, and so do missing UBX solutions; UBX frames that fail their checksum, are cut short or
+that pyubx2 refuses add to ``n_skipped`` too.
 """
 
 from __future__ import annotations
@@ -18,14 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from chronofuse.io.formats import sniff_format
-from chronofuse.io.grid import regular_grid
+from chronofuse.io.capture_series import read_clock_series
+from chronofuse.io.formats import CAPTURE_FORMATS, sniff_format
 from chronofuse.io.records import column_names, read_record
-from chronofuse.io.ubx import read_nav_clock
+from chronofuse.timescale import NS_PER_S, NS_PER_WEEK
 from chronofuse.validation import InputDataError, check_scalar
-
-# A receiver time-tags its solutions on its own clock: u-blox iTOW steps by 999 or 1001 ms now and then.
-UBX_TIME_TOLERANCE = 0.05
 
 _BIAS_PREFIX = "clock_bias"
 
@@ -48,8 +45,8 @@ class ClockBiasInput:
     interval_s : float
         Sampling interval (s): from the time column when the file has one, else ``1 / rate_hz``.
     receiver_ok : ndarray of bool, shape (epochs,), or None
-        The receiver's own status per epoch (UBX: a valid fix, :attr:`chronofuse.io.ubx.NavClockRecord.fix_ok`);
-        None when the file carries none.
+        The receiver's own status per epoch (a recording: False where it reported no fix,
+        :attr:`chronofuse.io.capture_series.ClockBiasSeries.receiver_ok`); None when the file carries none.
     """
 
     bias_s: np.ndarray
@@ -93,38 +90,29 @@ def read_csv_bias(path: str | Path, rate_hz: float | None, column: str | None = 
                           interval_s=1.0 / record.rate_hz)
 
 
-def read_ubx_bias(path: str | Path, rate_hz: float | None = None) -> ClockBiasInput:
-    """Clock bias (s) from UBX NAV-CLOCK frames (corrupt frames skipped and counted by the reader).
+def read_capture_bias(path: str | Path, rate_hz: float | None = None) -> ClockBiasInput:
+    """Clock bias (s) of a receiver recording (UBX NAV-CLOCK, alone or mixed with NMEA), through the one
+    capture path: :func:`chronofuse.io.capture_series.read_clock_series` over
+    :func:`chronofuse.io.inspect.read_capture`.
 
-    Epochs are placed on the ``1/rate_hz`` grid within :data:`UBX_TIME_TOLERANCE` of an interval (the
-    receiver tags solutions on its own clock); missing solutions become NaN epochs, counted in ``n_skipped``.
+    Epochs are placed on the ``1/rate_hz`` grid (the recording's own interval without it) within
+    :data:`~chronofuse.io.capture_series.TIME_TOLERANCE` of an interval; missing solutions become NaN epochs,
+    counted in ``n_skipped`` with the damaged frames. ``t_s`` is GPS time of week of the first epoch plus
+    the grid offsets (continuous over a week rollover).
     """
-    rec = read_nav_clock(path)
-    t = np.asarray(rec.t_s, float)
-    if rate_hz is None:
-        if t.size < 2:
-            raise InputDataError("one NAV-CLOCK solution and no --rate: the interval is unknown", rec.source)
-        interval_s = round(float(np.median(np.diff(t))), 3)  # iTOW is in ms
-        if interval_s <= 0:
-            raise InputDataError("NAV-CLOCK times do not increase: the interval is unknown", rec.source)
-    else:
-        interval_s = 1.0 / rate_hz
-    t_rel_s, bias_s = regular_grid(t, np.asarray(rec.clock_bias_s, float), interval_s,
-                                   rec.source, tolerance=UBX_TIME_TOLERANCE)
-    t_s = float(rec.itow_ms[0]) / 1000.0 + t_rel_s
-    n_missing = int(np.isnan(bias_s).sum())
-    ok = None
-    if rec.fix_ok is not None:
-        _, ok_grid = regular_grid(t, rec.fix_ok.astype(np.float64), interval_s, rec.source, tolerance=UBX_TIME_TOLERANCE)
-        ok = ~(ok_grid == 0.0)  # a missing epoch is missing, not a bad status
-    return ClockBiasInput(bias_s=bias_s, t_s=t_s, n_skipped=n_missing + int(rec.n_skipped_frames), source=rec.source,
-                          interval_s=interval_s, receiver_ok=ok)
+    series = read_clock_series(path, rate_hz)
+    tow0_ns = int(series.gps_ns[0]) % NS_PER_WEEK
+    t_s = (tow0_ns + (series.gps_ns - series.gps_ns[0])) / NS_PER_S
+    return ClockBiasInput(bias_s=series.clock_bias_s, t_s=t_s, n_skipped=series.n_missing + series.n_damaged,
+                          source=series.source, interval_s=series.interval_s, receiver_ok=series.receiver_ok)
 
 
 def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None) -> ClockBiasInput:
-    """One receiver clock bias from a CSV/text or UBX file (told apart by :func:`sniff_format`).
+    """One receiver clock bias from a CSV/text file or a receiver recording (UBX alone or with NMEA; told
+    apart by :func:`sniff_format`).
 
-    The interval is the file's own (time column, UBX iTOW); ``rate_hz`` serves only a file without times.
+    The interval is the file's own (time column, UBX iTOW); ``rate_hz`` serves a CSV without times and sets
+    a recording's grid interval.
 
     Raises :class:`InputDataError` naming the file for a RINEX file (many satellites, not one clock bias:
     see :func:`chronofuse.integrity.identification.channel_clock_biases`) or unreadable content.
@@ -134,4 +122,4 @@ def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str 
     kind = sniff_format(path)
     if kind.startswith("rinex"):
         raise InputDataError(f"a {kind} file holds no single receiver clock bias", str(path))
-    return read_ubx_bias(path, rate_hz) if kind == "ubx" else read_csv_bias(path, rate_hz, column)
+    return read_capture_bias(path, rate_hz) if kind in CAPTURE_FORMATS else read_csv_bias(path, rate_hz, column)

@@ -4,12 +4,12 @@ say what it holds: message counts, time span, gaps, checksum failures, unknown t
 One pass: :class:`chronofuse.io.frames.FrameScanner` frames the bytes (checksums verified for whole
 chunks at once), pynmeagps and pyubx2 decode the frames we use, :mod:`chronofuse.io.nmea` and
 :mod:`chronofuse.io.ubx_epochs` assemble epochs. A stream carrying both protocols is one receiver: its
-UBX epochs are taken first and NMEA fills the fields UBX did not send (and epochs UBX did not report).
+UBX epochs are taken first and NMEA fills the fields UBX did not send (and epochs UBX did not report):
+:func:`merge_epochs`, which the live decoder (:mod:`chronofuse.io.sources_decode`) uses too.
 """
 
 from __future__ import annotations
 
-import gzip
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
+from chronofuse.io.formats import open_data
 from chronofuse.io.frames import FrameScanner, FrameStats
 from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs, rinex_kind
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
@@ -24,7 +25,7 @@ from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
 from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 from chronofuse.validation import InputDataError
 
-__all__ = ["Capture", "read_capture", "read_bytes", "summarize", "EPOCH_FIELDS"]
+__all__ = ["Capture", "read_capture", "read_bytes", "summarize", "merge_epochs", "strictly_increasing", "EPOCH_FIELDS"]
 
 #: Per-epoch fields (besides ``gps_ns``), as :class:`chronofuse.epochs.ReceiverEpochs` names them.
 EPOCH_FIELDS = ("fix_mode", "time_valid", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop", "leap_s",
@@ -98,8 +99,8 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
     decode_ubx(frames, ubx_b, ubx_s)
     ubx_rows = ubx_b.rows(ubx_s)
     nmea_rows = nmea_b.rows()
-    rows = _merge(ubx_rows, nmea_rows)
-    rows, dup = _strictly_increasing(rows)
+    rows = merge_epochs(ubx_rows, nmea_rows)
+    rows, dup = strictly_increasing(rows)
     protocols = tuple(p for p, n in (("nmea", sum(nmea_s.decoded.values())), ("ubx", sum(ubx_s.decoded.values())))
                       if n)
     return Capture(source=source, rows=rows, frames=scanner.stats, nmea=nmea_s, ubx=ubx_s,
@@ -108,7 +109,7 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
 
 
 def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None = None) -> Capture:
-    """Read a recording file (plain, or gzip when its name ends in ``.gz``): NMEA/UBX, or a RINEX
+    """Read a recording file (plain, or gzip told by its content): NMEA/UBX, or a RINEX
     observation or clock file (:mod:`chronofuse.io.rinex_epochs`; ``receiver`` picks a clock file's
     station, the first by default).
 
@@ -125,9 +126,11 @@ def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None
     kind = rinex_kind(path)
     if kind is not None:
         return _read_rinex(path, kind, receiver)
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rb") as stream:
-        return read_bytes(iter(lambda: stream.read(_CHUNK), b""), str(path), reference_gps_ns)
+    try:
+        with open_data(path) as stream:
+            return read_bytes(iter(lambda: stream.read(_CHUNK), b""), str(path), reference_gps_ns)
+    except (OSError, EOFError) as exc:  # gzip.BadGzipFile is an OSError; a gzip stream cut short: EOFError
+        raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
 
 
 def _read_rinex(path: Path, kind: tuple[str, str], receiver: str | None) -> Capture:
@@ -163,7 +166,7 @@ def _absent(name: str, v: np.ndarray) -> np.ndarray:
     return np.zeros(v.shape, dtype=bool)
 
 
-def _merge(ubx: dict, nmea: dict) -> dict:
+def merge_epochs(ubx: dict, nmea: dict) -> dict:
     """UBX epochs first; NMEA epochs at the same GPS ns fill UBX's absent fields; other NMEA epochs join.
     (A leap count the UBX receiver sent wins over NMEA's table value.)"""
     if ubx["gps_ns"].size == 0:
@@ -187,7 +190,8 @@ def _merge(ubx: dict, nmea: dict) -> dict:
     return out
 
 
-def _strictly_increasing(rows: dict) -> tuple[dict, int]:
+def strictly_increasing(rows: dict) -> tuple[dict, int]:
+    """The rows in time order with a repeated ``gps_ns`` kept once (its first row), and how many were dropped."""
     t = rows["gps_ns"]
     order = np.argsort(t, kind="stable")
     t_sorted = t[order]

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
+from chronofuse.io.formats import capture_format
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
 from chronofuse.validation import InputDataError, check_choice, check_scalar
 
@@ -289,6 +290,10 @@ def read_record(
         raise InputDataError("no such file", str(path))
     if path.is_dir():
         raise InputDataError("is a directory, not a data file", str(path))
+    if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
+        from chronofuse.io.capture_series import capture_record  # the receiver parsers only when needed
+
+        return capture_record(path, kind=kind, rate_hz=rate_hz)
     layout = sniff(path)
     time_idx, value_idx, name = _pick_columns(layout, path, column)
     try:

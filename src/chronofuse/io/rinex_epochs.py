@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from chronofuse.epochs import ReceiverEpochs
+from chronofuse.io.formats import open_data, open_text
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s
 from chronofuse.validation import InputDataError
 
@@ -31,9 +32,9 @@ def rinex_kind(path) -> tuple[str, str] | None:
     """(version, kind) from a RINEX header's first line (kind: ``obs``, ``nav`` or ``clock``), or None
     when the file is no RINEX file."""
     try:
-        with open(path, "rb") as f:
+        with open_data(path) as f:  # gzip told by content
             head = f.readline(200).decode("ascii", "replace")
-    except OSError:
+    except (OSError, EOFError):
         return None
     if "RINEX VERSION / TYPE" not in head:
         return None
@@ -44,7 +45,7 @@ def rinex_kind(path) -> tuple[str, str] | None:
 
 
 def _header_leap(path: Path) -> int | None:
-    with open(path, "r", errors="replace") as f:
+    with open_text(path) as f:
         for line in f:
             if "LEAP SECONDS" in line[60:]:
                 try:
@@ -103,7 +104,7 @@ def read_rinex_clock_epochs(path) -> tuple[tuple[str, ...], ReceiverEpochs, int]
     rows: list[tuple[int, str, float]] = []
     bad = 0
     in_header = True
-    with open(path, "r", errors="replace") as f:
+    with open_text(path) as f:
         for line in f:
             if in_header:
                 in_header = "END OF HEADER" not in line[60:]

@@ -14,7 +14,6 @@ Source specs on the command line (:func:`parse_source`): ``file:PATH`` or a plai
 
 from __future__ import annotations
 
-import gzip
 import queue
 from abc import ABC, abstractmethod
 import socket
@@ -22,6 +21,8 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from chronofuse.io.formats import open_data
 
 __all__ = ["Backoff", "SourceEvent", "FileSource", "SerialSource", "TcpSource", "GpsdSource", "SourceGroup",
            "parse_source"]
@@ -68,7 +69,7 @@ class _Source(ABC):
 
 
 class FileSource(_Source):
-    """A recording (gzip when the name ends in .gz), read in chunks; ``rate_bytes_s`` paces the bytes
+    """A recording (gzip told by its content), read in chunks; ``rate_bytes_s`` paces the bytes
     (a replay at a chosen speed), None reads as fast as the consumer takes them."""
 
     def __init__(self, path, name: str | None = None, rate_bytes_s: float | None = None, chunk: int = _CHUNK):
@@ -76,9 +77,8 @@ class FileSource(_Source):
         self.path, self.rate_bytes_s, self.chunk = Path(path), rate_bytes_s, chunk
 
     def run(self, emit, stop: threading.Event) -> None:
-        opener = gzip.open if self.path.suffix == ".gz" else open
         try:
-            stream = opener(self.path, "rb")
+            stream = open_data(self.path)
         except OSError as err:
             emit("down", f"{type(err).__name__}: {err}")
             emit("end")

@@ -3,9 +3,8 @@
 
 :meth:`StreamDecoder.feed` takes bytes in any split and returns the epochs that closed (an epoch closes
 when the receiver starts the next one), each as a dict of ``gps_ns`` and the per-epoch fields of
-:class:`chronofuse.epochs.ReceiverEpochs`. A stream that carries UBX navigation messages is decoded from
-them (its NMEA then only counted), otherwise from NMEA: the batch reader merges both, the live path
-takes the richer protocol to keep one epoch clock.
+:class:`chronofuse.epochs.ReceiverEpochs`. A stream carrying both NMEA and UBX (one receiver on one port)
+gives the merged epochs the batch reader gives (:func:`chronofuse.io.inspect.merge_epochs`).
 """
 
 from __future__ import annotations
@@ -16,12 +15,14 @@ import math
 import numpy as np
 
 from chronofuse.io.frames import FrameScanner
-from chronofuse.io.inspect import EPOCH_FIELDS
+from chronofuse.io.inspect import EPOCH_FIELDS, merge_epochs, strictly_increasing
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
-from chronofuse.io.ubx_epochs import UBX_TYPES, UbxDecodeStats, UbxEpochBuilder, decode_ubx
+from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s, utc_to_gps_ns
 
 __all__ = ["StreamDecoder", "GpsdJsonDecoder", "decoder_for", "split_rows"]
+
+_NEVER = int(np.iinfo(np.int64).min)
 
 
 def split_rows(rows: dict | None) -> list[dict]:
@@ -33,15 +34,26 @@ def split_rows(rows: dict | None) -> list[dict]:
 
 
 class StreamDecoder:
-    """One receiver's live decoder (framer + pynmeagps/pyubx2 + epoch assembly), kept across reconnects."""
+    """One receiver's live decoder (framer + pynmeagps/pyubx2 + epoch assembly), kept across reconnects.
 
-    def __init__(self, reference_gps_ns: int | None = None) -> None:
+    A stream carrying both NMEA and UBX is one receiver, merged as the batch reader merges it
+    (:func:`chronofuse.io.inspect.merge_epochs`: UBX fields first, NMEA filling the rest and adding the
+    epochs UBX did not report). An epoch is released once every protocol of the stream has closed an
+    epoch at or after it, so the other protocol's report of the same instant is never missed; a protocol
+    that falls silent (more than ``max_wait_s`` of the other's time behind) stops holding the stream back.
+    """
+
+    def __init__(self, reference_gps_ns: int | None = None, max_wait_s: float = 3.0) -> None:
         self.scanner = FrameScanner()
         self.nmea_stats, self.ubx_stats = NmeaDecodeStats(), UbxDecodeStats()
         self._nmea = NmeaEpochBuilder(reference_gps_ns)
         self._ubx = UbxEpochBuilder()
-        self.protocol: str | None = None  # "ubx" once UBX navigation is seen, else "nmea" once NMEA is
-        self._last_gps_ns = np.iinfo(np.int64).min
+        self.max_wait_ns = int(round(max_wait_s * NS_PER_S))
+        self.protocols: tuple[str, ...] = ()  # "ubx", "nmea": navigation seen in the stream, in order met
+        self._pending = {"ubx": [], "nmea": []}  # closed epochs (row arrays) not yet released
+        self._closed: dict[str, int | None] = {}  # protocol -> gps_ns of its last closed epoch (None: none yet)
+        self._first_closed: int | None = None  # the first epoch any protocol closed
+        self._last_gps_ns = _NEVER
 
     def feed(self, data: bytes) -> list[dict]:
         """Decode ``data``; return the epochs that closed, in time order (an epoch that repeats or runs
@@ -49,33 +61,69 @@ class StreamDecoder:
         return self._decode(self.scanner.feed(data), final=False)
 
     def close(self) -> list[dict]:
-        """End of stream: flush the epoch in progress."""
+        """End of stream: flush the epochs in progress."""
         return self._decode(self.scanner.close(), final=True)
 
     def _decode(self, frames, final: bool) -> list[dict]:
-        if self.protocol != "ubx" and any(f.kind == "ubx" and f.name in UBX_TYPES for f in frames):
-            self.protocol = "ubx"
-        if self.protocol is None and any(f.kind == "nmea" for f in frames):
-            self.protocol = "nmea"
         decode_ubx(frames, self._ubx, self.ubx_stats)
         decode_nmea(frames, self._nmea, self.nmea_stats)
-        if self.protocol == "ubx":
-            rows = self._ubx.pop_complete(self.ubx_stats)
-            out = split_rows(rows)
-            if final:
-                out += split_rows(self._ubx.pop_all(self.ubx_stats))
-        elif self.protocol == "nmea":
-            out = split_rows(self._nmea.pop_complete())
-            if final:
-                out += split_rows(self._nmea.pop_all())
-        else:
+        for name, stats in (("ubx", self.ubx_stats), ("nmea", self.nmea_stats)):
+            if name not in self.protocols and sum(stats.decoded.values()):
+                self.protocols += (name,)
+                self._closed.setdefault(name, None)
+        self._take("ubx", self._ubx.pop_complete(self.ubx_stats))
+        self._take("nmea", self._nmea.pop_complete())
+        if final:
+            self._take("ubx", self._ubx.pop_all(self.ubx_stats))
+            self._take("nmea", self._nmea.pop_all())
+        return self._release(np.iinfo(np.int64).max if final else self._horizon())
+
+    def _take(self, name: str, rows: dict | None) -> None:
+        if rows is not None and rows["gps_ns"].size:
+            self._pending[name].append(rows)
+            last = int(rows["gps_ns"].max())
+            previous = self._closed.get(name)
+            self._closed[name] = last if previous is None else max(previous, last)
+            if self._first_closed is None:
+                self._first_closed = last
+
+    def _horizon(self) -> int:
+        """The latest epoch every live protocol has closed: the slowest protocol's mark, leaving out one
+        that is more than ``max_wait_ns`` behind the fastest (silent, or not on this port any more); a
+        protocol that has closed no epoch yet stands just before the stream's first closed epoch."""
+        if self._first_closed is None:
+            return _NEVER
+        marks = [self._first_closed - 1 if t is None else t for t in self._closed.values()]
+        lead = max(marks)
+        return min(t for t in marks if lead - t <= self.max_wait_ns)
+
+    def _release(self, horizon: int) -> list[dict]:
+        parts = {}
+        for name in ("ubx", "nmea"):
+            rows = _joined(self._pending[name])
+            if rows is None:
+                parts[name], self._pending[name] = {"gps_ns": np.zeros(0, np.int64)}, []
+                continue
+            ready = rows["gps_ns"] <= horizon
+            parts[name] = {k: v[ready] for k, v in rows.items()}
+            self._pending[name] = [] if ready.all() else [{k: v[~ready] for k, v in rows.items()}]
+        if parts["ubx"]["gps_ns"].size + parts["nmea"]["gps_ns"].size == 0:
             return []
+        merged, _ = strictly_increasing(merge_epochs(parts["ubx"], parts["nmea"]))
         kept = []
-        for epoch in out:
+        for epoch in split_rows(merged):
             if epoch["gps_ns"] > self._last_gps_ns:
                 kept.append(epoch)
                 self._last_gps_ns = epoch["gps_ns"]
         return kept
+
+
+def _joined(parts: list[dict]) -> dict | None:
+    if not parts:
+        return None
+    if len(parts) == 1:
+        return parts[0]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 class GpsdJsonDecoder:

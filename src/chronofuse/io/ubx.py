@@ -7,20 +7,20 @@ Corrupt input is skipped and counted, never fatal: a frame with a bad checksum, 
 of the file, an unknown header or an undecodable NMEA line in a mixed stream becomes one entry of
 :attr:`NavClockRecord.skipped` (the byte offset in the file where the reader stood after the bad frame, and
 pyubx2's reason). A file that ends inside a frame header (where pyubx2 itself stops quietly) is counted too.
-A capture compressed with gzip (``.gz``) is read as it is, byte offsets then counting uncompressed bytes.
+A capture compressed with gzip (told by its content) is read as it is, byte offsets then counting uncompressed bytes.
 Limits, from pyubx2's byte scanning: bytes that start no frame (line noise between frames) are passed
 over uncounted, and a corrupt length field can make one bad frame swallow the next: that counts as one.
 """
 
 from __future__ import annotations
 
-import gzip
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 from pyubx2 import ERR_LOG, UBX_PROTOCOL, UBXReader
 
+from chronofuse.io.formats import open_data
 from chronofuse.timescale import MS_PER_WEEK
 from chronofuse.validation import InputDataError
 
@@ -92,8 +92,8 @@ def unwrap_itow_ms(itow_ms: np.ndarray) -> np.ndarray:
 
 
 def open_capture(path: Path):
-    """The capture's bytes as a binary stream: gzip-decompressed for a ``.gz`` file."""
-    return gzip.open(path, "rb") if path.suffix == ".gz" else path.open("rb")
+    """The capture's bytes as a binary stream: gzip-decompressed when its content is gzip."""
+    return open_data(path)
 
 
 def read_nav_clock(path) -> NavClockRecord:

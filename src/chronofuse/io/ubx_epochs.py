@@ -6,7 +6,8 @@ Messages used (u-blox 8 / M8 and F9 interface descriptions; field names as pyubx
   ``fullyResolved``; NAV-SOL and NAV-STATUS (older receivers): ``gpsFix``, ``week``, ``numSV``.
 * NAV-TIMEGPS: ``week`` and ``leapS`` (with their valid bits); NAV-TIMEUTC: UTC date and ``validUTC``.
 * NAV-TIMELS: ``currLs`` (GPS - UTC, s) and ``lsChange``/``timeToLsEvent`` (the announced leap second).
-* NAV-DOP: ``gDOP`` ... ``hDOP`` (pyubx2 applies the 0.01 scale); NAV-SAT: satellites with ``svUsed``.
+* NAV-DOP: ``gDOP`` ... ``hDOP`` (pyubx2 applies the 0.01 scale); NAV-SAT: satellites with ``svUsed``
+  (read by the frame layout, :func:`nav_sat_used`).
 * NAV-CLOCK: ``clkB`` (ns) and ``clkD`` (ns/s): the receiver clock bias and drift.
 * TIM-TP: ``qErr`` (ps) of the NEXT time pulse, whose time is ``towMS``/``week`` in ``timeBase`` (0 GNSS,
   1 UTC): it is paired with the epoch of that pulse, not with the epoch it arrives in.
@@ -68,12 +69,11 @@ class UbxDecodeStats:
 class _Epoch:
     __slots__ = ("itow_ms", "week", "utc_ns", "mode", "time_valid", "n_sats", "n_used_sat", "gdop", "pdop",
                  "hdop", "vdop", "tdop", "leap_s", "leap_pending", "clock_bias_s", "clock_drift_s_per_s",
-                 "leap_from_utc", "raw_only", "nav_sat_raw")
+                 "leap_from_utc", "raw_only")
 
     def __init__(self, itow_ms: int) -> None:
         self.itow_ms = itow_ms
         self.raw_only = False
-        self.nav_sat_raw: bytes | None = None
         self.week = -1
         self.utc_ns: int | None = None  # a valid UTC label (UTC count since the GPS epoch)
         self.leap_from_utc = False
@@ -122,11 +122,11 @@ class UbxEpochBuilder:
         self._epochs.append(ep)
         return ep
 
-    def defer_nav_sat(self, raw: bytes) -> None:
-        """Keep a NAV-SAT frame with its epoch (iTOW: payload bytes 0-3) to be decoded only if needed."""
-        if len(raw) >= 10:
-            ep = self._epoch(int.from_bytes(raw[6:10], "little"))
-            ep.nav_sat_raw = raw
+    def push_nav_sat(self, raw: bytes) -> None:
+        """A NAV-SAT frame (checksum verified): its used-satellite count (:func:`nav_sat_used`) joins the
+        epoch of its iTOW (payload bytes 0-3). Raises ValueError when the frame is shorter than it says."""
+        used = nav_sat_used(raw)
+        self._epoch(int.from_bytes(raw[6:10], "little")).n_used_sat = used
 
     def push(self, name: str, m) -> None:
         if name == "TIM-TP":
@@ -184,8 +184,6 @@ class UbxEpochBuilder:
         elif name == "NAV-DOP":
             ep.gdop, ep.pdop, ep.hdop = float(m.gDOP), float(m.pDOP), float(m.hDOP)
             ep.vdop, ep.tdop = float(m.vDOP), float(m.tDOP)
-        elif name == "NAV-SAT":
-            ep.n_used_sat = _count_used(m)
         elif name == "NAV-CLOCK":
             ep.clock_bias_s = m.clkB * 1e-9
             ep.clock_drift_s_per_s = m.clkD * 1e-9
@@ -228,15 +226,6 @@ class UbxEpochBuilder:
             anchor.leap_s = self._last_leap
             eps = [anchor] + list(eps)
         n = len(eps)
-        for e in eps:
-            if e.n_sats < 0 and e.n_used_sat < 0 and e.nav_sat_raw is not None:
-                try:
-                    e.n_used_sat = _count_used(UBXReader.parse(e.nav_sat_raw, validate=0))
-                except Exception as err:  # a NAV-SAT pyubx2 refuses: count it, keep the epoch
-                    if stats is not None:
-                        stats.parse_errors += 1
-                        stats.errors.append((-1, f"NAV-SAT: {type(err).__name__}: {err}"))
-            e.nav_sat_raw = None
         itow = np.array([e.itow_ms for e in eps], dtype=np.int64)
         approx = np.full(n, np.iinfo(np.int64).min, dtype=np.int64)
         for i, e in enumerate(eps):
@@ -299,8 +288,16 @@ class UbxEpochBuilder:
         return attach_pulses(rows, ready)
 
 
-def _count_used(m) -> int:
-    return sum(1 for k in range(1, int(m.numSvs) + 1) if getattr(m, f"svUsed_{k:02d}", 0))
+def nav_sat_used(raw: bytes) -> int:
+    """Satellites used in the navigation solution, from a whole UBX-NAV-SAT frame read by its layout (u-blox
+    8 / M8 and F9 interface descriptions, UBX-NAV-SAT): payload ``iTOW`` U4, ``version`` U1, ``numSvs`` U1,
+    2 reserved bytes, then ``numSvs`` blocks of 12 bytes whose byte 8 starts the ``flags`` X4, bit 3 being
+    ``svUsed``. Read directly rather than through pyubx2, whose per-satellite bitfield decoding made NAV-SAT
+    the costliest message of a timing receiver's stream. Raises ValueError for a frame shorter than it says."""
+    n_svs = raw[11] if len(raw) >= 16 else -1
+    if n_svs < 0 or len(raw) < 6 + 8 + 12 * n_svs + 2:
+        raise ValueError(f"NAV-SAT frame of {len(raw)} bytes is shorter than its satellite count says")
+    return sum((raw[22 + 12 * k] >> 3) & 1 for k in range(n_svs))
 
 
 def _rawx_header_frame(raw: bytes) -> bytes:
@@ -356,8 +353,7 @@ def decode_ubx(frames, builder: UbxEpochBuilder, stats: UbxDecodeStats) -> None:
             continue
         try:
             if frame.name == "NAV-SAT":
-                # parsed at the end, and only for an epoch whose NAV-PVT/NAV-SOL gave no satellite count
-                builder.defer_nav_sat(frame.raw)
+                builder.push_nav_sat(frame.raw)  # read by its layout, see nav_sat_used
                 stats.decoded[frame.name] += 1
                 continue
             raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
