@@ -57,6 +57,7 @@ from chronofuse.integrity.live import stream_verdicts
 from chronofuse.integrity.modes import detect_file
 from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
+from chronofuse.io.capture_series import ClockBiasSeries, read_clock_series
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
@@ -131,6 +132,8 @@ __all__ = [
     "read_record",
     "read_nav_clock",
     "ClockBiasInput",
+    "ClockBiasSeries",
+    "read_clock_series",
     "read_clock_bias",
     "read_stable32_table",
     "read_gps_observations",
