@@ -84,13 +84,24 @@ def _difference_variance(
     var = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
     # A decimated term can step over a gap without reading it: with gaps, every m uses the span rule.
-    prefix = nan_prefix(x) if _has_nan(x) else None
+    # Whether there are gaps is known without a pass of its own once a fused sum with step 1 has read
+    # every sample (its terms cover x when N >= (order + 1) m) and come out finite, or NaN.
+    prefix = None
+    gap_free = False
     for j, mj in enumerate(m):
         mj = int(mj)
         step = 1 if overlapping else mj
+        if prefix is None and not gap_free and (step > 1 or x.size < (order + 1) * mj):
+            if _has_nan(x):
+                prefix = nan_prefix(x)
+            gap_free = prefix is None
         if prefix is None:
             s, count = difference_sum_of_squares_fused(x, mj, order, step)
-        else:
+            if count < 0:  # a NaN sample: this and every later factor take the span rule
+                prefix = nan_prefix(x)
+            else:
+                gap_free = gap_free or (step == 1 and x.size >= (order + 1) * mj)
+        if prefix is not None:
             s, count = difference_sum_of_squares_span(x, prefix, mj, order, step)
         n[j] = count
         if count > 0:
