@@ -41,7 +41,7 @@ import numba
 import numpy as np
 
 from chronofuse.analysis.stability.kernels_allan import allan_variance_gap_free, mdev_raw, oadev_raw
-from chronofuse.analysis.stability.kernels_differences import sum_of_squares
+from chronofuse.analysis.stability.kernels_differences import REASSOC, sum_of_squares
 
 __all__ = [
     "MIN_ACF_POINTS",
@@ -128,64 +128,124 @@ def acf_noise_id(x: np.ndarray, m: int, dmax: int) -> int | None:
         d += 1
 
 
-@numba.njit(cache=True, fastmath=True)  # reassociated sums: vectorized reductions; the tests compare the twin
+_ACF_BLOCK = 1 << 14  # terms per block of a decimated record: its phase stays in the CPU cache
+_ACF_WHOLE = 1 << 17  # a decimated record up to this many terms is gathered once for both passes
+
+
+@numba.njit(cache=True, fastmath=REASSOC)
+def _block_sums(p: np.ndarray, count: int, d: int, inv_m: float, w0: float, offset: int) -> tuple[float, float]:
+    """``sum v`` and ``sum (offset + k) v`` over ``v = w_k - w0``, ``k < count``, where ``w`` is the
+    ``(d+1)``-th difference of the phase ``p`` (count + d + 1,) divided by ``m``."""
+    s1 = 0.0
+    skw = 0.0
+    if d == 0:
+        a1, a0 = p[1 : count + 1], p[:count]
+        for k in range(count):
+            v = (a1[k] - a0[k]) * inv_m - w0
+            s1 += v
+            skw += (offset + k) * v
+    elif d == 1:
+        a2, a1, a0 = p[2 : count + 2], p[1 : count + 1], p[:count]
+        for k in range(count):
+            s1 += (a2[k] - 2.0 * a1[k] + a0[k]) * inv_m - w0
+    elif d == 2:
+        a3, a2, a1, a0 = p[3 : count + 3], p[2 : count + 2], p[1 : count + 1], p[:count]
+        for k in range(count):
+            s1 += (a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]) * inv_m - w0
+    else:
+        a4, a3, a2, a1, a0 = p[4 : count + 4], p[3 : count + 3], p[2 : count + 2], p[1 : count + 1], p[:count]
+        for k in range(count):
+            s1 += (a4[k] - 4.0 * a3[k] + 6.0 * a2[k] - 4.0 * a1[k] + a0[k]) * inv_m - w0
+    return s1, skw
+
+
+@numba.njit(cache=True, fastmath=REASSOC)
+def _block_products(p: np.ndarray, count: int, d: int, inv_m: float, mean: float, slope: float, centre: float,
+                    prev: float) -> tuple[float, float, float]:
+    """Energy and lag-1 products of the residuals ``e_k = w_k - mean - slope (k - centre)``, ``k < count``
+    (``w`` as in :func:`_block_sums`), continuing from the residual ``prev`` before the block; returns
+    ``(sum e**2, sum prev e, last e)``."""
+    den = 0.0
+    num = 0.0
+    for k in range(count):
+        if d == 0:
+            w = (p[k + 1] - p[k]) * inv_m
+        elif d == 1:
+            w = (p[k + 2] - 2.0 * p[k + 1] + p[k]) * inv_m
+        elif d == 2:
+            w = (p[k + 3] - 3.0 * p[k + 2] + 3.0 * p[k + 1] - p[k]) * inv_m
+        else:
+            w = (p[k + 4] - 4.0 * p[k + 3] + 6.0 * p[k + 2] - 4.0 * p[k + 1] + p[k]) * inv_m
+        e = w - mean - slope * (k - centre)
+        den += e * e
+        num += prev * e
+        prev = e
+    return den, num, prev
+
+
+@numba.njit(cache=True)
+def _decimated(x: np.ndarray, m: int, start: int, size: int, scratch: np.ndarray) -> np.ndarray:
+    """``x[::m][start : start + size]`` as a contiguous array: a view when ``m == 1``, else copied into
+    ``scratch``."""
+    if m == 1:
+        return x[start : start + size]
+    base = start * m
+    for q in range(size):
+        scratch[q] = x[base + q * m]
+    return scratch[:size]
+
+
+@numba.njit(cache=True, fastmath=REASSOC)  # reassociated sums: vectorized reductions; the tests compare the twin
 def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
-    """Lag-1 autocorrelation of the ``d``-times differenced frequency averages at factor ``m``, one pass.
+    """Lag-1 autocorrelation of the ``d``-times differenced frequency averages at factor ``m``.
 
     The numba twin of ``lag1_autocorrelation`` applied to ``_remove_linear(frequency_averages(x, m))``
     differenced ``d`` times (d = 0), or to the plain ``d``-fold difference (d >= 1: differencing removes
     the line's offset and turns its slope into a constant, which the mean removal takes away). The
     series ``w`` is the ``(d+1)``-th difference of the decimated phase ``x[::m]`` divided by ``m``,
-    formed once into a scratch array, then fitted and correlated.
+    formed on the fly twice: once for its sums (mean and slope), once for the residuals' energy and
+    lag-1 products. The decimated phase is read block by block (a view of ``x`` at ``m = 1``): no array
+    of the record's size is allocated (at 1e7 points that allocation and its page faults cost more than
+    the arithmetic).
     """
-    xd = x if m == 1 else np.ascontiguousarray(x[::m])  # contiguous slices below: the loops vectorize
-    n = xd.size - 1 - d
+    n = (x.size - 1) // m - d  # terms of w
     if n < 2:
         return 0.0
+    block = n if n + d + 1 <= _ACF_WHOLE else _ACF_BLOCK
+    gathered = m > 1 and block == n  # the whole decimated record in scratch, gathered once
+    scratch = np.empty(block + d + 1) if m > 1 else np.empty(0)
+    if gathered:
+        _decimated(x, m, 0, n + d + 1, scratch)
     inv_m = 1.0 / m
-    w = np.empty(n)
-    # w = (d+1)-th difference of x[::m] / m, written out per order.
-    if d == 0:
-        a1, a0 = xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a1[k] - a0[k]) * inv_m
-    elif d == 1:
-        a2, a1, a0 = xd[2 : n + 2], xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a2[k] - 2.0 * a1[k] + a0[k]) * inv_m
-    elif d == 2:
-        a3, a2, a1, a0 = xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]) * inv_m
-    else:
-        a4, a3, a2, a1, a0 = xd[4 : n + 4], xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a4[k] - 4.0 * a3[k] + 6.0 * a2[k] - 4.0 * a1[k] + a0[k]) * inv_m
-    w0 = w[0]
+    p = scratch if gathered else _decimated(x, m, 0, d + 2, scratch)
+    w0 = _block_sums(p, 1, d, inv_m, 0.0, 0)[0]
     s1 = 0.0
     skw = 0.0
-    if d == 0:  # only the d = 0 series is detrended; the others need just their mean
-        for k in range(n):
-            v = w[k] - w0
-            s1 += v
-            skw += k * v
-    else:
-        for k in range(n):
-            s1 += w[k] - w0
+    for start in range(0, n, block):
+        count = min(block, n - start)
+        p = scratch[: count + d + 1] if gathered else _decimated(x, m, start, count + d + 1, scratch)
+        a, b = _block_sums(p, count, d, inv_m, w0, start)
+        s1 += a
+        skw += b
     half = 0.5 * (n - 1)
     mean = w0 + s1 / n
     slope = 0.0
-    if d == 0:
+    if d == 0:  # only the d = 0 series is detrended; the others need just their mean
         slope = (skw - half * s1) / (n * (n * n - 1.0) / 12.0)
-    # Pass 2: residuals e_k = w_k - mean - slope (k - half), their energy and lag-1 products.
-    prev = w[0] - mean + slope * half
+    # Residuals e_k = w_k - mean - slope (k - half): energy and lag-1 products, carried across blocks.
+    prev = w0 - mean + slope * half
     den = prev * prev
     num = 0.0
-    for k in range(1, n):
-        e = w[k] - mean - slope * (k - half)
-        den += e * e
-        num += prev * e
-        prev = e
+    for start in range(0, n, block):
+        first = 1 if start == 0 else 0
+        count = min(block, n - start) - first
+        if gathered:
+            p = scratch[first : first + count + d + 1]
+        else:
+            p = _decimated(x, m, start + first, count + d + 1, scratch)
+        a, b, prev = _block_products(p, count, d, inv_m, mean, slope, half - start - first, prev)
+        den += a
+        num += b
     if den == 0.0:
         return 0.0
     return num / den
