@@ -129,36 +129,27 @@ def _sw(t: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     return out
 
 
-def _sx_finite(t: np.ndarray, F: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Greenhall eq. (8), ``sx(t) = F**2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)]``: ``t`` of shape (k, T, K),
-    finite ``F`` and ``alpha`` of shape (k,)."""
+def _sx(t: np.ndarray, F: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Greenhall eq. (8), ``sx(t) = F**2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)]``, and its limit
+    ``sx(t) = sw(t, alpha + 2)`` where ``F = inf``.
+
+    ``t`` of shape (k, T, K) (one row of arguments per EDF), ``F`` and ``alpha`` of shape (k,). Both forms
+    are ``G [c sw(t) - c' sw(t - h) - c' sw(t + h)]``: ``(G, c, c', h) = (F**2, 2, 1, 1/F)`` or ``(1, 1, 0, 0)``
+    with ``alpha + 2``, so one kernel call serves every row (multiplying by 1 or 0 is exact).
+    """
+    infinite = np.isinf(F)[:, None, None]
     F = F[:, None, None]
-    step = 1.0 / F
-    shifted = np.empty((3,) + t.shape)  # t, t - 1/F, t + 1/F: one kernel call for the three
+    step = np.where(infinite, 0.0, 1.0 / F)
+    shifted = np.empty((3,) + t.shape)  # t, t - h, t + h: one kernel call for the three
     shifted[0] = t
     np.subtract(t, step, out=shifted[1])
     np.add(t, step, out=shifted[2])
-    sw = _sw(shifted, alpha[:, None, None])
-    out = sw[0] * 2.0
-    out -= sw[1]
-    out -= sw[2]
-    out *= F**2
-    return out
-
-
-def _sx(t: np.ndarray, F: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """Greenhall eq. (8), with its limit ``sx(t) = sw(t, alpha + 2)`` where ``F = inf``.
-
-    ``t`` of shape (k, T, K) (one row of arguments per EDF), ``F`` and ``alpha`` of shape (k,).
-    """
-    infinite = np.isinf(F)
-    if not infinite.any():
-        return _sx_finite(t, F, alpha)
-    out = np.empty_like(t)
-    finite = ~infinite
-    if finite.any():
-        out[finite] = _sx_finite(t[finite], F[finite], alpha[finite])
-    out[infinite] = _sw(t[infinite], (alpha[infinite] + 2)[:, None, None])
+    sw = _sw(shifted, np.where(infinite, alpha[:, None, None] + 2, alpha[:, None, None]))
+    side = np.where(infinite, 0.0, 1.0)
+    out = sw[0] * (1.0 + side)
+    out -= sw[1] * side
+    out -= sw[2] * side
+    out *= np.where(infinite, 1.0, F**2)
     return out
 
 

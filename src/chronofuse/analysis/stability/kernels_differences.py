@@ -27,6 +27,7 @@ __all__ = [
     "difference_sum_of_squares",
     "contiguous_difference_sum",
     "difference_sum_of_squares_fused",
+    "difference_sums_fused",
     "difference_sum_of_squares_span",
 ]
 
@@ -150,6 +151,17 @@ def difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int
     if total == total:
         return total, count
     return np.nan, -1
+
+
+@numba.njit(cache=True)
+def difference_sums_fused(x: np.ndarray, m: np.ndarray, order: int, overlapping: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`difference_sum_of_squares_fused` at every factor of ``m`` (k,) in one call (step 1 when
+    ``overlapping``, else ``m``): sums (k,) and counts (k,); a count of -1 marks a NaN term."""
+    sums = np.empty(m.size)
+    counts = np.empty(m.size, dtype=np.int64)
+    for j in range(m.size):
+        sums[j], counts[j] = difference_sum_of_squares_fused(x, m[j], order, 1 if overlapping else m[j])
+    return sums, counts
 
 
 @numba.njit(cache=True)

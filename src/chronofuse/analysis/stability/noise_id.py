@@ -251,21 +251,40 @@ def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
     return num / den
 
 
-def acf_noise_id_fast(x: np.ndarray, m: int, dmax: int) -> int | None:
-    """:func:`acf_noise_id` with the differencing and detrending fused into one numba pass per ``d``.
+# _acf_alphas' mark for a factor with fewer than MIN_ACF_POINTS frequency averages (no ACF answer).
+_NO_ACF = np.iinfo(np.int64).min
 
-    Same result (the tests compare the two); used by :func:`identify_noise_methods`, where the readable
-    twin's array passes (``np.diff``, the detrend, two dot products) dominated the public call's time.
+
+@numba.njit(cache=True)
+def _acf_alphas(x: np.ndarray, m: np.ndarray, dmax: int) -> np.ndarray:
+    """:func:`acf_noise_id` at every factor of ``m`` (k,) in one call: alpha (k,), ``_NO_ACF`` where there
+    are fewer than ``MIN_ACF_POINTS`` frequency averages (``np.rint`` rounds half to even, as ``round``)."""
+    out = np.empty(m.size, dtype=np.int64)
+    for j in range(m.size):
+        mj = m[j]
+        if (x.size - 1) // mj < MIN_ACF_POINTS:
+            out[j] = _NO_ACF
+            continue
+        d = 0
+        while True:
+            r1 = _lag1_of_differences(x, mj, d)
+            delta = r1 / (1.0 + r1)
+            if delta < _DELTA_STATIONARY or d >= dmax:
+                out[j] = int(-np.rint(2.0 * delta)) - 2 * d
+                break
+            d += 1
+    return out
+
+
+def acf_noise_id_fast(x: np.ndarray, m: int, dmax: int) -> int | None:
+    """:func:`acf_noise_id` with the differencing and detrending fused into numba passes per ``d``.
+
+    Same result (the tests compare the two); :func:`identify_noise_methods` calls its kernel once for all
+    factors, where the readable twin's array passes (``np.diff``, the detrend, two dot products) and a
+    Python call per factor dominated the public call's time.
     """
-    if (x.size - 1) // m < MIN_ACF_POINTS:
-        return None
-    d = 0
-    while True:
-        r1 = _lag1_of_differences(x, m, d)
-        delta = r1 / (1.0 + r1)
-        if delta < _DELTA_STATIONARY or d >= dmax:
-            return int(-round(2.0 * delta)) - 2 * d
-        d += 1
+    alpha = int(_acf_alphas(np.ascontiguousarray(x, dtype=np.float64), np.array([m], dtype=np.int64), dmax)[0])
+    return None if alpha == _NO_ACF else alpha
 
 
 def b1_expected(n: int, mu: int) -> float:
@@ -365,16 +384,15 @@ def identify_noise_methods(
     alpha = np.zeros(m.size, dtype=np.int64)
     method = np.full(m.size, "held", dtype="<U4")
     x = np.ascontiguousarray(x, dtype=np.float64)
-    for j, mj in enumerate(m):
-        a = acf_noise_id_fast(x, int(mj), dmax)
+    by_acf = _acf_alphas(x, m, dmax)
+    for j in np.flatnonzero(by_acf == _NO_ACF):  # too few averages for the ACF: B1/R(n)
+        a = b1_noise_id(x, int(m[j]), overlapping)
         if a is not None:
-            method[j] = "acf"
-        else:
-            a = b1_noise_id(x, int(mj), overlapping)
-            if a is not None:
-                method[j] = "b1"
-        if a is not None:
+            method[j] = "b1"
             alpha[j] = min(max(int(a), -2), 2)
+    acf = by_acf != _NO_ACF
+    method[acf] = "acf"
+    alpha[acf] = np.clip(by_acf[acf], -2, 2)
     known = method != "held"
     if not known.all():
         held = 0
