@@ -302,6 +302,8 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
     if table is not None and table.num_rows > 0:
         values = _float_values(table.column(f"c{value_col}"))
         times = None if time_col is None else table.column(f"c{time_col}").combine_chunks()
+        del table
+        pa.default_memory_pool().release_unused()  # the parsed text's pages back to the system, not kept for reuse
         return values, times, True
     values_l, times_l = [], []
     for lineno, tokens in data_lines(path, layout):
