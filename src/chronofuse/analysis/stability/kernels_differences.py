@@ -156,11 +156,28 @@ def difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int
 @numba.njit(cache=True)
 def difference_sums_fused(x: np.ndarray, m: np.ndarray, order: int, overlapping: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`difference_sum_of_squares_fused` at every factor of ``m`` (k,) in one call (step 1 when
-    ``overlapping``, else ``m``): sums (k,) and counts (k,); a count of -1 marks a NaN term."""
+    ``overlapping``, else ``m``): sums (k,) and counts (k,); a count of -1 marks a NaN term.
+
+    Non-overlapping, each decimated phase ``x[::m]`` is taken from the last one whose factor divides
+    ``m`` (``x[::4]`` from ``x[::2]``: on an octave grid each is read from an array half its size, not
+    from the whole record); the values, and so the sums, are the same.
+    """
     sums = np.empty(m.size)
     counts = np.empty(m.size, dtype=np.int64)
+    source = x
+    source_m = 1
     for j in range(m.size):
-        sums[j], counts[j] = difference_sum_of_squares_fused(x, m[j], order, 1 if overlapping else m[j])
+        if overlapping:
+            sums[j], counts[j] = difference_sum_of_squares_fused(x, m[j], order, 1)
+            continue
+        if m[j] % source_m != 0:
+            source = x
+            source_m = 1
+        decimated = np.ascontiguousarray(source[:: m[j] // source_m])  # x[::m[j]]
+        total, count = contiguous_difference_sum(decimated, 1, order)
+        sums[j], counts[j] = (total, count) if total == total else (np.nan, -1)
+        source = decimated
+        source_m = m[j]
     return sums, counts
 
 

@@ -196,7 +196,7 @@ def _decimated(x: np.ndarray, m: int, start: int, size: int, scratch: np.ndarray
 
 
 @numba.njit(cache=True, fastmath=REASSOC)  # reassociated sums: vectorized reductions; the tests compare the twin
-def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
+def _lag1_of_differences(x: np.ndarray, m: int, d: int, inv_m: float) -> float:
     """Lag-1 autocorrelation of the ``d``-times differenced frequency averages at factor ``m``.
 
     The numba twin of ``lag1_autocorrelation`` applied to ``_remove_linear(frequency_averages(x, m))``
@@ -204,7 +204,8 @@ def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
     the line's offset and turns its slope into a constant, which the mean removal takes away). The
     series ``w`` is the ``(d+1)``-th difference of the decimated phase ``x[::m]`` divided by ``m``,
     formed on the fly twice: once for its sums (mean and slope), once for the residuals' energy and
-    lag-1 products. The decimated phase is read block by block (a view of ``x`` at ``m = 1``): no array
+    lag-1 products. ``inv_m`` is the ``1/m`` of the frequency averages (``x`` may be a record already
+    decimated by a factor of the averaging factor, with ``m`` the rest). The decimated phase is read block by block (a view of ``x`` at ``m = 1``): no array
     of the record's size is allocated (at 1e7 points that allocation and its page faults cost more than
     the arithmetic).
     """
@@ -216,7 +217,6 @@ def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
     scratch = np.empty(block + d + 1) if m > 1 else np.empty(0)
     if gathered:
         _decimated(x, m, 0, n + d + 1, scratch)
-    inv_m = 1.0 / m
     p = scratch if gathered else _decimated(x, m, 0, d + 2, scratch)
     w0 = _block_sums(p, 1, d, inv_m, 0.0, 0)[0]
     s1 = 0.0
@@ -260,14 +260,24 @@ def _acf_alphas(x: np.ndarray, m: np.ndarray, dmax: int) -> np.ndarray:
     """:func:`acf_noise_id` at every factor of ``m`` (k,) in one call: alpha (k,), ``_NO_ACF`` where there
     are fewer than ``MIN_ACF_POINTS`` frequency averages (``np.rint`` rounds half to even, as ``round``)."""
     out = np.empty(m.size, dtype=np.int64)
+    source = x  # the last decimated phase x[::source_m] gathered whole, to decimate further from
+    source_m = 1
     for j in range(m.size):
         mj = m[j]
         if (x.size - 1) // mj < MIN_ACF_POINTS:
             out[j] = _NO_ACF
             continue
+        if mj % source_m != 0:
+            source = x
+            source_m = 1
+        rest = mj // source_m
+        if rest > 1 and (source.size - 1) // rest + 1 <= _ACF_WHOLE:  # x[::mj], from the smallest source
+            source = np.ascontiguousarray(source[::rest])
+            source_m = mj
+            rest = 1
         d = 0
         while True:
-            r1 = _lag1_of_differences(x, mj, d)
+            r1 = _lag1_of_differences(source, rest, d, 1.0 / mj)
             delta = r1 / (1.0 + r1)
             if delta < _DELTA_STATIONARY or d >= dmax:
                 out[j] = int(-np.rint(2.0 * delta)) - 2 * d
