@@ -393,14 +393,18 @@ def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float) -> tuple[np.ndarr
     """
     dev = np.asarray(dev, dtype=float)
     edf = np.asarray(edf, dtype=float)
+    ok = np.isfinite(edf) & (edf > 0) & np.isfinite(dev)
+    # chi2.ppf(p, e) is 2 gammaincinv(e/2, p) (scipy's own definition), called directly and once for
+    # both quantiles: the distribution object's argument checks cost more than the quantiles.
+    quantiles = np.array([[(1.0 + ci) / 2.0], [(1.0 - ci) / 2.0]])
+    if ok.all():  # the usual case: no row to leave out
+        q = gammaincinv(edf / 2.0, quantiles)
+        return dev * np.sqrt(edf / (2.0 * q[0])), dev * np.sqrt(edf / (2.0 * q[1]))
     lo = np.full(dev.shape, np.nan)
     hi = np.full(dev.shape, np.nan)
-    ok = np.isfinite(edf) & (edf > 0) & np.isfinite(dev)
     if ok.any():
         e = edf[ok]
-        # chi2.ppf(p, e) is 2 gammaincinv(e/2, p) (scipy's own definition), called directly and once for
-        # both quantiles: the distribution object's argument checks cost more than the quantiles.
-        q = gammaincinv(e / 2.0, np.array([[(1.0 + ci) / 2.0], [(1.0 - ci) / 2.0]]))
+        q = gammaincinv(e / 2.0, quantiles)
         lo[ok] = dev[ok] * np.sqrt(e / (2.0 * q[0]))
         hi[ok] = dev[ok] * np.sqrt(e / (2.0 * q[1]))
     return lo, hi
