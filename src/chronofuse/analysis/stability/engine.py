@@ -24,6 +24,7 @@ import numpy as np
 
 from chronofuse.analysis.stability import edf as edf_mod
 from chronofuse.analysis.stability.convert import fill_gaps
+from chronofuse.analysis.stability.kernels_differences import finite_sum
 from chronofuse.analysis.stability.noise_id import identify_noise_methods
 from chronofuse.analysis.stability.registry import EDF_FAMILIES, GAP_POLICIES, STATISTICS, StatisticSpec
 from chronofuse.analysis.stability.result import Deviation
@@ -46,10 +47,10 @@ def _factors(spec: StatisticSpec, tau_s, rate_hz: float, n_points: int) -> np.nd
     taus = np.asarray(tau_s, dtype=float)
     if taus.ndim != 1 or taus.size == 0:
         raise ValueError(f"tau_s has shape {taus.shape}, must be a non-empty 1-D array of seconds")
-    if not np.all(np.isfinite(taus)) or np.any(taus <= 0):
+    if not (np.isfinite(taus).all() and (taus > 0).all()):
         raise ValueError(f"tau_s == {taus.tolist()}, must be positive finite seconds")
     m = taus_to_factors(taus, rate_hz, tau_factor=spec.tau_factor)  # its errors name tau_s
-    if spec.m_step > 1 and np.any(m % spec.m_step):
+    if spec.m_step > 1 and (m % spec.m_step).any():
         bad = taus[m % spec.m_step != 0]
         raise ValueError(
             f"tau_s == {bad.tolist()}, must be {spec.tau_factor} x even multiples of 1/rate_hz for {spec.name}"
@@ -74,7 +75,7 @@ def _phase(x_s) -> tuple[np.ndarray, int]:
     sends the record through ``check_array`` (which rejects infinities and wrong shapes) and a count.
     """
     x = np.asarray(x_s, dtype=np.float64)
-    if x.ndim == 1 and x.size and np.isfinite(np.add.reduce(x)):
+    if x.ndim == 1 and x.size and np.isfinite(finite_sum(x)):
         return x, 0
     x = check_array(x, "x_s", ndim=1, allow_nan=True)
     return x, int(np.count_nonzero(np.isnan(x)))
