@@ -172,17 +172,16 @@ def _basic_sum(J: np.ndarray, M: np.ndarray, S: np.ndarray, F: np.ndarray, alpha
     """Greenhall eq. (10), one row per EDF: ``sz(0)**2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)**2 +
     (1 - J/M) sz(J/S)**2``; and ``sz(0)**2`` (the normalization). All arguments of shape (k,), ``J >= 1``.
 
-    Rows with fewer terms are padded with zero weights to the longest row's ``floor(J) + 1`` terms.
+    Rows with fewer terms are padded with zero weights to the longest row's ``J + 1`` terms. ``J`` is a whole
+    number here (``M`` and ``(d + 1) S`` are, and so is ``J_max`` in the truncated sum).
     """
-    last = J.astype(np.int64)[:, None]  # floor(J): the column holding the last term j = J
+    last = J.astype(np.int64)[:, None]  # the column holding the last term j = J
     j = np.arange(int(last.max()) + 1, dtype=float)
-    at_last = j == last
-    jj = np.where(at_last, J[:, None], j)
-    M = M[:, None]
-    weights = np.where(at_last, 1.0 - jj / M, 2.0 * (1.0 - jj / M))
+    frac = 1.0 - j / M[:, None]
+    weights = np.where(j < last, 2.0 * frac, frac)
     weights[:, 0] = 1.0
     weights[j > last] = 0.0
-    sz2 = _sz(jj / S[:, None], F, alpha, d)
+    sz2 = _sz(j / S[:, None], F, alpha, d)
     sz2 *= sz2
     return np.einsum("kj,kj->k", weights, sz2), sz2[:, 0]
 
@@ -274,7 +273,8 @@ def greenhall_edf(alpha, d: int, m, n_points: int, *, overlapping: bool, modifie
         else:  # case 2 (alpha <= 0): F = m while m (d+1) <= J_max, else inf; case 3: F = m
             Fb = np.where((a > 0) | (mm * (d + 1) <= _J_MAX), mm, np.inf)
         truncated = ~summed[rows]
-        if truncated.any():  # eq. (10) over J_max terms at m' = J_max / r; F = 1, inf (case 2) or m' (case 3)
+        any_truncated = bool(truncated.any())
+        if any_truncated:  # eq. (10) over J_max terms at m' = J_max / r; F = 1, inf (case 2) or m' (case 3)
             m_prime = _J_MAX / r[rows]
             Jb = np.where(truncated, float(_J_MAX), Jb)
             Mb = np.where(truncated, float(_J_MAX), Mb)
@@ -282,11 +282,11 @@ def greenhall_edf(alpha, d: int, m, n_points: int, *, overlapping: bool, modifie
             if not modified:
                 Fb = np.where(truncated, np.where(a > 0, m_prime, np.inf), Fb)
         total, norm = _basic_sum(Jb, Mb, Sb, Fb, a, d)
-        if not modified and truncated.any():
+        if not modified and any_truncated:
             b0, b1 = _TABLE3[d - 1]
             norm = np.where(truncated & flicker[rows], (b0 + b1 * np.log(mm)) ** 2, norm)
         edf[rows] = 1.0 / (total / (norm * Mb))
-    rows = np.flatnonzero(complete & tabled & ~white)
+    rows = np.flatnonzero(complete & tabled & ~white) if tabled.any() else rows[:0]
     if rows.size:
         table = _TABLE1_ARRAY if modified else _TABLE2_ARRAY
         a0, a1 = table[2 - alpha[rows], d - 1].T
