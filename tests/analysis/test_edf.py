@@ -230,3 +230,39 @@ def test_ci_sets_the_width_of_the_interval(records):
     wide = st.oadev(x, 1.0, octave, ci=0.95)
     assert np.all(wide.lo < narrow.lo) and np.all(wide.hi > narrow.hi)
     np.testing.assert_array_equal(wide.edf, narrow.edf)
+
+
+@pytest.mark.parametrize("d, overlapping, modified", [(2, False, False), (2, True, False), (2, True, True),
+                                                        (3, False, False), (3, True, False)])
+def test_greenhall_edf_of_an_array_of_factors_equals_the_edf_of_each_factor_alone(d, overlapping, modified):
+    # One call covers every regime at once (sum, truncated sum, tables, white PM, M < 1): each row must
+    # come out as it does alone, whatever the other rows are. Eq. (8) at F = m is a second difference
+    # with step 1/m scaled by m**2: it loses about log10(m**2) digits, and numpy evaluates pow and log
+    # with different (equally accurate) routines on arrays of different lengths, so rows agree to
+    # 1e-12 or 1e-15 m**2, whichever is larger (2e-12 at m = 200 for flicker PM, Greenhall case 3).
+    n = 5000
+    m = np.array([1, 2, 3, 8, 16, 33, 34, 64, 200, 1000, 1200, 2000, 4999], dtype=np.int64)
+    for alpha in (2, 1, 0, -1, -2):
+        if alpha + 2 * d <= 1:
+            continue
+        rows = np.full(m.size, alpha, dtype=np.int64)
+        together = greenhall_edf(rows, d, m, n, overlapping=overlapping, modified=modified)
+        alone = np.array([greenhall_edf(alpha, d, int(mm), n, overlapping=overlapping, modified=modified) for mm in m])
+        np.testing.assert_array_equal(np.isnan(together), np.isnan(alone))
+        ok = ~np.isnan(alone)
+        assert np.all(np.abs(together[ok] / alone[ok] - 1) <= np.maximum(1e-12, 1e-15 * m[ok] ** 2.0))
+        assert np.isnan(together[-1])  # no complete term
+    mixed = np.array([2, 1, 0, -1, -2] * 3)[: m.size - 1]
+    together = greenhall_edf(mixed, d, m[:-1], n, overlapping=overlapping, modified=modified)
+    alone = np.array([greenhall_edf(int(a), d, int(mm), n, overlapping=overlapping, modified=modified)
+                      for a, mm in zip(mixed, m)])
+    np.testing.assert_array_equal(np.isnan(together), np.isnan(alone))
+    ok = ~np.isnan(alone)
+    assert np.all(np.abs(together[ok] / alone[ok] - 1) <= np.maximum(1e-12, 1e-15 * m[:-1][ok] ** 2.0))
+
+
+def test_greenhall_edf_rejects_an_alpha_outside_its_tables():
+    with pytest.raises(ValueError, match="alpha"):
+        greenhall_edf(np.array([0, 3]), 2, np.array([4, 4]), 1000, overlapping=True, modified=False)
+    with pytest.raises(ValueError, match="alpha"):
+        greenhall_edf(-1, 1, 4, 1000, overlapping=True, modified=False)

@@ -251,3 +251,26 @@ def test_the_fused_numba_mdev_sum_equals_the_blockwise_numpy_twin():
         s_num, n_num = ka._mvar_sum_of_squares(x, m, work, cumulative.copy())
         s_fused, n_fused = ka._mvar_sum_of_squares_fused(x, m, cumulative)
         assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-9)
+
+
+def test_finite_sum_equals_numpys_sum_and_is_not_finite_exactly_when_a_sample_is_nan_or_infinite():
+    rng = np.random.default_rng(8)
+    x = rng.standard_normal(100_003) * 1e-9
+    assert kd.finite_sum(x) == pytest.approx(float(np.add.reduce(x)), rel=1e-9, abs=1e-18)
+    for bad in (np.nan, np.inf, -np.inf):
+        y = x.copy()
+        y[77_777] = bad
+        assert not np.isfinite(kd.finite_sum(y))
+
+
+def test_non_overlapping_sums_decimated_from_the_previous_factor_equal_those_from_the_whole_record():
+    # difference_sums_fused takes x[::8] from x[::4] on an octave grid; a factor that the previous one
+    # does not divide (12 after 8) goes back to the record. Each must equal its own one-factor sum.
+    x = np.cumsum(np.random.default_rng(9).standard_normal(5000))
+    m = np.array([1, 2, 4, 8, 12, 24, 5], dtype=np.int64)
+    for order in (kd.SECOND, kd.THIRD):
+        sums, counts = kd.difference_sums_fused(x, m, order, False)
+        for j, mj in enumerate(m):
+            alone, count = kd.difference_sum_of_squares(x, int(mj), order, int(mj))
+            assert counts[j] == count
+            assert sums[j] == pytest.approx(alone, rel=1e-12)

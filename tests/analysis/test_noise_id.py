@@ -26,6 +26,7 @@ from chronofuse.analysis.stability.noise_id import (
     b1_expected,
     b1_noise_id,
     identify_noise,
+    identify_noise_methods,
     lag1_autocorrelation,
 )
 
@@ -180,3 +181,20 @@ def test_the_fused_numba_identification_equals_the_readable_numpy_twin(seed):
         for m in (1, 2, 5, 16, 64):
             for dmax in (2, 3):
                 assert acf_noise_id_fast(x, m, dmax) == acf_noise_id(x, m, dmax)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_identification_over_a_grid_equals_the_readable_twin_at_each_factor(seed):
+    """identify_noise_methods decimates each factor's phase from the previous factor's (x[::8] from
+    x[::4]); on a grid mixing octave factors with ones the previous does not divide, every ACF row must be
+    what the numpy twin gives for that factor alone, on records long enough to use blocks (> 2**17 terms)
+    and short ones."""
+    rng = np.random.default_rng(100 + seed)
+    m = np.array([1, 2, 4, 8, 16, 24, 48, 5, 10, 64], dtype=np.int64)
+    for n in (3000, 300_000):
+        white = rng.standard_normal(n)
+        for x in (white, np.cumsum(white), np.cumsum(np.cumsum(white))):
+            alpha, method = identify_noise_methods(x, m, 2)
+            for j, mj in enumerate(m):
+                if method[j] == "acf":
+                    assert alpha[j] == min(max(acf_noise_id(x, int(mj), 2), -2), 2)

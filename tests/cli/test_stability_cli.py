@@ -133,3 +133,23 @@ def test_the_nbs14_10_point_frequency_set_gives_its_published_adev_and_oadev(tmp
     np.testing.assert_allclose(doc["deviations"]["adev"]["dev"], [91.22945, 115.8082], rtol=1e-6)
     np.testing.assert_allclose(doc["deviations"]["oadev"]["dev"], [91.22945, 85.95287], rtol=1e-6)
     assert any("implausible for a clock" in w for w in doc["warnings"])
+
+
+def test_the_names_the_command_lists_are_the_engines_statistics_and_masks():
+    # cli/stability.py names them itself so that its options do not import the engine at start-up.
+    from chronofuse.analysis.masks import MASKS
+    from chronofuse.cli.stability import MASK_NAMES, STATISTIC_NAMES
+
+    assert STATISTIC_NAMES == tuple(stability.STATISTICS)
+    assert MASK_NAMES == tuple(MASKS)
+
+
+def test_a_run_on_a_file_that_cannot_be_read_still_fails_cleanly_while_the_engine_loads(tmp_path):
+    # The engine is imported and warmed on a thread while the file is read; a bad file ends the command
+    # with the usual one-line error, whatever that thread is doing.
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1.0\nabc\n2.0\n")
+    result = runner.invoke(app, ["stability", str(bad), "--rate", "1", "--dev", "oadev,mtie", "--json"])
+    assert result.exit_code == 2 and result.stdout == ""
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1 and "bad.txt:2: cannot read 'abc' as a number" in lines[0], result.stderr

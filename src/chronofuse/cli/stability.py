@@ -1,21 +1,54 @@
-"""``chronofuse stability FILE``: stability statistics of a phase or frequency record."""
+"""``chronofuse stability FILE``: stability statistics of a phase or frequency record.
+
+Start-up overlaps the read: the stability engine (numba, scipy) is imported, and the requested statistics'
+compiled kernels loaded, on a thread while the main thread reads the file (pyarrow's parser releases the
+GIL), so this module names the statistics and masks itself (``STATISTIC_NAMES``, ``MASK_NAMES``; a test checks them against the engine's) instead of importing
+the engine to list them.
+"""
 
 from __future__ import annotations
 
+import importlib
+import threading
 from pathlib import Path
 
 import numpy as np
 import typer
-from rich.table import Table
 
-from chronofuse.analysis import stability as st
-from chronofuse.analysis.masks import MASKS
-from chronofuse.analysis.stability.taus import parse_taus
 from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputDataError
 
 _UNITS_S = {"tdev", "ttotdev", "tie_rms", "mtie"}
+#: The engine's statistics (``chronofuse.analysis.stability.STATISTICS``) and ITU-T masks
+#: (``chronofuse.analysis.masks.MASKS``), named here for the options' help without importing them.
+STATISTIC_NAMES = ("adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev", "mtotdev", "ttotdev", "htotdev",
+                   "theo1", "tie_rms", "mtie")
+MASK_NAMES = ("prtc-a", "prtc-b", "g811")
+_ENGINE_MODULES = ("chronofuse.analysis.stability", "chronofuse.analysis.stability.taus")
+
+
+def _load_meanwhile(modules: tuple[str, ...], statistics: list[str]) -> threading.Thread:
+    """Start importing ``modules`` on a daemon thread, then running each of ``statistics`` once on a short
+    synthetic record (256 points), which loads their compiled numba kernels from the cache: both overlap
+    the main thread's read of the file. The thread is joined before the engine is used; it writes
+    nothing, and an error in it is raised again where the main thread does the same."""
+
+    def work() -> None:
+        try:
+            for name in modules:
+                importlib.import_module(name)
+            from chronofuse.analysis import stability as st
+
+            x = np.cumsum(np.cos(np.arange(256) * 2.3)) * 1e-9  # emits no warning for any statistic
+            for name in statistics:
+                st.compute(name, x, 1.0, st.tau_grid("octave", x.size, 1.0, name))
+        except Exception:  # the main thread's own import or computation raises it where it is handled
+            return
+
+    thread = threading.Thread(target=work, name="chronofuse-warm-up", daemon=True)
+    thread.start()
+    return thread
 
 
 def register(app: typer.Typer) -> None:
@@ -27,9 +60,9 @@ def stability(
     kind: str = typer.Option("phase", "--kind", help="phase (seconds) or freq (fractional frequency)."),
     rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column; "
                                       "overrides a time column that disagrees, with a warning)."),
-    dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(st.STATISTICS)}."),
+    dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(STATISTIC_NAMES)}."),
     taus: str = typer.Option("octave", "--taus", help="octave, decade, all, or comma-separated seconds."),
-    mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASKS)}."),
+    mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASK_NAMES)}."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of the deviations."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
     nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For absolute frequency in Hz: the nominal frequency."),
@@ -39,20 +72,26 @@ def stability(
 ) -> None:
     """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TIE rms and MTIE, with confidence intervals."""
     names = [d.strip().lower() for d in dev.split(",") if d.strip()]
-    unknown = [d for d in names if d not in st.STATISTICS]
+    unknown = [d for d in names if d not in STATISTIC_NAMES]
     if unknown or not names:
-        fail(f"--dev {dev!r}: unknown statistic {unknown}; choose from {', '.join(st.STATISTICS)}")
-    if mask is not None and mask not in MASKS:
-        fail(f"--mask {mask!r}: choose from {', '.join(MASKS)}")
+        fail(f"--dev {dev!r}: unknown statistic {unknown}; choose from {', '.join(STATISTIC_NAMES)}")
+    if mask is not None and mask not in MASK_NAMES:
+        fail(f"--mask {mask!r}: choose from {', '.join(MASK_NAMES)}")
+    importing = _load_meanwhile(_ENGINE_MODULES + (("chronofuse.analysis.masks",) if mask is not None else ()), names)
     with user_errors(), collected_warnings() as notes:
         with progress_reporter("stability") as say:
             say("reading")
             record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz)
+            importing.join()
+            from chronofuse.analysis import stability as st
+
             x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
             results = {name: _compute(file, name, x, record.rate_hz, taus, ci, not no_bias_correction, say)
                        for name in names}
             verdict = None
             if mask is not None:
+                from chronofuse.analysis.masks import MASKS
+
                 say(f"mask {mask}")
                 verdict = MASKS[mask].check(x, record.rate_hz)
         if plot is not None:
@@ -80,6 +119,8 @@ def stability(
     if json_out:
         print_json(doc)
         return
+    from rich.table import Table  # the human output only
+
     con = human_console(False)
     timing = (f"; time tags off the grid by {record.jitter_rms_s:.3g} s rms, {record.jitter_max_s:.3g} s at most"
               if record.t_ns is not None else "")
@@ -102,6 +143,9 @@ def stability(
 def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bias: bool, say):
     """One statistic on the octave/decade/all grid or the listed taus; a record too short for it is an
     error naming the file."""
+    from chronofuse.analysis import stability as st
+    from chronofuse.analysis.stability.taus import parse_taus
+
     say(name)
     try:
         tau_s = parse_taus(taus, x.size, rate_hz, name)

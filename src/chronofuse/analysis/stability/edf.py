@@ -92,134 +92,148 @@ _TABLE2 = {
 _TABLE3 = [(6.0, 4.0), (15.23, 12.0), (47.8, 40.0)]
 
 
-def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
-    """Greenhall eq. (7): the generalized autocovariance kernel ``sw(t)`` of power-law noise."""
-    t = np.asarray(t, dtype=float)
+# Greenhall Tables 1-3 as arrays indexed [2 - alpha, d - 1] (NaN where the table has no entry).
+def _table_array(table: dict) -> np.ndarray:
+    out = np.full((7, 3, 2), np.nan)
+    for alpha, row in table.items():
+        for j, (a0, a1) in enumerate(row):
+            if a0 is not None:
+                out[2 - alpha, j] = (a0, a1)
+    return out
+
+
+_TABLE1_ARRAY = _table_array(_TABLE1)
+_TABLE2_ARRAY = _table_array(_TABLE2)
+
+
+# sw(t) of eq. (7) is sign |t|**p (ln|t| for odd alpha), p = 3 - alpha; by row 2 - alpha (alpha = 2..-4).
+_SW_SIGN = np.array([-1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
+_SW_LOG = np.array([False, True, False, True, False, True, False])
+_TINY = np.finfo(float).tiny  # ln(tiny) is finite: |t|**p ln|t| stays 0 at t = 0
+
+
+def _sw(t: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Greenhall eq. (7): the generalized autocovariance kernel ``sw(t)`` of power-law noise.
+
+    ``sw = -|t|, t**2 ln|t|, |t|**3, -t**4 ln|t|, -|t|**5, t**6 ln|t|, |t|**7`` for ``alpha = 2 .. -4``
+    (``t**p ln|t| -> 0`` at ``t = 0``). ``t`` of shape (..., k, T, K) and the integer ``alpha`` of shape
+    (k, 1, 1) (one alpha per row of arguments) broadcast together.
+    """
+    row = 2 - alpha
     a = np.abs(t)
-    if alpha == 2:
-        return -a
-    if alpha == 0:
-        return a**3
-    if alpha == -2:
-        return -(a**5)
-    if alpha == -4:
-        return a**7
-    if alpha not in (1, -1, -3):
-        raise ValueError(f"alpha == {alpha}, must be an integer in -4..2")
-    log_a = np.log(np.where(a > 0, a, 1.0))  # t**k log|t| -> 0 at t = 0
-    if alpha == 1:
-        return t**2 * log_a
-    if alpha == -1:
-        return -(t**4) * log_a
-    return t**6 * log_a
+    out = a ** (3.0 - alpha)
+    with_log = _SW_LOG[row]
+    if with_log.any():
+        out *= np.where(with_log, np.log(np.maximum(a, _TINY)), 1.0)
+    out *= _SW_SIGN[row]
+    return out
 
 
-def _sx(t: np.ndarray, F: float, alpha: int) -> np.ndarray:
-    """Greenhall eq. (8): ``sx(t) = F**2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)]``; ``sw(t, alpha+2)`` at F = inf."""
-    if math.isinf(F):
-        return _sw(t, alpha + 2)
-    shifted = _sw(np.stack((t, t - 1.0 / F, t + 1.0 / F)), alpha)  # one kernel call for the three arguments
-    return F**2 * (2.0 * shifted[0] - shifted[1] - shifted[2])
+def _sx(t: np.ndarray, F: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Greenhall eq. (8), ``sx(t) = F**2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)]``, and its limit
+    ``sx(t) = sw(t, alpha + 2)`` where ``F = inf``.
+
+    ``t`` of shape (k, T, K) (one row of arguments per EDF), ``F`` and ``alpha`` of shape (k,). Both forms
+    are ``G [c sw(t) - c' sw(t - h) - c' sw(t + h)]``: ``(G, c, c', h) = (F**2, 2, 1, 1/F)`` or ``(1, 1, 0, 0)``
+    with ``alpha + 2``, so one kernel call serves every row (multiplying by 1 or 0 is exact).
+    """
+    infinite = np.isinf(F)[:, None, None]
+    F = F[:, None, None]
+    step = np.where(infinite, 0.0, 1.0 / F)
+    shifted = np.empty((3,) + t.shape)  # t, t - h, t + h: one kernel call for the three
+    shifted[0] = t
+    np.subtract(t, step, out=shifted[1])
+    np.add(t, step, out=shifted[2])
+    sw = _sw(shifted, np.where(infinite, alpha[:, None, None] + 2, alpha[:, None, None]))
+    side = np.where(infinite, 0.0, 1.0)
+    out = sw[0] * (1.0 + side)
+    out -= sw[1] * side
+    out -= sw[2] * side
+    out *= np.where(infinite, 1.0, F**2)
+    return out
 
 
-def _sz(t: np.ndarray, F: float, alpha: int, d: int) -> np.ndarray:
-    """Greenhall eq. (9): ``sz(t) = sum_k (-1)**k C(2d, d+k) sx(t + k)``, ``k = -d..d``."""
-    t = np.asarray(t, dtype=float)
-    k = np.arange(-d, d + 1)
-    weights = np.array([(-1) ** int(kk) * math.comb(2 * d, d + int(kk)) for kk in k], dtype=float)
-    sx = _sx(t[..., None] + k, F, alpha)  # (..., 2d+1): every shift in one call
-    return sx @ weights
+# (-1)**k C(2d, d+k) for k = -d..d, by d: the weights of eq. (9); and the shifts k.
+_SZ_WEIGHTS = {d: np.array([(-1) ** k * math.comb(2 * d, d + k) for k in range(-d, d + 1)], dtype=float)
+               for d in range(1, 4)}
+_SZ_SHIFTS = {d: np.arange(-d, d + 1, dtype=float) for d in range(1, 4)}
 
 
-def _sw_scalar(t: float, alpha: int) -> float:
-    """:func:`_sw` of one float (no array overhead: the short sums of eq. (10) are mostly a few terms)."""
-    a = abs(t)
-    if alpha == 2:
-        return -a
-    if alpha == 0:
-        return a**3
-    if alpha == -2:
-        return -(a**5)
-    if alpha == -4:
-        return a**7
-    log_a = math.log(a) if a > 0 else 0.0
-    if alpha == 1:
-        return t * t * log_a
-    if alpha == -1:
-        return -(t**4) * log_a
-    if alpha == -3:
-        return t**6 * log_a
-    raise ValueError(f"alpha == {alpha}, must be an integer in -4..2")
+def _sz(t: np.ndarray, F: np.ndarray, alpha: np.ndarray, d: int) -> np.ndarray:
+    """Greenhall eq. (9): ``sz(t) = sum_k (-1)**k C(2d, d+k) sx(t + k)``, ``k = -d..d``.
+
+    ``t`` of shape (k, T) (T arguments per row), ``F`` and ``alpha`` of shape (k,): one row per EDF.
+    """
+    sx = _sx(t[..., None] + _SZ_SHIFTS[d], F, alpha)  # (k, T, 2d+1)
+    return sx @ _SZ_WEIGHTS[d]
 
 
-# (k, (-1)**k C(2d, d+k)) for k = -d..d, by d: the weights of eq. (9).
-_SZ_WEIGHTS = {d: tuple((k, (-1) ** k * math.comb(2 * d, d + k)) for k in range(-d, d + 1)) for d in range(1, 4)}
+def _basic_sum(J: np.ndarray, M: np.ndarray, S: np.ndarray, F: np.ndarray, alpha: np.ndarray, d: int):
+    """Greenhall eq. (10), one row per EDF: ``sz(0)**2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)**2 +
+    (1 - J/M) sz(J/S)**2``; and ``sz(0)**2`` (the normalization). All arguments of shape (k,), ``J >= 1``.
+
+    Rows with fewer terms are padded with zero weights to the longest row's ``J + 1`` terms. ``J`` is a whole
+    number here (``M`` and ``(d + 1) S`` are, and so is ``J_max`` in the truncated sum).
+    """
+    last = J.astype(np.int64)[:, None]  # the column holding the last term j = J
+    j = np.arange(int(last.max()) + 1, dtype=float)
+    frac = 1.0 - j / M[:, None]
+    weights = np.where(j < last, 2.0 * frac, frac)
+    weights[:, 0] = 1.0
+    weights[j > last] = 0.0
+    sz2 = _sz(j / S[:, None], F, alpha, d)
+    sz2 *= sz2
+    return np.einsum("kj,kj->k", weights, sz2), sz2[:, 0]
 
 
-def _sz_scalar(t: float, F: float, alpha: int, d: int) -> float:
-    """:func:`_sz` of one float."""
-    total = 0.0
-    weights = _SZ_WEIGHTS[d] if d in _SZ_WEIGHTS else tuple((k, (-1) ** k * math.comb(2 * d, d + k))
-                                                            for k in range(-d, d + 1))
-    if math.isinf(F):
-        for k, w in weights:
-            total += w * _sw_scalar(t + k, alpha + 2)
-        return total
-    step = 1.0 / F
-    for k, w in weights:
-        u = t + k
-        total += w * (F * F * (2.0 * _sw_scalar(u, alpha) - _sw_scalar(u - step, alpha) - _sw_scalar(u + step, alpha)))
-    return total
+def _binomial_autocorrelation(d: int) -> np.ndarray:
+    """``rho(p)``, p = -d..d: the autocorrelation of the binomial difference coefficients ``(-1)**k C(d, k)``."""
+    c = [(-1) ** k * math.comb(d, k) for k in range(d + 1)]
+    return np.array([sum(c[i] * c[i + abs(p)] for i in range(d + 1 - abs(p))) for p in range(-d, d + 1)], dtype=float)
 
 
-# Up to this many terms eq. (10) is summed with Python floats; beyond, with arrays.
-_SCALAR_TERMS = 8
+_RHO_SQUARED = {d: _binomial_autocorrelation(d)[:, None] ** 2 for d in range(1, 4)}  # (2d+1, 1)
+_LAGS = {d: np.abs(np.arange(-d, d + 1, dtype=float))[:, None] for d in range(1, 4)}
 
 
-def _basic_sum(J: float, M: float, S: float, F: float, alpha: int, d: int) -> float:
-    """Greenhall eq. (10): ``sz(0)**2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)**2 + (1 - J/M) sz(J/S)**2``."""
-    if J <= _SCALAR_TERMS:
-        total = _sz_scalar(0.0, F, alpha, d) ** 2
-        if int(J) >= 1:
-            total += (1.0 - J / M) * _sz_scalar(J / S, F, alpha, d) ** 2
-        for jj in range(1, int(J)):
-            total += 2.0 * (1.0 - jj / M) * _sz_scalar(jj / S, F, alpha, d) ** 2
-        return total
-    j = np.arange(0, int(J) + 1, dtype=float)
-    j[-1] = J
-    sz2 = _sz(j / S, F, alpha, d) ** 2
-    weights = 2.0 * (1.0 - j / M)
-    weights[0] = 1.0
-    weights[-1] = 1.0 - J / M
-    if int(J) == 0:
-        return float(sz2[0])
-    return float(np.dot(weights, sz2))
-
-
-def _white_pm_unmodified(d: int, M: float, S: float) -> float:
+def _white_pm_unmodified(d: int, M: np.ndarray, S: np.ndarray) -> np.ndarray:
     """Exact EDF of an unmodified variance for white PM: ``M**2 rho0**2 / sum_p (M - |p| S)+ rho(p)**2``.
 
     ``rho(p)`` is the autocorrelation of the binomial difference coefficients at lag ``p`` (in units of
     ``m``); terms ``S`` per ``m`` apart overlap at lags ``p S``. Equals Greenhall case 4 when
-    ``ceil(M/S) > d`` (``a0 = C(4d, 2d)/C(2d, d)**2``, ``a1 = d/2``).
+    ``ceil(M/S) > d`` (``a0 = C(4d, 2d)/C(2d, d)**2``, ``a1 = d/2``). ``M``, ``S`` of shape (k,).
     """
-    c = [(-1) ** k * math.comb(d, k) for k in range(d + 1)]
-    rho = [sum(c[i] * c[i + abs(p)] for i in range(d + 1 - abs(p))) for p in range(-d, d + 1)]  # lags -d..d
-    total = sum(max(M - abs(p) * S, 0.0) * rho[p + d] ** 2 for p in range(-d, d + 1))
-    return M**2 * rho[d] ** 2 / total
+    rho2 = _RHO_SQUARED[d]
+    total = np.sum(np.maximum(M - _LAGS[d] * S, 0.0) * rho2, axis=0)
+    return M**2 * rho2[d, 0] / total
 
 
-def greenhall_edf(alpha: int, d: int, m: int, n_points: int, *, overlapping: bool, modified: bool) -> float:
+def _integer_rows(alpha, m) -> tuple[np.ndarray, np.ndarray, bool]:
+    """``alpha`` and ``m`` as int64 arrays of one shape (k,), and whether both were scalars."""
+    if isinstance(alpha, np.ndarray) and isinstance(m, np.ndarray) and alpha.shape == m.shape and alpha.ndim == 1 \
+            and alpha.dtype == np.int64 and m.dtype == np.int64:
+        return alpha, m, False  # the engine's call: nothing to convert
+    scalar = np.ndim(alpha) == 0 and np.ndim(m) == 0
+    alpha, m = np.broadcast_arrays(np.atleast_1d(np.asarray(alpha)), np.atleast_1d(np.asarray(m)))
+    if alpha.ndim != 1:
+        raise ValueError(f"alpha and m have shape {alpha.shape}, must be scalars or 1-D")
+    for name, v in (("alpha", alpha), ("m", m)):
+        if not np.issubdtype(v.dtype, np.integer) and not np.array_equal(v, np.round(v)):
+            raise ValueError(f"{name} == {v.tolist()}, must be integers")
+    return alpha.astype(np.int64), m.astype(np.int64), scalar
+
+
+def greenhall_edf(alpha, d: int, m, n_points: int, *, overlapping: bool, modified: bool):
     """Greenhall's EDF of a finite-difference variance (Greenhall & Riley 2003, section 5).
 
     Parameters
     ----------
-    alpha : int
+    alpha : int or array of int of shape (k,)
         Noise exponent, -4..2, with ``alpha + 2 d > 1``.
     d : int
         Difference order: 2 Allan, 3 Hadamard (1 for the first-difference variance).
-    m : int
-        Averaging factor.
+    m : int or array of int of shape (k,)
+        Averaging factor (broadcast against ``alpha``).
     n_points : int
         Number of phase samples ``N``.
     overlapping, modified : bool
@@ -227,116 +241,148 @@ def greenhall_edf(alpha: int, d: int, m: int, n_points: int, *, overlapping: boo
 
     Returns
     -------
-    float
-        The EDF, NaN when the record holds no complete term (``M < 1``).
+    float or ndarray of shape (k,)
+        The EDF (a float when ``alpha`` and ``m`` are scalars), NaN where the record holds no complete
+        term (``M < 1``).
     """
-    alpha, d, m = int(alpha), int(d), int(m)
-    if alpha + 2 * d <= 1:
-        raise ValueError(f"alpha == {alpha}, must satisfy alpha + 2 d > 1 for d == {d}")
-    F = 1.0 if modified else float(m)
-    S = float(m) if overlapping else 1.0
-    L = m / F + m * d  # length of the filter applied to the phase, in samples
-    M = 1.0 + math.floor(S * (n_points - L) / m)
-    if M < 1:
-        return float("nan")
-    J = min(M, (d + 1) * S)
+    alpha, m, scalar = _integer_rows(alpha, m)
+    d = int(d)
+    if d not in _SZ_WEIGHTS:
+        raise ValueError(f"d == {d}, must be 1, 2 or 3 (Greenhall's tables)")
+    low, high = (int(alpha.min()), int(alpha.max())) if alpha.size else (2, 2)
+    if low < -4 or high > 2 or low + 2 * d <= 1:
+        raise ValueError(f"alpha == {alpha.tolist()}, must be integers in -4..2 with alpha + 2 d > 1 for d == {d}")
+    mf = m.astype(float)
+    S = mf if overlapping else np.ones_like(mf)
+    # Filter length L = m/F + m d in samples (F = 1 modified, m unmodified), then the number of terms M.
+    L = mf * (d + 1) if modified else 1.0 + mf * d
+    M = 1.0 + np.floor(S * (n_points - L) / mf)
+    J = np.minimum(M, (d + 1) * S)
     r = M / S
-    if modified:  # case 1
-        if J <= _J_MAX:
-            inv = _basic_sum(J, M, S, 1.0, alpha, d) / (_sz_scalar(0.0, 1.0, alpha, d) ** 2 * M)
-        elif r > d + 1:
-            a0, a1 = _TABLE1[alpha][d - 1]
-            inv = (a0 - a1 / r) / r
-        else:
-            m_prime = _J_MAX / r
-            inv = _basic_sum(_J_MAX, _J_MAX, m_prime, 1.0, alpha, d) / (
-                _sz_scalar(0.0, 1.0, alpha, d) ** 2 * _J_MAX
-            )
-        return 1.0 / inv
-    if alpha == 2:  # case 4, exact
-        return _white_pm_unmodified(d, M, S)
-    if alpha <= 0:  # case 2
-        if J <= _J_MAX:
-            m_prime = float(m) if m * (d + 1) <= _J_MAX else math.inf
-            inv = _basic_sum(J, M, S, m_prime, alpha, d) / (_sz_scalar(0.0, m_prime, alpha, d) ** 2 * M)
-        elif r > d + 1:
-            a0, a1 = _TABLE2[alpha][d - 1]
-            inv = (a0 - a1 / r) / r
-        else:
-            m_prime = _J_MAX / r
-            inv = _basic_sum(_J_MAX, _J_MAX, m_prime, math.inf, alpha, d) / (
-                _sz_scalar(0.0, math.inf, alpha, d) ** 2 * _J_MAX
-            )
-        return 1.0 / inv
-    # alpha == 1, case 3
-    b0, b1 = _TABLE3[d - 1]
-    if J <= _J_MAX:
-        inv = _basic_sum(J, M, S, float(m), 1, d) / (_sz_scalar(0.0, float(m), 1, d) ** 2 * M)
-    elif r > d + 1:
-        a0, a1 = _TABLE2[1][d - 1]
-        inv = (a0 - a1 / r) / ((b0 + b1 * math.log(m)) ** 2 * r)
-    else:
-        m_prime = _J_MAX / r
-        inv = _basic_sum(_J_MAX, _J_MAX, m_prime, m_prime, 1, d) / ((b0 + b1 * math.log(m)) ** 2 * _J_MAX)
-    return 1.0 / inv
+    complete = M >= 1
+    summed = J <= _J_MAX  # eq. (10) over J terms; else Tables 1-3 (r > d + 1) or eq. (10) truncated
+    tabled = ~summed & (r > d + 1)
+    white = complete & (alpha == 2) if not modified else np.zeros(m.size, dtype=bool)  # case 4, exact
+    flicker = alpha == 1  # case 3 when unmodified: Table 3's normalization
+    edf = np.full(m.size, np.nan)
+    rows = np.flatnonzero(complete & ~tabled & ~white)
+    if rows.size:
+        a, mm, Jb, Mb, Sb = alpha[rows], mf[rows], J[rows], M[rows], S[rows]
+        if modified:  # case 1: F = 1
+            Fb = np.ones_like(mm)
+        else:  # case 2 (alpha <= 0): F = m while m (d+1) <= J_max, else inf; case 3: F = m
+            Fb = np.where((a > 0) | (mm * (d + 1) <= _J_MAX), mm, np.inf)
+        truncated = ~summed[rows]
+        any_truncated = bool(truncated.any())
+        if any_truncated:  # eq. (10) over J_max terms at m' = J_max / r; F = 1, inf (case 2) or m' (case 3)
+            m_prime = _J_MAX / r[rows]
+            Jb = np.where(truncated, float(_J_MAX), Jb)
+            Mb = np.where(truncated, float(_J_MAX), Mb)
+            Sb = np.where(truncated, m_prime, Sb)
+            if not modified:
+                Fb = np.where(truncated, np.where(a > 0, m_prime, np.inf), Fb)
+        total, norm = _basic_sum(Jb, Mb, Sb, Fb, a, d)
+        if not modified and any_truncated:
+            b0, b1 = _TABLE3[d - 1]
+            norm = np.where(truncated & flicker[rows], (b0 + b1 * np.log(mm)) ** 2, norm)
+        edf[rows] = 1.0 / (total / (norm * Mb))
+    rows = np.flatnonzero(complete & tabled & ~white) if tabled.any() else rows[:0]
+    if rows.size:
+        table = _TABLE1_ARRAY if modified else _TABLE2_ARRAY
+        a0, a1 = table[2 - alpha[rows], d - 1].T
+        rr = r[rows]
+        inv = (a0 - a1 / rr) / rr
+        if not modified and flicker[rows].any():
+            b0, b1 = _TABLE3[d - 1]
+            inv = np.where(flicker[rows], (a0 - a1 / rr) / ((b0 + b1 * np.log(mf[rows])) ** 2 * rr), inv)
+        edf[rows] = 1.0 / inv
+    if white.any():
+        edf[white] = _white_pm_unmodified(d, M[white], S[white])
+    return float(edf[0]) if scalar else edf
 
 
 # SP 1065 Table 7 (TOTVAR): (b, c) for alpha = 0, -1, -2.
 _TOTDEV_TABLE7 = {0: (1.50, 0.0), -1: (1.17, 0.22), -2: (0.93, 0.36)}
+_TOTDEV_TABLE7_ARRAY = np.array([_TOTDEV_TABLE7[a] for a in (0, -1, -2)])  # row -alpha
 
 
-def simple_adev_edf(alpha: int, m: int, n_points: int) -> float:
+def _check_alpha(alpha: np.ndarray, allowed: tuple[int, ...]) -> None:
+    """Raise when an ``alpha`` (k,) is outside ``allowed``, naming the values and what was expected."""
+    if not np.isin(alpha, allowed).all():
+        raise ValueError(f"alpha == {alpha.tolist()}, must be in {list(allowed)}")
+
+
+def _result(edf: np.ndarray, scalar: bool):
+    """The EDF as a float for scalar inputs, else the (k,) array."""
+    return float(edf[0]) if scalar else edf
+
+
+def simple_adev_edf(alpha, m, n_points: int):
     """Simple approximate ADEV EDF of SP 1065 Table 5 (after Howe, Allan and Barnes 1981), PM noises.
 
-    White PM: ``(N+1)(N-2m) / (2(N-m))``; flicker PM: ``exp(sqrt(ln((N-1)/(2m)) ln((2m+1)(N-1)/4)))``,
-    ``N`` phase points.
+    White PM (alpha = 2): ``(N+1)(N-2m) / (2(N-m))``; flicker PM (alpha = 1):
+    ``exp(sqrt(ln((N-1)/(2m)) ln((2m+1)(N-1)/4)))``, ``N`` phase points. ``alpha`` and ``m`` scalars or
+    (k,) arrays; a float for scalars, else an array (k,).
     """
+    alpha, m, scalar = _integer_rows(alpha, m)
+    _check_alpha(alpha, (2, 1))
     N = float(n_points)
-    if alpha == 2:
-        return (N + 1.0) * (N - 2.0 * m) / (2.0 * (N - m))
-    if alpha == 1:
-        return math.exp(math.sqrt(math.log((N - 1.0) / (2.0 * m)) * math.log((2.0 * m + 1.0) * (N - 1.0) / 4.0)))
-    raise ValueError(f"alpha == {alpha}, must be 2 or 1 (white or flicker PM)")
+    mf = m.astype(float)
+    with np.errstate(invalid="ignore"):
+        flicker = np.exp(np.sqrt(np.log((N - 1.0) / (2.0 * mf)) * np.log((2.0 * mf + 1.0) * (N - 1.0) / 4.0)))
+    white = (N + 1.0) * (N - 2.0 * mf) / (2.0 * (N - mf))
+    return _result(np.where(alpha == 2, white, flicker), scalar)
 
 
-def totdev_edf(alpha: int, m: int, n_points: int) -> float:
-    """TOTDEV EDF: SP 1065 Table 7, ``b N/m - c`` (alpha 0, -1, -2); SP 1065 Table 5 for PM noise."""
-    if alpha in _TOTDEV_TABLE7:
-        b, c = _TOTDEV_TABLE7[alpha]
-        return b * n_points / m - c
-    return simple_adev_edf(alpha, m, n_points)
+def totdev_edf(alpha, m, n_points: int):
+    """TOTDEV EDF: SP 1065 Table 7, ``b N/m - c`` (alpha 0, -1, -2); SP 1065 Table 5 for PM noise (2, 1).
+
+    ``alpha`` and ``m`` scalars or (k,) arrays; a float for scalars, else an array (k,).
+    """
+    alpha, m, scalar = _integer_rows(alpha, m)
+    _check_alpha(alpha, (2, 1, 0, -1, -2))
+    pm = alpha > 0
+    b, c = _TOTDEV_TABLE7_ARRAY[np.clip(-alpha, 0, 2)].T  # PM rows are replaced below
+    edf = b * n_points / m - c
+    if pm.any():
+        edf[pm] = simple_adev_edf(alpha[pm], m[pm], n_points)
+    return _result(edf, scalar)
 
 
-def mtotdev_edf(alpha: int, m: int, n_points: int) -> float:
+def mtotdev_edf(alpha, m, n_points: int):
     """MTOTDEV/TTOTDEV EDF: Greenhall's MDEV EDF (what Stable32 uses, see the module docstring)."""
     return greenhall_edf(alpha, 2, m, n_points, overlapping=True, modified=True)
 
 
-def htotdev_edf(alpha: int, m: int, n_points: int) -> float:
+def htotdev_edf(alpha, m, n_points: int):
     """HTOTDEV EDF: Greenhall's OHDEV EDF (a lower bound; SP 1065 has no HTOTDEV EDF)."""
     return greenhall_edf(alpha, 3, m, n_points, overlapping=True, modified=False)
 
 
-def theo1_edf(alpha: int, m: int, n_points: int) -> float:
-    """Theo1 EDF, SP 1065 Theo1 section (Howe & Tasset 2004), ``r = 0.75 m``, ``N`` phase points."""
+def theo1_edf(alpha, m, n_points: int):
+    """Theo1 EDF, SP 1065 Theo1 section (Howe & Tasset 2004), ``r = 0.75 m``, ``N`` phase points.
+
+    ``alpha`` (-2..2) and ``m`` scalars or (k,) arrays; a float for scalars, else an array (k,).
+    """
+    alpha, m, scalar = _integer_rows(alpha, m)
+    _check_alpha(alpha, (2, 1, 0, -1, -2))
     N = float(n_points)
     r = 0.75 * m
-    if alpha == 2:
-        return 0.86 * (N + 1.0) * (N - 4.0 * r / 3.0) / (N - r) * r / (r + 1.14)
-    if alpha == 1:
-        return (4.798 * N**2 - 6.374 * N * r + 12.387 * r) / (np.sqrt(r + 36.6) * (N - r) * (N + 0.3)) * r / (r + 0.3)
-    if alpha == 0:
-        return ((4.1 * N + 0.8) / r - (3.1 * N + 6.5) / N) * r**1.5 / (r**1.5 + 5.2)
-    if alpha == -1:
-        return (2.0 * N**2 - 1.3 * N * r - 3.5 * r) / (N * r) * r**3 / (r**3 + 2.3)
-    if alpha == -2:
-        return (
-            (4.4 * N - 2.0)
-            / (2.9 * r)
-            * ((4.4 * N - 1.0) ** 2 - 8.6 * r * (4.4 * N - 1.0) + 11.4 * r**2)
-            / (4.4 * N - 3.0) ** 2
-        )
-    raise ValueError(f"alpha == {alpha}, must be an integer in -2..2")
+    by_alpha = {
+        2: lambda r: 0.86 * (N + 1.0) * (N - 4.0 * r / 3.0) / (N - r) * r / (r + 1.14),
+        1: lambda r: (4.798 * N**2 - 6.374 * N * r + 12.387 * r) / (np.sqrt(r + 36.6) * (N - r) * (N + 0.3))
+        * r / (r + 0.3),
+        0: lambda r: ((4.1 * N + 0.8) / r - (3.1 * N + 6.5) / N) * r**1.5 / (r**1.5 + 5.2),
+        -1: lambda r: (2.0 * N**2 - 1.3 * N * r - 3.5 * r) / (N * r) * r**3 / (r**3 + 2.3),
+        -2: lambda r: (4.4 * N - 2.0) / (2.9 * r) * ((4.4 * N - 1.0) ** 2 - 8.6 * r * (4.4 * N - 1.0) + 11.4 * r**2)
+        / (4.4 * N - 3.0) ** 2,
+    }
+    edf = np.empty(m.size)
+    for a, formula in by_alpha.items():
+        rows = alpha == a
+        if rows.any():
+            edf[rows] = formula(r[rows])
+    return _result(edf, scalar)
 
 
 def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float) -> tuple[np.ndarray, np.ndarray]:
@@ -347,13 +393,18 @@ def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float) -> tuple[np.ndarr
     """
     dev = np.asarray(dev, dtype=float)
     edf = np.asarray(edf, dtype=float)
+    ok = np.isfinite(edf) & (edf > 0) & np.isfinite(dev)
+    # chi2.ppf(p, e) is 2 gammaincinv(e/2, p) (scipy's own definition), called directly and once for
+    # both quantiles: the distribution object's argument checks cost more than the quantiles.
+    quantiles = np.array([[(1.0 + ci) / 2.0], [(1.0 - ci) / 2.0]])
+    if ok.all():  # the usual case: no row to leave out
+        q = gammaincinv(edf / 2.0, quantiles)
+        return dev * np.sqrt(edf / (2.0 * q[0])), dev * np.sqrt(edf / (2.0 * q[1]))
     lo = np.full(dev.shape, np.nan)
     hi = np.full(dev.shape, np.nan)
-    ok = np.isfinite(edf) & (edf > 0) & np.isfinite(dev)
     if ok.any():
         e = edf[ok]
-        # chi2.ppf(p, e) is 2 gammaincinv(e/2, p) (scipy's own definition), called directly: the
-        # distribution object's argument checks cost more than the quantiles on a short tau grid.
-        lo[ok] = dev[ok] * np.sqrt(e / (2.0 * gammaincinv(e / 2.0, (1.0 + ci) / 2.0)))
-        hi[ok] = dev[ok] * np.sqrt(e / (2.0 * gammaincinv(e / 2.0, (1.0 - ci) / 2.0)))
+        q = gammaincinv(e / 2.0, quantiles)
+        lo[ok] = dev[ok] * np.sqrt(e / (2.0 * q[0]))
+        hi[ok] = dev[ok] * np.sqrt(e / (2.0 * q[1]))
     return lo, hi

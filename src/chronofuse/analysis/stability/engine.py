@@ -24,6 +24,7 @@ import numpy as np
 
 from chronofuse.analysis.stability import edf as edf_mod
 from chronofuse.analysis.stability.convert import fill_gaps
+from chronofuse.analysis.stability.kernels_differences import finite_sum
 from chronofuse.analysis.stability.noise_id import identify_noise_methods
 from chronofuse.analysis.stability.registry import EDF_FAMILIES, GAP_POLICIES, STATISTICS, StatisticSpec
 from chronofuse.analysis.stability.result import Deviation
@@ -46,10 +47,10 @@ def _factors(spec: StatisticSpec, tau_s, rate_hz: float, n_points: int) -> np.nd
     taus = np.asarray(tau_s, dtype=float)
     if taus.ndim != 1 or taus.size == 0:
         raise ValueError(f"tau_s has shape {taus.shape}, must be a non-empty 1-D array of seconds")
-    if not np.all(np.isfinite(taus)) or np.any(taus <= 0):
+    if not (np.isfinite(taus).all() and (taus > 0).all()):
         raise ValueError(f"tau_s == {taus.tolist()}, must be positive finite seconds")
     m = taus_to_factors(taus, rate_hz, tau_factor=spec.tau_factor)  # its errors name tau_s
-    if spec.m_step > 1 and np.any(m % spec.m_step):
+    if spec.m_step > 1 and (m % spec.m_step).any():
         bad = taus[m % spec.m_step != 0]
         raise ValueError(
             f"tau_s == {bad.tolist()}, must be {spec.tau_factor} x even multiples of 1/rate_hz for {spec.name}"
@@ -67,25 +68,29 @@ def _factors(spec: StatisticSpec, tau_s, rate_hz: float, n_points: int) -> np.nd
     return m
 
 
+def _phase(x_s) -> tuple[np.ndarray, int]:
+    """``x_s`` as a float64 array (N,) and its number of missing (NaN) samples.
+
+    One reduction vouches for a finite record (no NaN, no infinity); only a sum that is not finite
+    sends the record through ``check_array`` (which rejects infinities and wrong shapes) and a count.
+    """
+    x = np.asarray(x_s, dtype=np.float64)
+    if x.ndim == 1 and x.size and np.isfinite(finite_sum(x)):
+        return x, 0
+    x = check_array(x, "x_s", ndim=1, allow_nan=True)
+    return x, int(np.count_nonzero(np.isnan(x)))
+
+
 def _edf(spec: StatisticSpec, alpha: np.ndarray, m: np.ndarray, n_points: int) -> np.ndarray:
-    """EDF (k,) of each factor by the statistic's family (NaN for ``none``)."""
-    out = np.full(m.size, np.nan)
+    """EDF (k,) of each factor by the statistic's family (NaN for ``none``), all factors in one call."""
     if spec.edf_family == "none":
-        return out
-    for j, (a, mj) in enumerate(zip(alpha, m)):
-        a, mj = int(a), int(mj)
-        if spec.edf_family == "greenhall":
-            d, overlapping, modified = edf_mod.GREENHALL_PARAMETERS[spec.name]
-            out[j] = edf_mod.greenhall_edf(a, d, mj, n_points, overlapping=overlapping, modified=modified)
-        elif spec.edf_family == "totdev":
-            out[j] = edf_mod.totdev_edf(a, mj, n_points)
-        elif spec.edf_family == "mtotdev":
-            out[j] = edf_mod.mtotdev_edf(a, mj, n_points)
-        elif spec.edf_family == "htotdev":
-            out[j] = edf_mod.htotdev_edf(a, mj, n_points)
-        else:
-            out[j] = edf_mod.theo1_edf(a, mj, n_points)
-    return out
+        return np.full(m.size, np.nan)
+    if spec.edf_family == "greenhall":
+        d, overlapping, modified = edf_mod.GREENHALL_PARAMETERS[spec.name]
+        return edf_mod.greenhall_edf(alpha, d, m, n_points, overlapping=overlapping, modified=modified)
+    family = {"totdev": edf_mod.totdev_edf, "mtotdev": edf_mod.mtotdev_edf, "htotdev": edf_mod.htotdev_edf,
+              "theo1": edf_mod.theo1_edf}[spec.edf_family]
+    return family(alpha, m, n_points)
 
 
 def compute(
@@ -123,15 +128,13 @@ def compute(
     """
     check_choice(statistic, "statistic", STATISTICS)
     spec = STATISTICS[statistic]
-    x = check_array(x_s, "x_s", ndim=1, allow_nan=True)
+    x, n_missing = _phase(x_s)
     check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
     check_scalar(ci, "ci", min_val=0, max_val=1, include_min=False, include_max=False)
     if not isinstance(bias_correction, (bool, np.bool_)):
         raise TypeError(f"bias_correction == {bias_correction!r}, must be a bool")
     tau0_s = 1.0 / rate_hz
 
-    # One reduction tells whether there is a gap (x has no infinities); count only then.
-    n_missing = int(np.count_nonzero(np.isnan(x))) if x.size and np.isnan(np.add.reduce(x)) else 0
     if n_missing == x.size:
         raise ValueError(f"x_s has {x.size} samples, all NaN")
     skipped = filled = 0

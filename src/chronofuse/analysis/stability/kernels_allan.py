@@ -35,6 +35,7 @@ from chronofuse.analysis.stability.kernels_differences import (
     check_kernel_inputs,
     difference_sum_of_squares_fused,
     difference_sum_of_squares_span,
+    difference_sums_fused,
     lagged_difference,
     nan_prefix,
     sum_of_squares,
@@ -81,21 +82,25 @@ def _difference_variance(
     Overlapping: every start ``i``; non-overlapping: the differences of the phase decimated by ``m``
     (``x[::m]`` at lag 1), i.e. starts ``i = 0, m, 2m, ...``.
     """
-    var = np.full(m.size, np.nan)
-    n = np.zeros(m.size, dtype=np.int64)
     # A decimated term can step over a gap without reading it: with gaps, every m uses the span rule.
-    prefix = nan_prefix(x) if _has_nan(x) else None
-    for j, mj in enumerate(m):
-        mj = int(mj)
-        step = 1 if overlapping else mj
-        if prefix is None:
-            s, count = difference_sum_of_squares_fused(x, mj, order, step)
-        else:
-            s, count = difference_sum_of_squares_span(x, prefix, mj, order, step)
-        n[j] = count
-        if count > 0:
-            var[j] = s / (scale * count * (mj * tau0_s) ** 2)
-    return var, n
+    # Whether there are gaps is known without a pass of its own when the first factor's terms read every
+    # sample (step 1 and N >= (order + 1) m): its sum comes out NaN exactly when there is a gap.
+    first_reads_all = m.size and (overlapping or m[0] == 1) and x.size >= (order + 1) * int(m[0])
+    sums = counts = None
+    if first_reads_all or not _has_nan(x):
+        sums, counts = difference_sums_fused(x, m, order, overlapping)
+        if counts.size and counts[0] < 0:
+            sums = counts = None
+    if sums is None:  # gaps: the span rule at every factor
+        prefix = nan_prefix(x)
+        sums = np.empty(m.size)
+        counts = np.empty(m.size, dtype=np.int64)
+        for j, mj in enumerate(m.tolist()):
+            sums[j], counts[j] = difference_sum_of_squares_span(x, prefix, mj, order, 1 if overlapping else mj)
+    var = np.full(m.size, np.nan)
+    ok = counts > 0
+    var[ok] = sums[ok] / (scale * counts[ok] * (m[ok] * tau0_s) ** 2)
+    return var, counts
 
 
 def adev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:

@@ -25,8 +25,10 @@ __all__ = [
     "sum_of_squares",
     "nan_prefix",
     "difference_sum_of_squares",
+    "finite_sum",
     "contiguous_difference_sum",
     "difference_sum_of_squares_fused",
+    "difference_sums_fused",
     "difference_sum_of_squares_span",
 ]
 
@@ -118,6 +120,16 @@ REASSOC = {"reassoc"}
 
 
 @numba.njit(cache=True, fastmath=REASSOC)
+def finite_sum(x: np.ndarray) -> float:
+    """``np.add.reduce(x)`` with reassociated (vectorized) additions: finite iff ``x`` holds no NaN or
+    infinity (or its sum overflows); the stability engine's one pass over a record to vouch for it."""
+    total = 0.0
+    for i in range(x.size):
+        total += x[i]
+    return total
+
+
+@numba.njit(cache=True, fastmath=REASSOC)
 def contiguous_difference_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
     """Sum of squares of the lag-``lag`` differences of ``order`` of ``x`` (read through slices)."""
     count = max(x.size - order * lag, 0)
@@ -150,6 +162,34 @@ def difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int
     if total == total:
         return total, count
     return np.nan, -1
+
+
+@numba.njit(cache=True)
+def difference_sums_fused(x: np.ndarray, m: np.ndarray, order: int, overlapping: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`difference_sum_of_squares_fused` at every factor of ``m`` (k,) in one call (step 1 when
+    ``overlapping``, else ``m``): sums (k,) and counts (k,); a count of -1 marks a NaN term.
+
+    Non-overlapping, each decimated phase ``x[::m]`` is taken from the last one whose factor divides
+    ``m`` (``x[::4]`` from ``x[::2]``: on an octave grid each is read from an array half its size, not
+    from the whole record); the values, and so the sums, are the same.
+    """
+    sums = np.empty(m.size)
+    counts = np.empty(m.size, dtype=np.int64)
+    source = x
+    source_m = 1
+    for j in range(m.size):
+        if overlapping:
+            sums[j], counts[j] = difference_sum_of_squares_fused(x, m[j], order, 1)
+            continue
+        if m[j] % source_m != 0:
+            source = x
+            source_m = 1
+        decimated = np.ascontiguousarray(source[:: m[j] // source_m])  # x[::m[j]]
+        total, count = contiguous_difference_sum(decimated, 1, order)
+        sums[j], counts[j] = (total, count) if total == total else (np.nan, -1)
+        source = decimated
+        source_m = m[j]
+    return sums, counts
 
 
 @numba.njit(cache=True)

@@ -101,18 +101,56 @@ def _fmin(a: float, b: float) -> float:
 
 
 @numba.njit(cache=True)
+def _query_and_build(hi: np.ndarray, lo: np.ndarray, length: int, k: int, build: bool, has_nan: bool) -> float:
+    """MTIE of windows of ``length`` samples from level ``k`` (``2**k <= length < 2**(k+1)``); with
+    ``build``, level ``k + 1`` is built in place in the same pass.
+
+    At step ``i`` the window reads ``hi[i]``, ``hi[i + shift]`` (``shift >= 0``) and the next level writes
+    ``hi[i]`` from ``hi[i]``, ``hi[i + 2**k]``: every read index is ``>= i``, so each read sees level ``k``.
+    """
+    n = hi.size
+    half = 1 << k
+    shift = length - half
+    count = n - length + 1
+    built = n - 2 * half + 1 if build else 0  # < count, as length < 2**(k+1)
+    if has_nan:
+        peak = np.nan
+        for i in range(built):
+            tie = _fmax(hi[i], hi[i + shift]) - _fmin(lo[i], lo[i + shift])
+            if tie == tie and not (peak >= tie):
+                peak = tie
+            hi[i] = _fmax(hi[i], hi[i + half])
+            lo[i] = _fmin(lo[i], lo[i + half])
+        for i in range(built, count):
+            tie = _fmax(hi[i], hi[i + shift]) - _fmin(lo[i], lo[i + shift])
+            if tie == tie and not (peak >= tie):
+                peak = tie
+        return peak
+    peak = -np.inf
+    for i in range(built):
+        peak = max(peak, max(hi[i], hi[i + shift]) - min(lo[i], lo[i + shift]))
+        hi[i] = max(hi[i], hi[i + half])
+        lo[i] = min(lo[i], lo[i + half])
+    for i in range(built, count):
+        peak = max(peak, max(hi[i], hi[i + shift]) - min(lo[i], lo[i + shift]))
+    return peak
+
+
+@numba.njit(cache=True)
 def _mtie_sparse(x: np.ndarray, window: np.ndarray, order: np.ndarray, has_nan: bool) -> np.ndarray:
     """MTIE (k,) for windows of ``window`` (k,) samples visited in increasing ``order``; NaN ignored.
 
-    Without NaN the extrema are plain ``max``/``min`` (branch-free, so the loops vectorize); with NaN
-    they are ``fmax``/``fmin``, which ignore a NaN operand.
+    Without NaN the extrema are plain ``max``/``min``; with NaN they are ``fmax``/``fmin``, which ignore a
+    NaN operand. A window whose successor needs a higher level is answered in the same pass that builds
+    the next level (one sweep of the two arrays instead of two).
     """
     n = x.size
     hi = x.copy()  # hi[i] = max(x[i : i + 2**k]) for i < n - 2**k + 1, updated in place level by level
     lo = x.copy()
     out = np.full(window.size, np.nan)
     k = 0
-    for j in order:
+    for idx in range(order.size):
+        j = order[idx]
         length = window[j]
         while (1 << (k + 1)) <= length:
             half = 1 << k
@@ -125,18 +163,10 @@ def _mtie_sparse(x: np.ndarray, window: np.ndarray, order: np.ndarray, has_nan: 
                     hi[i] = max(hi[i], hi[i + half])
                     lo[i] = min(lo[i], lo[i + half])
             k += 1
-        shift = length - (1 << k)
-        if has_nan:
-            peak = np.nan
-            for i in range(n - length + 1):
-                tie = _fmax(hi[i], hi[i + shift]) - _fmin(lo[i], lo[i + shift])
-                if tie == tie and not (peak >= tie):
-                    peak = tie
-        else:
-            peak = -np.inf
-            for i in range(n - length + 1):
-                peak = max(peak, max(hi[i], hi[i + shift]) - min(lo[i], lo[i + shift]))
-        out[j] = peak
+        build = idx + 1 < order.size and window[order[idx + 1]] >= (1 << (k + 1)) and (1 << (k + 1)) <= n
+        out[j] = _query_and_build(hi, lo, length, k, build, has_nan)
+        if build:
+            k += 1
     return out
 
 

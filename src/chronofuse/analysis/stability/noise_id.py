@@ -36,12 +36,13 @@ Stable32, not an identification, and are not reproduced.
 
 from __future__ import annotations
 
+import math
 
-import numba
 import numpy as np
 
 from chronofuse.analysis.stability.kernels_allan import allan_variance_gap_free, mdev_raw, oadev_raw
 from chronofuse.analysis.stability.kernels_differences import sum_of_squares
+from chronofuse.analysis.stability.noise_acf import DELTA_STATIONARY, MIN_ACF_POINTS, NO_ACF, acf_alphas
 
 __all__ = [
     "MIN_ACF_POINTS",
@@ -55,12 +56,6 @@ __all__ = [
     "identify_noise_methods",
 ]
 
-# Riley & Greenhall (2004): the lag-1 ACF method needs about 30 points; Stable32 uses B1/R(n) below.
-MIN_ACF_POINTS = 30
-# Stationarity threshold of the fractionally integrated noise, delta < 1/4 (Riley & Greenhall eq. (5)).
-_DELTA_STATIONARY = 0.25
-
-
 def frequency_averages(x: np.ndarray, m: int) -> np.ndarray:
     """Non-overlapped ``m``-sample frequency averages of phase ``x`` (N,), in units of 1/tau0.
 
@@ -68,7 +63,7 @@ def frequency_averages(x: np.ndarray, m: int) -> np.ndarray:
     consecutive first differences; the 1/tau0 scale does not matter to any ratio used here).
     """
     xd = x[::m]
-    return np.diff(xd) / m
+    return (xd[1:] - xd[:-1]) / m  # np.diff(xd) / m, without np.diff's call overhead
 
 
 def lag1_autocorrelation(z: np.ndarray) -> float:
@@ -121,91 +116,22 @@ def acf_noise_id(x: np.ndarray, m: int, dmax: int) -> int | None:
     while True:
         r1 = lag1_autocorrelation(z)
         delta = r1 / (1.0 + r1)
-        if delta < _DELTA_STATIONARY or d >= dmax:
+        if delta < DELTA_STATIONARY or d >= dmax:
             # p = -2 (delta + d) is the spectral exponent of frequency data: alpha = p (theta = 0).
             return int(-np.round(2.0 * delta)) - 2 * d
         z = np.diff(z)
         d += 1
 
 
-@numba.njit(cache=True, fastmath=True)  # reassociated sums: vectorized reductions; the tests compare the twin
-def _lag1_of_differences(x: np.ndarray, m: int, d: int) -> float:
-    """Lag-1 autocorrelation of the ``d``-times differenced frequency averages at factor ``m``, one pass.
-
-    The numba twin of ``lag1_autocorrelation`` applied to ``_remove_linear(frequency_averages(x, m))``
-    differenced ``d`` times (d = 0), or to the plain ``d``-fold difference (d >= 1: differencing removes
-    the line's offset and turns its slope into a constant, which the mean removal takes away). The
-    series ``w`` is the ``(d+1)``-th difference of the decimated phase ``x[::m]`` divided by ``m``,
-    formed once into a scratch array, then fitted and correlated.
-    """
-    xd = x if m == 1 else np.ascontiguousarray(x[::m])  # contiguous slices below: the loops vectorize
-    n = xd.size - 1 - d
-    if n < 2:
-        return 0.0
-    inv_m = 1.0 / m
-    w = np.empty(n)
-    # w = (d+1)-th difference of x[::m] / m, written out per order.
-    if d == 0:
-        a1, a0 = xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a1[k] - a0[k]) * inv_m
-    elif d == 1:
-        a2, a1, a0 = xd[2 : n + 2], xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a2[k] - 2.0 * a1[k] + a0[k]) * inv_m
-    elif d == 2:
-        a3, a2, a1, a0 = xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a3[k] - 3.0 * a2[k] + 3.0 * a1[k] - a0[k]) * inv_m
-    else:
-        a4, a3, a2, a1, a0 = xd[4 : n + 4], xd[3 : n + 3], xd[2 : n + 2], xd[1 : n + 1], xd[:n]
-        for k in range(n):
-            w[k] = (a4[k] - 4.0 * a3[k] + 6.0 * a2[k] - 4.0 * a1[k] + a0[k]) * inv_m
-    w0 = w[0]
-    s1 = 0.0
-    skw = 0.0
-    if d == 0:  # only the d = 0 series is detrended; the others need just their mean
-        for k in range(n):
-            v = w[k] - w0
-            s1 += v
-            skw += k * v
-    else:
-        for k in range(n):
-            s1 += w[k] - w0
-    half = 0.5 * (n - 1)
-    mean = w0 + s1 / n
-    slope = 0.0
-    if d == 0:
-        slope = (skw - half * s1) / (n * (n * n - 1.0) / 12.0)
-    # Pass 2: residuals e_k = w_k - mean - slope (k - half), their energy and lag-1 products.
-    prev = w[0] - mean + slope * half
-    den = prev * prev
-    num = 0.0
-    for k in range(1, n):
-        e = w[k] - mean - slope * (k - half)
-        den += e * e
-        num += prev * e
-        prev = e
-    if den == 0.0:
-        return 0.0
-    return num / den
-
-
 def acf_noise_id_fast(x: np.ndarray, m: int, dmax: int) -> int | None:
-    """:func:`acf_noise_id` with the differencing and detrending fused into one numba pass per ``d``.
+    """:func:`acf_noise_id` with the differencing and detrending fused into numba passes per ``d``.
 
-    Same result (the tests compare the two); used by :func:`identify_noise_methods`, where the readable
-    twin's array passes (``np.diff``, the detrend, two dot products) dominated the public call's time.
+    Same result (the tests compare the two); :func:`identify_noise_methods` calls its kernel once for all
+    factors, where the readable twin's array passes (``np.diff``, the detrend, two dot products) and a
+    Python call per factor dominated the public call's time.
     """
-    if (x.size - 1) // m < MIN_ACF_POINTS:
-        return None
-    d = 0
-    while True:
-        r1 = _lag1_of_differences(x, m, d)
-        delta = r1 / (1.0 + r1)
-        if delta < _DELTA_STATIONARY or d >= dmax:
-            return int(-round(2.0 * delta)) - 2 * d
-        d += 1
+    alpha = int(acf_alphas(np.ascontiguousarray(x, dtype=np.float64), np.array([m], dtype=np.int64), dmax)[0])
+    return None if alpha == NO_ACF else alpha
 
 
 def b1_expected(n: int, mu: int) -> float:
@@ -249,18 +175,18 @@ def b1_noise_id(x: np.ndarray, m: int, overlapping: bool = False) -> int | None:
     n = z.size
     if n < 3:
         return None
-    mm = np.array([m], dtype=np.int64)
     avar = allan_variance_gap_free(x, m, overlapping)
-    if not np.isfinite(avar) or avar == 0.0:
+    if not math.isfinite(avar) or avar == 0.0:
         return None
-    b1 = float(np.var(z, ddof=1)) / avar
+    zc = z - np.add.reduce(z) / n  # np.var(z, ddof=1) written out (same operations, without its overhead)
+    b1 = float(np.add.reduce(zc * zc)) / (n - 1) / avar
     # (AVAR tau-exponent mu, alpha), SP 1065 Table 3: white/flicker PM (-2, decided below by R(n)),
     # white FM (-1), flicker FM (0), random walk FM (1).
     candidates = [(-2, None), (-1, 0), (0, -1), (1, -2)]
     expected = [b1_expected(n, mu) for mu, _ in candidates]
     chosen = 0
     for k in range(1, len(candidates)):
-        if b1 > np.sqrt(expected[k - 1] * expected[k]):
+        if b1 > math.sqrt(expected[k - 1] * expected[k]):  # correctly rounded, as np.sqrt
             chosen = k
     alpha = candidates[chosen][1]
     if alpha is not None:
@@ -268,6 +194,7 @@ def b1_noise_id(x: np.ndarray, m: int, overlapping: bool = False) -> int | None:
     # mu == -2: white (alpha 2) or flicker (alpha 1) PM, told apart by R(n) = MVAR / OAVAR.
     if 3 * m > x.size - 1:
         return 2
+    mm = np.array([m], dtype=np.int64)
     mvar = float(mdev_raw(x, mm, 1.0)[0][0]) ** 2
     oavar = float(oadev_raw(x, mm, 1.0)[0][0]) ** 2
     rn = mvar / oavar
@@ -304,17 +231,16 @@ def identify_noise_methods(
     alpha = np.zeros(m.size, dtype=np.int64)
     method = np.full(m.size, "held", dtype="<U4")
     x = np.ascontiguousarray(x, dtype=np.float64)
-    for j, mj in enumerate(m):
-        a = acf_noise_id_fast(x, int(mj), dmax)
+    by_acf = acf_alphas(x, m, dmax)
+    known = by_acf != NO_ACF
+    method[known] = "acf"
+    alpha[known] = np.clip(by_acf[known], -2, 2)
+    for j in np.flatnonzero(~known):  # too few averages for the ACF: B1/R(n)
+        a = b1_noise_id(x, int(m[j]), overlapping)
         if a is not None:
-            method[j] = "acf"
-        else:
-            a = b1_noise_id(x, int(mj), overlapping)
-            if a is not None:
-                method[j] = "b1"
-        if a is not None:
+            method[j] = "b1"
             alpha[j] = min(max(int(a), -2), 2)
-    known = method != "held"
+            known[j] = True
     if not known.all():
         held = 0
         order = np.argsort(m, kind="stable")
