@@ -381,7 +381,7 @@ def detect_file(
     if max_time_acc_s is not None:
         check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
     data = read_clock_bias(path, rate_hz, column)
-    tacc = ubx_time_accuracy_s(path, data.interval_s, data.bias_s.size) if kind == "ubx" else None
+    tacc = ubx_time_accuracy_s(path, data.t_s, data.interval_s) if kind == "ubx" and max_time_acc_s else None
     return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s, tacc, max_time_acc_s)
 
 

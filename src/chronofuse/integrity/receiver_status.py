@@ -29,18 +29,21 @@ DEFAULT_MAX_TIME_ACC_S = 100e-9
 NO_FIX = "receiver status: no valid fix"
 
 
-def ubx_time_accuracy_s(path: str | Path, interval_s: float, n_epochs: int) -> np.ndarray | None:
-    """NAV-CLOCK ``tAcc`` (s) of a UBX capture on the epoch grid of
-    :func:`chronofuse.io.clockbias.read_ubx_bias` (the same grid and tolerance; NaN where missing), or None
-    when the grids do not match (then nothing is claimed)."""
-    from chronofuse.io.clockbias import UBX_TIME_TOLERANCE
-    from chronofuse.io.grid import regular_grid
+def ubx_time_accuracy_s(path: str | Path, t_s: np.ndarray, interval_s: float) -> np.ndarray:
+    """NAV-CLOCK ``tAcc`` (s) of a UBX capture on the epoch grid ``t_s`` (GPS time of week, continuous,
+    as :func:`chronofuse.io.clockbias.read_capture_bias` gives it), NaN where no NAV-CLOCK falls within
+    :data:`~chronofuse.io.capture_series.TIME_TOLERANCE` of an interval of an epoch."""
+    from chronofuse.io.capture_series import TIME_TOLERANCE
     from chronofuse.io.ubx import read_nav_clock
 
+    t_s = np.asarray(t_s, dtype=np.float64)
+    out = np.full(t_s.size, np.nan)
     rec = read_nav_clock(path)
-    _, tacc = regular_grid(np.asarray(rec.t_s, float), np.asarray(rec.time_acc_s, float), interval_s, rec.source,
-                           tolerance=UBX_TIME_TOLERANCE)
-    return tacc if tacc.size == n_epochs else None
+    tow_s = rec.itow_ms[0] / 1e3 + np.asarray(rec.t_s, dtype=np.float64)  # continuous over a rollover
+    k = np.rint((tow_s - t_s[0]) / interval_s)
+    ok = (np.abs(tow_s - t_s[0] - k * interval_s) <= TIME_TOLERANCE * interval_s) & (k >= 0) & (k < t_s.size)
+    out[k[ok].astype(np.int64)] = np.asarray(rec.time_acc_s, dtype=np.float64)[ok]
+    return out
 
 
 def status_reasons(receiver_ok, time_acc_s, max_time_acc_s: float | None, n_epochs: int) -> np.ndarray:
