@@ -24,15 +24,8 @@ from scipy.optimize import brentq
 from scipy.stats import chi2
 
 import chronofuse.analysis.stability as st
-from chronofuse.analysis.stability.edf import (
-    chi2_interval,
-    greenhall_edf,
-    htotdev_edf,
-    mtotdev_edf,
-    simple_adev_edf,
-    theo1_edf,
-    totdev_edf,
-)
+from chronofuse.analysis.stability.edf import chi2_interval, greenhall_edf
+from chronofuse.analysis.stability.edf_tables import htotdev_edf, mtotdev_edf, simple_adev_edf, theo1_edf, totdev_edf
 from chronofuse.analysis.stability.kernels_theo import theo1_raw
 
 GRID = [

@@ -23,6 +23,7 @@ import warnings
 import numpy as np
 
 from chronofuse.analysis.stability import edf as edf_mod
+from chronofuse.analysis.stability import edf_tables
 from chronofuse.analysis.stability.convert import fill_gaps
 from chronofuse.analysis.stability.kernels_differences import finite_sum
 from chronofuse.analysis.stability.noise_id import identify_noise_methods
@@ -88,8 +89,8 @@ def _edf(spec: StatisticSpec, alpha: np.ndarray, m: np.ndarray, n_points: int) -
     if spec.edf_family == "greenhall":
         d, overlapping, modified = edf_mod.GREENHALL_PARAMETERS[spec.name]
         return edf_mod.greenhall_edf(alpha, d, m, n_points, overlapping=overlapping, modified=modified)
-    family = {"totdev": edf_mod.totdev_edf, "mtotdev": edf_mod.mtotdev_edf, "htotdev": edf_mod.htotdev_edf,
-              "theo1": edf_mod.theo1_edf}[spec.edf_family]
+    family = {"totdev": edf_tables.totdev_edf, "mtotdev": edf_tables.mtotdev_edf,
+              "htotdev": edf_tables.htotdev_edf, "theo1": edf_tables.theo1_edf}[spec.edf_family]
     return family(alpha, m, n_points)
 
 
