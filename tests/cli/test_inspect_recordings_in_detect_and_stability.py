@@ -85,6 +85,24 @@ def test_stability_of_a_gzipped_rinex_clock_product_is_allantools_on_its_first_s
     np.testing.assert_allclose(doc["deviations"]["oadev"]["dev"], dev_ref, rtol=1e-9)
 
 
+def test_stability_with_station_analyses_that_station_of_a_clock_product_and_refuses_one_it_lacks():
+    path = receivers_dir() / "rinex" / "rtklib" / "igs15904.clk.gz"
+    lines = gzip.decompress(path.read_bytes()).decode("ascii").splitlines()
+    body = lines[next(i for i, line in enumerate(lines) if "END OF HEADER" in line) + 1:]
+    stations = list(dict.fromkeys(line.split()[1] for line in body if line.startswith("AR ")))
+    last = stations[-1]  # not the default first one
+    bias = np.array([float(line.split()[9]) for line in body if line.startswith("AR ") and line.split()[1] == last])
+    doc = _json("stability", path, "--station", last, "--dev", "oadev", "--json")
+    assert doc["n"] == bias.size and not any("stations: the first" in note for note in doc["warnings"])
+    taus = np.asarray(doc["deviations"]["oadev"]["tau"])
+    _, dev_ref, _, _ = allantools.oadev(bias, rate=1 / 300, data_type="phase", taus=taus)
+    np.testing.assert_allclose(doc["deviations"]["oadev"]["dev"], dev_ref, rtol=1e-9)
+    for target, fragment in ((path, "no station 'XXXX'"), (F9P, "--station picks a station")):
+        result = runner.invoke(app, ["stability", str(target), "--station", "XXXX", "--json"])
+        assert result.exit_code == 2, result.output
+        assert len(result.stderr.splitlines()) == 1 and fragment in result.stderr and str(target) in result.stderr
+
+
 @pytest.mark.parametrize("relative, fragment", [("rinex/rtklib/07590920.05o", "--nav NAVFILE --position"),
                                                 ("rinex/rtklib/07590920.05n", "nav file holds no receiver epochs"),
                                                 ("gpsd/ublox-neo-m8t.log", "no UBX NAV-CLOCK message")])

@@ -65,6 +65,7 @@ def stability(
     mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASK_NAMES)}."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of the deviations."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to analyse (default: the first)."),
     nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For absolute frequency in Hz: the nominal frequency."),
     ci: float = typer.Option(0.683, "--ci", help="Confidence factor of the intervals."),
     no_bias_correction: bool = typer.Option(False, "--no-bias-correction", help="Report total deviations without bias correction."),
@@ -81,7 +82,7 @@ def stability(
     with user_errors(), collected_warnings() as notes:
         with progress_reporter("stability") as say:
             say("reading")
-            record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz)
+            record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz, station=station)
             importing.join()
             from chronofuse.analysis import stability as st
 

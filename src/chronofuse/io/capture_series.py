@@ -147,16 +147,21 @@ def read_clock_series(path: str | Path, rate_hz: float | None = None) -> ClockBi
     return capture_clock_series(read_capture(path), rate_hz)
 
 
-def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None = None) -> ClockRecord:
+def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None = None,
+                   station: str | None = None) -> ClockRecord:
     """A recording's clock as the phase or frequency record ``chronofuse stability`` analyses: the clock
     bias (phase, s) or the clock drift (``kind="freq"``: fractional frequency, s/s) at the recording's
     interval (``rate_hz`` sets it instead), gaps as NaN; ``t_ns`` holds the GPS epochs. A RINEX clock product
-    gives its first station's clock (with a warning naming it)."""
+    gives ``station``'s clock, or without one its first station's (with a warning naming it); ``station``
+    on any other recording is refused naming the file."""
     check_choice(kind, "kind", KINDS)
-    capture = read_capture(path)
-    if len(capture.receivers) > 1:
+    capture = read_capture(path, receiver=station)
+    if station is not None and "rinex-clock" not in capture.protocols:
+        raise InputDataError("--station picks a station of a RINEX clock product (.clk); this recording has "
+                             "one receiver", str(path))
+    if station is None and len(capture.receivers) > 1:
         warnings.warn(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
-                      f"{capture.receivers[0]}, is analysed (chronofuse detect --station picks any)", stacklevel=2)
+                      f"{capture.receivers[0]}, is analysed (--station picks any)", stacklevel=2)
     series = capture_clock_series(capture, rate_hz)
     values, column = ((series.clock_bias_s, "clock_bias_s") if kind == "phase"
                       else (series.clock_drift_s_per_s, "clock_drift_s_per_s"))

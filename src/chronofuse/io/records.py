@@ -255,8 +255,10 @@ def read_record(
     column: str | None = None,
     nominal_hz: float | None = None,
     max_gap_fraction: float = 0.5,
+    station: str | None = None,
 ) -> ClockRecord:
-    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content).
+    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), or a
+    receiver recording's clock (:func:`chronofuse.io.capture_series.capture_record`).
 
     Parameters
     ----------
@@ -274,6 +276,8 @@ def read_record(
         frequency, so that ``y = f / nominal_hz - 1``.
     max_gap_fraction : float
         A record whose gaps exceed this fraction of its samples is rejected (too little data).
+    station : str, optional
+        The station of a RINEX clock product (the first without it); refused for any other file.
 
     Raises
     ------
@@ -293,7 +297,10 @@ def read_record(
     if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
         from chronofuse.io.capture_series import capture_record  # the receiver parsers only when needed
 
-        return capture_record(path, kind=kind, rate_hz=rate_hz)
+        return capture_record(path, kind=kind, rate_hz=rate_hz, station=station)
+    if station is not None:
+        raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
+                             str(path))
     layout = sniff(path)
     time_idx, value_idx, name = _pick_columns(layout, path, column)
     try:
