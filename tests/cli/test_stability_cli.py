@@ -153,3 +153,18 @@ def test_a_run_on_a_file_that_cannot_be_read_still_fails_cleanly_while_the_engin
     assert result.exit_code == 2 and result.stdout == ""
     lines = result.stderr.splitlines()
     assert len(lines) == 1 and "bad.txt:2: cannot read 'abc' as a number" in lines[0], result.stderr
+
+
+def test_several_statistics_run_side_by_side_give_what_each_gives_alone(tmp_path):
+    """The command runs several statistics on threads (the kernels release the GIL): each result must be
+    the one the statistic gives when it is asked for alone."""
+    rng = np.random.default_rng(5)
+    path = tmp_path / "x.txt"
+    np.savetxt(path, np.cumsum(rng.normal(size=20_000)) * 1e-9)
+    names = ["oadev", "mtie", "mdev", "tie_rms"]
+    together = json.loads(CliRunner().invoke(app, ["stability", str(path), "--rate", "1", "--dev", ",".join(names),
+                                                   "--json"]).stdout)
+    for name in names:
+        alone = json.loads(CliRunner().invoke(app, ["stability", str(path), "--rate", "1", "--dev", name,
+                                                    "--json"]).stdout)
+        assert together["deviations"][name] == alone["deviations"][name], name

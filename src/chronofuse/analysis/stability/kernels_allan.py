@@ -221,7 +221,7 @@ def _mvar_sum_of_squares(x: np.ndarray, m: int, work: np.ndarray, cumulative: np
     return total, n_terms
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _mvar_cumulative(x: np.ndarray, m: int, c: np.ndarray) -> int:
     """``c[0] = 0``, ``c[i+1] = c[i] + (x[i+2m] - 2 x[i+m] + x[i])``: the running sum of the second
     differences, strictly left to right (no reassociation here); returns their number ``N - 2m``."""
@@ -233,7 +233,7 @@ def _mvar_cumulative(x: np.ndarray, m: int, c: np.ndarray) -> int:
     return n_diff
 
 
-@numba.njit(cache=True, fastmath=REASSOC)
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)
 def _window_square_sum(c: np.ndarray, m: int, n_terms: int) -> float:
     """``sum_j (c[j+m] - c[j])**2`` for ``j < n_terms`` (slices; the sum vectorizes)."""
     hi, lo = c[m : m + n_terms], c[:n_terms]

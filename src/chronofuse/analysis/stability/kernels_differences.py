@@ -119,7 +119,7 @@ def difference_sum_of_squares(x: np.ndarray, m: int, order: int, step: int = 1) 
 REASSOC = {"reassoc"}
 
 
-@numba.njit(cache=True, fastmath=REASSOC)
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)
 def finite_sum(x: np.ndarray) -> float:
     """``np.add.reduce(x)`` with reassociated (vectorized) additions: finite iff ``x`` holds no NaN or
     infinity (or its sum overflows); the stability engine's one pass over a record to vouch for it."""
@@ -129,7 +129,7 @@ def finite_sum(x: np.ndarray) -> float:
     return total
 
 
-@numba.njit(cache=True, fastmath=REASSOC)
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)
 def contiguous_difference_sum(x: np.ndarray, lag: int, order: int) -> tuple[float, int]:
     """Sum of squares of the lag-``lag`` differences of ``order`` of ``x`` (read through slices)."""
     count = max(x.size - order * lag, 0)
@@ -147,7 +147,7 @@ def contiguous_difference_sum(x: np.ndarray, lag: int, order: int) -> tuple[floa
     return total, count
 
 
-@numba.njit(cache=True, fastmath=REASSOC)
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)
 def difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
     """The numba twin of :func:`difference_sum_of_squares`: one pass, no temporaries.
 
@@ -164,7 +164,7 @@ def difference_sum_of_squares_fused(x: np.ndarray, m: int, order: int, step: int
     return np.nan, -1
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def difference_sums_fused(x: np.ndarray, m: np.ndarray, order: int, overlapping: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`difference_sum_of_squares_fused` at every factor of ``m`` (k,) in one call (step 1 when
     ``overlapping``, else ``m``): sums (k,) and counts (k,); a count of -1 marks a NaN term.
@@ -192,7 +192,7 @@ def difference_sums_fused(x: np.ndarray, m: np.ndarray, order: int, overlapping:
     return sums, counts
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def difference_sum_of_squares_span(x: np.ndarray, c: np.ndarray, m: int, order: int, step: int) -> tuple[float, int]:
     """The fused sum on a record with gaps: terms whose span ``x[i : i + order m + 1]`` holds a missing
     sample (``c`` from :func:`nan_prefix`) are skipped."""

@@ -83,7 +83,7 @@ def _largest_range(hi: np.ndarray, lo: np.ndarray) -> float:
     return peak
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _fmax(a: float, b: float) -> float:
     """``np.fmax``: the larger, ignoring one NaN."""
     if a != a:
@@ -93,14 +93,14 @@ def _fmax(a: float, b: float) -> float:
     return a if a > b else b
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _fmin(a: float, b: float) -> float:
     """``np.fmin``: the smaller, ignoring one NaN; :func:`_fmax` of the negatives (exact: negation only flips
     the sign bit, so ties and signed zeros come out as before)."""
     return -_fmax(-a, -b)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _query_and_build(hi: np.ndarray, lo: np.ndarray, length: int, k: int, build: bool, has_nan: bool) -> float:
     """MTIE of windows of ``length`` samples from level ``k`` (``2**k <= length < 2**(k+1)``); with
     ``build``, level ``k + 1`` is built in place in the same pass.
@@ -136,7 +136,7 @@ def _query_and_build(hi: np.ndarray, lo: np.ndarray, length: int, k: int, build:
     return peak
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _mtie_sparse(x: np.ndarray, window: np.ndarray, order: np.ndarray, has_nan: bool) -> np.ndarray:
     """MTIE (k,) for windows of ``window`` (k,) samples visited in increasing ``order``; NaN ignored.
 

@@ -26,7 +26,7 @@ _ACF_BLOCK = 1 << 14  # terms per block of a decimated record: its phase stays i
 _ACF_WHOLE = 1 << 17  # a decimated record up to this many terms is gathered once for both passes
 
 
-@numba.njit(cache=True, fastmath=REASSOC)
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)
 def _block_sums(p: np.ndarray, count: int, d: int, inv_m: float, w0: float, offset: int) -> tuple[float, float]:
     """``sum v`` and ``sum (offset + k) v`` over ``v = w_k - w0``, ``k < count``, where ``w`` is the
     ``(d+1)``-th difference of the phase ``p`` (count + d + 1,) divided by ``m``."""
@@ -53,7 +53,7 @@ def _block_sums(p: np.ndarray, count: int, d: int, inv_m: float, w0: float, offs
     return s1, skw
 
 
-@numba.njit(cache=True, fastmath=REASSOC)
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)
 def _block_products(p: np.ndarray, count: int, d: int, inv_m: float, mean: float, slope: float, centre: float,
                     prev: float) -> tuple[float, float, float]:
     """Energy and lag-1 products of the residuals ``e_k = w_k - mean - slope (k - centre)``, ``k < count``
@@ -77,7 +77,7 @@ def _block_products(p: np.ndarray, count: int, d: int, inv_m: float, mean: float
     return den, num, prev
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _decimated(x: np.ndarray, m: int, start: int, size: int, scratch: np.ndarray) -> np.ndarray:
     """``x[::m][start : start + size]`` as a contiguous array: a view when ``m == 1``, else copied into
     ``scratch``."""
@@ -89,7 +89,7 @@ def _decimated(x: np.ndarray, m: int, start: int, size: int, scratch: np.ndarray
     return scratch[:size]
 
 
-@numba.njit(cache=True, fastmath=REASSOC)  # reassociated sums: vectorized reductions; the tests compare the twin
+@numba.njit(cache=True, nogil=True, fastmath=REASSOC)  # reassociated sums: vectorized reductions; the tests compare the twin
 def lag1_of_differences(x: np.ndarray, m: int, d: int, inv_m: float) -> float:
     """Lag-1 autocorrelation of the ``d``-times differenced frequency averages at factor ``m``.
 
@@ -149,7 +149,7 @@ def lag1_of_differences(x: np.ndarray, m: int, d: int, inv_m: float) -> float:
 NO_ACF = np.iinfo(np.int64).min
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def acf_alphas(x: np.ndarray, m: np.ndarray, dmax: int) -> np.ndarray:
     """``noise_id.acf_noise_id`` at every factor of ``m`` (k,) in one call: alpha (k,), ``NO_ACF`` where there
     are fewer than ``MIN_ACF_POINTS`` frequency averages (``np.rint`` rounds half to even, as ``round``)."""
