@@ -35,3 +35,8 @@ def receivers_dir() -> Path:
         if (path / "gpsd").is_dir() and sum(1 for _ in (path / "gpsd").glob("*.log")) >= 199:
             return path
     raise RuntimeError(f"receiver captures not found (looked in {', '.join(map(str, candidates))})")
+
+
+#: The two real Trimble 5700 stations of RTKLIB's sample data (RINEX 2.10, 120 epochs at 30 s, C1 and P2,
+#: with their broadcast navigation files): the ``trimble`` fixture of tests/integrity reads them.
+TRIMBLE_STATIONS = ("07590920", "30400920")

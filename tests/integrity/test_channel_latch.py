@@ -9,20 +9,16 @@ from chronofuse.integrity.channel_latch import ChannelLatch, latch_channels
 from chronofuse.integrity.detector import HodDetector
 from chronofuse.integrity.identification import identify
 from chronofuse.integrity.inject import Anomaly, inject
-from chronofuse.io.rinex import channel_clock_biases, read_gps_observations
 
-STATIONS = ("07590920", "30400920")
+from _helpers import TRIMBLE_STATIONS
+
+STATIONS = TRIMBLE_STATIONS
 ONSET_S, END_S, STEP_S = 1800.0, 2700.0, 100e-9
 
 
 @pytest.fixture(scope="module")
-def real(real_data):
-    base = real_data / "receivers" / "rinex" / "rtklib"
-    out = {}
-    for st in STATIONS:
-        obs = read_gps_observations(base / f"{st}.05o")
-        out[st] = channel_clock_biases(base / f"{st}.05o", base / f"{st}.05n", obs.approx_position_m)
-    return out
+def real(trimble):
+    return {station: biases for station, (_, biases) in trimble.items()}
 
 
 def _identify(biases, values):

@@ -9,19 +9,15 @@ from chronofuse.integrity.detector import HodDetector
 from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.gnss.observables import channel_clock_biases_from_arrays
 from chronofuse.integrity.identification import channel_residuals, identify, simulate_channel_biases
-from chronofuse.io.rinex import channel_clock_biases, read_gps_observations
 
-STATIONS = ("07590920", "30400920")
+from _helpers import TRIMBLE_STATIONS
+
+STATIONS = TRIMBLE_STATIONS
 
 
 @pytest.fixture(scope="module")
-def real(real_data):
-    base = real_data / "receivers" / "rinex" / "rtklib"
-    out = {}
-    for st in STATIONS:
-        obs = read_gps_observations(base / f"{st}.05o")
-        out[st] = (obs, channel_clock_biases(base / f"{st}.05o", base / f"{st}.05n", obs.approx_position_m))
-    return out
+def real(trimble):
+    return trimble
 
 
 def _detector():
