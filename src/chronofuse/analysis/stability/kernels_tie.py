@@ -17,7 +17,8 @@ and minima over windows of ``2**k`` samples are built level by level, each in O(
 and a window of any length ``L`` with ``2**k <= L < 2**(k+1)`` is covered by two overlapping windows of
 ``2**k``. All factors are answered in one sweep, O(N log(max m) + N k) in total, so 1e6 samples at
 octave factors take a fraction of a second (a per-window scan is O(N m) per factor). The levels are
-built in place in two scratch arrays by a numba loop (no temporary per level or per factor: at 1e7
+built in place in two scratch arrays by a numba loop, the first 13 levels block by block in cache
+(:mod:`chronofuse.analysis.stability.kernels_mtie`; no temporary per level or per factor: at 1e7
 samples the array version allocated ~5 arrays of 80 MB per factor); :func:`mtie_sparse_numpy` is the
 same algorithm in numpy and :func:`mtie_windows_raw` the readable brute-force twin, both compared in
 the tests.
@@ -27,11 +28,11 @@ from __future__ import annotations
 
 import warnings
 
-import numba
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from chronofuse.analysis.stability.kernels_differences import check_kernel_inputs, nan_prefix, sum_of_squares
+from chronofuse.analysis.stability.kernels_mtie import BLOCK, TOP_LEVEL, mtie_blocked
 
 __all__ = ["tie_rms_raw", "mtie_raw", "mtie_sparse_numpy", "mtie_windows_raw", "max_m_tie_rms", "max_m_mtie"]
 
@@ -83,93 +84,6 @@ def _largest_range(hi: np.ndarray, lo: np.ndarray) -> float:
     return peak
 
 
-@numba.njit(cache=True, nogil=True)
-def _fmax(a: float, b: float) -> float:
-    """``np.fmax``: the larger, ignoring one NaN."""
-    if a != a:
-        return b
-    if b != b:
-        return a
-    return a if a > b else b
-
-
-@numba.njit(cache=True, nogil=True)
-def _fmin(a: float, b: float) -> float:
-    """``np.fmin``: the smaller, ignoring one NaN; :func:`_fmax` of the negatives (exact: negation only flips
-    the sign bit, so ties and signed zeros come out as before)."""
-    return -_fmax(-a, -b)
-
-
-@numba.njit(cache=True, nogil=True)
-def _query_and_build(hi: np.ndarray, lo: np.ndarray, length: int, k: int, build: bool, has_nan: bool) -> float:
-    """MTIE of windows of ``length`` samples from level ``k`` (``2**k <= length < 2**(k+1)``); with
-    ``build``, level ``k + 1`` is built in place in the same pass.
-
-    At step ``i`` the window reads ``hi[i]``, ``hi[i + shift]`` (``shift >= 0``) and the next level writes
-    ``hi[i]`` from ``hi[i]``, ``hi[i + 2**k]``: every read index is ``>= i``, so each read sees level ``k``.
-    """
-    n = hi.size
-    half = 1 << k
-    shift = length - half
-    count = n - length + 1
-    built = n - 2 * half + 1 if build else 0  # < count, as length < 2**(k+1)
-    if has_nan:
-        peak = np.nan
-        for i in range(built):
-            tie = _fmax(hi[i], hi[i + shift]) - _fmin(lo[i], lo[i + shift])
-            if tie == tie and not (peak >= tie):
-                peak = tie
-            hi[i] = _fmax(hi[i], hi[i + half])
-            lo[i] = _fmin(lo[i], lo[i + half])
-        for i in range(built, count):
-            tie = _fmax(hi[i], hi[i + shift]) - _fmin(lo[i], lo[i + shift])
-            if tie == tie and not (peak >= tie):
-                peak = tie
-        return peak
-    peak = -np.inf
-    for i in range(built):
-        peak = max(peak, max(hi[i], hi[i + shift]) - min(lo[i], lo[i + shift]))
-        hi[i] = max(hi[i], hi[i + half])
-        lo[i] = min(lo[i], lo[i + half])
-    for i in range(built, count):
-        peak = max(peak, max(hi[i], hi[i + shift]) - min(lo[i], lo[i + shift]))
-    return peak
-
-
-@numba.njit(cache=True, nogil=True)
-def _mtie_sparse(x: np.ndarray, window: np.ndarray, order: np.ndarray, has_nan: bool) -> np.ndarray:
-    """MTIE (k,) for windows of ``window`` (k,) samples visited in increasing ``order``; NaN ignored.
-
-    Without NaN the extrema are plain ``max``/``min``; with NaN they are ``fmax``/``fmin``, which ignore a
-    NaN operand. A window whose successor needs a higher level is answered in the same pass that builds
-    the next level (one sweep of the two arrays instead of two).
-    """
-    n = x.size
-    hi = x.copy()  # hi[i] = max(x[i : i + 2**k]) for i < n - 2**k + 1, updated in place level by level
-    lo = x.copy()
-    out = np.full(window.size, np.nan)
-    k = 0
-    for idx in range(order.size):
-        j = order[idx]
-        length = window[j]
-        while (1 << (k + 1)) <= length:
-            half = 1 << k
-            if has_nan:
-                for i in range(n - 2 * half + 1):  # ascending i reads hi[i + half] before overwriting it
-                    hi[i] = _fmax(hi[i], hi[i + half])
-                    lo[i] = _fmin(lo[i], lo[i + half])
-            else:
-                for i in range(n - 2 * half + 1):
-                    hi[i] = max(hi[i], hi[i + half])
-                    lo[i] = min(lo[i], lo[i + half])
-            k += 1
-        build = idx + 1 < order.size and window[order[idx + 1]] >= (1 << (k + 1)) and (1 << (k + 1)) <= n
-        out[j] = _query_and_build(hi, lo, length, k, build, has_nan)
-        if build:
-            k += 1
-    return out
-
-
 def mtie_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Maximum time interval error over windows of ``m + 1`` samples, in seconds (sparse table, numba).
 
@@ -181,7 +95,7 @@ def mtie_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, n
     n = np.full(m.size, int(np.count_nonzero(~np.isnan(x))), dtype=np.int64)
     window = m + 1
     has_nan = bool(np.isnan(x).any())
-    return _mtie_sparse(x, window, np.argsort(window, kind="stable"), has_nan), n
+    return mtie_blocked(x, window, np.argsort(window, kind="stable"), has_nan, BLOCK, TOP_LEVEL), n
 
 
 def mtie_sparse_numpy(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
