@@ -9,6 +9,7 @@ the counts exactly, so a new disagreement (or a fixed one) shows.
 from __future__ import annotations
 
 import json
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -18,12 +19,11 @@ from chronofuse.io.inspect import read_capture
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_ns_to_datetime64
 
 from .conftest import receivers_dir
+from .gpsd_dop_reasons import (GPSD_GEOMETRY, NEXT_BURST, OTHER_MESSAGE, PREVIOUS_BURST, REPLACED_IN_CYCLE, REASONS,
+                               TOLERANCE, UNEXPLAINED, burst_dops, classify)
 
 _FIX_TRANSITION = ("gpsd reports the mode of the last sentence of a burst that mixes fix and no-fix "
                    "reports (fix lost or regained); we report the highest mode the burst announces")
-_DOP_RECOMPUTED = ("gpsd's SKY DOPs here are its own, recomputed from the satellites' azimuth/elevation "
-                   "and used flags (gpsd's fill_dop), or taken from a GSA of the next burst; ours are the "
-                   "receiver's GSA / NAV-DOP values as sent")
 _WEEK_SHIFT = ("gpsd moved these dates 1024 weeks later (its rollover guard assumes no date before its "
                "build); we keep the receiver's date unless given a reference epoch: read with gpsd's "
                "date as reference, every time agrees")
@@ -34,7 +34,8 @@ _LEAP_DEFAULT = ("gpsd labels the first epoch with its compiled-in GPS-UTC (18 s
 _ZDA_AHEAD = ("this receiver stamps ZDA one second ahead of its burst's GGA/RMC; gpsd gives the ZDA time the "
               "last fix mode it saw, our ZDA-only epoch has no fix report (mode 0, unknown)")
 
-#: file -> {"missing": (count, reason), "mode": (count, reason), "dop": (count, reason), "reference": True}
+#: file -> {"missing": (count, reason), "mode": (count, reason), "dop": {reason: count}, "reference": True}
+#: (the DOP reasons are the keys of gpsd_dop_reasons.REASONS, each checked value by value)
 GPSD_CHOICES: dict[str, dict] = {
     "ac12.log": {"mode": (5, _ZDA_AHEAD)},
     "ac12_binary.log": {"mode": (4, _ZDA_AHEAD)},
@@ -60,33 +61,75 @@ GPSD_CHOICES: dict[str, dict] = {
     "ublox-lea-4t.log": {"missing": (1, _LEAP_DEFAULT)},
     "ublox-aek-4t.log": {"missing": (1, _LEAP_DEFAULT)},
 }
-# DOP disagreements (count of DOP values off by more than 0.005), all for the one reason above
-_DOP_COUNTS = {
-    "ais-nmea.log": 52, "bt451.log": 4, "bu353-glonass.log": 8, "bu353s4.log": 2, "bundg_zeus_9.log": 2,
-    "cat-ms352.log": 7, "ch-4701.log": 4, "ch-4711.log": 2, "ericsson-gru04-02-70sec.log": 5,
-    "garmin-10x.log": 6, "garmin17n.log": 1, "gpsdf.log": 16, "gr601-w.log": 1, "iTrek.log": 3, "isync.log": 24,
-    "jl-micro-jlt.log": 9, "mt3339.log": 7, "navika-100-fix.log": 2, "navisys-gr701w.log": 8,
-    "navisys-gr8013.log": 10, "nl2008u.log": 5, "nl402u.log": 4, "nl551e.log": 1, "nmea-fuzzy-cases.log": 3,
-    "nmea-rtk.log": 6, "nokia-ld-4w.log": 12, "pharos-360.log": 10, "quectel-eg25-g.log": 4,
-    "quectel-l76k-dual.log": 5, "quectel.log": 4, "quectelLC79D-1.log": 4, "quectelLC79D.log": 18,
-    "sirfstarv-nmea.log": 80, "skytraq-dgps.log": 154, "skytraq-fix.log": 16, "st-teseo-liv3f.log": 6,
-    "st-teseo-liv4f.log": 4, "telit-he910.log": 16, "tomtom-mkII.log": 1, "ublox-8-time.log": 1,
-    "ublox-8.log": 34, "ublox-aek-4t.log": 1, "ublox-lea-4h.log": 20, "ublox-lea-5h.log": 4,
-    "ublox-neo-m8n.log": 5, "neo-m8n.log": 13, "ublox-neo-m8t.log": 7, "ublox-neo-m9n-nmea.log": 72, "ublox-zed-f9p-hp.log": 10,
-    "ublox-zed-f9p-nmea.log": 67, "ublox-zed-f9r.log": 79, "ublox-zed-f9t-ubx_nmea_l5.log": 11,
-    "ublox8-uniqid-monhw.log": 10, "venus634lp.log": 5,
+# DOP disagreements (values off by more than TOLERANCE), per file: reason -> count, each value given the first
+# reason of gpsd_dop_reasons.classify that reproduces gpsd's value (UNEXPLAINED: none does)
+_DOP_REASONS = {
+    "ais-nmea.log": {NEXT_BURST: 52},
+    "bt451.log": {NEXT_BURST: 4},
+    "bu353-glonass.log": {NEXT_BURST: 8},
+    "bu353s4.log": {NEXT_BURST: 2},
+    "bundg_zeus_9.log": {NEXT_BURST: 2},
+    "cat-ms352.log": {NEXT_BURST: 7},
+    "ch-4701.log": {REPLACED_IN_CYCLE: 4},
+    "ch-4711.log": {NEXT_BURST: 2},
+    "ericsson-gru04-02-70sec.log": {NEXT_BURST: 5},
+    "garmin-10x.log": {NEXT_BURST: 6},
+    "garmin17n.log": {REPLACED_IN_CYCLE: 1},
+    "gpsdf.log": {NEXT_BURST: 16},
+    "gr601-w.log": {NEXT_BURST: 1},
+    "iTrek.log": {OTHER_MESSAGE: 3},
+    "isync.log": {NEXT_BURST: 24},
+    "jl-micro-jlt.log": {GPSD_GEOMETRY: 9},
+    "mt3339.log": {NEXT_BURST: 7},
+    "navika-100-fix.log": {NEXT_BURST: 2},
+    "navisys-gr701w.log": {NEXT_BURST: 8},
+    "navisys-gr8013.log": {NEXT_BURST: 10},
+    "neo-m8n.log": {NEXT_BURST: 13},
+    "nl2008u.log": {NEXT_BURST: 5},
+    "nl402u.log": {NEXT_BURST: 4},
+    "nl551e.log": {NEXT_BURST: 1},
+    "nmea-fuzzy-cases.log": {NEXT_BURST: 3},
+    "nmea-rtk.log": {NEXT_BURST: 6},
+    "nokia-ld-4w.log": {NEXT_BURST: 12},
+    "pharos-360.log": {NEXT_BURST: 10},
+    "quectel-eg25-g.log": {NEXT_BURST: 4},
+    "quectel-l76k-dual.log": {REPLACED_IN_CYCLE: 3, NEXT_BURST: 2},
+    "quectel.log": {NEXT_BURST: 4},
+    "quectelLC79D-1.log": {NEXT_BURST: 4},
+    "quectelLC79D.log": {NEXT_BURST: 18},
+    "sirfstarv-nmea.log": {NEXT_BURST: 80},
+    "skytraq-dgps.log": {NEXT_BURST: 154},
+    "skytraq-fix.log": {NEXT_BURST: 16},
+    "st-teseo-liv3f.log": {NEXT_BURST: 6},
+    "st-teseo-liv4f.log": {NEXT_BURST: 4},
+    "telit-he910.log": {NEXT_BURST: 16},
+    "tomtom-mkII.log": {NEXT_BURST: 1},
+    "ublox-8-time.log": {REPLACED_IN_CYCLE: 1},
+    "ublox-8.log": {NEXT_BURST: 34},
+    "ublox-aek-4t.log": {NEXT_BURST: 1},
+    "ublox-lea-4h.log": {NEXT_BURST: 20},
+    "ublox-lea-5h.log": {REPLACED_IN_CYCLE: 3, NEXT_BURST: 1},
+    "ublox-neo-m8n.log": {GPSD_GEOMETRY: 5},
+    "ublox-neo-m8t.log": {REPLACED_IN_CYCLE: 4, NEXT_BURST: 3},
+    "ublox-neo-m9n-nmea.log": {NEXT_BURST: 72},
+    "ublox-zed-f9p-hp.log": {REPLACED_IN_CYCLE: 6, NEXT_BURST: 4},
+    "ublox-zed-f9p-nmea.log": {NEXT_BURST: 67},
+    "ublox-zed-f9r.log": {REPLACED_IN_CYCLE: 55, NEXT_BURST: 24},
+    "ublox-zed-f9t-ubx_nmea_l5.log": {REPLACED_IN_CYCLE: 11},
+    "ublox8-uniqid-monhw.log": {REPLACED_IN_CYCLE: 6, UNEXPLAINED: 2, PREVIOUS_BURST: 2},
+    "venus634lp.log": {NEXT_BURST: 5},
 }
-for _name, _n in _DOP_COUNTS.items():
-    GPSD_CHOICES.setdefault(_name, {})["dop"] = (_n, _DOP_RECOMPUTED)
+for _name, _reasons in _DOP_REASONS.items():
+    GPSD_CHOICES.setdefault(_name, {})["dop"] = _reasons
 
 _DOPS = ("gdop", "pdop", "hdop", "vdop", "tdop")
 
 
 def gpsd_expected(chk: Path) -> tuple[dict, dict]:
-    """gpsd's TPV mode per time label (the last TPV of each time) and its SKY DOPs per time (a SKY
-    without a time belongs to the last TPV time before it)."""
+    """gpsd's TPV mode per time label (the last TPV of each time) and its SKY reports per time, in order
+    (a SKY without a time belongs to the last TPV time before it; the last of a time is the one compared)."""
     tpv: dict[str, int] = {}
-    sky: dict[str, dict] = {}
+    sky: dict[str, list] = {}
     last = None
     for line in chk.read_text(errors="replace").splitlines():
         if line.startswith('{"class":"TPV"'):
@@ -98,7 +141,7 @@ def gpsd_expected(chk: Path) -> tuple[dict, dict]:
             doc = json.loads(line)
             label = doc.get("time", last)
             if label is not None:
-                sky[label] = doc
+                sky.setdefault(label, []).append(doc)
     return tpv, sky
 
 
@@ -128,20 +171,24 @@ def compare_with_gpsd(log: Path) -> dict:
     rows = capture.rows
     missing = [t for t in tpv if t not in index]
     mode_bad = [t for t in tpv if t in index and int(rows["fix_mode"][index[t]]) != tpv[t]]
-    dop_bad, dop_compared = 0, 0
+    dop_compared, reasons = 0, Counter()
+    bursts = burst_dops(log) if "nmea" in capture.protocols else {}
     # NMEA sends no GDOP/TDOP: gpsd computes its own and so do we (geometry_dops, checked against the
     # receivers' own PDOP in test_receiver_readers); the receivers' DOPs are what is compared here
     names = ("pdop", "hdop", "vdop") if capture.protocols == ("nmea",) else _DOPS
-    for t, doc in sky.items():
+    for t, skies in sky.items():
         if t not in index:
             continue
+        i, doc = index[t], skies[-1]
         for name in names:
-            ours = float(rows[name][index[t]])
+            ours = float(rows[name][i])
             if name in doc and np.isfinite(ours) and ours < 99.0:
                 dop_compared += 1
-                dop_bad += abs(doc[name] - ours) > 0.005
-    return {"gpsd_epochs": len(tpv), "missing": len(missing), "mode": len(mode_bad), "dop": dop_bad,
-            "dop_compared": dop_compared, "protocols": capture.protocols}
+                if abs(doc[name] - ours) > TOLERANCE:
+                    reasons[classify(name, doc[name], rows[name], i, skies, bursts.get(t[11:23], []))] += 1
+    return {"gpsd_epochs": len(tpv), "missing": len(missing), "mode": len(mode_bad),
+            "dop": sum(reasons.values()), "dop_reasons": dict(reasons), "dop_compared": dop_compared,
+            "protocols": capture.protocols}
 
 
 def test_the_oracle_covers_the_nmea_and_ubx_captures_with_a_reference_decoding():
@@ -154,13 +201,28 @@ def test_time_mode_and_dops_agree_with_gpsd_epoch_by_epoch(receivers, name):
     if not result["protocols"]:
         pytest.skip(f"{name} holds no NMEA or UBX sentence we decode (another binary protocol, or a talker we do not use)")
     choices = GPSD_CHOICES.get(name, {})
-    for key in ("missing", "mode", "dop"):
+    for key in ("missing", "mode"):
         expected = choices.get(key, (0, ""))[0]
         assert result[key] == expected, f"{name}: {key} {result[key]} != listed {expected} ({result})"
+    assert result["dop_reasons"] == choices.get("dop", {}), f"{name}: DOP disagreements by reason ({result})"
 
 
 def test_every_listed_choice_names_a_capture_of_the_oracle():
     assert set(GPSD_CHOICES) <= set(ORACLE_FILES)
+
+
+def test_every_listed_dop_disagreement_has_one_of_the_checked_reasons():
+    listed = [reason for choice in GPSD_CHOICES.values() for reason in choice.get("dop", {})]
+    assert listed and set(listed) <= set(REASONS)
+
+
+def test_the_dop_classifier_finds_the_next_burst_and_says_unexplained_otherwise():
+    ours = np.array([1.2, 1.5, 1.9])
+    assert classify("pdop", 1.9, ours, 1, [{"pdop": 1.9}], []) == NEXT_BURST
+    assert classify("pdop", 1.2, ours, 1, [{"pdop": 1.2}], []) == PREVIOUS_BURST
+    assert classify("hdop", 0.9, ours, 1, [{"hdop": 0.9}], [{"pdop": 1.5, "hdop": 1.5}, {"hdop": 0.9}]) == OTHER_MESSAGE
+    assert classify("pdop", 7.0, ours, 1, [{"pdop": 1.5}, {"pdop": 7.0}], []) == REPLACED_IN_CYCLE
+    assert classify("pdop", 7.0, ours, 1, [{"pdop": 7.0}], []) == UNEXPLAINED
 
 
 def test_week_rollover_dates_move_by_exactly_1024_weeks_with_a_reference(receivers):
