@@ -25,21 +25,20 @@ UNEXPLAINED = "unexplained"
 
 #: reason -> what it means (each is checked value by value by :func:`classify`)
 REASONS = {
-    NEXT_BURST: "gpsd's value is the receiver's own DOP of the NEXT epoch (its SKY report went out after the "
-                "next burst's GSA / NAV-DOP arrived); ours is the DOP of the burst that carries the epoch's time",
-    PREVIOUS_BURST: "gpsd's value is the receiver's DOP of the previous epoch (gpsd kept it: this burst's "
-                    "message came after gpsd's report)",
-    OTHER_MESSAGE: "gpsd's value is another DOP message of the same burst: a later GSA (we take the first "
-                   "GSA of a burst, gpsd the last) or, for HDOP, the GGA's HDOP",
+    NEXT_BURST: "gpsd's value is the receiver's own DOP of the NEXT epoch: gpsd's last SKY for this epoch went out "
+                "after the next epoch's first DOP message (an NMEA GSA, a UBX NAV-DOP) and before the message that "
+                "moves gpsd's time on; ours is the DOP sent with this epoch",
+    PREVIOUS_BURST: "gpsd's value is the receiver's DOP of the previous epoch: this epoch's DOP message came after "
+                    "gpsd's last report for the epoch",
+    OTHER_MESSAGE: "gpsd's value is another DOP message of the same burst: a later GSA (we take the first GSA of "
+                   "a burst) or, for HDOP, the GGA's HDOP",
+    GPSD_GEOMETRY: "gpsd's value is the DOP recomputed from the elevation/azimuth of the satellites its SKY marks "
+                   "used (gpsd's own fill_dop), not the receiver's value",
     REPLACED_IN_CYCLE: "gpsd reported our value in an earlier SKY of this epoch, then a later message of the same "
-                       "cycle changed it (e.g. NAV-DOP's GDOP, then gpsd's own fill after the NMEA GSV of a mixed "
-                       "UBX+NMEA stream); the last SKY of the epoch is the one compared",
-    GPSD_GEOMETRY: "gpsd's value is the DOP recomputed from the el/az of the satellites its SKY marks used "
-                   "(gpsd's fill_dop), not the receiver's value",
+                       "cycle changed it; the last SKY of the epoch is the one compared",
     UNEXPLAINED: "no hypothesis above reproduces gpsd's value",
 }
 
-_DOP_FIELDS = ("gdop", "pdop", "hdop", "vdop", "tdop")
 _TIMED = re.compile(rb"^\$(?:GP|GN|GL|GA|GB|BD|GQ|GI)(GGA|RMC|ZDA|GNS|GLL|GST),([^,*]*)")
 _GSA = re.compile(rb"^\$(?:GP|GN|GL|GA|GB|BD|GQ|GI)GSA,(.*)\*")
 _GGA = re.compile(rb"^\$(?:GP|GN|GL|GA|GB|BD|GQ|GI)GGA,(.*)\*")
@@ -117,7 +116,7 @@ def _near(a, b) -> bool:
 
 
 def classify(name: str, gpsd: float, ours: np.ndarray, i: int, skies: list[dict], bursts: list[dict]) -> str:
-    """The first reason that reproduces gpsd's value of DOP ``name`` at our epoch ``i``. ``ours``: our column
+    """The first reason (in the order of :data:`REASONS`) that reproduces gpsd's value of DOP ``name`` at our epoch ``i``. ``ours``: our column
     of that DOP; ``skies``: gpsd's SKY reports of this epoch in order (the last is the one compared);
     ``bursts``: the burst's DOP messages (:func:`burst_dops`)."""
     if i + 1 < ours.size and _near(float(ours[i + 1]), gpsd):
@@ -126,13 +125,13 @@ def classify(name: str, gpsd: float, ours: np.ndarray, i: int, skies: list[dict]
         return PREVIOUS_BURST
     if any(_near(m.get(name), gpsd) for m in bursts):
         return OTHER_MESSAGE
-    if any(_near(s.get(name), float(ours[i])) for s in skies[:-1]):
-        return REPLACED_IN_CYCLE
     for sky in reversed(skies):
         if sky.get("satellites"):
             if _near(sky_geometry_dops(sky["satellites"]).get(name), gpsd):
                 return GPSD_GEOMETRY
             break
+    if any(_near(s.get(name), float(ours[i])) for s in skies[:-1]):
+        return REPLACED_IN_CYCLE
     return UNEXPLAINED
 
 
@@ -144,16 +143,20 @@ def _summary() -> None:
     from tests.io.test_gpsd_oracle import ORACLE_FILES, compare_with_gpsd
     from _helpers import receivers_dir
 
-    total, compared, files = Counter(), 0, 0
+    total, sums, files, decoded = Counter(), Counter(), 0, 0
     for name in ORACLE_FILES:
         result = compare_with_gpsd(receivers_dir() / "gpsd" / name)
-        compared += result["dop_compared"]
+        if not result["protocols"]:
+            continue
+        decoded += 1
+        sums.update({key: result[key] for key in ("gpsd_epochs", "missing", "mode", "dop_compared")})
         total.update(result["dop_reasons"])
         files += bool(result["dop_reasons"])
-    print(f"{sum(total.values())} of {compared} DOP values differ, in {files} files:")
+    print(f"{len(ORACLE_FILES)} captures, {decoded} with NMEA/UBX we decode: {sums['gpsd_epochs']} gpsd epochs, "
+          f"{sums['missing']} not ours, {sums['mode']} fix-mode disagreements")
+    print(f"{sum(total.values())} of {sums['dop_compared']} DOP values differ, in {files} files:")
     for reason, n in total.most_common():
         print(f"  {reason}: {n}")
-
 
 if __name__ == "__main__":
     _summary()

@@ -3,7 +3,9 @@
 For every capture in ``receivers/gpsd`` that comes with gpsd's expected output and holds NMEA or UBX we
 decode, gpsd's TPV epochs (time, mode) and SKY DOPs are compared with ours epoch by epoch. Where gpsd
 and we differ by gpsd's choice, the count and the reason are in :data:`GPSD_CHOICES`; the test asserts
-the counts exactly, so a new disagreement (or a fixed one) shows.
+the counts exactly, so a new disagreement (or a fixed one) shows. Each DOP disagreement is given, value
+by value, the first reason of :mod:`gpsd_dop_reasons` that reproduces gpsd's value (or ``unexplained``);
+``python tests/io/gpsd_dop_reasons.py`` prints the totals.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from chronofuse.io.inspect import read_capture
+from chronofuse.io.inspect import read_bytes, read_capture
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_ns_to_datetime64
 
 from .conftest import receivers_dir
@@ -64,60 +66,23 @@ GPSD_CHOICES: dict[str, dict] = {
 # DOP disagreements (values off by more than TOLERANCE), per file: reason -> count, each value given the first
 # reason of gpsd_dop_reasons.classify that reproduces gpsd's value (UNEXPLAINED: none does)
 _DOP_REASONS = {
-    "ais-nmea.log": {NEXT_BURST: 52},
-    "bt451.log": {NEXT_BURST: 4},
-    "bu353-glonass.log": {NEXT_BURST: 8},
-    "bu353s4.log": {NEXT_BURST: 2},
-    "bundg_zeus_9.log": {NEXT_BURST: 2},
-    "cat-ms352.log": {NEXT_BURST: 7},
-    "ch-4701.log": {REPLACED_IN_CYCLE: 4},
-    "ch-4711.log": {NEXT_BURST: 2},
-    "ericsson-gru04-02-70sec.log": {NEXT_BURST: 5},
-    "garmin-10x.log": {NEXT_BURST: 6},
+    "ch-4701.log": {GPSD_GEOMETRY: 4},
+    "ch-4711.log": {NEXT_BURST: 2, PREVIOUS_BURST: 2},
     "garmin17n.log": {REPLACED_IN_CYCLE: 1},
-    "gpsdf.log": {NEXT_BURST: 16},
-    "gr601-w.log": {NEXT_BURST: 1},
-    "iTrek.log": {OTHER_MESSAGE: 3},
-    "isync.log": {NEXT_BURST: 24},
-    "jl-micro-jlt.log": {GPSD_GEOMETRY: 9},
-    "mt3339.log": {NEXT_BURST: 7},
-    "navika-100-fix.log": {NEXT_BURST: 2},
+    "iTrek.log": {GPSD_GEOMETRY: 2},
+    "isync.log": {NEXT_BURST: 3},
     "navisys-gr701w.log": {NEXT_BURST: 8},
     "navisys-gr8013.log": {NEXT_BURST: 10},
-    "neo-m8n.log": {NEXT_BURST: 13},
-    "nl2008u.log": {NEXT_BURST: 5},
-    "nl402u.log": {NEXT_BURST: 4},
-    "nl551e.log": {NEXT_BURST: 1},
-    "nmea-fuzzy-cases.log": {NEXT_BURST: 3},
-    "nmea-rtk.log": {NEXT_BURST: 6},
-    "nokia-ld-4w.log": {NEXT_BURST: 12},
-    "pharos-360.log": {NEXT_BURST: 10},
-    "quectel-eg25-g.log": {NEXT_BURST: 4},
+    "pharos-360.log": {NEXT_BURST: 1},
     "quectel-l76k-dual.log": {REPLACED_IN_CYCLE: 3, NEXT_BURST: 2},
-    "quectel.log": {NEXT_BURST: 4},
-    "quectelLC79D-1.log": {NEXT_BURST: 4},
-    "quectelLC79D.log": {NEXT_BURST: 18},
-    "sirfstarv-nmea.log": {NEXT_BURST: 80},
-    "skytraq-dgps.log": {NEXT_BURST: 154},
-    "skytraq-fix.log": {NEXT_BURST: 16},
-    "st-teseo-liv3f.log": {NEXT_BURST: 6},
-    "st-teseo-liv4f.log": {NEXT_BURST: 4},
-    "telit-he910.log": {NEXT_BURST: 16},
-    "tomtom-mkII.log": {NEXT_BURST: 1},
+    "rx210.log": {PREVIOUS_BURST: 2},
     "ublox-8-time.log": {REPLACED_IN_CYCLE: 1},
-    "ublox-8.log": {NEXT_BURST: 34},
     "ublox-aek-4t.log": {NEXT_BURST: 1},
-    "ublox-lea-4h.log": {NEXT_BURST: 20},
-    "ublox-lea-5h.log": {REPLACED_IN_CYCLE: 3, NEXT_BURST: 1},
     "ublox-neo-m8n.log": {GPSD_GEOMETRY: 5},
     "ublox-neo-m8t.log": {REPLACED_IN_CYCLE: 4, NEXT_BURST: 3},
-    "ublox-neo-m9n-nmea.log": {NEXT_BURST: 72},
     "ublox-zed-f9p-hp.log": {REPLACED_IN_CYCLE: 6, NEXT_BURST: 4},
-    "ublox-zed-f9p-nmea.log": {NEXT_BURST: 67},
-    "ublox-zed-f9r.log": {REPLACED_IN_CYCLE: 55, NEXT_BURST: 24},
-    "ublox-zed-f9t-ubx_nmea_l5.log": {REPLACED_IN_CYCLE: 11},
-    "ublox8-uniqid-monhw.log": {REPLACED_IN_CYCLE: 6, UNEXPLAINED: 2, PREVIOUS_BURST: 2},
-    "venus634lp.log": {NEXT_BURST: 5},
+    "ublox-zed-f9r.log": {NEXT_BURST: 24},
+    "ublox8-uniqid-monhw.log": {GPSD_GEOMETRY: 4, UNEXPLAINED: 2, PREVIOUS_BURST: 2},
 }
 for _name, _reasons in _DOP_REASONS.items():
     GPSD_CHOICES.setdefault(_name, {})["dop"] = _reasons
@@ -127,9 +92,15 @@ _DOPS = ("gdop", "pdop", "hdop", "vdop", "tdop")
 
 def gpsd_expected(chk: Path) -> tuple[dict, dict]:
     """gpsd's TPV mode per time label (the last TPV of each time) and its SKY reports per time, in order
-    (a SKY without a time belongs to the last TPV time before it; the last of a time is the one compared)."""
+    (the last of a time is the one compared).
+
+    A SKY without a time belongs to the NEXT TPV time: gpsd reports an NMEA epoch's TPV when its cycle
+    ends, so the SKYs it sends while a burst's GSA/GSV arrive come before that burst's TPV (pairing them
+    with the TPV before them gave 750 false "disagreements", each the next burst's DOP). SKYs after the
+    last TPV belong to the last time."""
     tpv: dict[str, int] = {}
     sky: dict[str, list] = {}
+    pending: list = []
     last = None
     for line in chk.read_text(errors="replace").splitlines():
         if line.startswith('{"class":"TPV"'):
@@ -137,11 +108,17 @@ def gpsd_expected(chk: Path) -> tuple[dict, dict]:
             if "time" in doc:
                 tpv[doc["time"]] = doc["mode"]
                 last = doc["time"]
+                if pending:
+                    sky.setdefault(last, []).extend(pending)
+                    pending = []
         elif line.startswith('{"class":"SKY"'):
             doc = json.loads(line)
-            label = doc.get("time", last)
-            if label is not None:
-                sky.setdefault(label, []).append(doc)
+            if "time" in doc:
+                sky.setdefault(doc["time"], []).append(doc)
+            else:
+                pending.append(doc)
+    if pending and last is not None:
+        sky.setdefault(last, []).extend(pending)
     return tpv, sky
 
 
@@ -233,3 +210,33 @@ def test_week_rollover_dates_move_by_exactly_1024_weeks_with_a_reference(receive
     moved = read_capture(log, reference_gps_ns=reference)
     shift = moved.utc_ns() - as_sent.utc_ns()
     assert np.all(shift == 1024 * 604_800 * NS_PER_S)
+
+
+def test_a_gsa_with_zero_dops_gives_no_dop_and_a_real_one_is_kept():
+    # CH-4711 lines as sent: a 2-D fix with its DOPs, then a no-fix burst whose GSA fills the DOPs with 00.0
+    fix = (b"$GNGGA,135651.997,5543.0328,N,03724.7198,E,1,06,01.8,165.6,M,14.6,M,,*73\r\n"
+           b"$GNRMC,135651.997,A,5543.0328,N,03724.7198,E,00.00,129.5,051209,,,A*79\r\n"
+           b"$GNGSA,A,2,19,27,,,,,,,,,,,02.1,01.8,00.9*13\r\n")
+    no_fix = (b"$GPGGA,135700.997,5543.0322,N,03724.7208,E,0,,,165.6,M,14.6,M,,*78\r\n"
+              b"$GPRMC,135700.997,V,5543.0322,N,03724.7208,E,00.79,159.0,051209,,,N*76\r\n"
+              b"$GPGSA,A,1,,,,,,,,,,,,,00.0,00.0,00.0*00\r\n")
+    rows = read_bytes([fix + no_fix]).rows
+    assert rows["gps_ns"].size == 2
+    assert [rows[name][0] for name in ("pdop", "hdop", "vdop")] == [2.1, 1.8, 0.9]
+    assert all(np.isnan(rows[name][1]) for name in ("pdop", "hdop", "vdop"))
+
+
+def test_a_sky_without_a_time_belongs_to_the_tpv_that_follows_it(tmp_path):
+    chk = tmp_path / "x.log.chk"
+    chk.write_text("\n".join([
+        '{"class":"TPV","mode":3,"time":"2020-01-01T00:00:01.000Z"}',
+        '{"class":"SKY","pdop":2.0}',
+        '{"class":"SKY","pdop":2.5}',
+        '{"class":"TPV","mode":3,"time":"2020-01-01T00:00:02.000Z"}',
+        '{"class":"SKY","time":"2020-01-01T00:00:02.000Z","pdop":3.0}',
+        '{"class":"SKY","pdop":3.5}',
+    ]) + "\n")
+    tpv, sky = gpsd_expected(chk)
+    assert tpv == {"2020-01-01T00:00:01.000Z": 3, "2020-01-01T00:00:02.000Z": 3}
+    assert "2020-01-01T00:00:01.000Z" not in sky
+    assert [s["pdop"] for s in sky["2020-01-01T00:00:02.000Z"]] == [2.0, 2.5, 3.0, 3.5]
