@@ -17,6 +17,7 @@ import numpy as np
 TOLERANCE = 0.005
 
 NEXT_BURST = "next_burst"
+LATER_EPOCH = "later_epoch"
 PREVIOUS_BURST = "previous_burst"
 OTHER_MESSAGE = "other_message_same_burst"
 REPLACED_IN_CYCLE = "replaced_in_cycle"
@@ -25,11 +26,13 @@ UNEXPLAINED = "unexplained"
 
 #: reason -> what it means (each is checked value by value by :func:`classify`)
 REASONS = {
-    NEXT_BURST: "gpsd's value is the receiver's own DOP of the NEXT epoch: gpsd's last SKY for this epoch went out "
-                "after the next epoch's first DOP message (an NMEA GSA, a UBX NAV-DOP) and before the message that "
-                "moves gpsd's time on; ours is the DOP sent with this epoch",
-    PREVIOUS_BURST: "gpsd's value is the receiver's DOP of the previous epoch: this epoch's DOP message came after "
-                    "gpsd's last report for the epoch",
+    NEXT_BURST: "gpsd's value is the receiver's own DOP of the NEXT epoch: gpsd's last SKY with this time went "
+                "out after the next epoch's first DOP message (an NMEA GSA, a UBX NAV-DOP) and before the message "
+                "that moves gpsd's time on; ours is the DOP sent with this epoch",
+    LATER_EPOCH: "gpsd's value is the receiver's DOP of a later epoch, before gpsd's next SKY time: gpsd's time "
+                 "stood still over several of our epochs and it kept reporting their DOPs under this time",
+    PREVIOUS_BURST: "gpsd's value is the receiver's DOP of an EARLIER epoch, back to gpsd's previous SKY time: this "
+                    "epoch's DOP message came after gpsd's last report for it",
     OTHER_MESSAGE: "gpsd's value is another DOP message of the same burst: a later GSA (we take the first GSA of "
                    "a burst) or, for HDOP, the GGA's HDOP",
     GPSD_GEOMETRY: "gpsd's value is the DOP recomputed from the elevation/azimuth of the satellites its SKY marks "
@@ -115,13 +118,20 @@ def _near(a, b) -> bool:
     return a is not None and b is not None and np.isfinite(a) and np.isfinite(b) and abs(a - b) <= TOLERANCE
 
 
-def classify(name: str, gpsd: float, ours: np.ndarray, i: int, skies: list[dict], bursts: list[dict]) -> str:
-    """The first reason (in the order of :data:`REASONS`) that reproduces gpsd's value of DOP ``name`` at our epoch ``i``. ``ours``: our column
-    of that DOP; ``skies``: gpsd's SKY reports of this epoch in order (the last is the one compared);
-    ``bursts``: the burst's DOP messages (:func:`burst_dops`)."""
+def classify(name: str, gpsd: float, ours: np.ndarray, i: int, skies: list[dict], bursts: list[dict],
+             window: tuple[int, int] | None = None) -> str:
+    """The first reason (in the order of :data:`REASONS`) that reproduces gpsd's value of DOP ``name`` at
+    our epoch ``i``. ``ours``: our column of that DOP; ``skies``: gpsd's SKY reports of this epoch in order
+    (the last is the one compared); ``bursts``: the burst's DOP messages (:func:`burst_dops`); ``window``:
+    our epochs of gpsd's previous and next SKY times (``(i - 1, i + 1)`` when not given): the epochs whose
+    DOP gpsd may have reported under this time."""
+    before, after = window if window is not None else (i - 1, i + 1)
     if i + 1 < ours.size and _near(float(ours[i + 1]), gpsd):
         return NEXT_BURST
-    if i > 0 and _near(float(ours[i - 1]), gpsd):
+    if any(_near(float(v), gpsd) for v in ours[i + 2:after + 1]):
+        return LATER_EPOCH
+    earlier = ours[max(min(before, i - 1), 0):i]
+    if any(_near(float(v), gpsd) for v in earlier):
         return PREVIOUS_BURST
     if any(_near(m.get(name), gpsd) for m in bursts):
         return OTHER_MESSAGE

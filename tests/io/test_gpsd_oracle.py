@@ -21,8 +21,8 @@ from chronofuse.io.inspect import read_bytes, read_capture
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_ns_to_datetime64
 
 from .conftest import receivers_dir
-from .gpsd_dop_reasons import (GPSD_GEOMETRY, NEXT_BURST, OTHER_MESSAGE, PREVIOUS_BURST, REPLACED_IN_CYCLE, REASONS,
-                               TOLERANCE, UNEXPLAINED, burst_dops, classify)
+from .gpsd_dop_reasons import (GPSD_GEOMETRY, LATER_EPOCH, NEXT_BURST, OTHER_MESSAGE, PREVIOUS_BURST, REASONS,
+                               REPLACED_IN_CYCLE, TOLERANCE, UNEXPLAINED, burst_dops, classify)
 
 _FIX_TRANSITION = ("gpsd reports the mode of the last sentence of a burst that mixes fix and no-fix "
                    "reports (fix lost or regained); we report the highest mode the burst announces")
@@ -76,11 +76,11 @@ _DOP_REASONS = {
     "pharos-360.log": {NEXT_BURST: 1},
     "quectel-l76k-dual.log": {REPLACED_IN_CYCLE: 3, NEXT_BURST: 2},
     "rx210.log": {PREVIOUS_BURST: 2},
-    "ublox-8-time.log": {REPLACED_IN_CYCLE: 1},
+    "ublox-8-time.log": {LATER_EPOCH: 1},
     "ublox-aek-4t.log": {NEXT_BURST: 1},
     "ublox-neo-m8n.log": {GPSD_GEOMETRY: 5},
-    "ublox-neo-m8t.log": {REPLACED_IN_CYCLE: 4, NEXT_BURST: 3},
-    "ublox-zed-f9p-hp.log": {REPLACED_IN_CYCLE: 6, NEXT_BURST: 4},
+    "ublox-neo-m8t.log": {LATER_EPOCH: 3, NEXT_BURST: 3, REPLACED_IN_CYCLE: 1},
+    "ublox-zed-f9p-hp.log": {LATER_EPOCH: 6, NEXT_BURST: 4},
     "ublox-zed-f9r.log": {NEXT_BURST: 24},
     "ublox8-uniqid-monhw.log": {GPSD_GEOMETRY: 4, UNEXPLAINED: 2, PREVIOUS_BURST: 2},
 }
@@ -153,16 +153,20 @@ def compare_with_gpsd(log: Path) -> dict:
     # NMEA sends no GDOP/TDOP: gpsd computes its own and so do we (geometry_dops, checked against the
     # receivers' own PDOP in test_receiver_readers); the receivers' DOPs are what is compared here
     names = ("pdop", "hdop", "vdop") if capture.protocols == ("nmea",) else _DOPS
+    sky_epochs = sorted(index[t] for t in sky if t in index)
     for t, skies in sky.items():
         if t not in index:
             continue
         i, doc = index[t], skies[-1]
+        k = sky_epochs.index(i)
+        window = (sky_epochs[k - 1] if k > 0 else i - 1, sky_epochs[k + 1] if k + 1 < len(sky_epochs) else i + 1)
         for name in names:
             ours = float(rows[name][i])
             if name in doc and np.isfinite(ours) and ours < 99.0:
                 dop_compared += 1
                 if abs(doc[name] - ours) > TOLERANCE:
-                    reasons[classify(name, doc[name], rows[name], i, skies, bursts.get(t[11:23], []))] += 1
+                    reasons[classify(name, doc[name], rows[name], i, skies, bursts.get(t[11:23], []),
+                                             window)] += 1
     return {"gpsd_epochs": len(tpv), "missing": len(missing), "mode": len(mode_bad),
             "dop": sum(reasons.values()), "dop_reasons": dict(reasons), "dop_compared": dop_compared,
             "protocols": capture.protocols}
@@ -176,7 +180,8 @@ def test_the_oracle_covers_the_nmea_and_ubx_captures_with_a_reference_decoding()
 def test_time_mode_and_dops_agree_with_gpsd_epoch_by_epoch(receivers, name):
     result = compare_with_gpsd(receivers / "gpsd" / name)
     if not result["protocols"]:
-        pytest.skip(f"{name} holds no NMEA or UBX sentence we decode (another binary protocol, or a talker we do not use)")
+        pytest.skip(f"{name} holds no NMEA or UBX sentence we decode (another binary protocol, or a talker we do "
+                    "not use)")
     choices = GPSD_CHOICES.get(name, {})
     for key in ("missing", "mode"):
         expected = choices.get(key, (0, ""))[0]
@@ -200,6 +205,14 @@ def test_the_dop_classifier_finds_the_next_burst_and_says_unexplained_otherwise(
     assert classify("hdop", 0.9, ours, 1, [{"hdop": 0.9}], [{"pdop": 1.5, "hdop": 1.5}, {"hdop": 0.9}]) == OTHER_MESSAGE
     assert classify("pdop", 7.0, ours, 1, [{"pdop": 1.5}, {"pdop": 7.0}], []) == REPLACED_IN_CYCLE
     assert classify("pdop", 7.0, ours, 1, [{"pdop": 7.0}], []) == UNEXPLAINED
+
+
+def test_the_dop_classifier_looks_at_later_epochs_only_up_to_gpsds_next_sky_time():
+    ours = np.array([1.2, 1.5, 1.6, 1.7, 1.9])
+    assert classify("pdop", 1.9, ours, 1, [{"pdop": 1.9}], [], window=(0, 4)) == LATER_EPOCH
+    assert classify("pdop", 1.9, ours, 1, [{"pdop": 1.9}], [], window=(0, 3)) == UNEXPLAINED
+    assert classify("pdop", 1.2, ours, 3, [{"pdop": 1.2}], [], window=(0, 4)) == PREVIOUS_BURST
+    assert classify("pdop", 1.2, ours, 3, [{"pdop": 1.2}], [], window=(2, 4)) == UNEXPLAINED
 
 
 def test_week_rollover_dates_move_by_exactly_1024_weeks_with_a_reference(receivers):
