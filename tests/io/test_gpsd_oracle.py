@@ -3,27 +3,29 @@
 For every capture in ``receivers/gpsd`` that comes with gpsd's expected output and holds NMEA or UBX we
 decode, gpsd's TPV epochs (time, mode) and SKY DOPs are compared with ours epoch by epoch. Where gpsd
 and we differ by gpsd's choice, the count and the reason are in :data:`GPSD_CHOICES`; the test asserts
-the counts exactly, so a new disagreement (or a fixed one) shows.
+the counts exactly, so a new disagreement (or a fixed one) shows. Each DOP disagreement is given, value
+by value, the first reason of :mod:`gpsd_dop_reasons` that reproduces gpsd's value (or ``unexplained``);
+``python tests/io/gpsd_dop_reasons.py`` prints the totals.
 """
 
 from __future__ import annotations
 
 import json
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from chronofuse.io.inspect import read_capture
+from chronofuse.io.inspect import read_bytes, read_capture
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_ns_to_datetime64
 
 from .conftest import receivers_dir
+from .gpsd_dop_reasons import (GPSD_GEOMETRY, LATER_EPOCH, NEXT_BURST, OTHER_MESSAGE, PREVIOUS_BURST, REASONS,
+                               REPLACED_IN_CYCLE, TOLERANCE, UNEXPLAINED, burst_dops, classify)
 
 _FIX_TRANSITION = ("gpsd reports the mode of the last sentence of a burst that mixes fix and no-fix "
                    "reports (fix lost or regained); we report the highest mode the burst announces")
-_DOP_RECOMPUTED = ("gpsd's SKY DOPs here are its own, recomputed from the satellites' azimuth/elevation "
-                   "and used flags (gpsd's fill_dop), or taken from a GSA of the next burst; ours are the "
-                   "receiver's GSA / NAV-DOP values as sent")
 _WEEK_SHIFT = ("gpsd moved these dates 1024 weeks later (its rollover guard assumes no date before its "
                "build); we keep the receiver's date unless given a reference epoch: read with gpsd's "
                "date as reference, every time agrees")
@@ -34,7 +36,8 @@ _LEAP_DEFAULT = ("gpsd labels the first epoch with its compiled-in GPS-UTC (18 s
 _ZDA_AHEAD = ("this receiver stamps ZDA one second ahead of its burst's GGA/RMC; gpsd gives the ZDA time the "
               "last fix mode it saw, our ZDA-only epoch has no fix report (mode 0, unknown)")
 
-#: file -> {"missing": (count, reason), "mode": (count, reason), "dop": (count, reason), "reference": True}
+#: file -> {"missing": (count, reason), "mode": (count, reason), "dop": {reason: count}, "reference": True}
+#: (the DOP reasons are the keys of gpsd_dop_reasons.REASONS, each checked value by value)
 GPSD_CHOICES: dict[str, dict] = {
     "ac12.log": {"mode": (5, _ZDA_AHEAD)},
     "ac12_binary.log": {"mode": (4, _ZDA_AHEAD)},
@@ -60,33 +63,44 @@ GPSD_CHOICES: dict[str, dict] = {
     "ublox-lea-4t.log": {"missing": (1, _LEAP_DEFAULT)},
     "ublox-aek-4t.log": {"missing": (1, _LEAP_DEFAULT)},
 }
-# DOP disagreements (count of DOP values off by more than 0.005), all for the one reason above
-_DOP_COUNTS = {
-    "ais-nmea.log": 52, "bt451.log": 4, "bu353-glonass.log": 8, "bu353s4.log": 2, "bundg_zeus_9.log": 2,
-    "cat-ms352.log": 7, "ch-4701.log": 4, "ch-4711.log": 2, "ericsson-gru04-02-70sec.log": 5,
-    "garmin-10x.log": 6, "garmin17n.log": 1, "gpsdf.log": 16, "gr601-w.log": 1, "iTrek.log": 3, "isync.log": 24,
-    "jl-micro-jlt.log": 9, "mt3339.log": 7, "navika-100-fix.log": 2, "navisys-gr701w.log": 8,
-    "navisys-gr8013.log": 10, "nl2008u.log": 5, "nl402u.log": 4, "nl551e.log": 1, "nmea-fuzzy-cases.log": 3,
-    "nmea-rtk.log": 6, "nokia-ld-4w.log": 12, "pharos-360.log": 10, "quectel-eg25-g.log": 4,
-    "quectel-l76k-dual.log": 5, "quectel.log": 4, "quectelLC79D-1.log": 4, "quectelLC79D.log": 18,
-    "sirfstarv-nmea.log": 80, "skytraq-dgps.log": 154, "skytraq-fix.log": 16, "st-teseo-liv3f.log": 6,
-    "st-teseo-liv4f.log": 4, "telit-he910.log": 16, "tomtom-mkII.log": 1, "ublox-8-time.log": 1,
-    "ublox-8.log": 34, "ublox-aek-4t.log": 1, "ublox-lea-4h.log": 20, "ublox-lea-5h.log": 4,
-    "ublox-neo-m8n.log": 5, "neo-m8n.log": 13, "ublox-neo-m8t.log": 7, "ublox-neo-m9n-nmea.log": 72, "ublox-zed-f9p-hp.log": 10,
-    "ublox-zed-f9p-nmea.log": 67, "ublox-zed-f9r.log": 79, "ublox-zed-f9t-ubx_nmea_l5.log": 11,
-    "ublox8-uniqid-monhw.log": 10, "venus634lp.log": 5,
+# DOP disagreements (values off by more than TOLERANCE), per file: reason -> count, each value given the first
+# reason of gpsd_dop_reasons.classify that reproduces gpsd's value (UNEXPLAINED: none does)
+_DOP_REASONS = {
+    "ch-4701.log": {GPSD_GEOMETRY: 4},
+    "ch-4711.log": {NEXT_BURST: 2, PREVIOUS_BURST: 2},
+    "garmin17n.log": {REPLACED_IN_CYCLE: 1},
+    "iTrek.log": {GPSD_GEOMETRY: 2},
+    "isync.log": {NEXT_BURST: 3},
+    "navisys-gr701w.log": {NEXT_BURST: 8},
+    "navisys-gr8013.log": {NEXT_BURST: 10},
+    "pharos-360.log": {NEXT_BURST: 1},
+    "quectel-l76k-dual.log": {REPLACED_IN_CYCLE: 3, NEXT_BURST: 2},
+    "rx210.log": {PREVIOUS_BURST: 2},
+    "ublox-8-time.log": {LATER_EPOCH: 1},
+    "ublox-aek-4t.log": {NEXT_BURST: 1},
+    "ublox-neo-m8n.log": {GPSD_GEOMETRY: 5},
+    "ublox-neo-m8t.log": {LATER_EPOCH: 3, NEXT_BURST: 3, REPLACED_IN_CYCLE: 1},
+    "ublox-zed-f9p-hp.log": {LATER_EPOCH: 6, NEXT_BURST: 4},
+    "ublox-zed-f9r.log": {NEXT_BURST: 24},
+    "ublox8-uniqid-monhw.log": {GPSD_GEOMETRY: 4, UNEXPLAINED: 2, PREVIOUS_BURST: 2},
 }
-for _name, _n in _DOP_COUNTS.items():
-    GPSD_CHOICES.setdefault(_name, {})["dop"] = (_n, _DOP_RECOMPUTED)
+for _name, _reasons in _DOP_REASONS.items():
+    GPSD_CHOICES.setdefault(_name, {})["dop"] = _reasons
 
 _DOPS = ("gdop", "pdop", "hdop", "vdop", "tdop")
 
 
 def gpsd_expected(chk: Path) -> tuple[dict, dict]:
-    """gpsd's TPV mode per time label (the last TPV of each time) and its SKY DOPs per time (a SKY
-    without a time belongs to the last TPV time before it)."""
+    """gpsd's TPV mode per time label (the last TPV of each time) and its SKY reports per time, in order
+    (the last of a time is the one compared).
+
+    A SKY without a time belongs to the NEXT TPV time: gpsd reports an NMEA epoch's TPV when its cycle
+    ends, so the SKYs it sends while a burst's GSA/GSV arrive come before that burst's TPV (pairing them
+    with the TPV before them gave 750 false "disagreements", each the next burst's DOP). SKYs after the
+    last TPV belong to the last time."""
     tpv: dict[str, int] = {}
-    sky: dict[str, dict] = {}
+    sky: dict[str, list] = {}
+    pending: list = []
     last = None
     for line in chk.read_text(errors="replace").splitlines():
         if line.startswith('{"class":"TPV"'):
@@ -94,11 +108,17 @@ def gpsd_expected(chk: Path) -> tuple[dict, dict]:
             if "time" in doc:
                 tpv[doc["time"]] = doc["mode"]
                 last = doc["time"]
+                if pending:
+                    sky.setdefault(last, []).extend(pending)
+                    pending = []
         elif line.startswith('{"class":"SKY"'):
             doc = json.loads(line)
-            label = doc.get("time", last)
-            if label is not None:
-                sky[label] = doc
+            if "time" in doc:
+                sky.setdefault(doc["time"], []).append(doc)
+            else:
+                pending.append(doc)
+    if pending and last is not None:
+        sky.setdefault(last, []).extend(pending)
     return tpv, sky
 
 
@@ -128,20 +148,28 @@ def compare_with_gpsd(log: Path) -> dict:
     rows = capture.rows
     missing = [t for t in tpv if t not in index]
     mode_bad = [t for t in tpv if t in index and int(rows["fix_mode"][index[t]]) != tpv[t]]
-    dop_bad, dop_compared = 0, 0
+    dop_compared, reasons = 0, Counter()
+    bursts = burst_dops(log) if "nmea" in capture.protocols else {}
     # NMEA sends no GDOP/TDOP: gpsd computes its own and so do we (geometry_dops, checked against the
     # receivers' own PDOP in test_receiver_readers); the receivers' DOPs are what is compared here
     names = ("pdop", "hdop", "vdop") if capture.protocols == ("nmea",) else _DOPS
-    for t, doc in sky.items():
+    sky_epochs = sorted(index[t] for t in sky if t in index)
+    for t, skies in sky.items():
         if t not in index:
             continue
+        i, doc = index[t], skies[-1]
+        k = sky_epochs.index(i)
+        window = (sky_epochs[k - 1] if k > 0 else i - 1, sky_epochs[k + 1] if k + 1 < len(sky_epochs) else i + 1)
         for name in names:
-            ours = float(rows[name][index[t]])
+            ours = float(rows[name][i])
             if name in doc and np.isfinite(ours) and ours < 99.0:
                 dop_compared += 1
-                dop_bad += abs(doc[name] - ours) > 0.005
-    return {"gpsd_epochs": len(tpv), "missing": len(missing), "mode": len(mode_bad), "dop": dop_bad,
-            "dop_compared": dop_compared, "protocols": capture.protocols}
+                if abs(doc[name] - ours) > TOLERANCE:
+                    reasons[classify(name, doc[name], rows[name], i, skies, bursts.get(t[11:23], []),
+                                             window)] += 1
+    return {"gpsd_epochs": len(tpv), "missing": len(missing), "mode": len(mode_bad),
+            "dop": sum(reasons.values()), "dop_reasons": dict(reasons), "dop_compared": dop_compared,
+            "protocols": capture.protocols}
 
 
 def test_the_oracle_covers_the_nmea_and_ubx_captures_with_a_reference_decoding():
@@ -152,15 +180,39 @@ def test_the_oracle_covers_the_nmea_and_ubx_captures_with_a_reference_decoding()
 def test_time_mode_and_dops_agree_with_gpsd_epoch_by_epoch(receivers, name):
     result = compare_with_gpsd(receivers / "gpsd" / name)
     if not result["protocols"]:
-        pytest.skip(f"{name} holds no NMEA or UBX sentence we decode (another binary protocol, or a talker we do not use)")
+        pytest.skip(f"{name} holds no NMEA or UBX sentence we decode (another binary protocol, or a talker we do "
+                    "not use)")
     choices = GPSD_CHOICES.get(name, {})
-    for key in ("missing", "mode", "dop"):
+    for key in ("missing", "mode"):
         expected = choices.get(key, (0, ""))[0]
         assert result[key] == expected, f"{name}: {key} {result[key]} != listed {expected} ({result})"
+    assert result["dop_reasons"] == choices.get("dop", {}), f"{name}: DOP disagreements by reason ({result})"
 
 
 def test_every_listed_choice_names_a_capture_of_the_oracle():
     assert set(GPSD_CHOICES) <= set(ORACLE_FILES)
+
+
+def test_every_listed_dop_disagreement_has_one_of_the_checked_reasons():
+    listed = [reason for choice in GPSD_CHOICES.values() for reason in choice.get("dop", {})]
+    assert listed and set(listed) <= set(REASONS)
+
+
+def test_the_dop_classifier_finds_the_next_burst_and_says_unexplained_otherwise():
+    ours = np.array([1.2, 1.5, 1.9])
+    assert classify("pdop", 1.9, ours, 1, [{"pdop": 1.9}], []) == NEXT_BURST
+    assert classify("pdop", 1.2, ours, 1, [{"pdop": 1.2}], []) == PREVIOUS_BURST
+    assert classify("hdop", 0.9, ours, 1, [{"hdop": 0.9}], [{"pdop": 1.5, "hdop": 1.5}, {"hdop": 0.9}]) == OTHER_MESSAGE
+    assert classify("pdop", 7.0, ours, 1, [{"pdop": 1.5}, {"pdop": 7.0}], []) == REPLACED_IN_CYCLE
+    assert classify("pdop", 7.0, ours, 1, [{"pdop": 7.0}], []) == UNEXPLAINED
+
+
+def test_the_dop_classifier_looks_at_later_epochs_only_up_to_gpsds_next_sky_time():
+    ours = np.array([1.2, 1.5, 1.6, 1.7, 1.9])
+    assert classify("pdop", 1.9, ours, 1, [{"pdop": 1.9}], [], window=(0, 4)) == LATER_EPOCH
+    assert classify("pdop", 1.9, ours, 1, [{"pdop": 1.9}], [], window=(0, 3)) == UNEXPLAINED
+    assert classify("pdop", 1.2, ours, 3, [{"pdop": 1.2}], [], window=(0, 4)) == PREVIOUS_BURST
+    assert classify("pdop", 1.2, ours, 3, [{"pdop": 1.2}], [], window=(2, 4)) == UNEXPLAINED
 
 
 def test_week_rollover_dates_move_by_exactly_1024_weeks_with_a_reference(receivers):
@@ -171,3 +223,33 @@ def test_week_rollover_dates_move_by_exactly_1024_weeks_with_a_reference(receive
     moved = read_capture(log, reference_gps_ns=reference)
     shift = moved.utc_ns() - as_sent.utc_ns()
     assert np.all(shift == 1024 * 604_800 * NS_PER_S)
+
+
+def test_a_gsa_with_zero_dops_gives_no_dop_and_a_real_one_is_kept():
+    # CH-4711 lines as sent: a 2-D fix with its DOPs, then a no-fix burst whose GSA fills the DOPs with 00.0
+    fix = (b"$GNGGA,135651.997,5543.0328,N,03724.7198,E,1,06,01.8,165.6,M,14.6,M,,*73\r\n"
+           b"$GNRMC,135651.997,A,5543.0328,N,03724.7198,E,00.00,129.5,051209,,,A*79\r\n"
+           b"$GNGSA,A,2,19,27,,,,,,,,,,,02.1,01.8,00.9*13\r\n")
+    no_fix = (b"$GPGGA,135700.997,5543.0322,N,03724.7208,E,0,,,165.6,M,14.6,M,,*78\r\n"
+              b"$GPRMC,135700.997,V,5543.0322,N,03724.7208,E,00.79,159.0,051209,,,N*76\r\n"
+              b"$GPGSA,A,1,,,,,,,,,,,,,00.0,00.0,00.0*00\r\n")
+    rows = read_bytes([fix + no_fix]).rows
+    assert rows["gps_ns"].size == 2
+    assert [rows[name][0] for name in ("pdop", "hdop", "vdop")] == [2.1, 1.8, 0.9]
+    assert all(np.isnan(rows[name][1]) for name in ("pdop", "hdop", "vdop"))
+
+
+def test_a_sky_without_a_time_belongs_to_the_tpv_that_follows_it(tmp_path):
+    chk = tmp_path / "x.log.chk"
+    chk.write_text("\n".join([
+        '{"class":"TPV","mode":3,"time":"2020-01-01T00:00:01.000Z"}',
+        '{"class":"SKY","pdop":2.0}',
+        '{"class":"SKY","pdop":2.5}',
+        '{"class":"TPV","mode":3,"time":"2020-01-01T00:00:02.000Z"}',
+        '{"class":"SKY","time":"2020-01-01T00:00:02.000Z","pdop":3.0}',
+        '{"class":"SKY","pdop":3.5}',
+    ]) + "\n")
+    tpv, sky = gpsd_expected(chk)
+    assert tpv == {"2020-01-01T00:00:01.000Z": 3, "2020-01-01T00:00:02.000Z": 3}
+    assert "2020-01-01T00:00:01.000Z" not in sky
+    assert [s["pdop"] for s in sky["2020-01-01T00:00:02.000Z"]] == [2.0, 2.5, 3.0, 3.5]

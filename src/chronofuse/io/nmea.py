@@ -132,6 +132,15 @@ def _num(value) -> float:
         return math.nan
 
 
+def _dop(value) -> float:
+    """A DOP as sent; NaN when empty or not positive: receivers without a fix fill GSA's DOP fields with
+    ``00.0``, which is no DOP (a DOP is the root of a trace of ``(H^T H)^-1``, never zero); where the
+    CH-4711 and JL-micro JLT captures send it, gpsd reports its own or the last real DOP instead
+    (``tests/io/test_gpsd_oracle.py``)."""
+    v = _num(value)
+    return v if v > 0 else math.nan
+
+
 def _tod_ms(t) -> int | None:
     if not isinstance(t, dt.time):
         return None
@@ -176,7 +185,7 @@ class NmeaEpochBuilder:
             if not math.isnan(sats):
                 ep.gga_sats = max(ep.gga_sats, int(sats))
             if math.isnan(ep.gga_hdop):
-                ep.gga_hdop = _num(msg.HDOP)
+                ep.gga_hdop = _dop(msg.HDOP)
         elif msg_type == "RMC" or msg_type == "GLL":
             status = str(msg.status)
             ep.rmc_valid = status == "A"
@@ -202,7 +211,7 @@ class NmeaEpochBuilder:
                     system = int(system_id) if system_id in _SYSTEM_IDS else _system(msg.talker, int(sv))
                     ep.gsa_svids.add((system, int(sv)))
             if math.isnan(ep.pdop):
-                ep.pdop, ep.hdop, ep.vdop = _num(msg.PDOP), _num(msg.HDOP), _num(msg.VDOP)
+                ep.pdop, ep.hdop, ep.vdop = _dop(msg.PDOP), _dop(msg.HDOP), _dop(msg.VDOP)
         elif msg_type == "GSV":
             key = (msg.talker, getattr(msg, "signalID", ""))
             if key not in ep.gsv_seen:
