@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from chronofuse.io.dop import dop_cofactor
+
 TOLERANCE = 0.005
 
 NEXT_BURST = "next_burst"
@@ -97,17 +99,11 @@ def burst_dops(log: Path) -> dict[str, list[dict]]:
 
 
 def sky_geometry_dops(satellites: list[dict]) -> dict[str, float]:
-    """gpsd's fill_dop: DOPs of the satellites marked used, from their elevation/azimuth (one clock),
-    ``G = (H^T H)^-1``, ``H_i = [cos e sin a, cos e cos a, sin e, 1]``."""
+    """gpsd's fill_dop: DOPs of the satellites marked used, from their elevation/azimuth (one clock), the
+    diagonal of :func:`chronofuse.io.dop.dop_cofactor`."""
     used = [(s["el"], s["az"]) for s in satellites if s.get("used") and "el" in s and "az" in s]
-    if len(used) < 4:
-        return {}
-    ea = np.radians(np.asarray(used, dtype=np.float64))
-    el, az = ea[:, 0], ea[:, 1]
-    h = np.column_stack((np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el), np.ones(el.size)))
-    try:
-        g = np.linalg.inv(h.T @ h)
-    except np.linalg.LinAlgError:
+    g = dop_cofactor(used)
+    if g is None:
         return {}
     d = np.abs(np.diag(g))
     return {"gdop": math.sqrt(d.sum()), "pdop": math.sqrt(d[:3].sum()), "hdop": math.sqrt(d[:2].sum()),

@@ -133,10 +133,8 @@ def _num(value) -> float:
 
 
 def _dop(value) -> float:
-    """A DOP as sent; NaN when empty or not positive: receivers without a fix fill GSA's DOP fields with
-    ``00.0``, which is no DOP (a DOP is the root of a trace of ``(H^T H)^-1``, never zero); where the
-    CH-4711 and JL-micro JLT captures send it, gpsd reports its own or the last real DOP instead
-    (``tests/io/test_gpsd_oracle.py``)."""
+    """A DOP as sent; NaN when empty or not positive: a no-fix GSA's ``00.0`` is no DOP (a DOP is never
+    zero); gpsd too reports another DOP there (CH-4711, JL-micro JLT; ``tests/io/test_gpsd_oracle.py``)."""
     v = _num(value)
     return v if v > 0 else math.nan
 
