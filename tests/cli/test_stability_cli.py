@@ -161,7 +161,7 @@ def test_several_statistics_run_side_by_side_give_what_each_gives_alone(tmp_path
     rng = np.random.default_rng(5)
     path = tmp_path / "x.txt"
     np.savetxt(path, np.cumsum(rng.normal(size=20_000)) * 1e-9)
-    names = ["oadev", "mtie", "mdev", "tie_rms"]
+    names = ["oadev", "mtie", "mdev", "theo1", "tie_rms", "mtotdev"]  # two with numba-parallel kernels
     together = json.loads(CliRunner().invoke(app, ["stability", str(path), "--rate", "1", "--dev", ",".join(names),
                                                    "--json"]).stdout)
     for name in names:

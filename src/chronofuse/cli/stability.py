@@ -142,15 +142,28 @@ def stability(
         con.print(f"plot -> {plot}")
 
 
+#: Statistics whose kernels are numba-parallel (``prange``): they already use every core, and numba's
+#: fallback threading layer (workqueue, where OpenMP and TBB are absent) must not be entered from two
+#: threads at once, so they run one after another in the calling thread.
+_PARALLEL_KERNELS = {"mtotdev", "ttotdev", "htotdev", "theo1"}
+
+
 def _compute_all(file: Path, names: list[str], x, rate_hz: float, taus: str, ci: float, bias: bool, say) -> dict:
-    """Every statistic of ``names``, {name: result} in the order asked. Several run on threads side by side:
-    the kernels release the GIL (numba ``nogil``), so OADEV's sums and MTIE's sparse table use both cores;
-    each statistic is a pure function of ``x``, so the results are the same as one after another."""
-    if len(names) == 1 or (os.cpu_count() or 1) == 1:
-        return {name: _compute(file, name, x, rate_hz, taus, ci, bias, say) for name in names}
-    with ThreadPoolExecutor(max_workers=min(len(names), os.cpu_count() or 1)) as pool:
-        futures = {name: pool.submit(_compute, file, name, x, rate_hz, taus, ci, bias, say) for name in names}
-        return {name: future.result() for name, future in futures.items()}
+    """Every statistic of ``names``, {name: result} in the order asked. The others than
+    :data:`_PARALLEL_KERNELS` run on threads side by side: their kernels release the GIL (numba ``nogil``),
+    so e.g. OADEV's sums and MTIE's sparse table share the cores; each statistic is a pure function of
+    ``x``, so the results are the same as one after another (tested)."""
+    args = (x, rate_hz, taus, ci, bias, say)
+    side_by_side = [n for n in names if n not in _PARALLEL_KERNELS]
+    results = {}
+    if len(side_by_side) > 1 and (os.cpu_count() or 1) > 1:
+        with ThreadPoolExecutor(max_workers=min(len(side_by_side), os.cpu_count() or 1)) as pool:
+            futures = {name: pool.submit(_compute, file, name, *args) for name in side_by_side}
+            results = {name: future.result() for name, future in futures.items()}
+    for name in names:
+        if name not in results:
+            results[name] = _compute(file, name, *args)
+    return {name: results[name] for name in names}
 
 
 def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bias: bool, say):
