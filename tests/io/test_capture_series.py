@@ -25,7 +25,7 @@ from ubx_by_hand import NAV_CLOCK, nav_clock_by_hand  # noqa: E402
 def test_a_mixed_nmea_and_ubx_capture_gives_pyubx2s_nav_clock_values_at_their_gps_epochs(receivers):
     path = receivers / "gpsd" / "ublox-zed-f9t-ubx_nmea_l5.log"
     with path.open("rb") as stream:
-        ref = [(m.iTOW, m.clkB * 1e-9, m.clkD * 1e-9)
+        ref = [(m.iTOW, m.clkB * 1e-9, m.clkD * 1e-9, m.tAcc * 1e-9)
                for _, m in UBXReader(stream, protfilter=UBX_PROTOCOL, quitonerror=ERR_IGNORE)
                if m is not None and m.identity == "NAV-CLOCK"]
     series = read_clock_series(path)
@@ -33,6 +33,7 @@ def test_a_mixed_nmea_and_ubx_capture_gives_pyubx2s_nav_clock_values_at_their_gp
     np.testing.assert_array_equal(series.gps_ns % NS_PER_WEEK, [r[0] * 1_000_000 for r in ref])
     np.testing.assert_array_equal(series.clock_bias_s, [r[1] for r in ref])
     np.testing.assert_array_equal(series.clock_drift_s_per_s, [r[2] for r in ref])
+    np.testing.assert_array_equal(series.time_acc_s, [r[3] for r in ref])
     # the GPS week is the capture's own (its NMEA dates and UBX weeks), not a guess
     assert np.all(series.gps_ns // NS_PER_WEEK == read_capture(path).rows["gps_ns"][0] // NS_PER_WEEK)
 

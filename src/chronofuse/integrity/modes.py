@@ -64,7 +64,7 @@ from chronofuse.integrity.inputs import (  # noqa: F401 (re-exported: the CLI an
     parse_position,
     read_noise_file,
 )
-from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S, NO_FIX, status_reasons, ubx_time_accuracy_s
+from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S, NO_FIX, status_reasons
 from chronofuse.integrity.stationarity import NOISE_CHANGE_ALPHA, noise_change
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.formats import sniff_format
@@ -89,16 +89,16 @@ def _training_rows(t_s: np.ndarray, train_s: float | None) -> int:
 
 
 def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: float | None = None,
-                       time_acc_s=None, max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S) -> dict:
+                       max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S) -> dict:
     """Detection mode on one clock bias (module docstring): repair the clock resets, fit ``detector`` (on its
     model or the first ``train_s`` s), test every later epoch. ``detector`` is fitted in place. Epochs whose
-    receiver reports no fix (``data.receiver_ok``) or a time accuracy ``time_acc_s`` over ``max_time_acc_s``
+    receiver reports no fix (``data.receiver_ok``) or a time accuracy (``data.time_acc_s``) over ``max_time_acc_s``
     are not tested (:mod:`chronofuse.integrity.receiver_status`)."""
     from chronofuse.integrity.clock_events import repair_clock_steering
 
     _check_length(data.bias_s.size, detector.window, data.source)
     t_ns = data.t_ns
-    status = status_reasons(data.receiver_ok, time_acc_s, max_time_acc_s, data.bias_s.size)
+    status = status_reasons(data.receiver_ok, data.time_acc_s, max_time_acc_s, data.bias_s.size)
     bad_status = status != ""
     steering = repair_clock_steering(np.where(bad_status, np.nan, data.bias_s))
     x = steering.repaired_s
@@ -381,8 +381,7 @@ def detect_file(
     if max_time_acc_s is not None:
         check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
     data = read_clock_bias(path, rate_hz, column)
-    tacc = ubx_time_accuracy_s(path, data.t_s, data.interval_s) if kind == "ubx" and max_time_acc_s else None
-    return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s, tacc, max_time_acc_s)
+    return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s, max_time_acc_s)
 
 
 def _document(mode: str, n_epochs: int, det: HodDetector, alarms: list[dict], n_skipped: int) -> dict:

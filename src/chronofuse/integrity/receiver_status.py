@@ -19,31 +19,12 @@ application with a tighter budget sets its own (``--max-tacc-ns``).
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 #: Default largest receiver time accuracy estimate (s) for an epoch to be tested (module docstring).
 DEFAULT_MAX_TIME_ACC_S = 100e-9
 
 NO_FIX = "receiver status: no valid fix"
-
-
-def ubx_time_accuracy_s(path: str | Path, t_s: np.ndarray, interval_s: float) -> np.ndarray:
-    """NAV-CLOCK ``tAcc`` (s) of a UBX capture on the epoch grid ``t_s`` (GPS time of week, continuous,
-    as :func:`chronofuse.io.clockbias.read_capture_bias` gives it), NaN where no NAV-CLOCK falls within
-    :data:`~chronofuse.io.capture_series.TIME_TOLERANCE` of an interval of an epoch."""
-    from chronofuse.io.capture_series import TIME_TOLERANCE
-    from chronofuse.io.ubx import read_nav_clock
-
-    t_s = np.asarray(t_s, dtype=np.float64)
-    out = np.full(t_s.size, np.nan)
-    rec = read_nav_clock(path)
-    tow_s = rec.itow_ms[0] / 1e3 + np.asarray(rec.t_s, dtype=np.float64)  # continuous over a rollover
-    k = np.rint((tow_s - t_s[0]) / interval_s)
-    ok = (np.abs(tow_s - t_s[0] - k * interval_s) <= TIME_TOLERANCE * interval_s) & (k >= 0) & (k < t_s.size)
-    out[k[ok].astype(np.int64)] = np.asarray(rec.time_acc_s, dtype=np.float64)[ok]
-    return out
 
 
 def status_reasons(receiver_ok, time_acc_s, max_time_acc_s: float | None, n_epochs: int) -> np.ndarray:
@@ -61,4 +42,4 @@ def status_reasons(receiver_ok, time_acc_s, max_time_acc_s: float | None, n_epoc
     return reasons
 
 
-__all__ = ["DEFAULT_MAX_TIME_ACC_S", "NO_FIX", "status_reasons", "ubx_time_accuracy_s"]
+__all__ = ["DEFAULT_MAX_TIME_ACC_S", "NO_FIX", "status_reasons"]

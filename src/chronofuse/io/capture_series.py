@@ -60,6 +60,9 @@ class ClockBiasSeries:
         The file read.
     jitter_rms_s, jitter_max_s : float
         Rms and largest distance of the solutions' time tags from their grid slots (s).
+    time_acc_s : ndarray of float64, shape (M,), or None
+        The receiver's time accuracy estimate (NAV-CLOCK ``tAcc``, s; NaN where not reported); None when
+        the recording carries none (RINEX).
     """
 
     gps_ns: np.ndarray
@@ -72,6 +75,7 @@ class ClockBiasSeries:
     source: str
     jitter_rms_s: float = 0.0
     jitter_max_s: float = 0.0
+    time_acc_s: np.ndarray | None = None
 
     @property
     def interval_s(self) -> float:
@@ -133,13 +137,15 @@ def capture_clock_series(capture: Capture, rate_hz: float | None = None) -> Cloc
     bias = place_on_grid(slots, rows["clock_bias_s"][have])
     drift = place_on_grid(slots, rows["clock_drift_s_per_s"][have])
     no_fix = place_on_grid(slots, (rows["fix_mode"][have] == 1).astype(np.float64))
+    tacc = None if capture.time_acc_s is None else place_on_grid(slots, capture.time_acc_s[have])
     frames = capture.frames
     return ClockBiasSeries(
         gps_ns=t_ns[0] + np.arange(bias.size, dtype=np.int64) * interval_ns,
         clock_bias_s=bias, clock_drift_s_per_s=drift, receiver_ok=~(no_fix == 1.0), interval_ns=interval_ns,
         n_missing=int(np.isnan(bias).sum()),
         n_damaged=int(frames.ubx_bad_checksum + frames.truncated + capture.ubx.parse_errors),
-        source=source, jitter_rms_s=float(np.sqrt(np.mean(off_s**2))), jitter_max_s=float(np.abs(off_s).max()))
+        source=source, jitter_rms_s=float(np.sqrt(np.mean(off_s**2))), jitter_max_s=float(np.abs(off_s).max()),
+        time_acc_s=tacc)
 
 
 def read_clock_series(path: str | Path, rate_hz: float | None = None) -> ClockBiasSeries:

@@ -47,6 +47,9 @@ class ClockBiasInput:
     receiver_ok : ndarray of bool, shape (epochs,), or None
         The receiver's own status per epoch (a recording: False where it reported no fix,
         :attr:`chronofuse.io.capture_series.ClockBiasSeries.receiver_ok`); None when the file carries none.
+    time_acc_s : ndarray of float64, shape (epochs,), or None
+        The receiver's time accuracy estimate per epoch (a recording's NAV-CLOCK ``tAcc``, s; NaN where not
+        reported); None when the file carries none.
     """
 
     bias_s: np.ndarray
@@ -55,6 +58,7 @@ class ClockBiasInput:
     source: str = ""
     interval_s: float = float("nan")
     receiver_ok: np.ndarray | None = None
+    time_acc_s: np.ndarray | None = None
 
     @property
     def t_ns(self) -> np.ndarray:
@@ -104,7 +108,8 @@ def read_capture_bias(path: str | Path, rate_hz: float | None = None) -> ClockBi
     tow0_ns = int(series.gps_ns[0]) % NS_PER_WEEK
     t_s = (tow0_ns + (series.gps_ns - series.gps_ns[0])) / NS_PER_S
     return ClockBiasInput(bias_s=series.clock_bias_s, t_s=t_s, n_skipped=series.n_missing + series.n_damaged,
-                          source=series.source, interval_s=series.interval_s, receiver_ok=series.receiver_ok)
+                          source=series.source, interval_s=series.interval_s, receiver_ok=series.receiver_ok,
+                          time_acc_s=series.time_acc_s)
 
 
 def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None) -> ClockBiasInput:

@@ -38,7 +38,8 @@ class Capture:
     """What one recording holds. ``rows``: ``gps_ns`` (int64, strictly increasing) and
     :data:`EPOCH_FIELDS`, one entry per epoch. ``frames``: the framer's counts; ``nmea``/``ubx``: the
     decoders' counts; ``time_marks_gps_ns``: TIM-TM2 rising edges; ``duplicate_epochs``: epochs dropped
-    because their time repeats an earlier one."""
+    because their time repeats an earlier one; ``time_acc_s``: the receiver's time accuracy estimate per
+    epoch of ``rows`` (UBX NAV-CLOCK ``tAcc``, s; NaN where not reported), None for RINEX."""
 
     source: str
     rows: dict
@@ -49,6 +50,7 @@ class Capture:
     duplicate_epochs: int = 0
     protocols: tuple = field(default=())
     receivers: tuple = field(default=())  # names, for files holding several (RINEX clock: stations)
+    time_acc_s: np.ndarray | None = None
 
     @property
     def n_epochs(self) -> int:
@@ -101,11 +103,13 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
     nmea_rows = nmea_b.rows()
     rows = merge_epochs(ubx_rows, nmea_rows)
     rows, dup = strictly_increasing(rows)
+    time_acc_s = np.full(rows["gps_ns"].size, np.nan)  # every UBX epoch's time is among the merged rows'
+    time_acc_s[np.searchsorted(rows["gps_ns"], ubx_rows["gps_ns"])] = ubx_rows["time_acc_s"]
     protocols = tuple(p for p, n in (("nmea", sum(nmea_s.decoded.values())), ("ubx", sum(ubx_s.decoded.values())))
                       if n)
     return Capture(source=source, rows=rows, frames=scanner.stats, nmea=nmea_s, ubx=ubx_s,
                    time_marks_gps_ns=np.asarray(ubx_b.marks_gps_ns, dtype=np.int64), duplicate_epochs=dup,
-                   protocols=protocols)
+                   protocols=protocols, time_acc_s=time_acc_s)
 
 
 def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None = None) -> Capture:

@@ -69,7 +69,7 @@ class UbxDecodeStats:
 class _Epoch:
     __slots__ = ("itow_ms", "week", "utc_ns", "mode", "time_valid", "n_sats", "n_used_sat", "gdop", "pdop",
                  "hdop", "vdop", "tdop", "leap_s", "leap_pending", "clock_bias_s", "clock_drift_s_per_s",
-                 "leap_from_utc", "raw_only")
+                 "time_acc_s", "leap_from_utc", "raw_only")
 
     def __init__(self, itow_ms: int) -> None:
         self.itow_ms = itow_ms
@@ -84,7 +84,7 @@ class _Epoch:
         self.gdop = self.pdop = self.hdop = self.vdop = self.tdop = math.nan
         self.leap_s: int | None = None
         self.leap_pending = 0
-        self.clock_bias_s = self.clock_drift_s_per_s = math.nan
+        self.clock_bias_s = self.clock_drift_s_per_s = self.time_acc_s = math.nan
 
 
 def _utc_label_ns(year, month, day, hour, minute, second, nano) -> int | None:
@@ -187,6 +187,7 @@ class UbxEpochBuilder:
         elif name == "NAV-CLOCK":
             ep.clock_bias_s = m.clkB * 1e-9
             ep.clock_drift_s_per_s = m.clkD * 1e-9
+            ep.time_acc_s = m.tAcc * 1e-9
 
     def pop_complete(self, stats: UbxDecodeStats | None = None, max_undated: int = 64) -> dict | None:
         """Streaming: the epochs before the one in progress as arrays, removed from the builder. The last
@@ -264,6 +265,7 @@ class UbxEpochBuilder:
             "qerr_s": np.full(n, np.nan),
             "clock_bias_s": np.array([e.clock_bias_s for e in eps]),
             "clock_drift_s_per_s": np.array([e.clock_drift_s_per_s for e in eps]),
+            "time_acc_s": np.array([e.time_acc_s for e in eps]),  # NAV-CLOCK tAcc (not a ReceiverEpochs field)
             "leap_from_receiver": own,
         }
         rows = {k: v.reshape(n) if v.ndim else v for k, v in rows.items()}
