@@ -39,16 +39,9 @@ def _matmul(A, B):
 
 @numba.njit(cache=True)
 def _matmul_bt_plus(A, B, C):
-    """``A @ B.T + C`` of small square matrices: ``F P F' + Q`` and the Joseph form's ``(I-KH) P (I-KH)' + K r K'``."""
-    n = A.shape[0]
-    out = np.zeros((n, n))
-    for a in range(n):
-        for b in range(n):
-            acc = 0.0
-            for c in range(n):
-                acc += A[a, c] * B[b, c]
-            out[a, b] = acc + C[a, b]
-    return out
+    """``A @ B.T + C`` of small square matrices: ``F P F' + Q`` and the Joseph form's ``(I-KH) P (I-KH)' + K r K'``
+    (each entry of the product summed in :func:`_matmul`'s order, then ``C`` added)."""
+    return _matmul(A, B.T) + C
 
 
 @numba.njit(cache=True)
