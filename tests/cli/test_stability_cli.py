@@ -168,3 +168,23 @@ def test_several_statistics_run_side_by_side_give_what_each_gives_alone(tmp_path
         alone = json.loads(CliRunner().invoke(app, ["stability", str(path), "--rate", "1", "--dev", name,
                                                     "--json"]).stdout)
         assert together["deviations"][name] == alone["deviations"][name], name
+
+
+def test_the_console_script_loses_nothing_on_its_fast_way_out(data_dir, tmp_path):
+    """``main()`` freezes the heap before the interpreter exits (the exit's collections then skip what the
+    run built): the JSON on stdout, the plot file and the exit codes must be what the in-process run gives."""
+    import subprocess
+    import sys
+
+    path = data_dir / "stability/phasedat/PHASE.DAT"
+    png = tmp_path / "phase.png"
+    args = ["stability", str(path), "--rate", "1", "--dev", "oadev,mtie", "--taus", "octave", "--json"]
+    child = subprocess.run([sys.executable, "-m", "chronofuse.cli.main", *args, "--plot", str(png)],
+                           capture_output=True, text=True, timeout=120)
+    assert child.returncode == 0, child.stderr
+    doc, same = json.loads(child.stdout), json.loads(invoke(*args).stdout)
+    assert doc["deviations"] == same["deviations"]
+    assert png.read_bytes()[-12:] == b"\x00\x00\x00\x00IEND\xaeB`\x82"  # the PNG's closing chunk: written in full
+    bad = subprocess.run([sys.executable, "-m", "chronofuse.cli.main", "stability", str(tmp_path / "none.txt"),
+                          "--rate", "1"], capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0 and "none.txt" in bad.stderr

@@ -8,6 +8,7 @@ a fraction of a second. ``app`` (the full program with every subcommand, for ``C
 
 from __future__ import annotations
 
+import gc
 import importlib
 import sys
 
@@ -61,8 +62,17 @@ def _wanted(argv: list[str]) -> tuple[str, ...] | None:
 
 
 def main() -> None:
-    """The console script: build only what this command line runs, then run it."""
-    build_app(_wanted(sys.argv[1:]))()
+    """The console script: build only what this command line runs, then run it.
+
+    On the way out the heap is frozen (:func:`gc.freeze`): the interpreter's last collections then skip
+    everything the run built, which with numba loaded is most of the exit's time (0.3-0.45 s of a 2 s
+    ``stability`` run). ``atexit`` handlers still run and every file the commands write is closed by its
+    ``with`` block before this point; only cyclic garbage left at exit is not collected.
+    """
+    try:
+        build_app(_wanted(sys.argv[1:]))()
+    finally:
+        gc.freeze()
 
 
 def __getattr__(name: str):
