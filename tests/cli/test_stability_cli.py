@@ -188,3 +188,15 @@ def test_the_console_script_loses_nothing_on_its_fast_way_out(data_dir, tmp_path
     bad = subprocess.run([sys.executable, "-m", "chronofuse.cli.main", "stability", str(tmp_path / "none.txt"),
                           "--rate", "1"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and bad.stderr.strip().count("\n") == 0 and "none.txt" in bad.stderr
+
+
+def test_an_in_process_run_leaves_garbage_collection_on_and_freezes_nothing(data_dir):
+    """Collection is paused while the engine loads; outside the console script (whose process ends with
+    the command) nothing may stay paused or frozen, or a long-lived caller such as this test session
+    would never collect again."""
+    import gc
+
+    frozen = gc.get_freeze_count()
+    result = invoke("stability", data_dir / "stability/phasedat/PHASE.DAT", "--rate", 1, "--dev", "oadev", "--json")
+    assert result.exit_code == 0, result.output
+    assert gc.isenabled() and gc.get_freeze_count() == frozen

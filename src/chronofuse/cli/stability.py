@@ -18,6 +18,7 @@ import numpy as np
 import typer
 
 from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.loading import loading
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputDataError
 
@@ -80,12 +81,15 @@ def stability(
         fail(f"--dev {dev!r}: unknown statistic {unknown}; choose from {', '.join(STATISTIC_NAMES)}")
     if mask is not None and mask not in MASK_NAMES:
         fail(f"--mask {mask!r}: choose from {', '.join(MASK_NAMES)}")
-    importing = _load_meanwhile(_ENGINE_MODULES + (("chronofuse.analysis.masks",) if mask is not None else ()), names)
     with user_errors(), collected_warnings() as notes:
         with progress_reporter("stability") as say:
             say("reading")
-            record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz, station=station)
-            importing.join()
+            with loading():  # the engine loads while the file is read
+                importing = _load_meanwhile(
+                    _ENGINE_MODULES + (("chronofuse.analysis.masks",) if mask is not None else ()), names)
+                record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz,
+                                     station=station)
+                importing.join()
             from chronofuse.analysis import stability as st
 
             x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
