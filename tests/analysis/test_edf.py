@@ -259,3 +259,16 @@ def test_greenhall_edf_rejects_an_alpha_outside_its_tables():
         greenhall_edf(np.array([0, 3]), 2, np.array([4, 4]), 1000, overlapping=True, modified=False)
     with pytest.raises(ValueError, match="alpha"):
         greenhall_edf(-1, 1, 4, 1000, overlapping=True, modified=False)
+
+
+def test_greenhall_basic_sum_in_numba_equals_its_numpy_twin(monkeypatch):
+    """kernels_edf.basic_sums (one numba loop) against edf._basic_sum (numpy arrays), through greenhall_edf
+    on the whole grid: the same terms added in another order, so equal to rounding, not bit for bit."""
+    import chronofuse.analysis.stability.edf as edf_module
+
+    ours = {case: greenhall_edf(case[4], case[1], case[5], case[0], overlapping=case[2], modified=case[3])
+            for case in GRID}
+    monkeypatch.setattr(edf_module, "basic_sums", lambda J, M, S, F, a, d, w: edf_module._basic_sum(J, M, S, F, a, d))
+    for (n, d, ov, mod, a, m), value in ours.items():
+        twin = greenhall_edf(a, d, m, n, overlapping=ov, modified=mod)
+        assert value == pytest.approx(twin, rel=1e-13, nan_ok=True), (n, d, ov, mod, a, m)

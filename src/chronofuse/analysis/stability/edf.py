@@ -38,7 +38,9 @@ The published algorithm with the caller's ci is implemented here, not those offs
 EDF beyond m = 8 and its HTOTDEV EDF are not reproduced (see above).
 
 The table-based EDFs (simple ADEV, TOTDEV, the total family, Theo1) are in
-:mod:`chronofuse.analysis.stability.edf_tables`; this module holds Greenhall's algorithm and the interval.
+:mod:`chronofuse.analysis.stability.edf_tables`; this module holds Greenhall's algorithm and the interval,
+and its basic sum (eq. (10)) runs in one numba call (:mod:`chronofuse.analysis.stability.kernels_edf`),
+with :func:`_basic_sum` its numpy twin.
 """
 
 from __future__ import annotations
@@ -47,6 +49,8 @@ import math
 
 import numpy as np
 from scipy.special import gammaincinv
+
+from chronofuse.analysis.stability.kernels_edf import basic_sums
 
 __all__ = ["greenhall_edf", "chi2_interval", "GREENHALL_PARAMETERS"]
 
@@ -275,7 +279,7 @@ def greenhall_edf(alpha, d: int, m, n_points: int, *, overlapping: bool, modifie
             Sb = np.where(truncated, m_prime, Sb)
             if not modified:
                 Fb = np.where(truncated, np.where(a > 0, m_prime, np.inf), Fb)
-        total, norm = _basic_sum(Jb, Mb, Sb, Fb, a, d)
+        total, norm = basic_sums(Jb, Mb, Sb, Fb, a, d, _SZ_WEIGHTS[d])  # _basic_sum is its numpy twin
         if not modified and any_truncated:
             b0, b1 = _TABLE3[d - 1]
             norm = np.where(truncated & flicker[rows], (b0 + b1 * np.log(mm)) ** 2, norm)

@@ -1,0 +1,72 @@
+"""Greenhall's basic sum (eq. (10)) for every EDF row in one numba call.
+
+:func:`chronofuse.analysis.stability.edf._basic_sum` is the numpy twin (the readable one, compared in the
+tests). Both evaluate ``sz(j/S)**2`` for ``j = 0..J`` of each row from ``sw`` (eq. (7)), ``sx`` (eq. (8))
+and ``sz`` (eq. (9)). The numpy version does it with some sixty array operations on arrays of a few
+hundred elements, whose fixed cost is most of an EDF call: at 1e5 points and 15 octave taus, 80 us of
+the 450 us a public ``adev`` call takes, against allantools' bare 500 us. This loop takes a few
+microseconds. It adds the same terms in another order (the twin's ``@`` and ``einsum``), so the EDFs
+agree to a few units in the 15th digit, not bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["basic_sums"]
+
+_TINY = np.finfo(np.float64).tiny  # ln(tiny) is finite: |t|**p ln|t| stays 0 at t = 0
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sw(t: float, alpha: int) -> float:
+    """Eq. (7): ``-|t|, t**2 ln|t|, |t|**3, -t**4 ln|t|, -|t|**5, t**6 ln|t|, |t|**7`` for alpha = 2..-4."""
+    a = abs(t)
+    out = a ** (3.0 - alpha)
+    if alpha % 2 != 0:  # odd alpha: the logarithmic kernels
+        out *= math.log(max(a, _TINY))
+    if alpha == 2 or alpha == -1 or alpha == -2:
+        out = -out
+    return out
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _sx(t: float, f: float, alpha: int) -> float:
+    """Eq. (8): ``F**2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)]``, and ``sw(t, alpha + 2)`` where ``F = inf``."""
+    if math.isinf(f):
+        return _sw(t, alpha + 2)
+    h = 1.0 / f
+    return (_sw(t, alpha) * 2.0 - _sw(t - h, alpha) - _sw(t + h, alpha)) * (f * f)
+
+
+@numba.njit(cache=True, nogil=True)
+def basic_sums(J: np.ndarray, M: np.ndarray, S: np.ndarray, F: np.ndarray, alpha: np.ndarray, d: int,
+               weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. (10) per row, ``sz(0)**2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)**2 + (1 - J/M) sz(J/S)**2``, and
+    ``sz(0)**2``. ``J`` (whole numbers >= 1), ``M``, ``S``, ``F``, ``alpha`` of shape (k,); ``weights``
+    (2d+1,): ``(-1)**k C(2d, d+k)`` for ``k = -d..d`` (eq. (9))."""
+    rows = J.size
+    total = np.empty(rows)
+    norm = np.empty(rows)
+    for r in range(rows):
+        last = int(J[r])
+        m_terms, s, f, a = M[r], S[r], F[r], alpha[r]
+        acc = 0.0
+        for j in range(last + 1):
+            t = j / s
+            sz = 0.0
+            for q in range(2 * d + 1):
+                sz += weights[q] * _sx(t + (q - d), f, a)
+            sz2 = sz * sz
+            if j == 0:
+                norm[r] = sz2
+                acc += sz2
+            elif j < last:
+                acc += 2.0 * (1.0 - j / m_terms) * sz2
+            else:
+                acc += (1.0 - j / m_terms) * sz2
+        total[r] = acc
+    return total, norm
