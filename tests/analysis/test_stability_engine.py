@@ -261,3 +261,23 @@ def test_no_difference_statistic_depends_on_the_value_put_in_a_frequency_gap():
         assert a.gap_rule == "span" and a.skipped == 4
     assert compute("mtie", phases[0], 1.0, [1.0]).gap_rule == "window"
     assert compute("totdev", phases[0], 1.0, [1.0]).gap_rule == "fill"
+
+
+@pytest.mark.parametrize("statistic", ["oadev", "mdev", "hdev", "totdev", "mtie", "mtotdev"])
+def test_kernel_and_noise_identification_side_by_side_give_the_sequential_result(statistic, monkeypatch):
+    """Above SIDE_BY_SIDE_FROM samples the noise identification runs on a helper thread beside the kernel;
+    both are pure functions of the record, so every field must equal the one-after-the-other result
+    (with gaps, where the identification reads the filled record and the kernel the one with NaN)."""
+    import chronofuse.analysis.stability.engine as engine
+
+    rng = np.random.default_rng(5)
+    x = np.cumsum(rng.standard_normal(3000)) * 1e-9 + rng.standard_normal(3000) * 1e-9
+    x[[100, 101, 2500]] = np.nan
+    taus = tau_grid("octave", x.size, 1.0, statistic)
+    monkeypatch.setattr(engine, "SIDE_BY_SIDE_FROM", 10**12)
+    alone = compute(statistic, x, 1.0, taus)
+    monkeypatch.setattr(engine, "SIDE_BY_SIDE_FROM", 0)
+    monkeypatch.setattr(engine.os, "cpu_count", lambda: 2)
+    beside = compute(statistic, x, 1.0, taus)
+    for field in ("tau_s", "dev", "n", "alpha", "alpha_method", "edf", "lo", "hi"):
+        np.testing.assert_array_equal(getattr(beside, field), getattr(alone, field), err_msg=field)
