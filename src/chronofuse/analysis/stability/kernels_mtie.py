@@ -65,32 +65,17 @@ def _min_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
 
 @numba.njit(cache=True, nogil=True)
 def _largest(t: np.ndarray, peak: float) -> float:
-    """``max(peak, max(t))`` over eight running maxima (a vectorizable reduction); NaN entries never win."""
-    whole = t.size - t.size % 8
-    p0 = p1 = p2 = p3 = p4 = p5 = p6 = p7 = peak
-    for i in range(0, whole, 8):
-        v = t[i]
-        p0 = v if v > p0 else p0
-        v = t[i + 1]
-        p1 = v if v > p1 else p1
-        v = t[i + 2]
-        p2 = v if v > p2 else p2
-        v = t[i + 3]
-        p3 = v if v > p3 else p3
-        v = t[i + 4]
-        p4 = v if v > p4 else p4
-        v = t[i + 5]
-        p5 = v if v > p5 else p5
-        v = t[i + 6]
-        p6 = v if v > p6 else p6
-        v = t[i + 7]
-        p7 = v if v > p7 else p7
-    for i in range(whole, t.size):
-        v = t[i]
-        p0 = v if v > p0 else p0
-    for v in (p1, p2, p3, p4, p5, p6, p7):
-        p0 = v if v > p0 else p0
-    return p0
+    """``max(peak, max(t))`` for ``t`` without NaN, by halving ``t`` in place (scratch): each pass takes the
+    larger of the first half and the last, two stretches that do not overlap, so it vectorizes (one
+    running maximum is a chain of dependent comparisons, which does not)."""
+    size = t.size
+    while size > 1:
+        half = size // 2
+        _max_into(t[:half], t[:half], t[size - half : size])
+        size -= half
+    if t.size and t[0] > peak:
+        peak = t[0]
+    return peak
 
 
 @numba.njit(cache=True, nogil=True)
@@ -105,7 +90,8 @@ def _largest_range(hi: np.ndarray, lo: np.ndarray, count: int, shift: int, peak:
         t = tie[:size]
         for i in range(size):
             p, q, u, v = a[i], b[i], c[i], d[i]
-            t[i] = (p if p > q else q) - (u if u < v else v)
+            r = (p if p > q else q) - (u if u < v else v)
+            t[i] = r if r == r else -np.inf  # inf - inf (infinite samples) never wins, as NaN
         peak = _largest(t, peak)
     return peak
 
