@@ -63,6 +63,15 @@ def _min_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
         out[i] = p if p < q else q
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _next_level(hi: np.ndarray, lo: np.ndarray, up_hi: np.ndarray, up_lo: np.ndarray, size: int, k: int) -> None:
+    """Level ``k + 1`` of the first ``size`` samples' buffers ``hi``/``lo`` (level ``k``) into the other pair."""
+    count = size - (2 << k) + 1
+    if count > 0:
+        _max_into(up_hi[:count], hi[:count], hi[1 << k : (1 << k) + count])
+        _min_into(up_lo[:count], lo[:count], lo[1 << k : (1 << k) + count])
+
+
 @numba.njit(cache=True, nogil=True)
 def _largest(t: np.ndarray, peak: float) -> float:
     """``max(peak, max(t))`` for ``t`` without NaN, by halving ``t`` in place (scratch): each pass takes the
@@ -141,10 +150,7 @@ def mtie_blocked(x: np.ndarray, window: np.ndarray, order: np.ndarray, has_nan: 
             if length >= reach:
                 break
             while (1 << (k + 1)) <= length:
-                count = size - (2 << k) + 1
-                if count > 0:
-                    _max_into(b_hi[:count], a_hi[:count], a_hi[1 << k : (1 << k) + count])
-                    _min_into(b_lo[:count], a_lo[:count], a_lo[1 << k : (1 << k) + count])
+                _next_level(a_hi, a_lo, b_hi, b_lo, size, k)
                 a_hi, b_hi, a_lo, b_lo = b_hi, a_hi, b_lo, a_lo
                 k += 1
             stop = min(block, n - length + 1 - s)  # windows of this block that fit in the record
@@ -152,10 +158,7 @@ def mtie_blocked(x: np.ndarray, window: np.ndarray, order: np.ndarray, has_nan: 
                 peaks[j] = _largest_range(a_hi, a_lo, stop, length - (1 << k), peaks[j], tie)
         if longer:
             while k < top:
-                count = size - (2 << k) + 1
-                if count > 0:
-                    _max_into(b_hi[:count], a_hi[:count], a_hi[1 << k : (1 << k) + count])
-                    _min_into(b_lo[:count], a_lo[:count], a_lo[1 << k : (1 << k) + count])
+                _next_level(a_hi, a_lo, b_hi, b_lo, size, k)
                 a_hi, b_hi, a_lo, b_lo = b_hi, a_hi, b_lo, a_lo
                 k += 1
             keep = min(block, size)
