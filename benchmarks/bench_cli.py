@@ -14,7 +14,8 @@ Targets: the command within 8x pandas' read time and under 1.5 GiB peak. The sam
 points, and time and memory are extrapolated linearly (``a + b N`` through the two sizes) to 1e8 points
 (a day at 1 kHz): an extrapolation, not a measurement. ``quick`` uses 1e5 and 1e6 points.
 
-Run alone: ``.venv/bin/python benchmarks/bench_cli.py [--quick]``.
+Run alone: ``.venv/bin/python benchmarks/bench_cli.py [--quick]``; one size, measured rather than
+extrapolated: ``.venv/bin/python benchmarks/bench_cli.py --points 1e8 [--repeats R]``.
 """
 
 from __future__ import annotations
@@ -149,7 +150,22 @@ def run(quick: bool = False) -> list[dict]:
     return rows
 
 
+def _measure_one(argv: list[str]) -> None:
+    """``--points N [--repeats R]``: one size measured, not extrapolated (1e8 points: a 2.2 GB file and
+    about 2.5 GiB for the command; the README's 1e8 figures come from this)."""
+    n_points = int(float(argv[argv.index("--points") + 1]))
+    repeats = int(argv[argv.index("--repeats") + 1]) if "--repeats" in argv else 1
+    with tempfile.TemporaryDirectory() as tmp:
+        m = measure(n_points, Path(tmp), repeats=repeats)
+    print(f"N={m['n']:.0e}: chronofuse stability {m['cli_s']:.2f} s (start-up {m['startup_s']:.2f} s), "
+          f"pandas.read_csv {m['read_s']:.2f} s ({m['cli_s'] / m['read_s']:.1f}x), peak {m['peak_mib']:.0f} MiB, "
+          f"{m['size_mb']:.0f} MB file, best of {m['repeats']}", flush=True)
+
+
 if __name__ == "__main__":
+    if "--points" in sys.argv[1:]:
+        _measure_one(sys.argv[1:])
+        sys.exit(0)
     for r in run(quick="--quick" in sys.argv[1:]):
         base = "-" if r["baseline_s"] is None else f"{r['baseline_s']:.2f} s"
         print(f"{r['name']:<48} {r['ours_s']:10.2f}  {r['baseline'] or '-':<28} {base:>8}  target {r['target']:<18}"
