@@ -40,6 +40,11 @@ def _h1_from_point(l_dbc_hz: float, f_hz: float, nominal_hz: float) -> float:
     return f_hz * 2.0 * 10.0 ** (l_dbc_hz / 10.0) / nominal_hz**2
 
 
+def _hm2_meeting(adev: float, tau_s: float) -> float:
+    """Random-walk FM whose ADEV is ``adev`` at ``tau_s``: ``sigma^2 = (2 pi^2 / 3) hm2 tau`` (SP 1065 Table 3)."""
+    return adev**2 / ((2.0 * math.pi**2 / 3.0) * tau_s)
+
+
 # Datasheet (or seed) ADEV at tau = 1 s that each preset reproduces at rate_hz = 1 (f_h = 0.5 Hz).
 PRESET_ADEV_1S = {"tcxo": 1.0e-9, "ocxo": 5.0e-12, "rb": 2.0e-11, "csac": 2.5e-10}
 
@@ -63,7 +68,7 @@ PRESETS: dict[str, OscillatorModel] = {
             h1=_h1_from_point(-130.0, 100.0, 10e6),
             h0=_TCXO_H0,
             hm1=_TCXO_HM1,
-            hm2=1.0e-18 / ((2.0 * math.pi**2 / 3.0) * 1.0e4),
+            hm2=_hm2_meeting(1.0e-9, 1.0e4),
         ),
         drift_per_s=5.0e-7 / SECONDS_PER_YEAR,
         temp_coeff_per_K=5.0e-7 / 140.0,
@@ -86,7 +91,7 @@ PRESETS: dict[str, OscillatorModel] = {
             h1=_h1_from_point(-140.0, 100.0, 10e6),
             h0=_OCXO_H0,
             hm1=_OCXO_HM1,
-            hm2=PRESET_ADEV_1S["ocxo"] ** 2 / ((2.0 * math.pi**2 / 3.0) * 1.0e3),
+            hm2=_hm2_meeting(PRESET_ADEV_1S["ocxo"], 1.0e3),
         ),
         drift_per_s=1.0e-10 / SECONDS_PER_DAY,
         temp_coeff_per_K=1.0e-9 / 140.0,
@@ -108,7 +113,7 @@ PRESETS: dict[str, OscillatorModel] = {
             h1=_h1_from_point(-130.0, 10.0, 10e6),
             h0=_RB_H0,
             hm1=_RB_HM1,
-            hm2=5.0e-13**2 / ((2.0 * math.pi**2 / 3.0) * 1.0e5),
+            hm2=_hm2_meeting(5.0e-13, 1.0e5),
         ),
         drift_per_s=5.0e-11 / SECONDS_PER_MONTH,
         temp_coeff_per_K=3.0e-10 / 123.0,
@@ -131,7 +136,7 @@ PRESETS: dict[str, OscillatorModel] = {
             h1=0.0,
             h0=_CSAC_H0,
             hm1=_CSAC_HM1,
-            hm2=1.0e-12**2 / ((2.0 * math.pi**2 / 3.0) * 1.0e5),
+            hm2=_hm2_meeting(1.0e-12, 1.0e5),
         ),
         drift_per_s=9.0e-10 / SECONDS_PER_MONTH,
         temp_coeff_per_K=1.0e-9 / 80.0,
