@@ -8,7 +8,6 @@ a fraction of a second. ``app`` (the full program with every subcommand, for ``C
 
 from __future__ import annotations
 
-import gc
 import importlib
 import sys
 
@@ -66,18 +65,15 @@ def main() -> None:
     """The console script: build only what this command line runs, then run it.
 
     Collection is paused while the program and its subcommand load (:func:`~chronofuse.cli.loading.loading`).
-    On the way out the heap is frozen (:func:`gc.freeze`): the interpreter's last collections then skip
-    everything the run built, which with numba loaded is most of the exit's time (0.3-0.45 s of a 2 s
-    ``stability`` run). ``atexit`` handlers still run and every file the commands write is closed by its
-    ``with`` block before this point; only cyclic garbage left at exit is not collected.
+    The heap is not frozen on the way out: freezing it there (so that the interpreter's last collections
+    skip what the run built) left objects unfinalized at exit, and ncompress (nanobind, loaded by the RINEX
+    readers) then printed "leaked 1 functions" on every RINEX command; it saved no measurable time once
+    the modules loaded under :func:`~chronofuse.cli.loading.loading` are frozen.
     """
     process_ends_with_command()
-    try:
-        with loading():
-            program = build_app(_wanted(sys.argv[1:]))
-        program()
-    finally:
-        gc.freeze()
+    with loading():
+        program = build_app(_wanted(sys.argv[1:]))
+    program()
 
 
 def __getattr__(name: str):
