@@ -70,11 +70,11 @@ def test_the_noise_model_or_a_training_stretch_is_required_and_options_must_fit_
         detect_file(path, 1.0, h0=1e-18)
     with pytest.raises(ValueError, match="rate_hz == 0"):
         detect_file(path, 0.0, train_s=10)
-    with pytest.raises(InputDataError, match="b.csv: --nav/--position need a RINEX observation file"):
+    with pytest.raises(InputDataError, match="b.csv: nav and position_m need a RINEX observation file"):
         detect_file(path, 1.0, train_s=10, position_m=STATION_0759_M)
     failed = detect_file(path, 1.0, train_s=10)  # training failed: integrity unavailable, not "no alarm"
     assert failed["state"] == "unavailable" and failed["alarms"] == [] and failed["noise"] is None
-    assert "train_s (--train) 10 s holds 10 valid epochs" in failed["unavailable_reasons"][0]
+    assert "the training stretch (train_s) of 10 s holds 10 valid epochs" in failed["unavailable_reasons"][0]
     with pytest.raises(InputDataError, match="07590920.05n: this is a RINEX navigation file"):
         detect_file(real_data / "receivers/rinex/rtklib/07590920.05n", 1 / 30, train_s=1200)
 

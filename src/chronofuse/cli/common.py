@@ -1,4 +1,11 @@
-"""What every subcommand shares: JSON output, one-line errors with exit code 2, the console."""
+"""What every subcommand shares: JSON output, one-line errors with exit code 2, the console.
+
+Exit status 2 means bad input, and only the library's own errors (:class:`~chronofuse.validation.ChronofuseError`:
+a bad value, file, model file or address), the operating system's refusal of a path the user named, and a
+config's validation error say so; their fields are written as the options that set them
+(:func:`chronofuse.cli.flags.label`). Anything else is a bug, reported as one by the program
+(:mod:`chronofuse.cli.main`).
+"""
 
 from __future__ import annotations
 
@@ -10,8 +17,9 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+from chronofuse.cli.flags import label
 from chronofuse.report.jsonio import dumps
-from chronofuse.validation import ChronofuseError
+from chronofuse.validation import ChronofuseError, InputError, InputWarning
 
 # Human output goes to stderr when --json owns stdout; otherwise to stdout.
 console = Console(highlight=False)
@@ -32,14 +40,31 @@ def fail(message: str) -> None:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
+def describe(exc: BaseException) -> str | None:
+    """The one-line message of a user's error, options named as on the command line; None for a bug."""
+    if isinstance(exc, InputError):
+        return exc.render(label).splitlines()[0]
+    if isinstance(exc, ChronofuseError):
+        return (str(exc) or type(exc).__name__).splitlines()[0]
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+    if type(exc).__name__ == "ValidationError" and type(exc).__module__.startswith("pydantic"):
+        first = exc.errors()[0]
+        where = ".".join(str(part) for part in first.get("loc", ()))
+        return f"{label(where) if where else type(exc).__name__}: {first.get('msg', exc)} (got {first.get('input')!r})"
+    return None
+
+
 @contextmanager
 def user_errors():
-    """Turn the library's input errors (and ValueError from validation) into one-line errors, exit 2."""
+    """Turn the library's input errors (and a path the system refuses) into one-line errors, exit 2."""
     try:
         yield
-    except (ChronofuseError, ValueError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        fail(text)
+    except Exception as exc:
+        message = describe(exc)
+        if message is None:
+            raise
+        fail(message)
 
 
 def human_console(json_mode: bool) -> Console:
@@ -86,4 +111,5 @@ def collected_warnings():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         yield messages
-    messages.extend(str(w.message).splitlines()[0] for w in caught)
+    messages.extend((w.message.render(label) if isinstance(w.message, InputWarning) else str(w.message)).splitlines()[0]
+                    for w in caught)

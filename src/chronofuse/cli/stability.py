@@ -20,7 +20,7 @@ import typer
 from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
 from chronofuse.cli.loading import loading
 from chronofuse.io.records import read_record
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputError
 
 _UNITS_S = {"tdev", "ttotdev", "tie_rms", "mtie"}
 #: The engine's statistics (``chronofuse.analysis.stability.STATISTICS``) and ITU-T masks
@@ -180,10 +180,10 @@ def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bia
     try:
         tau_s = parse_taus(taus, x.size, rate_hz, name)
         return st.compute(name, x, rate_hz, tau_s, ci=ci, bias_correction=bias)
-    except ValueError as exc:
-        if "taus ==" in str(exc):
+    except InputError as exc:
+        if "taus" in exc.fields:
             raise
-        raise InputDataError(f"{name}: {exc}", str(file)) from None
+        raise InputError(f"{name}: {exc.message}", str(file), fields=exc.fields) from None
 
 
 def verdict_details(verdict) -> str:

@@ -14,7 +14,6 @@ from chronofuse.cli.swarm_options import (
     build_scenario,
     load_models,
     model_files,
-    option_errors,
     quiet_dask,
     scenario_options,
     trial_progress,
@@ -72,7 +71,7 @@ def run(
                 fail(f"--outage == {outage!r}, must be K0:K1 (two exchange numbers)")
         if trials < 1:
             fail(f"--trials == {trials}, must be >= 1")
-        with option_errors(), progress_reporter("swarm run"):
+        with progress_reporter("swarm run"):
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
                            networks=networks, outage=window)
     doc = link_report(res)
@@ -138,12 +137,11 @@ def sweep(
                                   true_skew=true_skew, oscillator=oscillator, interval=interval)
         from chronofuse.experiments.sweep import scenario_at
 
-        with option_errors():
-            for v in value_list:
-                scenario_at(scenario, param, v)
+        for v in value_list:
+            scenario_at(scenario, param, v)
         start = time.perf_counter()
         quiet_dask()
-        with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
+        with trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
                               chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
                               model_files={k: str(v) for k, v in files.items()})
@@ -226,7 +224,7 @@ def network(
             fail(f"--topology == {topology!r}, must be tree, chain or consensus")
         if duration <= 2 * interval or interval <= 0:
             fail(f"--duration == {duration} and --interval == {interval}: need interval > 0 and at least 3 exchanges")
-        with option_errors(), progress_reporter("swarm network"):
+        with progress_reporter("swarm network"):
             doc = network_document(followers=followers, topology=topology, duration_s=duration, interval_s=interval,
                                    gnss_loss_at_s=gnss_loss_at, gnss_loss_for_s=gnss_loss_for, mean_up_s=mean_up,
                                    mean_down_s=mean_down, snr_db=snr, oscillator=oscillator, seed=seed)
@@ -267,7 +265,7 @@ def reproduce_swarm_command(
         files = model_files(model, lstm_model)
         load_models(files, "calibrated")
         quiet_dask()
-        with option_errors(), progress_reporter("reproduce swarm") as say:
+        with progress_reporter("reproduce swarm") as say:
             doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
                                   model_files={k: str(v) for k, v in files.items()},
                                   scheduler=None if scheduler == "local" else scheduler, progress=say)

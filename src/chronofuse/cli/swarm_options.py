@@ -1,30 +1,18 @@
 """The options the ``chronofuse swarm`` commands share, and their checks: the link scenario the options
-describe, the algorithms and network model files asked for, errors that name the option rather than the
-library parameter, and the progress bar over trials (SPEC 5, seed 001). Light to import: the library
+describe, the algorithms and network model files asked for, and the progress bar over trials (SPEC 5, seed 001). Light to import: the library
 modules are imported inside the functions, so ``chronofuse swarm --help`` stays fast.
 """
 
 from __future__ import annotations
 
-import re
 from contextlib import contextmanager
 
 import typer
 
 from chronofuse.cli.common import fail
 
-__all__ = ["algorithm_names", "build_scenario", "load_models", "model_files", "option_errors", "quiet_dask",
+__all__ = ["algorithm_names", "build_scenario", "load_models", "model_files", "quiet_dask",
            "scenario_options", "trial_progress"]
-
-# Library parameter names -> the options that set them, so a one-line error names the option.
-_OPTION_OF = {
-    "distance": "--distance", "distance_m": "--distance", "velocity": "--velocity", "reply_delay_s": "--reply-delay",
-    "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr", "toa_model": "--toa-model",
-    "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials", "true_offset": "--true-offset",
-    "true_skew": "--true-skew", "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator",
-    "acceleration_m_s2": "--acceleration", "interval_s": "--interval", "outage": "--outage",
-}
-
 
 def quiet_dask() -> None:
     """Dask's shutdown chatter (worker-kill warnings) would break the one-line/stdout contract."""
@@ -34,31 +22,18 @@ def quiet_dask() -> None:
         logging.getLogger(name).setLevel(logging.ERROR)
 
 
-@contextmanager
-def option_errors():
-    """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
-    try:
-        yield
-    except ValueError as exc:
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        match = re.match(r"^(\w+) ==", text)
-        if match and match.group(1) in _OPTION_OF:
-            text = _OPTION_OF[match.group(1)] + text[len(match.group(1)):]
-        raise ValueError(text) from None
-
-
 def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_jitter, snr, toa_model, exchanges,
                    true_offset, true_skew, oscillator, interval):
-    """The :class:`LinkScenario` the options describe (validated; errors name the options)."""
+    """The :class:`LinkScenario` the options describe (validated; its errors name the config fields, which
+    the command line writes as these options, :mod:`chronofuse.cli.flags`)."""
     from chronofuse.experiments.swarm import LinkScenario
     from chronofuse.models.link import LinkModel
 
-    with option_errors():
-        link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
-                         snr_db=snr, toa_model=toa_model)
-        return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
-                            exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
-                            oscillator=oscillator, link=link)
+    link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
+                     snr_db=snr, toa_model=toa_model)
+    return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
+                        exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
+                        oscillator=oscillator, link=link)
 
 
 def scenario_options():

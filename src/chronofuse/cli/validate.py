@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
 from chronofuse.experiments.validation import SEED, write_validation_figures
 
 
@@ -25,9 +25,9 @@ def validate(
 ) -> None:
     """Figures and numbers: our statistics on real records against Stable32, the receiver calibration,
     each oscillator preset against theory, and the Cs 5071A record against the ITU-T masks."""
+    if not (data / "stability").is_dir():
+        fail(f"{data}: no stability/ folder (give the real data folder with --data)")
     with user_errors():
-        if not (data / "stability").is_dir():
-            raise FileNotFoundError(f"{data}: no stability/ folder (give the real data folder with --data)")
         start = time.perf_counter()
         with progress_reporter("validate"):
             paths = write_validation_figures(out, data, quick=quick, seed=seed)

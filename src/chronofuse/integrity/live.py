@@ -27,7 +27,7 @@ from collections.abc import Iterable, Iterator
 
 from chronofuse.integrity.detector import HodDetector
 from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 _UNIT = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 
@@ -87,7 +87,8 @@ def stream_verdicts(
     from chronofuse.integrity.modes import TRAINING_CONFIDENCE
 
     if train_s is None and None in (h0, hm2, sigma_rho_m):
-        raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
+        raise InputError("give the noise model ({h0}, {hm2} and {sigma_rho_m}) or a training stretch ({train_s})",
+                         fields=("h0", "hm2", "sigma_rho_m", "train_s"))
     step_ns = None if rate_hz is None else int(round(1e9 / rate_hz))
     monitor: StreamingMonitor | None = None
     training: list[tuple[int, float]] = []

@@ -38,8 +38,8 @@ missing ones, with the covariance scaled so that P_fa stays at or below nominal 
 and can be given back as ``h0``/``hm2``/``sigma_rho_m`` on the next run. ``n_skipped`` counts missing epochs and corrupt
 frames.
 
-Errors name the command-line option beside the parameter (``train_s (--train)``) so the one message serves
-the library and the command.
+Errors name the parameter (the config field, e.g. ``train_s``), which the command line writes as its
+option, so the one message serves the library and the command.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S, NO_FIX,
 from chronofuse.integrity.stationarity import NOISE_CHANGE_ALPHA, noise_change
 from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
 from chronofuse.io.formats import sniff_format
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputDataError, InputError, check_scalar
 
 #: The modes of :func:`detect_file`.
 MODES = ("detection", "identification")
@@ -110,7 +110,7 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         training = x[:n_train]
         n_valid = int(np.isfinite(training).sum())
         if n_valid < detector.window + 3:
-            reasons.append(f"training failed: train_s (--train) {train_s:g} s holds {n_valid} valid epochs; need at "
+            reasons.append(f"training failed: the training stretch (train_s) of {train_s:g} s holds {n_valid} valid epochs; need at "
                            f"least window + 3 = {detector.window + 3}")
             fitted = False
         else:
@@ -352,19 +352,22 @@ def detect_file(
     if train_s is not None:
         check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     elif None in (h0, hm2, sigma_rho_m):
-        raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
+        raise InputError("give the noise model ({h0}, {hm2} and {sigma_rho_m}) or a training stretch ({train_s})",
+                         fields=("h0", "hm2", "sigma_rho_m", "train_s"))
     kind = sniff_format(path)
     if kind == "rinex-nav":
-        raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
+        raise InputError("this is a RINEX navigation file: give the observation file, and this one as {nav}", str(path),
+                         fields=("nav",))
     params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                   confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     if kind == "rinex-obs":
         if nav is None or position_m is None:
-            raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
-                                 "mode: nav and position_m)", str(path))
+            raise InputError("a RINEX observation file needs a navigation file ({nav}) and the antenna position "
+                             "({position_m}, ECEF X,Y,Z) for identification mode", str(path), fields=("nav", "position_m"))
         return identification_document(path, nav, position_m, HodDetector(interval_s=1.0, **params), train_s)
     if nav is not None or position_m is not None:
-        raise InputDataError("--nav/--position need a RINEX observation file (identification mode)", str(path))
+        raise InputError("{nav} and {position_m} need a RINEX observation file (identification mode)", str(path),
+                         fields=("nav", "position_m"))
     if kind == "rinex-clock":
         from chronofuse.integrity.products import clock_product_document
         from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
@@ -377,9 +380,9 @@ def detect_file(
         doc["station"] = station
         return doc
     if station is not None:
-        raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
+        raise InputError("{station} needs a RINEX clock product (.clk)", str(path), fields=("station",))
     if max_time_acc_s is not None:
-        check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
+        check_scalar(max_time_acc_s, "max_time_acc_s", min_val=0.0, include_min=False)
     data = read_clock_bias(path, rate_hz, column)
     return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s, max_time_acc_s)
 

@@ -23,6 +23,7 @@ from scipy import optimize
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.models.clock import clock_intensities
+from chronofuse.validation import InputError
 
 
 def noise_intensities(h0: float, hm2: float, sigma_rho_m: float) -> tuple[float, float, float]:
@@ -72,7 +73,7 @@ def empirical_autocorrelation(df: np.ndarray, max_lag: int = 2) -> np.ndarray:
         prod = df[..., lag:] * df[..., : df.shape[-1] - lag]
         ok = np.isfinite(prod)
         if not ok.any():
-            raise ValueError(f"no pair of valid differences at lag {lag}: the training data are too short or too gappy")
+            raise InputError(f"no pair of valid differences at lag {lag}: the training data are too short or too gappy")
         out[lag] = prod[ok].mean()
     return out
 
@@ -183,7 +184,7 @@ def fit_noise_whittle(
     """
     runs = contiguous_runs(df, 8)
     if not runs:
-        raise ValueError("no run of at least 8 consecutive valid differences in the training data")
+        raise InputError("no run of at least 8 consecutive valid differences in the training data")
     freqs, pgram = [], []
     for run in runs:
         spec = np.abs(np.fft.rfft(run)) ** 2 / run.size
@@ -224,7 +225,7 @@ def fit_noise_whittle(
         if np.isfinite(res.fun) and (best is None or res.fun < best.fun):
             best = res
     if best is None:
-        raise ValueError("the Whittle fit found no noise model for the training data")
+        raise InputError("the Whittle fit found no noise model for the training data")
     q = q_fixed.copy()
     q[free] = np.exp(best.x) / share
     return _parameters_from_intensities(q, h0, hm2, sigma_rho_m)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.models.receiver_model import ReceiverModel
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 __all__ = ["ReceiverEnvironment", "ENVIRONMENTS", "receiver_environment"]
 
@@ -96,7 +96,8 @@ class ReceiverEnvironment:
         if self.affected_receivers is None:
             return affected
         if any(i >= n_receivers for i in self.affected_receivers):
-            raise ValueError(f"affected_receivers == {self.affected_receivers}, must be < n_receivers == {n_receivers}")
+            raise InputError(f"affected_receivers == {self.affected_receivers}, must be < {{n_receivers}} == {n_receivers}",
+                             fields=("n_receivers",))
         affected[:] = False
         affected[list(self.affected_receivers)] = True
         return affected

@@ -40,7 +40,7 @@ from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.models.kinematics import Trajectory
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
 from chronofuse.seeding import child_rng, root_seed
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = [
     "SNR_TABLE_DB",
@@ -71,10 +71,9 @@ _KEY_TOA_UP, _KEY_TOA_DOWN, _KEY_URT, _KEY_DOPPLER = 0, 1, 2, 3
 def _in_table(snr_db: float, what: str) -> float:
     check_scalar(snr_db, "snr_db")
     if not SNR_TABLE_DB[0] <= snr_db <= SNR_TABLE_DB[-1]:
-        raise ValueError(
-            f"snr_db == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the seed's {what} "
-            "table (use the Cramér-Rao TOA model for other SNRs)"
-        )
+        raise InputError(
+            f"{{snr_db}} == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the seed's {what} "
+            "table (use the Cramér-Rao TOA model for other SNRs)", fields=("snr_db",))
     return float(snr_db)
 
 
@@ -138,7 +137,8 @@ class LinkModel:
         check_scalar(self.interval_s, "interval_s", min_val=0.0, include_min=False)
         check_scalar(self.reply_delay_s, "reply_delay_s", min_val=0.0, include_min=False)
         if self.reply_delay_s >= self.interval_s:
-            raise ValueError(f"reply_delay_s == {self.reply_delay_s}, must be < interval_s ({self.interval_s})")
+            raise InputError(f"{{reply_delay_s}} == {self.reply_delay_s}, must be < {{interval_s}} ({self.interval_s})",
+                             fields=("reply_delay_s", "interval_s"))
         check_scalar(self.urt_fixed_s, "urt_fixed_s")
         check_scalar(self.urt_jitter_s, "urt_jitter_s", min_val=0.0)
         check_scalar(self.carrier_hz, "carrier_hz", min_val=0.0, include_min=False)
@@ -301,10 +301,9 @@ def simulate_exchanges(
     # 2. B's arrival stamp; 3. B's reply leaves t_p after its stamp T_B.
     t_i_true = t1_rel + tau_up + _interp_clock(xb, dt, t2)
     if np.any(t_i_true >= link.reply_delay_s):
-        raise ValueError(
-            f"reply_delay_s == {link.reply_delay_s}, must exceed the propagation time plus the offset "
-            f"(the request arrives {float(t_i_true.max()):.6g} s into B's slot)"
-        )
+        raise InputError(
+            f"{{reply_delay_s}} == {link.reply_delay_s}, must exceed the propagation time plus the offset "
+            f"(the request arrives {float(t_i_true.max()):.6g} s into B's slot)", fields=("reply_delay_s",))
     noise = np.empty((4, trials, steps))
     for i in range(trials):
         for key in (_KEY_TOA_UP, _KEY_TOA_DOWN, _KEY_URT, _KEY_DOPPLER):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from chronofuse.models.oscillator import OscillatorModel, PowerLaw
+from chronofuse.validation import InputError
 
 __all__ = ["PRESETS", "PRESET_ADEV_1S", "preset"]
 
@@ -153,4 +154,4 @@ def preset(name: str) -> OscillatorModel:
     try:
         return PRESETS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"name == {name!r}, must be one of {sorted(PRESETS)}") from None
+        raise InputError(f"{{oscillator}} == {name!r}, must be one of {sorted(PRESETS)}", fields=("oscillator",)) from None

@@ -74,7 +74,7 @@ from chronofuse.models.noise import gauss_markov
 from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.seeding import SeedLike, child_rng, root_seed
 from chronofuse.timescale import NS_PER_S, gps_minus_utc_s, utc_to_gps_ns
-from chronofuse.validation import check_scalar
+from chronofuse.validation import InputError, check_scalar
 
 __all__ = [
     "DEFAULT_START_GPS_S",
@@ -266,11 +266,12 @@ def _epoch_grid(duration_s: int, rate_hz: float, start_gps_s: int) -> tuple[int,
     check_scalar(rate_hz, "rate_hz", min_val=0.0, max_val=1.0, include_min=False)
     period_s = int(round(1.0 / rate_hz))
     if abs(period_s * rate_hz - 1.0) > 1e-9:
-        raise ValueError(f"rate_hz == {rate_hz}, must be 1 / (whole number of seconds)")
+        raise InputError(f"{{rate_hz}} == {rate_hz}, must be 1 / (whole number of seconds)", fields=("rate_hz",))
     check_scalar(start_gps_s, "start_gps_s", min_val=0, integer=True)
     steps = int(duration_s) // period_s
     if steps < 1:
-        raise ValueError(f"duration_s == {duration_s}, must hold at least one pulse at rate_hz == {rate_hz}")
+        raise InputError(f"{{duration_s}} == {duration_s}, must hold at least one pulse at {{rate_hz}} == {rate_hz}",
+                         fields=("duration_s", "rate_hz"))
     return period_s, np.int64(start_gps_s) + np.arange(steps, dtype=np.int64) * period_s
 
 
