@@ -102,7 +102,7 @@ def test_a_recording_without_clock_bias_is_refused_in_one_line_naming_the_file(r
 
 
 def test_a_single_solution_needs_the_rate_and_a_changed_rate_is_named(receivers, tmp_path):
-    with pytest.raises(InputDataError, match="one UBX NAV-CLOCK solution and no --rate"):
+    with pytest.raises(InputDataError, match="one UBX NAV-CLOCK solution and no rate_hz"):
         read_clock_series(receivers / "ubx" / "pygpsdata-NAV.log")
     assert read_clock_series(receivers / "ubx" / "pygpsdata-NAV.log", rate_hz=1.0).gps_ns.size == 1
     with pytest.raises(InputDataError, match="not a whole number of 0.3 s intervals"):

@@ -89,20 +89,20 @@ class GnssdoSetup:
     outage_s: float = 0.0
 
     def __post_init__(self):
-        check_choice(self.scenario, "--scenario", SCENARIOS)
-        check_choice(self.controller, "--controller", CONTROLLERS)
-        check_scalar(self.receivers, "--receivers", min_val=1, integer=True)
-        check_scalar(self.duration_s, "--duration", min_val=2 * SETTLE_S, integer=True)
-        check_scalar(self.trials, "--trials", min_val=1, integer=True)
-        check_scalar(self.seed, "--seed", min_val=0, integer=True)
-        check_scalar(self.gdop_max, "--gdop-max", min_val=1.0)
+        check_choice(self.scenario, "scenario", SCENARIOS)
+        check_choice(self.controller, "controller", CONTROLLERS)
+        check_scalar(self.receivers, "receivers", min_val=1, integer=True)
+        check_scalar(self.duration_s, "duration_s", min_val=2 * SETTLE_S, integer=True)
+        check_scalar(self.trials, "trials", min_val=1, integer=True)
+        check_scalar(self.seed, "seed", min_val=0, integer=True)
+        check_scalar(self.gdop_max, "gdop_max", min_val=1.0)
         if self.dac_bits is not None:
-            check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
+            check_scalar(self.dac_bits, "dac_bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
-            check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
-        check_choice(self.fusion, "--fusion", ("fusion", "selection"))
+            check_scalar(self.loop_bandwidth_hz, "loop_bandwidth_hz", min_val=0.0, max_val=0.5, include_min=False)
+        check_choice(self.fusion, "fusion", ("fusion", "selection"))
         if self.integrity_pfa is not None:
-            check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
+            check_scalar(self.integrity_pfa, "integrity_pfa", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
         if self.outage_start_s is not None:
             check_scalar(self.outage_start_s, "outage_start_s", min_val=0.0, max_val=self.duration_s)
@@ -117,7 +117,7 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     (跳变野值; persistent steps of the receivers' time are left out: they move the reference itself, and
     no controller can tell them from the truth); ``spoofing``: the preset drag-off (2 ns/s) from mid-run.
     """
-    check_choice(name, "--scenario", SCENARIOS)
+    check_choice(name, "scenario", SCENARIOS)
     if name in ("open-sky", "urban-canyon"):
         return receiver_environment(name)
     sky = receiver_environment("open-sky")
@@ -147,7 +147,7 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
     ``pi``: the seed's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1);
     Kalman types: the oscillator's h-coefficients and the short-term noise of the receivers.
     """
-    check_choice(name, "--controller", CONTROLLERS)
+    check_choice(name, "controller", CONTROLLERS)
     if name == "pi":
         if loop_bandwidth_hz is not None:
             return PiServo.from_bandwidth(loop_bandwidth_hz, 1.0, dac=dac)
@@ -342,7 +342,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
     first four hours by :func:`equivalent_white_sigma_s` (what a user with a reference would do once).
     """
-    check_choice(controller, "--controller", CONTROLLERS)
+    check_choice(controller, "controller", CONTROLLERS)
     e = read_reference(path)
     e = e - np.mean(e)
     steps = e.size

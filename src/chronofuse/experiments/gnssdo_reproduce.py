@@ -230,12 +230,11 @@ def _fmt(v, digits=3, unit: str = "") -> str:
 
 
 def _note(s: dict) -> str:
-    cmd = "chronofuse reproduce gnssdo" + (" --quick" if s["quick"] else "")
     ba = s["before_after"]
     lines = [
         "# GNSS-disciplined oscillator: seed 000, section 6, reproduced",
         "",
-        f"Written by `{cmd}` (every number below comes from that run: {s['trials']} trials of "
+        f"Written by `chronofuse reproduce gnssdo`{' (the quick run)' if s['quick'] else ''} (every number below comes from that run: {s['trials']} trials of "
         f"{s['duration_s']} s at 1 Hz, OCXO preset (ADEV 5e-12 at 1 s), {s['receivers']} receivers as the "
         "seed's dual-mode receiver). \"Before\" = best-source selection with the seed's PI preset (Kp 0.5, "
         f"Ki 0.1); \"after\" = inverse-variance fusion with the default controller (`{s['default_controller']}`). "

@@ -55,9 +55,9 @@ class PositioningConfig:
         check_choice(self.scenario, "scenario", ENVIRONMENTS)
         check_choice(self.systems, "systems", SYSTEMS)
         check_choice(self.ins, "ins", INS_CHOICES)
-        check_scalar(self.duration_s, "duration", min_val=10.0)
+        check_scalar(self.duration_s, "duration_s", min_val=10.0)
         check_scalar(self.trials, "trials", min_val=1, integer=True)
-        check_scalar(self.imu_rate_hz, "imu-rate", min_val=10.0)
+        check_scalar(self.imu_rate_hz, "imu_rate_hz", min_val=10.0)
 
 
 def solution_metrics(errors_ned_m: np.ndarray, gdop: np.ndarray, outage: np.ndarray) -> dict:

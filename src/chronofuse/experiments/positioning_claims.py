@@ -82,7 +82,7 @@ def reproduce_positioning_claims(out_dir: str | Path, *, quick: bool = False,
 
 def _markdown(s: dict) -> str:
     lines = ["# Positioning: seed 000 section 6.3, measured", "",
-             f"Written by `chronofuse reproduce positioning{' --quick' if s['quick'] else ''}`: {s['trials']} drives "
+             f"Written by `chronofuse reproduce positioning`{' (the quick run)' if s['quick'] else ''}: {s['trials']} drives "
              f"of {s['duration_s']:g} s each on the urban-canyon loop (15 m buildings on 30 m streets, 3 m multipath; "
              "1 Hz GNSS, 100 Hz IMU), the same seed for every configuration.", "",
              "| claim | seed | ours | floor (error-free IMU) | solution | verdict |", "|---|---|---|---|---|---|"]

@@ -27,7 +27,7 @@ from chronofuse.io.grid import grid_slots, place_on_grid
 from chronofuse.io.inspect import Capture, read_capture
 from chronofuse.io.records import KINDS, ClockRecord
 from chronofuse.timescale import NS_PER_S
-from chronofuse.validation import InputDataError, check_choice, check_scalar
+from chronofuse.validation import InputDataError, InputError, InputWarning, check_choice, check_scalar
 
 __all__ = ["ClockBiasSeries", "TIME_TOLERANCE", "capture_clock_series", "read_clock_series", "capture_record"]
 
@@ -89,8 +89,8 @@ class ClockBiasSeries:
 def _no_bias_reason(capture: Capture) -> str:
     """Why a recording gives no clock bias, naming what it holds and what would carry one."""
     if "rinex-obs" in capture.protocols:
-        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: test it with "
-                "chronofuse detect FILE --nav NAVFILE --position X,Y,Z (identification mode)")
+        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: test it in "
+                "identification mode, with its navigation file ({nav}) and the antenna position ({position_m})")
     if "ubx" in capture.protocols:
         held = ", ".join(sorted(capture.ubx.decoded)) or "no decodable UBX navigation message"
         return (f"no {_CLOCK_MESSAGE} message, so no receiver clock bias (the recording holds {held}); enable "
@@ -106,7 +106,8 @@ def _interval_ns(t_ns: np.ndarray, rate_hz: float | None, source: str) -> int:
         check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
         return int(round(NS_PER_S / rate_hz))
     if t_ns.size < 2:
-        raise InputDataError(f"one {_CLOCK_MESSAGE} solution and no --rate: the interval is unknown", source)
+        raise InputError(f"one {_CLOCK_MESSAGE} solution and no {{rate_hz}}: the interval is unknown", source,
+                         fields=("rate_hz",))
     step_ms = int(round(float(np.median(np.diff(t_ns))) / 1e6))  # iTOW is in ms
     return step_ms * 1_000_000
 
@@ -121,18 +122,20 @@ def capture_clock_series(capture: Capture, rate_hz: float | None = None) -> Cloc
     rows, source = capture.rows, capture.source
     have = np.isfinite(rows["clock_bias_s"])
     if not have.any():
-        raise InputDataError(_no_bias_reason(capture), source)
+        raise InputError(_no_bias_reason(capture), source, fields=("nav", "position_m"))
     t_ns = rows["gps_ns"][have]
     interval_ns = _interval_ns(t_ns, rate_hz, source)
     if interval_ns <= 0:
-        raise InputDataError(f"{_CLOCK_MESSAGE} epochs less than 1 ms apart: give the rate (--rate)", source)
+        raise InputError(f"{_CLOCK_MESSAGE} epochs less than 1 ms apart: give the rate ({{rate_hz}})", source,
+                         fields=("rate_hz",))
     # offsets from the first bias epoch are small (int64 ns -> float64 exact below 104 days)
     slots, bad = grid_slots((t_ns - t_ns[0]).astype(np.float64), float(interval_ns), TIME_TOLERANCE)
     if bad >= 0:
         step_s = (t_ns[bad] - t_ns[bad - 1]) / NS_PER_S
-        raise InputDataError(
+        raise InputError(
             f"clock solution {bad + 1}: time step {step_s:g} s is not a whole number of "
-            f"{interval_ns / NS_PER_S:g} s intervals (the output rate changed; check --rate)", source)
+            f"{interval_ns / NS_PER_S:g} s intervals (the output rate changed; check {{rate_hz}})", source,
+            fields=("rate_hz",))
     off_s = ((t_ns - t_ns[0]) - slots * interval_ns) / NS_PER_S
     bias = place_on_grid(slots, rows["clock_bias_s"][have])
     drift = place_on_grid(slots, rows["clock_drift_s_per_s"][have])
@@ -163,11 +166,12 @@ def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None 
     check_choice(kind, "kind", KINDS)
     capture = read_capture(path, receiver=station)
     if station is not None and "rinex-clock" not in capture.protocols:
-        raise InputDataError("--station picks a station of a RINEX clock product (.clk); this recording has "
-                             "one receiver", str(path))
+        raise InputError("{station} picks a station of a RINEX clock product (.clk); this recording has "
+                         "one receiver", str(path), fields=("station",))
     if station is None and len(capture.receivers) > 1:
-        warnings.warn(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
-                      f"{capture.receivers[0]}, is analysed (--station picks any)", stacklevel=2)
+        warnings.warn(InputWarning(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
+                                   f"{capture.receivers[0]}, is analysed ({{station}} picks any)", fields=("station",)),
+                      stacklevel=2)
     series = capture_clock_series(capture, rate_hz)
     values, column = ((series.clock_bias_s, "clock_bias_s") if kind == "phase"
                       else (series.clock_drift_s_per_s, "clock_drift_s_per_s"))

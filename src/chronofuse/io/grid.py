@@ -50,8 +50,7 @@ def regular_grid(t_s: np.ndarray, values: np.ndarray, interval_s: float, source:
     if bad >= 0:
         raise InputDataError(
             f"epoch {bad + 1}: time step {steps[bad - 1]:g} s is not a whole number of {interval_s:g} s intervals "
-            "(the sampling interval changed: a new interval needs a new detector, check --rate)",
-            source,
-        )
+            "(the sampling interval changed: a new interval needs a new detector, check {rate_hz})",
+            source, fields=("rate_hz",))
     grid = place_on_grid(slots, values)
     return t_s[0] + np.arange(grid.size) * interval_s, grid

@@ -36,7 +36,7 @@ import numpy as np
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
 from chronofuse.io.formats import capture_format
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
-from chronofuse.validation import InputDataError, check_choice, check_scalar
+from chronofuse.validation import InputDataError, InputError, InputWarning, check_choice, check_scalar
 
 __all__ = ["ClockRecord", "read_record", "KINDS"]
 
@@ -46,7 +46,7 @@ _UNIT_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12}
 _TIME_NAMES = {"t", "time", "mjd", "epoch", "t_s", "time_s", "unix", "timestamp"}
 # A sample further than this fraction of the interval from its grid slot is not on a regular grid.
 _SLOT_TOLERANCE = 0.25
-# --rate and the time column agree when their intervals differ by less than this (relative).
+# rate_hz and the time column agree when their intervals differ by less than this (relative).
 _RATE_AGREEMENT = 1e-3
 # Fractional frequency beyond this magnitude is implausible for a clock (warned, or refused when narrow).
 _PLAUSIBLE_Y = 1e-3
@@ -136,7 +136,7 @@ def _pick_columns(layout: Layout, path: Path, column: str | None) -> tuple[int |
     elif width == 2:
         value_idx = 1 - time_idx
     else:
-        raise InputDataError(f"{width} columns {names}: choose the value column with --column", str(path),
+        raise InputError(f"{width} columns {names}: choose the value column ({{column}})", str(path),
                              layout.first_data_line)
     if value_idx == time_idx:
         time_idx = None
@@ -192,9 +192,10 @@ def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layo
     if rate_hz is not None:
         given = 1e9 / rate_hz
         if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
-            warnings.warn(
-                f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
-                f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=3)
+            warnings.warn(InputWarning(
+                f"{path}: {{rate_hz}} {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
+                f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz",
+                fields=("rate_hz",)), stacklevel=3)
             return None
         first_guess = given
     ratio = steps / first_guess
@@ -239,11 +240,12 @@ def _check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) -
     if one_sign and abs(mean) > _PLAUSIBLE_Y and spread < _PLAUSIBLE_Y * abs(mean):
         raise InputDataError(
             f"frequency values of mean {mean:.9g} with a relative spread of {spread / abs(mean):.1e} look like an "
-            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency (--nominal-hz)",
-            str(path))
-    warnings.warn(
+            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency ({nominal_hz})",
+            str(path), fields=("nominal_hz",))
+    warnings.warn(InputWarning(
         f"{path}: fractional frequency up to {largest:.3g} in magnitude is implausible for a clock (|y| > "
-        f"{_PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give --nominal-hz)", stacklevel=3)
+        f"{_PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give {{nominal_hz}})",
+        fields=("nominal_hz",)), stacklevel=3)
     return values
 
 
@@ -299,8 +301,8 @@ def read_record(
 
         return capture_record(path, kind=kind, rate_hz=rate_hz, station=station)
     if station is not None:
-        raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
-                             str(path))
+        raise InputError("{station} picks a station of a RINEX clock product (.clk), not of a text record",
+                         str(path), fields=("station",))
     layout = sniff(path)
     time_idx, value_idx, name = _pick_columns(layout, path, column)
     try:
@@ -340,7 +342,7 @@ def read_record(
         else:
             t_ns = t_raw
     if rate_hz is None:
-        raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
+        raise InputError("one-column file: give the sample rate ({rate_hz}, Hz)", str(path), fields=("rate_hz",))
 
     if kind == "freq":
         values = _check_frequency(values, path, nominal_hz)

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 
 @dataclass(frozen=True)
@@ -114,8 +114,8 @@ def station_clock_bias(clocks: StationClocks, station: str):
 
     if station not in clocks.gps_ns:
         known = ", ".join(clocks.stations[:8])
-        raise InputDataError(f"station {station!r} (--station) not in the file ({len(clocks.stations)} stations: "
-                             f"{known}{', ...' if len(clocks.stations) > 8 else ''})", clocks.source)
+        raise InputError(f"{{station}} == {station!r} is not in the file ({len(clocks.stations)} stations: "
+                         f"{known}{', ...' if len(clocks.stations) > 8 else ''})", clocks.source, fields=("station",))
     gps = clocks.gps_ns[station]
     rel_ns = gps - gps[0]
     if gps.size < 2:
