@@ -109,7 +109,7 @@ def main() -> None:
     process_ends_with_command()
     with loading():
         program = build_app(_wanted(sys.argv[1:]))
-    program()
+    program(prog_name="chronofuse")
 
 
 def __getattr__(name: str):
