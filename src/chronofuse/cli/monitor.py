@@ -49,7 +49,8 @@ def monitor(
     gdop_max: float = typer.Option(5.0, "--gdop-max", help="A 1PPS is usable only with GDOP below this."),
     window: int = typer.Option(20, "--window", help="HOD detector window (differences)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="HOD detector false-alarm probability per epoch."),
-    training: int = typer.Option(120, "--training", help="Clock-bias epochs that fit each receiver's noise model."),
+    train: float = typer.Option(120.0, "--train", help="Learn each receiver's noise model from its first clock biases "
+                                "over this long (s), as detect --train does."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON summary document on stdout at the end."),
 ) -> None:
@@ -66,7 +67,7 @@ def monitor(
         chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
-        settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
+        settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_s=train,
                                    jump_s=jump_ns * 1e-9)
         log = EpochLog(db) if db is not None else None
 

@@ -27,8 +27,8 @@ __all__ = ["MonitorSettings", "ReceiverMonitor", "decide_second"]
 @dataclass(frozen=True)
 class MonitorSettings:
     """``gdop_max``/``min_sats``: qualification; ``window``, ``pfa`` and the noise model (``h0``, ``hm2``,
-    ``sigma_rho_m``; any None is learnt from the first ``training_epochs`` clock biases) of the HOD
-    detector; ``jump_s``: offset-jump threshold between receivers."""
+    ``sigma_rho_m``; any None is learnt from the clock biases of the first ``training_s`` seconds, as
+    ``detect --train`` does) of the HOD detector; ``jump_s``: offset-jump threshold between receivers."""
 
     gdop_max: float = 5.0
     min_sats: int = 4
@@ -37,7 +37,7 @@ class MonitorSettings:
     h0: float | None = None
     hm2: float | None = None
     sigma_rho_m: float | None = None
-    training_epochs: int = 120
+    training_s: float = 120.0
     jump_s: float = 100e-9
 
 
@@ -73,7 +73,7 @@ class ReceiverMonitor:
         bias = epoch["clock_bias_s"]
         if self.detector is None and self.interval_s is not None and math.isfinite(bias):
             self._training.append(bias)
-            if len(self._training) >= self.settings.training_epochs:
+            if len(self._training) >= self._training_epochs():
                 self.detector = self._fit()
         elif self.detector is not None:
             out = self.detector.step(bias)
@@ -85,6 +85,10 @@ class ReceiverMonitor:
         self.last = record
         return record
 
+    def _training_epochs(self) -> int:
+        """Epochs in the first ``training_s`` seconds at this receiver's interval (at least 1)."""
+        return max(1, math.ceil(self.settings.training_s / self.interval_s - 1e-9))
+
     def _fit(self) -> HodDetector | None:
         s = self.settings
         detector = HodDetector(interval_s=self.interval_s, window=s.window, pfa=s.pfa, h0=s.h0, hm2=s.hm2,
@@ -94,7 +98,7 @@ class ReceiverMonitor:
         except (ValueError, np.linalg.LinAlgError):
             return None  # a training stretch the noise fit cannot use; keep training
         finally:
-            self._training = self._training[-s.training_epochs // 2:]
+            self._training = self._training[-self._training_epochs() // 2:]
         for bias in self._training:
             detector.step(bias)
         return detector
