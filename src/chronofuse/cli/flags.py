@@ -87,6 +87,7 @@ FLAGS: dict[str, Flag] = {
     # receivers: inspect and monitor
     "--db": Flag("the SQLite (WAL) log of every epoch", "path", fields=("db",)),
     "--replay": Flag("replay a recording as a receiver", "path", fields=("replay",)),
+    "--replay-speed": Flag("replay pace, a factor of real time", "number", fields=("replay_speed",)),
     "--report": Flag("summarize this log DB instead of monitoring", "path", fields=("report",)),
     "--jump-ns": Flag("offset jump between receivers flagged above this", "number", "ns", fields=("jump_s",)),
     # the disciplined oscillator

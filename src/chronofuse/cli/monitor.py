@@ -42,7 +42,7 @@ def monitor(
     db: Path | None = typer.Option(None, "--db", help="Append every epoch to this SQLite log (WAL)."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Print each epoch as a JSON line once it is committed."),
     replay: list[Path] = typer.Option(None, "--replay", help="Replay a recording as a receiver (repeatable)."),
-    speed: float = typer.Option(1.0, "--speed", help="Replay pace, x real time."),
+    replay_speed: float = typer.Option(1.0, "--replay-speed", help="Replay pace, a factor of real time (2: twice as fast)."),
     duration: float | None = typer.Option(None, "--duration", help="Stop after this many seconds."),
     report: Path | None = typer.Option(None, "--report", help="Summarize the log DB instead of monitoring."),
     out: Path | None = typer.Option(None, "--out", help="With --report: folder for the plots and summary."),
@@ -60,11 +60,11 @@ def monitor(
         return
     if json_out and json_lines:
         fail("--json and --json-lines both want stdout: choose one")
-    if speed <= 0:
-        fail(f"--speed {speed}: must be > 0")
+    if not replay_speed > 0:
+        fail(f"--replay-speed == {replay_speed}, must be > 0")
     with user_errors():
         chosen = [parse_source(s) for s in (sources or [])]
-        chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
+        chosen += [_replay_source(p, replay_speed, i) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_s=train,
