@@ -105,8 +105,7 @@ FLAGS: dict[str, Flag] = {
     "--imu-rate": Flag("IMU sample rate", "number", _HZ, fields=("imu_rate_hz",)),
     "--speed": Flag("vehicle speed", "number", "m/s", fields=("speed_m_per_s",)),
     # two-way links and swarms
-    "--algorithm": Flag("sync algorithms, comma-separated, or all", "text", fields=("algorithm",)),
-    "--algorithms": Flag("sync algorithms, comma-separated", "text", fields=("algorithms",)),
+    "--algorithm": Flag("sync algorithms, comma-separated, or all", "text", fields=("algorithm", "algorithms")),
     "--urt-mode": Flag("URT compensation: paper (the source paper's) or calibrated", "text", fields=("urt_mode",)),
     "--velocity": Flag("radial velocity between the nodes (opening > 0)", "number", "m/s",
                        fields=("velocity_m_s", "velocity")),

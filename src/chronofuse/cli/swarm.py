@@ -92,8 +92,8 @@ def run(
 def sweep(
     param: str = typer.Option(..., "--param", help="velocity | distance | reply-delay | urt | snr."),
     values: str = typer.Option(..., "--values", help="Comma-separated values, SI units (m/s, m, s, s, dB)."),
-    algorithms: str = typer.Option("ptp-mls,rtt-rvc,proposed-no-nn,ours-doppler", "--algorithms",
-                                   help="Comma-separated algorithm names."),
+    algorithm: str = typer.Option("ptp-mls,rtt-rvc,proposed-no-nn,ours-doppler", "--algorithm",
+                                  help="Comma-separated algorithm names."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
     velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
     reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
@@ -127,7 +127,7 @@ def sweep(
         if urt_mode not in ("paper", "calibrated"):
             fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
         files = model_files(model, lstm_model)
-        names = algorithm_names(algorithms, files, option="--algorithms")
+        names = algorithm_names(algorithm, files)
         load_models(files, urt_mode)
         if trials < 1 or chunk_trials < 1:
             fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")

@@ -58,7 +58,7 @@ def model_files(model, lstm_model) -> dict:
     return {kind: path for kind, path in (("bp", model), ("lstm", lstm_model)) if path is not None}
 
 
-def algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tuple:
+def algorithm_names(text: str, files: dict) -> tuple:
     """The algorithms asked for; 'all' takes those whose models were given."""
     from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK
 
@@ -67,11 +67,11 @@ def algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tupl
     names = tuple(a.strip() for a in text.split(","))
     for name in names:
         if name not in ALGORITHM_NAMES:
-            fail(f"{option} == {name!r}, must be among {list(ALGORITHM_NAMES)}")
+            fail(f"--algorithm == {name!r}, must be among {list(ALGORITHM_NAMES)}")
         kind = NEEDS_NETWORK.get(name)
         if kind is not None and kind not in files:
             flag = "--model" if kind == "bp" else "--lstm-model"
-            fail(f"{option} == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
+            fail(f"--algorithm == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
     return names
 
 
