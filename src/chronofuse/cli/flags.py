@@ -35,7 +35,6 @@ _S, _HZ, _M = "s", "Hz", "m"
 FLAGS: dict[str, Flag] = {
     # what every command shares
     "--json": Flag("print one JSON document on stdout", "switch"),
-    "--export": Flag("write the per-epoch table to a .csv or .parquet file", "path", fields=("export",)),
     "--out": Flag("where the command writes its files: a folder, or one file where the command says so", "path"),
     "--seed": Flag("root seed of the random streams (numpy SeedSequence; trial i draws from its own child)",
                    "count", fields=("seed",)),
@@ -45,8 +44,7 @@ FLAGS: dict[str, Flag] = {
                        fields=("duration_s", "duration")),
     "--rate": Flag("sample rate of a record, or of the loop (the 1PPS: 1 Hz)", "number", _HZ, fields=("rate_hz",)),
     "--column": Flag("the value column of a text record (name, or 1-based number)", "text", fields=("column",)),
-    "--station": Flag("the station of a RINEX clock product", "text", fields=("station",)),
-    "--receiver": Flag("the station of a RINEX clock product", "text", fields=("receiver",)),
+    "--station": Flag("the station of a RINEX clock product", "text", fields=("station", "receiver")),
     "--nav": Flag("a RINEX navigation file (broadcast ephemeris)", "path", fields=("nav",)),
     "--scenario": Flag("the receivers' signal environment (open sky, urban canyon, ...)", "text",
                        fields=("scenario", "environment")),
