@@ -48,8 +48,7 @@ FLAGS: dict[str, Flag] = {
     "--nav": Flag("a RINEX navigation file (broadcast ephemeris)", "path", fields=("nav",)),
     "--scenario": Flag("the receivers' signal environment (open sky, urban canyon, ...)", "text",
                        fields=("scenario", "environment")),
-    "--oscillator": Flag("oscillator preset", "text", fields=("oscillator",)),
-    "--preset": Flag("oscillator preset", "text", fields=("preset",)),
+    "--oscillator": Flag("oscillator preset", "text", fields=("oscillator", "preset")),
     "--receivers": Flag("number of receivers", "count", fields=("receivers", "n_receivers")),
     "--gdop-max": Flag("a receiver's 1PPS is usable only with GDOP below this", "number", fields=("gdop_max",)),
     # noise model (the clock's power-law coefficients, S_y(f) = h_a f^a) and the HOD detector

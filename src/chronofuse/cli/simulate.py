@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
 
 @simulate_app.command("oscillator")
 def oscillator(
-    preset_name: str = typer.Option("ocxo", "--preset", help=f"One of {sorted(PRESETS)}."),
+    preset_name: str = typer.Option("ocxo", "--oscillator", help=f"Oscillator preset, one of {sorted(PRESETS)}."),
     duration: float = typer.Option(3600.0, "--duration", help="Duration in seconds."),
     rate: float = typer.Option(1.0, "--rate", help="Sample rate in Hz."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
