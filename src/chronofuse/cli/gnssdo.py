@@ -15,7 +15,8 @@ def register(app: typer.Typer) -> None:
 
 
 def gnssdo(
-    scenario: str = typer.Option("open-sky", "--scenario", help="open-sky, urban-canyon, outage, jumps or spoofing."),
+    scenario: str = typer.Option("open-sky", "--environment",
+                                 help="Receiver environment: open-sky, urban-canyon, outage, jumps or spoofing."),
     controller: str = typer.Option("gated", "--controller",
                                    help="pi, kf, wakf, gated or huber (default: gated, picked by measurement)."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),

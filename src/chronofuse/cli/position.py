@@ -28,7 +28,7 @@ def _table(summary: dict, title: str) -> Table:
 
 
 def position(
-    scenario: str = typer.Option("urban-canyon", "--scenario", help=f"One of {sorted(ENVIRONMENTS)}."),
+    scenario: str = typer.Option("urban-canyon", "--environment", help=f"Signal environment of the drive, one of {sorted(ENVIRONMENTS)}."),
     systems: str = typer.Option("gps+bds", "--systems", help=f"One of {sorted(SYSTEMS)}."),
     ins: str = typer.Option("industrial", "--ins", help="IMU grade: none, consumer, industrial or tactical."),
     smooth: bool = typer.Option(False, "--smooth", help="Add the RTS-smoothed GNSS/INS solution."),

@@ -72,7 +72,7 @@ def oscillator(
 
 @simulate_app.command("receiver")
 def receiver(
-    scenario: str = typer.Option("open-sky", "--scenario", help=f"Receiver environment, one of {sorted(ENVIRONMENTS)}."),
+    scenario: str = typer.Option("open-sky", "--environment", help=f"Receiver environment, one of {sorted(ENVIRONMENTS)}."),
     duration: int = typer.Option(3600, "--duration", help="Duration in seconds."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers (independent errors)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
