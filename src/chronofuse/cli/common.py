@@ -90,13 +90,13 @@ def progress_reporter(label: str):
         yield say
 
 
-def run_reproduction(label: str, reproduce, out, *, quick: bool, json_out: bool) -> dict | None:
-    """Run a ``chronofuse reproduce`` experiment, ``reproduce(out, quick=quick, progress=say)``, with one-line
-    errors and a progress display; with ``json_out`` print ``{"out": ..., **summary}`` and return None, else
-    return the summary for the human tables."""
+def run_reproduction(label: str, reproduce, out, *, quick: bool, json_out: bool, seed: int | None = None) -> dict | None:
+    """Run a ``chronofuse reproduce`` experiment, ``reproduce(out, quick=quick, progress=say[, seed=seed])``, with
+    one-line errors and a progress display (``seed`` None: the experiment's published seed); with ``json_out``
+    print ``{"out": ..., **summary}`` and return None, else return the summary for the human tables."""
     with user_errors():
         with progress_reporter(label) as say:
-            summary = reproduce(out, quick=quick, progress=say)
+            summary = reproduce(out, quick=quick, progress=say, **({} if seed is None else {"seed": seed}))
     if json_out:
         print_json({"out": str(out), **summary})
         return None

@@ -69,14 +69,16 @@ def position(
 @reproduce_app.command("positioning")
 def reproduce_positioning(
     quick: bool = typer.Option(False, "--quick", help="Fewer, shorter drives (about a minute)."),
-    out: Path = typer.Option(Path("docs/positioning"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/positioning"), "--out",
+                             help="Report folder (created; docs/positioning holds the published run)."),
+    seed: int = typer.Option(6300, "--seed", help="Root seed of every drive (6300: the published run)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
 ) -> None:
     """Seed 000 section 6.3: GPS+BDS+INS with smoothing against the claimed CEP95 and vertical 95 %."""
     from chronofuse.experiments.positioning_claims import reproduce_positioning_claims
 
     summary = run_reproduction("reproduce positioning", reproduce_positioning_claims, out, quick=quick,
-                               json_out=json_out)
+                               json_out=json_out, seed=seed)
     if summary is None:
         return
     con = human_console(False)

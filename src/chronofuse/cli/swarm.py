@@ -247,7 +247,8 @@ def network(
 def reproduce_swarm_command(
     figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
     quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
-    out: Path = typer.Option(Path("docs/sync"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/swarm"), "--out",
+                             help="Report folder (created; docs/sync holds the published run)."),
     model: Path = typer.Option(None, "--model", help="BP model file ('proposed' curves)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file (figure 10)."),
     scheduler: str = typer.Option("serial", "--scheduler",

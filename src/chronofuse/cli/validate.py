@@ -18,7 +18,8 @@ def register(app: typer.Typer) -> None:
 
 def validate(
     data: Path = typer.Option(..., "--data", help="Real data folder holding stability/ (the project's shared/data, or tests/data)."),
-    out: Path = typer.Option(Path("docs/figures"), "--out", help="Folder for the figures and validation.json."),
+    out: Path = typer.Option(Path("out/validate"), "--out",
+                             help="Folder for the figures and validation.json (docs/figures holds the published run)."),
     quick: bool = typer.Option(False, "--quick", help="Short simulations (a smoke run)."),
     seed: int = typer.Option(SEED, "--seed", help="Seed of the simulations."),
     json_out: bool = typer.Option(False, "--json", help="Print validation.json's numbers on stdout."),

@@ -38,6 +38,7 @@ from chronofuse.models.receiver import simulate_receivers
 from chronofuse.report.gnssdo import plot_adev, plot_time_error
 from chronofuse.report.jsonio import dumps
 from chronofuse.seeding import child_seed, root_seed
+from chronofuse.validation import check_scalar
 
 __all__ = ["reproduce_gnssdo", "DEFAULT_CONTROLLER"]
 
@@ -51,13 +52,19 @@ def _oadev_at(x: np.ndarray, taus: np.ndarray, start: int = 1800) -> np.ndarray:
     return np.sqrt(np.nanmean(avar, axis=0))
 
 
-def _controller_table(duration: int, trials: int, say: Progress) -> tuple[list[dict], dict]:
+def _stream(seed: int, part: int) -> int:
+    """The root seed of one part of the experiment: ``seed * 1000 + part``, so that parts never share a
+    stream and ``seed`` 0 (the published run) keeps its parts' seeds 1, 2, 3, 4, 11, 12, 21, 22."""
+    return seed * 1000 + part
+
+
+def _controller_table(duration: int, trials: int, say: Progress, seed: int = 0) -> tuple[list[dict], dict]:
     rows, sims = [], {}
     for scenario in ("open-sky", "urban-canyon", "jumps"):
         for controller in CONTROLLERS:
             say(f"controller table: {scenario}, {controller}")
             sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
-                                              duration_s=duration, trials=trials, seed=1))
+                                              duration_s=duration, trials=trials, seed=_stream(seed, 1)))
             summary = evaluate(sim)
             sims[(scenario, controller)] = (sim, summary)
             rows.append({"scenario": scenario, "controller": controller,
@@ -68,19 +75,20 @@ def _controller_table(duration: int, trials: int, say: Progress) -> tuple[list[d
     return rows, sims
 
 
-def _before_after(duration: int, trials: int, say: Progress) -> dict:
+def _before_after(duration: int, trials: int, say: Progress, seed: int = 0) -> dict:
     """Seed's "before" (selection + PI preset) and "after" (fusion + default) in both environments."""
     out = {}
     for scenario in ("open-sky", "urban-canyon"):
         for label, fusion, controller in (("before", "selection", "pi"), ("after", "fusion", DEFAULT_CONTROLLER)):
             say(f"{scenario}: {label}")
             sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
-                                              duration_s=duration, trials=trials, seed=2, fusion=fusion))
+                                              duration_s=duration, trials=trials, seed=_stream(seed, 2),
+                                              fusion=fusion))
             out[(scenario, label)] = (sim, evaluate(sim))
     return out
 
 
-def _holdover(locked_stretches_s, trials: int, say: Progress) -> list[dict]:
+def _holdover(locked_stretches_s, trials: int, say: Progress, seed: int = 0) -> list[dict]:
     """Holdover error at 1, 4, 24 h after locked stretches of the given lengths, against the clairvoyant
     predictor on the same oscillator realisations."""
     osc = preset("ocxo")
@@ -90,7 +98,7 @@ def _holdover(locked_stretches_s, trials: int, say: Progress) -> list[dict]:
     for locked in locked_stretches_s:
         say(f"holdover after {locked / 3600:g} h locked")
         steps = int(locked + HOLDOVER_HORIZONS_S[-1] + 1)
-        root = root_seed(3)
+        root = root_seed(_stream(seed, 3))
         free, noise_only = _free_phase(osc, steps, trials, root)
         rx = simulate_receivers(env, int(locked), RECEIVERS, child_seed(root, 1), trials=trials)
         e = rx.pps_error_s + rx.epochs.qerr_s
@@ -121,19 +129,19 @@ def _smoothing(sim: dict) -> dict:
             "smoothed_rms_ns": float(np.sqrt(np.mean((sm.smoothed_s[:, a:] - truth)[ok] ** 2)) * 1e9)}
 
 
-def _fusion_gain(duration: int, trials: int, say: Progress) -> dict:
+def _fusion_gain(duration: int, trials: int, say: Progress, seed: int = 0) -> dict:
     out = {}
     for fusion in ("fusion", "selection"):
         say(f"urban canyon, 4 receivers: {fusion}")
         sim = simulate_gnssdo(GnssdoSetup(scenario="urban-canyon", controller=DEFAULT_CONTROLLER, receivers=4,
-                                          duration_s=duration, trials=trials, seed=4, fusion=fusion))
+                                          duration_s=duration, trials=trials, seed=_stream(seed, 4), fusion=fusion))
         ref = sim["run"].reference_error_s
         out[fusion] = {"te_rms_ns": evaluate(sim)["time_error_rms_ns"],
                        "reference_rms_ns": float(np.sqrt(np.nanmean(ref[:, 1800:] ** 2)) * 1e9)}
     return out
 
 
-def _learned(steps: int, say: Progress) -> list[dict]:
+def _learned(steps: int, say: Progress, seed: int = 0) -> list[dict]:
     """FastICA weights and the graph model against inverse-variance fusion on held-out runs (4 receivers)."""
     from chronofuse.discipline.fusion import InverseVarianceFusion
     from chronofuse.discipline.graph import GraphFusion, receiver_features
@@ -149,16 +157,16 @@ def _learned(steps: int, say: Progress) -> list[dict]:
         return z, e, u, receiver_features(z, u, rx.epochs.gdop[0], rx.epochs.n_sats[0]), x
 
     say("graph model: training on simulated runs")
-    train = [data(env, s) for env in ("open-sky", "urban-canyon") for s in (11, 12)]
+    train = [data(env, _stream(seed, s)) for env in ("open-sky", "urban-canyon") for s in (11, 12)]
     graph = GraphFusion().fit(np.concatenate([d[3] for d in train]), np.concatenate([d[2].T for d in train]),
                               np.concatenate([np.nan_to_num(d[1].T) for d in train]))
     rows = []
     for env in ("open-sky", "urban-canyon"):
         say(f"learnt fusion: held-out {env}")
-        z1, _, u1, _, _ = data(env, 11)
+        z1, _, u1, _, _ = data(env, _stream(seed, 11))
         ica = IcaFusion().fit(z1[:, u1.all(axis=0)])
-        for seed in (21, 22):
-            z, _, u, f, x = data(env, seed)
+        for held_out in (_stream(seed, 21), _stream(seed, 22)):
+            z, _, u, f, x = data(env, held_out)
             iv = InverseVarianceFusion().run(z[None], u[None]).offset_s[0] - x
             gr = graph.fuse(z, f, u) - x
             all_ok = u.all(axis=0)
@@ -169,7 +177,7 @@ def _learned(steps: int, say: Progress) -> list[dict]:
             def rms(a, m):
                 return float(np.sqrt(np.mean(a[m] ** 2)) * 1e9)
 
-            rows.append({"environment": env, "seed": seed, "inverse_variance_ns": rms(iv, ok), "graph_ns": rms(gr, ok),
+            rows.append({"environment": env, "seed": held_out, "inverse_variance_ns": rms(iv, ok), "graph_ns": rms(gr, ok),
                          "ica_ns": rms(ic, all_ok & ok), "inverse_variance_where_ica_ns": rms(iv, all_ok & ok)})
     return rows
 
@@ -181,18 +189,21 @@ def _verdict(measured: float, claim: float, limit: float | None, better: str = "
     return "reproduced" if ok else "not reproduced"
 
 
-def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = lambda s: None) -> dict:
-    """Run the experiment and write ``README.md``, ``summary.json`` and PNGs into ``out_dir``."""
+def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = lambda s: None, seed: int = 0) -> dict:
+    """Run the experiment and write ``README.md``, ``summary.json`` and PNGs into ``out_dir``; ``seed`` (>= 0)
+    roots every random stream (0: the published run)."""
+    check_scalar(seed, "seed", min_val=0, integer=True)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     duration = 6 * 3600 if quick else 86_400
     trials = 2 if quick else 4
-    table, sims = _controller_table(duration, trials, progress)
-    ba = _before_after(duration, trials, progress)
-    hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 8, progress)
+    table, sims = _controller_table(duration, trials, progress, seed)
+    ba = _before_after(duration, trials, progress, seed)
+    hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 8, progress,
+                     seed)
     smooth = _smoothing(sims[("open-sky", "kf")][0])
-    fusion = _fusion_gain(duration // 2, trials, progress)
-    learned = _learned(6000 if quick else 20_000, progress)
+    fusion = _fusion_gain(duration // 2, trials, progress, seed)
+    learned = _learned(6000 if quick else 20_000, progress, seed)
 
     taus = np.array([1.0, 10.0, 100.0])
     adev = {}
@@ -211,7 +222,7 @@ def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = la
                                      f"Time error, {scenario}, {DEFAULT_CONTROLLER}, fusion of {RECEIVERS}").name)
         files.append(plot_adev(summ["adev"], out_dir / f"adev_{scenario}.png", f"ADEV, {scenario}").name)
 
-    summary = {"quick": quick, "duration_s": duration, "trials": trials, "receivers": RECEIVERS,
+    summary = {"quick": quick, "seed": seed, "duration_s": duration, "trials": trials, "receivers": RECEIVERS,
                "default_controller": DEFAULT_CONTROLLER, "controller_table": table,
                "before_after": {f"{s}/{lab}": {k: v for k, v in summ.items() if k != "adev"}
                                 for (s, lab), (_, summ) in ba.items()},
@@ -234,8 +245,8 @@ def _note(s: dict) -> str:
     lines = [
         "# GNSS-disciplined oscillator: seed 000, section 6, reproduced",
         "",
-        f"Written by `chronofuse reproduce gnssdo`{' (the quick run)' if s['quick'] else ''} (every number below comes from that run: {s['trials']} trials of "
-        f"{s['duration_s']} s at 1 Hz, OCXO preset (ADEV 5e-12 at 1 s), {s['receivers']} receivers as the "
+        f"Written by `chronofuse reproduce gnssdo`{' (the quick run)' if s['quick'] else ''} (every number below comes from that run: seed {s['seed']}, {s['trials']} "
+        f"trials of {s['duration_s']} s at 1 Hz, OCXO preset (ADEV 5e-12 at 1 s), {s['receivers']} receivers as the "
         "seed's dual-mode receiver). \"Before\" = best-source selection with the seed's PI preset (Kp 0.5, "
         f"Ki 0.1); \"after\" = inverse-variance fusion with the default controller (`{s['default_controller']}`). "
         "Physical limit: the clairvoyant Kalman servo (true models) for time error, the lower envelope of "

@@ -19,6 +19,7 @@ Outputs (``out_dir``): ``pfa.png``, ``training.png``, ``detection_<kind>.png``, 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,6 +36,7 @@ from chronofuse.integrity.noise_model import noise_intensities
 from chronofuse.integrity.result import DetectionResult
 from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
 from chronofuse.report.integrity import REPORT_FILES, write_integrity_report
+from chronofuse.validation import check_scalar
 
 Progress = Callable[[str], None]
 
@@ -174,14 +176,17 @@ def detection_performance(cfg: IntegrityConfig, seed: np.random.SeedSequence, sa
     return rows
 
 
-def run_integrity(out_dir: str | Path = Path("docs/integrity"), *, quick: bool = False,
-                  progress: Progress | None = None, config: IntegrityConfig | None = None) -> dict:
+def run_integrity(out_dir: str | Path, *, quick: bool = False, progress: Progress | None = None,
+                  config: IntegrityConfig | None = None, seed: int | None = None) -> dict:
     """Run the three experiments; :func:`chronofuse.report.integrity.write_integrity_report` writes the figures,
-    tables, ``summary.json`` and ``README.md`` to ``out_dir``.
+    tables, ``summary.json`` and ``README.md`` to ``out_dir``. ``seed`` replaces the configuration's (None:
+    the published run's, :attr:`IntegrityConfig.seed`).
 
     Returns the summary dictionary (also written as JSON).
     """
     cfg = config or (IntegrityConfig.quick() if quick else IntegrityConfig())
+    if seed is not None:
+        cfg = dataclasses.replace(cfg, seed=check_scalar(seed, "seed", min_val=0, integer=True))
     say = progress or (lambda message: None)
     out = Path(out_dir)
     pfa_seed, train_seed, det_seed = np.random.SeedSequence(cfg.seed).spawn(3)
