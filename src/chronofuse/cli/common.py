@@ -21,9 +21,11 @@ from chronofuse.cli.flags import label
 from chronofuse.report.jsonio import dumps
 from chronofuse.validation import ChronofuseError, InputError, InputWarning
 
-# Human output goes to stderr when --json owns stdout; otherwise to stdout.
+# Human output goes to stderr when --json owns stdout; otherwise to stdout. Errors have their own console, which
+# --quiet leaves alone.
 console = Console(highlight=False)
 err_console = Console(stderr=True, highlight=False)
+_errors = Console(stderr=True, highlight=False)
 
 EXIT_BAD_INPUT = 2
 
@@ -34,9 +36,15 @@ def print_json(doc: dict) -> None:
     sys.stdout.flush()
 
 
+def quiet_output(enabled: bool) -> None:
+    """``--quiet``: tables, notes, warnings and progress displays print nothing; errors, the ``--json``
+    document and ``--json-lines`` still do (every command calls this first, with its option's value)."""
+    console.quiet = err_console.quiet = bool(enabled)
+
+
 def fail(message: str) -> None:
     """Print a one-line error on stderr and exit with code 2."""
-    err_console.print(f"error: {message}", markup=False, soft_wrap=True)
+    _errors.print(f"error: {message}", markup=False, soft_wrap=True)
     raise typer.Exit(EXIT_BAD_INPUT)
 
 

@@ -44,6 +44,7 @@ def detect(
     max_tacc_ns: float = typer.Option(_DEFAULT_MAX_TACC_NS, "--max-tacc-ns", help="UBX: epochs whose receiver time accuracy (NAV-CLOCK tAcc) is over this many ns are not tested (unavailable); 0: not used."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
 ) -> None:
@@ -52,7 +53,9 @@ def detect(
     Exit status: 0 integrity ok (tested, no alarm), 1 alarm, 3 integrity unavailable (too little could be
     tested, training failed, or the position is off), 2 bad input.
     """
-    from chronofuse.cli.common import fail, print_json, user_errors
+    from chronofuse.cli.common import fail, print_json, quiet_output, user_errors
+
+    quiet_output(quiet)
 
     if rate is not None and (rate <= 0 or not math.isfinite(rate)):
         fail(f"--rate {rate:g}: must be a positive number of Hz")

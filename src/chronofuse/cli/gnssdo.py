@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -35,8 +35,10 @@ def gnssdo(
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """GNSS-disciplined oscillator (seed 000): time error, convergence, holdover, states and ADEV."""
+    quiet_output(quiet)
     from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo, run_reference
 
     if not rate > 0:

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, quiet_output, user_errors
 from chronofuse.io.inspect import read_capture, summarize
 
 
@@ -20,8 +20,10 @@ def inspect(
     out: Path | None = typer.Option(None, "--out", help="Write the per-epoch table to this file: OUT.csv or OUT.parquet."),
     station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to export (default: the first)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Receivers, message counts per type, time span, gaps, checksum failures, unknown talkers."""
+    quiet_output(quiet)
     if out is not None and out.suffix.lower() not in (".csv", ".parquet"):
         fail(f"--out {out}: the name must end in .csv or .parquet")
     with user_errors():

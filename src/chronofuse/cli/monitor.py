@@ -10,7 +10,7 @@ from pathlib import Path
 import typer
 from rich.live import Live
 
-from chronofuse.cli.common import err_console, fail, print_json, user_errors
+from chronofuse.cli.common import err_console, fail, print_json, quiet_output, user_errors
 from chronofuse.io.inspect import read_capture
 from chronofuse.io.sources import FileSource, parse_source
 from chronofuse.monitor.decisions import MonitorSettings
@@ -53,8 +53,10 @@ def monitor(
                                 "over this long (s), as detect --train does."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON summary document on stdout at the end."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Live table per receiver (fix, satellites, GDOP, usable, UTC, leap, clock bias/drift, qErr, alarms)."""
+    quiet_output(quiet)
     if report is not None:
         _report(report, out, json_out)
         return
@@ -77,7 +79,7 @@ def monitor(
             sys.stdout.flush()
 
     mon = Monitor(chosen, settings, log=log, on_ack=ack)
-    show = err_console.is_terminal and not json_out
+    show = err_console.is_terminal and not json_out and not quiet
     try:
         if show:
             with Live(receiver_table(mon), console=err_console, refresh_per_second=4, transient=False) as live:

@@ -7,7 +7,15 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, run_reproduction, user_errors
+from chronofuse.cli.common import (
+    fail,
+    human_console,
+    print_json,
+    progress_reporter,
+    quiet_output,
+    run_reproduction,
+    user_errors,
+)
 from chronofuse.cli.reproduce import reproduce_app
 from chronofuse.gnss.simulate import ENVIRONMENTS
 from chronofuse.positioning.scenario import MAX_SPEED_M_PER_S, SYSTEMS
@@ -41,8 +49,10 @@ def position(
                                     "ephemeris (the drive starts at its first record) instead of the model."),
     out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json and PNG figures."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a drive and compare GNSS-only, GNSS/INS and (with --smooth) RTS-smoothed positions."""
+    quiet_output(quiet)
     from chronofuse.experiments.positioning import PositioningConfig, run_positioning, write_report
 
     if imu_rate < 10.0:
@@ -73,8 +83,10 @@ def reproduce_positioning(
                              help="Report folder (created; docs/positioning holds the published run)."),
     seed: int = typer.Option(6300, "--seed", help="Root seed of every drive (6300: the published run)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Seed 000 section 6.3: GPS+BDS+INS with smoothing against the claimed CEP95 and vertical 95 %."""
+    quiet_output(quiet)
     from chronofuse.experiments.positioning_claims import reproduce_positioning_claims
 
     summary = run_reproduction("reproduce positioning", reproduce_positioning_claims, out, quick=quick,

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import human_console, run_reproduction
+from chronofuse.cli.common import human_console, quiet_output, run_reproduction
 from chronofuse.cli.swarm import reproduce_swarm_command
 
 reproduce_app = typer.Typer(help="Reproduce the seed documents' experiments and write their reports.",
@@ -28,8 +28,10 @@ def integrity(
                              help="Report folder (created; docs/integrity holds the published run)."),
     seed: int | None = typer.Option(None, "--seed", help="Root seed (default: the published run's, 20260402)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Seed 002: false-alarm rate, training effect, and detection of steps, ramps, drag-off and bursts (SPEC 4)."""
+    quiet_output(quiet)
     from chronofuse.experiments.integrity import DETECTORS, run_integrity
 
     summary = run_reproduction("reproduce integrity", run_integrity, out, quick=quick, json_out=json_out, seed=seed)
@@ -55,8 +57,10 @@ def gnssdo(
                              help="Report folder (created; docs/gnssdo holds the published run)."),
     seed: int = typer.Option(0, "--seed", help="Root seed (0: the published run)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Seed 000 section 6: time error, convergence, ADEV, holdover and smoothing against the seed's claims (SPEC 3)."""
+    quiet_output(quiet)
     from chronofuse.experiments.gnssdo_reproduce import reproduce_gnssdo
 
     summary = run_reproduction("reproduce gnssdo", reproduce_gnssdo, out, quick=quick, json_out=json_out, seed=seed)

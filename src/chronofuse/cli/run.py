@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.experiments.main_job import run_scenario
 from chronofuse.experiments.scenario import load_scenario
 
@@ -21,9 +21,11 @@ def run(
     out: Path = typer.Option(Path("out/run"), "--out", help="Report folder (created)."),
     seed: int | None = typer.Option(None, "--seed", help="Root seed, replacing the scenario's own."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a scenario and write its report (JSON, CSV, PNG): the free-running OCXO and the receivers, the
     OCXO disciplined to them through a GNSS outage, and followers keeping its time over two-way links."""
+    quiet_output(quiet)
     with user_errors():
         scn = load_scenario(scenario)
         if seed is not None:

@@ -11,7 +11,7 @@ from rich.table import Table
 
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.io.tables import write_table
 from chronofuse.models.oscillator import simulate_oscillator
@@ -41,8 +41,10 @@ def oscillator(
     hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM coefficient h-2."),
     drift: float | None = typer.Option(None, "--drift", help="Linear frequency drift (aging), 1/s."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a free-running oscillator's phase x(t) in seconds (SPEC 2.1)."""
+    quiet_output(quiet)
     with user_errors():
         model = preset(preset_name)
         overrides = {k: v for k, v in dict(h2=h2, h1=h1, h0=h0, hm1=hm1, hm2=hm2).items() if v is not None}
@@ -78,8 +80,10 @@ def receiver(
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
     out: Path = typer.Option(Path("receivers.csv"), "--out", help="Output file: CSV or .parquet, one row per receiver and second."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate GNSS timing receivers: 1PPS error, qErr, fix, satellites, GDOP, UTC and leap seconds (SPEC 2.2)."""
+    quiet_output(quiet)
     with user_errors():
         with progress_reporter("simulate receiver") as say:
             say(f"{receivers} x {duration:,} s")

@@ -17,7 +17,15 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import (
+    collected_warnings,
+    fail,
+    human_console,
+    print_json,
+    progress_reporter,
+    quiet_output,
+    user_errors,
+)
 from chronofuse.cli.loading import loading
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputError
@@ -73,8 +81,10 @@ def stability(
     ci: float = typer.Option(0.683, "--ci", help="Confidence factor of the intervals."),
     no_bias_correction: bool = typer.Option(False, "--no-bias-correction", help="Report total deviations without bias correction."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TIE rms and MTIE, with confidence intervals."""
+    quiet_output(quiet)
     names = [d.strip().lower() for d in dev.split(",") if d.strip()]
     unknown = [d for d in names if d not in STATISTIC_NAMES]
     if unknown or not names:

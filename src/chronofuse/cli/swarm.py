@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.cli.swarm_options import (
     algorithm_names,
     build_scenario,
@@ -46,8 +46,10 @@ def run(
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm import run_link
     from chronofuse.experiments.swarm_documents import link_report
 
@@ -110,8 +112,10 @@ def sweep(
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed'."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Sweep one parameter over values: a tidy table (CSV and Parquet), a summary and a figure."""
+    quiet_output(quiet)
     from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
     from chronofuse.report.swarm import plot_sweep, write_sweep
 
@@ -171,9 +175,11 @@ def train(
     device: str = typer.Option("cpu", "--device", help="cpu, cuda, or auto (the GPU when present)."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="The chain the networks serve: paper or calibrated."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Train the BP 9-32-1 residual network and the LSTM baseline (seed data set: 1e5 samples,
     v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure the ablation."""
+    quiet_output(quiet)
     import json
 
     from chronofuse.experiments.swarm import train_networks
@@ -212,9 +218,11 @@ def network(
     snr: float = _S["snr"], oscillator: str = _S["oscillator"],
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """A leader and followers: each follower's time error to the leader and to true time (RMS, ns),
     through the leader's GNSS loss and links that come and go."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm_documents import network_document
 
     with user_errors():
@@ -255,8 +263,10 @@ def reproduce_swarm_command(
                                   help="'serial', 'local' (a LocalCluster) or tcp://HOST:PORT."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Seed 001: figures 6-10 with the PCRB line and the seed's numbers beside ours, written to --out."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm_reproduce import FIGURES, reproduce_swarm
 
     with user_errors():

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.experiments.validation import SEED, write_validation_figures
 
 
@@ -23,9 +23,11 @@ def validate(
     quick: bool = typer.Option(False, "--quick", help="Short simulations (a smoke run)."),
     seed: int = typer.Option(SEED, "--seed", help="Seed of the simulations."),
     json_out: bool = typer.Option(False, "--json", help="Print validation.json's numbers on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Figures and numbers: our statistics on real records against Stable32, the receiver calibration,
     each oscillator preset against theory, and the Cs 5071A record against the ITU-T masks."""
+    quiet_output(quiet)
     if not (data / "stability").is_dir():
         fail(f"{data}: no stability/ folder (give the real data folder with --data)")
     with user_errors():
