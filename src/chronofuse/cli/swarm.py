@@ -29,6 +29,16 @@ def register(app: typer.Typer) -> None:
 _S = scenario_options()
 
 
+def _write_summary(out: Path, doc: dict) -> list[str]:
+    """``out``/summary.json holding ``doc`` (the --json document); returns the file written."""
+    from chronofuse.report.jsonio import dumps
+
+    with user_errors():
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").write_text(dumps(doc) + "\n")
+    return [str(out / "summary.json")]
+
+
 @swarm_app.command("run")
 def run(
     algorithm: str = typer.Option("all", "--algorithm",
@@ -45,6 +55,7 @@ def run(
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed' (chronofuse swarm train)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
@@ -77,6 +88,8 @@ def run(
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
                            networks=networks, outage=window)
     doc = link_report(res)
+    if out is not None:
+        doc["files"] = _write_summary(out, doc)
     if json_out:
         print_json(doc)
         return
@@ -217,6 +230,7 @@ def network(
     mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down, s."),
     snr: float = _S["snr"], oscillator: str = _S["oscillator"],
     seed: int = typer.Option(0, "--seed", help="Root seed."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
@@ -237,6 +251,8 @@ def network(
                                    gnss_loss_at_s=gnss_loss_at, gnss_loss_for_s=gnss_loss_for, mean_up_s=mean_up,
                                    mean_down_s=mean_down, snr_db=snr, oscillator=oscillator, seed=seed)
     steps = doc["steps"]
+    if out is not None:
+        doc["files"] = _write_summary(out, doc)
     if json_out:
         print_json(doc)
         return
