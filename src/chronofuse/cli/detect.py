@@ -35,7 +35,7 @@ def detect(
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
     hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
     sigma_rho: float | None = typer.Option(None, "--sigma-rho", help="Mean pseudorange noise (m)."),
-    train: float | None = typer.Option(None, "--train", help="Estimate missing noise parameters from the first SECONDS."),
+    train: float | None = typer.Option(None, "--train", help="Learn the missing noise parameters from the first stretch of this length (s)."),
     window: int = typer.Option(20, "--window", help="Window length n (epochs)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="False-alarm probability per epoch."),
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
@@ -45,7 +45,7 @@ def detect(
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
-    follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
+    follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after this long without any (s)."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
 ) -> None:
     """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).

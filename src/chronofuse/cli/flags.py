@@ -35,6 +35,7 @@ _S, _HZ, _M = "s", "Hz", "m"
 FLAGS: dict[str, Flag] = {
     # what every command shares
     "--json": Flag("print one JSON document on stdout", "switch"),
+    "--quiet": Flag("print nothing but errors (and the JSON document with --json)", "switch"),
     "--out": Flag("where the command writes its files: a folder, or one file where the command says so", "path"),
     "--seed": Flag("root seed of the random streams (numpy SeedSequence; trial i draws from its own child)",
                    "count", fields=("seed",)),

@@ -43,11 +43,11 @@ def monitor(
     json_lines: bool = typer.Option(False, "--json-lines", help="Print each epoch as a JSON line once it is committed."),
     replay: list[Path] = typer.Option(None, "--replay", help="Replay a recording as a receiver (repeatable)."),
     replay_speed: float = typer.Option(1.0, "--replay-speed", help="Replay pace, a factor of real time (2: twice as fast)."),
-    duration: float | None = typer.Option(None, "--duration", help="Stop after this many seconds."),
+    duration: float | None = typer.Option(None, "--duration", help="Stop after this long (s)."),
     report: Path | None = typer.Option(None, "--report", help="Summarize the log DB instead of monitoring."),
     out: Path | None = typer.Option(None, "--out", help="With --report: folder for the plots and summary."),
     gdop_max: float = typer.Option(5.0, "--gdop-max", help="A 1PPS is usable only with GDOP below this."),
-    window: int = typer.Option(20, "--window", help="HOD detector window (differences)."),
+    window: int = typer.Option(20, "--window", help="HOD detector window (epochs)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="HOD detector false-alarm probability per epoch."),
     train: float = typer.Option(120.0, "--train", help="Learn each receiver's noise model from its first clock biases "
                                 "over this long (s), as detect --train does."),

@@ -30,16 +30,16 @@ def register(app: typer.Typer) -> None:
 @simulate_app.command("oscillator")
 def oscillator(
     preset_name: str = typer.Option("ocxo", "--oscillator", help=f"Oscillator preset, one of {sorted(PRESETS)}."),
-    duration: float = typer.Option(3600.0, "--duration", help="Duration in seconds."),
-    rate: float = typer.Option(1.0, "--rate", help="Sample rate in Hz."),
+    duration: float = typer.Option(3600.0, "--duration", help="Duration (s)."),
+    rate: float = typer.Option(1.0, "--rate", help="Sample rate (Hz)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
     out: Path = typer.Option(Path("oscillator.csv"), "--out", help="Output file: CSV (t_s,x_s) or .parquet."),
-    h2: float | None = typer.Option(None, "--h2", help="White PM coefficient h2 (overrides the preset)."),
-    h1: float | None = typer.Option(None, "--h1", help="Flicker PM coefficient h1."),
-    h0: float | None = typer.Option(None, "--h0", help="White FM coefficient h0."),
-    hm1: float | None = typer.Option(None, "--hm1", help="Flicker FM coefficient h-1."),
-    hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM coefficient h-2."),
-    drift: float | None = typer.Option(None, "--drift", help="Linear frequency drift (aging), 1/s."),
+    h2: float | None = typer.Option(None, "--h2", help="White PM level h2 (s^3); each level given overrides the preset's."),
+    h1: float | None = typer.Option(None, "--h1", help="Flicker PM level h1 (s^2)."),
+    h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
+    hm1: float | None = typer.Option(None, "--hm1", help="Flicker FM level h-1 (dimensionless)."),
+    hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
+    drift: float | None = typer.Option(None, "--drift", help="Linear frequency drift, aging (1/s)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
@@ -75,7 +75,7 @@ def oscillator(
 @simulate_app.command("receiver")
 def receiver(
     scenario: str = typer.Option("open-sky", "--environment", help=f"Receiver environment, one of {sorted(ENVIRONMENTS)}."),
-    duration: int = typer.Option(3600, "--duration", help="Duration in seconds."),
+    duration: int = typer.Option(3600, "--duration", help="Duration (s)."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers (independent errors)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
     out: Path = typer.Option(Path("receivers.csv"), "--out", help="Output file: CSV or .parquet, one row per receiver and second."),

@@ -69,10 +69,10 @@ def register(app: typer.Typer) -> None:
 def stability(
     file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, .gz ok."),
     kind: str = typer.Option("phase", "--kind", help="phase (seconds) or freq (fractional frequency)."),
-    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column; "
+    rate: float | None = typer.Option(None, "--rate", help="Sample rate (Hz; required without a time column, "
                                       "overrides a time column that disagrees, with a warning)."),
     dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(STATISTIC_NAMES)}."),
-    taus: str = typer.Option("octave", "--taus", help="octave, decade, all, or comma-separated seconds."),
+    taus: str = typer.Option("octave", "--taus", help="Averaging times: octave, decade, all, or a comma-separated list (s)."),
     mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASK_NAMES)}."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of the deviations."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),

@@ -51,7 +51,7 @@ def run(
     interval: float = _S["interval"],
     trials: int = typer.Option(20, "--trials", help="Monte Carlo trials."),
     seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
-    threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K*, s."),
+    threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K* (s)."),
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed' (chronofuse swarm train)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
@@ -118,9 +118,9 @@ def sweep(
     trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
     chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
-    scheduler: str = typer.Option(None, "--scheduler",
-                                  help="tcp://HOST:PORT of a Dask scheduler; 'serial' for this process; "
-                                       "default a LocalCluster of processes."),
+    scheduler: str = typer.Option("local", "--scheduler",
+                                  help="Where the trials run: 'local' (a Dask LocalCluster of processes), 'serial' "
+                                       "(this process) or tcp://HOST:PORT of a Dask scheduler."),
     out: Path = typer.Option(Path("swarm-sweep"), "--out", help="Folder for the table, summary and figure."),
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed'."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
@@ -160,7 +160,8 @@ def sweep(
         quiet_dask()
         with trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
-                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
+                              chunk_trials=chunk_trials, urt_mode=urt_mode,
+                              scheduler=None if scheduler == "local" else scheduler, progress=advance,
                               model_files={k: str(v) for k, v in files.items()})
         summary = summarize(table)
         files = write_sweep(table, summary, out)
@@ -222,12 +223,12 @@ def train(
 def network(
     followers: int = typer.Option(3, "--followers", help="Followers of the leader."),
     topology: str = typer.Option("tree", "--topology", help="tree (star: all follow the leader), chain, or consensus."),
-    duration: float = typer.Option(7200.0, "--duration", help="Run length, s."),
-    interval: float = typer.Option(1.0, "--interval", help="Exchange interval, s."),
-    gnss_loss_at: float = typer.Option(1800.0, "--gnss-loss-at", help="When the leader loses GNSS, s (< 0: never)."),
-    gnss_loss_for: float = typer.Option(3600.0, "--gnss-loss-for", help="How long the leader stays in holdover, s."),
-    mean_up: float = typer.Option(float("inf"), "--mean-up", help="Mean time a link stays up, s (inf: always up)."),
-    mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down, s."),
+    duration: float = typer.Option(7200.0, "--duration", help="Run length (s)."),
+    interval: float = typer.Option(1.0, "--interval", help="Exchange interval (s)."),
+    gnss_loss_at: float = typer.Option(1800.0, "--gnss-loss-at", help="When the leader loses GNSS (s; < 0: never)."),
+    gnss_loss_for: float = typer.Option(3600.0, "--gnss-loss-for", help="How long the leader stays in holdover (s)."),
+    mean_up: float = typer.Option(float("inf"), "--mean-up", help="Mean time a link stays up (s; inf: always up)."),
+    mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down (s)."),
     snr: float = _S["snr"], oscillator: str = _S["oscillator"],
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),

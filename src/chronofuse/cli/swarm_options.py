@@ -38,19 +38,19 @@ def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_ji
 
 def scenario_options():
     return dict(
-        velocity=typer.Option(800.0, "--velocity", help="Radial velocity, m/s (opening > 0)."),
-        distance=typer.Option(80e3, "--distance", help="Initial distance, m."),
-        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration, m/s^2."),
-        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B, s."),
-        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time, s."),
-        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma, s."),
-        snr=typer.Option(10.0, "--snr", help="SNR, dB (4..20 with the seed's table)."),
+        velocity=typer.Option(800.0, "--velocity", help="Radial velocity (m/s; opening > 0)."),
+        distance=typer.Option(80e3, "--distance", help="Initial distance (m)."),
+        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration (m/s^2)."),
+        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B (s)."),
+        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time (s)."),
+        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma (s)."),
+        snr=typer.Option(10.0, "--snr", help="Link SNR (dB; 4..20 with the source paper's TOA table)."),
         toa_model=typer.Option("table", "--toa-model", help="TOA noise: table (seed) or crb (Cramér-Rao form)."),
         exchanges=typer.Option(2000, "--exchanges", help="Exchanges per run."),
-        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start, s."),
+        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start (s)."),
         true_skew=typer.Option(0.0, "--true-skew", help="True fractional frequency offset B - A."),
         oscillator=typer.Option("ocxo", "--oscillator", help="Oscillator preset of both nodes."),
-        interval=typer.Option(0.01, "--interval", help="Exchange interval, s."),
+        interval=typer.Option(0.01, "--interval", help="Exchange interval (s)."),
     )
 
 
