@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-import chronofuse.analysis.stability as st
+from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.holdover import HOLDOVER_HORIZONS_S, clairvoyant_holdover_error, holdover_error
 from chronofuse.discipline.loop import close_loop
@@ -45,11 +45,7 @@ __all__ = ["reproduce_gnssdo", "DEFAULT_CONTROLLER"]
 Progress = Callable[[str], None]
 
 RECEIVERS = 2  # the seed's dual-mode (GPS + BeiDou) receiver
-
-
-def _oadev_at(x: np.ndarray, taus: np.ndarray, start: int = 1800) -> np.ndarray:
-    avar = np.array([st.oadev(row[start:], 1.0, taus).dev ** 2 for row in x])
-    return np.sqrt(np.nanmean(avar, axis=0))
+SETTLE = 1800  # seconds left out of the ADEV: the acquisition's phase step
 
 
 def _stream(seed: int, part: int) -> int:
@@ -210,9 +206,9 @@ def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = la
     for scenario in ("open-sky", "urban-canyon"):
         sim_after = ba[(scenario, "after")][0]
         run = sim_after["run"]
-        adev[scenario] = {"free_run": _oadev_at(sim_after["noise_phase_s"], taus).tolist(),
-                          "gnss": _oadev_at(-run.reference_error_s, taus).tolist(),
-                          "disciplined": _oadev_at(run.phase_s, taus).tolist()}
+        adev[scenario] = {name: pooled_oadev(x[:, SETTLE:], 1.0, taus).dev.tolist()
+                          for name, x in (("free_run", sim_after["noise_phase_s"]), ("gnss", -run.reference_error_s),
+                                          ("disciplined", run.phase_s))}
     files = []
     for scenario in ("open-sky", "urban-canyon"):
         sim, summ = ba[(scenario, "after")]
