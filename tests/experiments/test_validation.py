@@ -17,6 +17,7 @@ from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.main import app
 from chronofuse.experiments import validation
 from chronofuse.models.oscillator_presets import PRESETS
+from chronofuse.validation import InputError
 
 PNGS = [
     "gps_deviations.png",
@@ -146,7 +147,7 @@ def test_pooled_oadev_leaves_out_a_trial_only_where_its_gaps_leave_it_no_term():
 
 
 def test_missing_data_folder_is_named_in_the_error(tmp_path):
-    with pytest.raises(FileNotFoundError, match="data_dir"):
+    with pytest.raises(InputError, match="data_dir"):
         validation.write_validation_figures(tmp_path / "out", tmp_path / "nowhere")
 
 

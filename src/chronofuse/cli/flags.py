@@ -137,7 +137,7 @@ FLAGS: dict[str, Flag] = {
     "--mean-down": Flag("mean time a link stays down", "number", _S, fields=("mean_down_s",)),
     # reproductions and validation
     "--figure": Flag("which figure of the source paper", "text", fields=("figure",)),
-    "--data": Flag("the real data folder", "path", fields=("data",)),
+    "--data": Flag("the real data folder", "path", fields=("data", "data_dir")),
 }
 
 #: Library config field -> the option that sets it (the table above, read the other way).
