@@ -16,9 +16,10 @@ def register(app: typer.Typer) -> None:
 
 def gnssdo(
     scenario: str = typer.Option("open-sky", "--environment",
-                                 help="Receiver environment: open-sky, urban-canyon, outage, jumps or spoofing."),
-    controller: str = typer.Option("gated", "--controller",
-                                   help="pi, kf, wakf, gated or huber (default: gated, picked by measurement)."),
+                                 help="Receiver environment: open-sky, urban-canyon, outage, outliers or spoofing."),
+    controller: str = typer.Option("gated-kalman", "--controller",
+                                   help="pi, kalman, adaptive-kalman, gated-kalman or huber-kalman (default: "
+                                        "gated-kalman, picked by measurement)."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),
     duration: int = typer.Option(86_400, "--duration", help="Run length (s, >= 3600)."),
     trials: int = typer.Option(1, "--trials", help="Monte Carlo trials (vectorized)."),
@@ -37,7 +38,7 @@ def gnssdo(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """GNSS-disciplined oscillator (seed 000): time error, convergence, holdover, states and ADEV."""
+    """GNSS-disciplined oscillator (the GNSSDO paper): time error, convergence, holdover, states and ADEV."""
     quiet_output(quiet)
     from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo, run_reference
 

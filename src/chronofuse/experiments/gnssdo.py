@@ -8,7 +8,7 @@ on the trial count.
 Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys):
 
 * time error (TE) of the disciplined 1PPS against true time, over the seconds from ``SETTLE_S`` (30 min,
-  the seed's convergence bound) on that have a usable reference (holdover is reported apart):
+  the source paper's convergence bound) on that have a usable reference (holdover is reported apart):
   ``time_error_rms_ns`` (rms over trials and seconds), ``time_error_pp_ns`` (mean over trials of the
   peak-to-peak);
 * ``convergence_s``: the first second after which ``|TE| < CONVERGENCE_THRESHOLD_S`` (100 ns) holds at
@@ -56,11 +56,13 @@ __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "mak
 
 Progress = Callable[[str], None]
 
-SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing")
-CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
+SCENARIOS = ("open-sky", "urban-canyon", "outage", "outliers", "spoofing")
+#: Controller names: the PI servo and four Kalman servos (plain; weighted adaptive, the GNSSDO paper's; with
+#: chi-square innovation gating; with a Huber robust update).
+CONTROLLERS = ("pi", "kalman", "adaptive-kalman", "gated-kalman", "huber-kalman")
 #: Picked by measurement: the lowest mean ratio to the clairvoyant time-error rms over open sky, urban
 #: canyon and jump outliers in ``chronofuse reproduce gnssdo`` (docs/gnssdo/README.md shows the table).
-DEFAULT_CONTROLLER = "gated"
+DEFAULT_CONTROLLER = "gated-kalman"
 SETTLE_S = 1800.0
 CONVERGENCE_THRESHOLD_S = 100e-9
 #: Initial offsets of the free-running oscillator, uniform per trial: phase (s) and frequency.
@@ -113,7 +115,7 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     """The receiver environment of a gnssdo scenario (events placed relative to the run's length).
 
     ``outage``: open sky, every receiver jammed for the third quarter of the run (holdover);
-    ``jumps``: open sky plus 2 % single-pulse outliers of rms 300 ns, the seed's "GPS jump outliers"
+    ``outliers``: open sky plus 2 % single-pulse outliers of rms 300 ns, the source paper's "GPS jump outliers"
     (跳变野值; persistent steps of the receivers' time are left out: they move the reference itself, and
     no controller can tell them from the truth); ``spoofing``: the preset drag-off (2 ns/s) from mid-run.
     """
@@ -124,9 +126,9 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     if name == "outage":
         return dataclasses.replace(sky, name="outage", description="open sky, all receivers jammed for the third quarter",
                                    jamming_start_s=0.5 * duration_s, jamming_duration_s=0.25 * duration_s)
-    if name == "jumps":
+    if name == "outliers":
         model = dataclasses.replace(sky.model, outlier_prob=0.02, outlier_sigma_s=300e-9)
-        return dataclasses.replace(sky, name="jumps", model=model, description="open sky with outliers and steps")
+        return dataclasses.replace(sky, name="outliers", model=model, description="open sky with 1PPS outliers")
     return dataclasses.replace(receiver_environment("spoofing"), spoof_start_s=0.5 * duration_s)
 
 
@@ -134,7 +136,7 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
                     loop_bandwidth_hz: float | None = None, measurement_sigma_s: float | None = None) -> Servo:
     """The controller ``name`` as a designer would set it up from data sheets (not from the truth).
 
-    ``pi``: the seed's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1);
+    ``pi``: the source paper's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1);
     Kalman types: the oscillator's h-coefficients and the short-term noise of the receivers.
     """
     check_choice(name, "controller", CONTROLLERS)
@@ -142,7 +144,8 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
         if loop_bandwidth_hz is not None:
             return PiServo.from_bandwidth(loop_bandwidth_hz, 1.0, dac=dac)
         return PiServo(dac=dac)
-    cls = {"kf": KalmanServo, "wakf": AdaptiveKalmanServo, "gated": GatedKalmanServo, "huber": HuberKalmanServo}[name]
+    cls = {"kalman": KalmanServo, "adaptive-kalman": AdaptiveKalmanServo, "gated-kalman": GatedKalmanServo,
+           "huber-kalman": HuberKalmanServo}[name]
     sigma = design_measurement_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
     return cls(osc.h, sigma, dac=dac)
 

@@ -1,8 +1,8 @@
-"""``chronofuse reproduce gnssdo``: seed 000's section 6 experiment, measured beside its claims and physics.
+"""``chronofuse reproduce gnssdo``: the GNSSDO paper's section 6 experiment, measured beside its claims and physics.
 
-Set-up as in the seed: 1 Hz, an MTI-260-class OCXO (ADEV 5e-12 at 1 s: the ``ocxo`` preset), a dual-mode
+Set-up as in the source paper: 1 Hz, an MTI-260-class OCXO (ADEV 5e-12 at 1 s: the ``ocxo`` preset), a dual-mode
 receiver (two receivers, GPS and BeiDou, independent errors), open sky and urban canyon. "Before" is
-what the seed calls the traditional method: best-source selection with the seed's PI preset; "after"
+what the source paper calls the traditional method: best-source selection with the source paper's PI preset; "after"
 is fusion with the default controller; the physical limit is the clairvoyant Kalman servo (true models)
 for the time error and the lower envelope of the oscillator's and the GNSS reference's ADEV for
 stability, and the clairvoyant predictor for holdover (:mod:`chronofuse.discipline.holdover`).
@@ -44,7 +44,7 @@ __all__ = ["reproduce_gnssdo", "DEFAULT_CONTROLLER"]
 
 Progress = Callable[[str], None]
 
-RECEIVERS = 2  # the seed's dual-mode (GPS + BeiDou) receiver
+RECEIVERS = 2  # the source paper's dual-mode (GPS + BeiDou) receiver
 SETTLE = 1800  # seconds left out of the ADEV: the acquisition's phase step
 
 
@@ -56,7 +56,7 @@ def _stream(seed: int, part: int) -> int:
 
 def _controller_table(duration: int, trials: int, say: Progress, seed: int = 0) -> tuple[list[dict], dict]:
     rows, sims = [], {}
-    for scenario in ("open-sky", "urban-canyon", "jumps"):
+    for scenario in ("open-sky", "urban-canyon", "outliers"):
         for controller in CONTROLLERS:
             say(f"controller table: {scenario}, {controller}")
             sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
@@ -115,7 +115,7 @@ def _holdover(locked_stretches_s, trials: int, say: Progress, seed: int = 0) -> 
 def _smoothing(sim: dict) -> dict:
     """Filtered vs RTS-smoothed estimate of the disciplined time error (a recorded run, offline)."""
     osc, env = sim["oscillator"], sim["environment"]
-    servo = make_controller("kf", osc, env, RECEIVERS, None)
+    servo = make_controller("kalman", osc, env, RECEIVERS, None)
     loop = sim["run"].loop
     sm = smooth_run(loop, servo)
     a = 1800
@@ -197,7 +197,7 @@ def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = la
     ba = _before_after(duration, trials, progress, seed)
     hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 8, progress,
                      seed)
-    smooth = _smoothing(sims[("open-sky", "kf")][0])
+    smooth = _smoothing(sims[("open-sky", "kalman")][0])
     fusion = _fusion_gain(duration // 2, trials, progress, seed)
     learned = _learned(6000 if quick else 20_000, progress, seed)
 
@@ -239,11 +239,11 @@ def _fmt(v, digits=3, unit: str = "") -> str:
 def _note(s: dict) -> str:
     ba = s["before_after"]
     lines = [
-        "# GNSS-disciplined oscillator: seed 000, section 6, reproduced",
+        "# GNSS-disciplined oscillator: the GNSSDO paper, section 6, reproduced",
         "",
         f"Written by `chronofuse reproduce gnssdo`{' (the quick run)' if s['quick'] else ''} (every number below comes from that run: seed {s['seed']}, {s['trials']} "
         f"trials of {s['duration_s']} s at 1 Hz, OCXO preset (ADEV 5e-12 at 1 s), {s['receivers']} receivers as the "
-        "seed's dual-mode receiver). \"Before\" = best-source selection with the seed's PI preset (Kp 0.5, "
+        "source paper's dual-mode receiver). \"Before\" = best-source selection with the source paper's PI preset (Kp 0.5, "
         f"Ki 0.1); \"after\" = inverse-variance fusion with the default controller (`{s['default_controller']}`). "
         "Physical limit: the clairvoyant Kalman servo (true models) for time error, the lower envelope of "
         "oscillator and GNSS ADEV for stability, the clairvoyant predictor for holdover. Time error is the "
@@ -254,7 +254,7 @@ def _note(s: dict) -> str:
         "",
         "## Claims beside measurements",
         "",
-        "| claim (seed) | environment | before | after | physical limit | verdict |",
+        "| claim (source paper) | environment | before | after | physical limit | verdict |",
         "|---|---|---|---|---|---|",
     ]
     for env in ("open-sky", "urban-canyon"):
@@ -285,19 +285,19 @@ def _note(s: dict) -> str:
                  f"{_fmt(sm['smoothed_rms_ns'])} ns (smoother) | - | "
                  f"{'reproduced' if sm['smoothed_rms_ns'] <= 0.25 * sm['filtered_rms_ns'] * 1.05 else 'gain smaller than claimed'} |")
     rows = {(r["scenario"], r["controller"]): r for r in s["controller_table"]}
-    kf, best_robust = rows[("jumps", "kf")]["rms_ns"], min(rows[("jumps", c)]["rms_ns"] for c in ("wakf", "gated", "huber"))
+    kf, best_robust = rows[("outliers", "kalman")]["rms_ns"], min(rows[("outliers", c)]["rms_ns"] for c in CONTROLLERS[2:])
     gain = 1.0 - best_robust / kf
-    lines.append(f"| adaptive KF 30 % better than KF under jump outliers | jumps | {kf:.3g} ns (KF) | "
+    lines.append(f"| adaptive KF 30 % better than KF under jump outliers | outliers | {kf:.3g} ns (KF) | "
                  f"{best_robust:.3g} ns (best robust) | - | {'reproduced' if gain >= 0.3 else f'not reproduced: {100 * gain:.0f} % better'} |")
-    lines += ["", "Stability in the seed's table is ADEV (x1e-12 before, x1e-13 after). Disciplining cannot improve an "
-              "oscillator at tau = 1 s, far inside any GNSS loop; at 10 and 100 s the seed's values lie below both "
+    lines += ["", "Stability in the source paper's table is ADEV (x1e-12 before, x1e-13 after). Disciplining cannot improve an "
+              "oscillator at tau = 1 s, far inside any GNSS loop; at 10 and 100 s the source paper's values lie below both "
               "the OCXO and the GNSS reference, i.e. below what any controller can reach.", "",
               "## Controller table (time-error rms, ns; ratio to the clairvoyant servo)", "",
               "| scenario | " + " | ".join(CONTROLLERS) + " | clairvoyant |", "|---|" + "---|" * (len(CONTROLLERS) + 1)]
-    for env in ("open-sky", "urban-canyon", "jumps"):
+    for env in ("open-sky", "urban-canyon", "outliers"):
         cells = [f"{rows[(env, c)]['rms_ns']:.3g} ({rows[(env, c)]['ratio']:.2f})" for c in CONTROLLERS]
-        lines.append(f"| {env} | " + " | ".join(cells) + f" | {rows[(env, 'kf')]['optimal_rms_ns']:.3g} |")
-    means = {c: float(np.mean([rows[(e, c)]["ratio"] for e in ("open-sky", "urban-canyon", "jumps")])) for c in CONTROLLERS}
+        lines.append(f"| {env} | " + " | ".join(cells) + f" | {rows[(env, 'kalman')]['optimal_rms_ns']:.3g} |")
+    means = {c: float(np.mean([rows[(e, c)]["ratio"] for e in ("open-sky", "urban-canyon", "outliers")])) for c in CONTROLLERS}
     lines += ["", "Mean ratio to the clairvoyant servo: " + ", ".join(f"{c} {v:.3f}" for c, v in means.items())
               + f". Lowest: `{min(means, key=means.get)}`; the default is `{s['default_controller']}`.", "",
               "## Holdover (OCXO preset, rms over trials)", "",
@@ -306,7 +306,7 @@ def _note(s: dict) -> str:
         cells = [f"{o:.3g} / {c:.3g}" for o, c in zip(h["ours_rms_ns"], h["clairvoyant_rms_ns"])]
         lines.append(f"| {h['locked_s'] / 3600:g} | " + " | ".join(cells) + " |")
     lines += ["", "Anchors: vendor OCXO GPSDOs quote 10-25 us after 24 h, rubidium about 1 us, a measured Thunderbolt "
-              "4.5 us; the seed claims 0.1 us/day.", "",
+              "4.5 us; the source paper claims 0.1 us/day.", "",
               "## Fusion against best-source selection (urban canyon, 4 receivers)", "",
               f"Reference (fused 1PPS) error rms: fusion {s['fusion_vs_selection']['fusion']['reference_rms_ns']:.3g} ns, "
               f"selection {s['fusion_vs_selection']['selection']['reference_rms_ns']:.3g} ns; disciplined TE rms: fusion "
