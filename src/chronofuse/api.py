@@ -158,7 +158,7 @@ _EXPORTS: dict[str, str | tuple[str, str]] = {
     "load_scenario": "chronofuse.experiments.scenario",
     "parse_scenario": "chronofuse.experiments.scenario",
     "run_scenario": "chronofuse.experiments.main_job",
-    # swarm sync (seed 001)
+    # swarm sync (the swarm paper)
     "Trajectory": "chronofuse.models.kinematics",
     "constant_velocity": "chronofuse.models.kinematics",
     "constant_acceleration": "chronofuse.models.kinematics",

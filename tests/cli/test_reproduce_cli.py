@@ -1,4 +1,4 @@
-"""``chronofuse reproduce ...``: the seed reaches the experiment, and nothing is written into docs/ unasked."""
+"""``chronofuse reproduce ...``: the source paper reaches the experiment, and nothing is written into docs/ unasked."""
 
 from __future__ import annotations
 

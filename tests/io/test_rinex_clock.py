@@ -31,7 +31,7 @@ def test_every_ar_record_of_the_igs_file_is_read_against_a_plain_split_of_its_li
 
 
 def test_a_long_gap_becomes_missing_epochs_and_the_station_stays_usable(real_data):
-    # issue 10.7: the GRG file's 1 h 45 min gap made the whole file unusable
+    # the GRG file's 1 h 45 min gap made the whole file unusable
     clocks = read_station_clocks(real_data / "receivers/rinex/gnss_lib_py/grg21553.clk.gz")
     data = station_clock_bias(clocks, "TLSE")
     assert data.interval_s == 30.0

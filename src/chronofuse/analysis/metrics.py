@@ -50,7 +50,7 @@ def pooled_oadev(x_s: np.ndarray, rate_hz: float, tau_s: np.ndarray | None = Non
 
 
 def gdop_over_5_fraction(gdop: np.ndarray) -> float:
-    """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (SPEC 3.1's usability limit)."""
+    """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (source qualification's usability limit)."""
     with_fix = gdop[np.isfinite(gdop)]
     return float(np.mean(with_fix > 5)) if with_fix.size else float("nan")
 

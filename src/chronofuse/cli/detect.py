@@ -1,4 +1,4 @@
-"""``chronofuse detect FILE``: clock-bias anomaly detection (SPEC 4) on a CSV, UBX or RINEX record.
+"""``chronofuse detect FILE``: clock-bias anomaly detection on a CSV, UBX or RINEX record.
 
 The work is :func:`chronofuse.integrity.modes.detect_file` (its docstring says how the mode is chosen, how
 the noise model is set, what the states mean and how missing data are counted); this command parses the
@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 
 # The library (numpy, scipy, georinex), chronofuse.cli.common (numpy through report.jsonio) and rich's table
-# are imported inside the command, so that `detect --help` pays only for typer (issue 10.6: under 0.5 s).
+# are imported inside the command, so that `detect --help` pays only for typer (under 0.5 s).
 
 _EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.modes.EXIT_CODES (a test checks)
 
@@ -48,7 +48,7 @@ def detect(
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after this long without any (s)."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
 ) -> None:
-    """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
+    """Detect clock-bias anomalies with the high-order-difference chi-square test.
 
     Exit status: 0 integrity ok (tested, no alarm), 1 alarm, 3 integrity unavailable (too little could be
     tested, training failed, or the position is off), 2 bad input.

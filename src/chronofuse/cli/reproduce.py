@@ -1,4 +1,4 @@
-"""``chronofuse reproduce ...``: the seed documents' experiments, one subcommand each."""
+"""``chronofuse reproduce ...``: the source papers' experiments, one subcommand each."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from rich.table import Table
 from chronofuse.cli.common import human_console, quiet_output, run_reproduction
 from chronofuse.cli.swarm import reproduce_swarm_command
 
-reproduce_app = typer.Typer(help="Reproduce the seed documents' experiments and write their reports.",
+reproduce_app = typer.Typer(help="Reproduce the source papers' experiments and write their reports.",
                             no_args_is_help=True)
 
 
@@ -30,7 +30,7 @@ def integrity(
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Seed 002: false-alarm rate, training effect, and detection of steps, ramps, drag-off and bursts (SPEC 4)."""
+    """The detection patent: false-alarm rate, training effect, and detection of steps, ramps, drag-off and bursts."""
     quiet_output(quiet)
     from chronofuse.experiments.integrity import DETECTORS, run_integrity
 
@@ -59,7 +59,7 @@ def gnssdo(
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Seed 000 section 6: time error, convergence, ADEV, holdover and smoothing against the seed's claims (SPEC 3)."""
+    """The GNSSDO paper section 6: time error, convergence, ADEV, holdover and smoothing against the source paper's claims."""
     quiet_output(quiet)
     from chronofuse.experiments.gnssdo_reproduce import reproduce_gnssdo
 

@@ -43,7 +43,7 @@ def oscillator(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Simulate a free-running oscillator's phase x(t) in seconds (SPEC 2.1)."""
+    """Simulate a free-running oscillator's phase x(t) in seconds."""
     quiet_output(quiet)
     with user_errors():
         model = preset(preset_name)
@@ -82,7 +82,7 @@ def receiver(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Simulate GNSS timing receivers: 1PPS error, qErr, fix, satellites, GDOP, UTC and leap seconds (SPEC 2.2)."""
+    """Simulate GNSS timing receivers: 1PPS error, qErr, fix, satellites, GDOP, UTC and leap seconds."""
     quiet_output(quiet)
     with user_errors():
         with progress_reporter("simulate receiver") as say:

@@ -1,4 +1,4 @@
-"""``chronofuse swarm ...``: two-way clock synchronization over radio links (SPEC 5, seed 001)."""
+"""``chronofuse swarm ...``: two-way clock synchronization over radio links (the swarm paper)."""
 
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from chronofuse.cli.swarm_options import (
     trial_progress,
 )
 
-swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (seed 001).", no_args_is_help=True)
+swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (the swarm paper).", no_args_is_help=True)
 
 
 def register(app: typer.Typer) -> None:
@@ -43,7 +43,7 @@ def _write_summary(out: Path, doc: dict) -> list[str]:
 def run(
     algorithm: str = typer.Option("all", "--algorithm",
                                   help="Comma-separated algorithm names, or 'all' (see chronofuse.sync.registry)."),
-    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper (the seed as written) or calibrated."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper (the source paper as written) or calibrated."),
     velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
     reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
     snr: float = _S["snr"], toa_model: str = _S["toa_model"], exchanges: int = _S["exchanges"],
@@ -282,7 +282,7 @@ def reproduce_swarm_command(
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Seed 001: figures 6-10 with the PCRB line and the seed's numbers beside ours, written to --out."""
+    """The swarm paper: figures 6-10 with the PCRB line and the source paper's numbers beside ours, written to --out."""
     quiet_output(quiet)
     from chronofuse.experiments.swarm_reproduce import FIGURES, reproduce_swarm
 

@@ -1,5 +1,5 @@
 """The options the ``chronofuse swarm`` commands share, and their checks: the link scenario the options
-describe, the algorithms and network model files asked for, and the progress bar over trials (SPEC 5, seed 001). Light to import: the library
+describe, the algorithms and network model files asked for, and the progress bar over trials (the swarm paper). Light to import: the library
 modules are imported inside the functions, so ``chronofuse swarm --help`` stays fast.
 """
 

@@ -1,6 +1,6 @@
-"""FastICA preprocessing of the multi-receiver offsets (SPEC 3.8, seed 000 section 3.1, eq. (2-1)): an option.
+"""FastICA preprocessing of the multi-receiver offsets (the GNSSDO paper section 3.1, eq. (2-1)): an option.
 
-The seed separates the receivers' observations ``X = A S`` into independent sources by maximising the
+The source paper separates the receivers' observations ``X = A S`` into independent sources by maximising the
 kurtosis ``K(u) = E{u^4} / E{u^2}^2 - 3`` of ``U = W X``. Here ``X`` is the (receivers, steps) matrix of
 offsets ``z_j = x - e_j``; the oscillator's phase ``x`` is common to every row, the receivers' errors
 ``e_j`` are not. FastICA (scikit-learn, ``fun="cube"``: the kurtosis contrast of Hyvarinen and Oja 2000)

@@ -1,4 +1,4 @@
-"""Kalman-filter servos on [phase, fractional frequency, drift] (SPEC 3.5), on the ``estimation/`` core.
+"""Kalman-filter servos on [phase, fractional frequency, drift], on the ``estimation/`` core.
 
 Model (Van Dierendonck, McGraw and Brown, 16th PTTI 1984; Brown and Hwang 4th ed. sec. 9.3), with the
 correction ``u`` applied over the previous second (held by the DAC) entering as a known input::
@@ -21,7 +21,7 @@ usable sample the update is skipped: holdover keeps the last frequency and the e
 Robust variants, each a hook on the measurement variance before the update (innovation ``e = z - H s-``,
 its variance ``S = H P- H' + R``):
 
-* :class:`AdaptiveKalmanServo`, the seed's weighted adaptive KF (section 5.2, eqs. (4-5)-(4-6)):
+* :class:`AdaptiveKalmanServo`, the source paper's weighted adaptive KF (section 5.2, eqs. (4-5)-(4-6)):
   ``sigma_e`` = standard deviation of the innovations over a sliding window; ``R_k = lambda R`` with
   ``lambda = lambda_max`` if ``sigma_e > sigma_th`` else ``lambda_min``; optional AR(1) drift
   (eq. (4-4): ``d_k = alpha d_{k-1} + w``, ``Phi[2, 2] = alpha``).
@@ -178,11 +178,11 @@ class KalmanServo(Servo):
 
 
 class AdaptiveKalmanServo(KalmanServo):
-    """The seed's weighted adaptive KF (section 5.2): ``R_k = lambda R`` from the windowed innovation spread.
+    """The source paper's weighted adaptive KF (section 5.2): ``R_k = lambda R`` from the windowed innovation spread.
 
     Extra parameters: ``window`` (innovations, >= 2), ``sigma_th_s`` (threshold on their standard
     deviation, s; default ``threshold_factor * measurement_sigma_s``), ``lambda_min`` and ``lambda_max``
-    (>= lambda_min > 0). ``drift_ar1`` < 1 gives the seed's AR(1) drift.
+    (>= lambda_min > 0). ``drift_ar1`` < 1 gives the source paper's AR(1) drift.
     """
 
     name = "wakf"

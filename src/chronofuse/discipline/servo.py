@@ -1,4 +1,4 @@
-"""One servo interface for every loop controller (SPEC 3.5), modelled on linuxptp's ``servo.h``.
+"""One servo interface for every loop controller, modelled on linuxptp's ``servo.h``.
 
 linuxptp's servo is ``sample(offset, local_ts, weight) -> (adjustment, state)`` plus ``reset``; the
 step-versus-slew policy lives in one shared place, the backends (``pi.c``, ``linreg.c``, ``nullf.c``)

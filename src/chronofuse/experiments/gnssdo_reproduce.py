@@ -72,7 +72,7 @@ def _controller_table(duration: int, trials: int, say: Progress, seed: int = 0) 
 
 
 def _before_after(duration: int, trials: int, say: Progress, seed: int = 0) -> dict:
-    """Seed's "before" (selection + PI preset) and "after" (fusion + default) in both environments."""
+    """The GNSSDO paper's "before" (selection + PI preset) and "after" (fusion + default) in both environments."""
     out = {}
     for scenario in ("open-sky", "urban-canyon"):
         for label, fusion, controller in (("before", "selection", "pi"), ("after", "fusion", DEFAULT_CONTROLLER)):

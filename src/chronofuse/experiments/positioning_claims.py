@@ -1,6 +1,6 @@
-"""``chronofuse reproduce positioning``: seed 000 section 6.3's claims beside measured values and the floor.
+"""``chronofuse reproduce positioning``: the GNSSDO paper section 6.3's claims beside measured values and the floor.
 
-The seed claims that GPS + BeiDou + INS with fixed-interval smoothing takes horizontal CEP95 from 4.2 m to
+The source paper claims that GPS + BeiDou + INS with fixed-interval smoothing takes horizontal CEP95 from 4.2 m to
 0.9 m and vertical 95 % from 6.1 m to 1.5 m, and keeps the error under 2 m at GDOP 4. The experiment drives
 the same urban-canyon loop with GPS alone (the "before"), with GPS + BDS, with GPS + BDS + INS of each grade
 and RTS smoothing (the "after"), and with an error-free IMU: that last run is the physical floor of this
@@ -14,7 +14,7 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
-from chronofuse.experiments.positioning import SEED_CLAIMS, PositioningConfig, run_positioning, write_report
+from chronofuse.experiments.positioning import PAPER_CLAIMS, PositioningConfig, run_positioning, write_report
 from chronofuse.models.imu import ImuModel, SensorErrors
 from chronofuse.report.jsonio import dumps
 from chronofuse.validation import check_scalar
@@ -59,24 +59,24 @@ def reproduce_positioning_claims(out_dir: str | Path, *, quick: bool = False,
                key=lambda k: sol[k]["gnss+ins+rts"]["cep95_m"])
     floor = sol["gps+bds+error-free"]["gnss+ins+rts"]
     claims = [
-        {"claim": "horizontal CEP95 before (m)", "seed": SEED_CLAIMS["cep95_before_m"], "ours": sol["gps"]["gnss"]["cep95_m"],
+        {"claim": "horizontal CEP95 before (m)", "claimed": PAPER_CLAIMS["cep95_before_m"], "ours": sol["gps"]["gnss"]["cep95_m"],
          "floor": "-", "solution": "GPS only"},
-        {"claim": "horizontal CEP95 after (m)", "seed": SEED_CLAIMS["cep95_after_m"], "ours": sol[best]["gnss+ins+rts"]["cep95_m"],
+        {"claim": "horizontal CEP95 after (m)", "claimed": PAPER_CLAIMS["cep95_after_m"], "ours": sol[best]["gnss+ins+rts"]["cep95_m"],
          "floor": f"{floor['cep95_m']:.2f}", "solution": f"{best}, RTS"},
-        {"claim": "vertical 95 % before (m)", "seed": SEED_CLAIMS["vertical95_before_m"], "ours": sol["gps"]["gnss"]["vertical95_m"],
+        {"claim": "vertical 95 % before (m)", "claimed": PAPER_CLAIMS["vertical95_before_m"], "ours": sol["gps"]["gnss"]["vertical95_m"],
          "floor": "-", "solution": "GPS only"},
-        {"claim": "vertical 95 % after (m)", "seed": SEED_CLAIMS["vertical95_after_m"], "ours": sol[best]["gnss+ins+rts"]["vertical95_m"],
+        {"claim": "vertical 95 % after (m)", "claimed": PAPER_CLAIMS["vertical95_after_m"], "ours": sol[best]["gnss+ins+rts"]["vertical95_m"],
          "floor": f"{floor['vertical95_m']:.2f}", "solution": f"{best}, RTS"},
-        {"claim": "horizontal 95 % at GDOP 4 (m)", "seed": SEED_CLAIMS["error_at_gdop4_m"],
+        {"claim": "horizontal 95 % at GDOP 4 (m)", "claimed": PAPER_CLAIMS["error_at_gdop4_m"],
          "ours": sol[best]["gnss+ins+rts"]["horizontal95_at_gdop4_m"],
          "floor": f"{floor['horizontal95_at_gdop4_m']:.2f}", "solution": f"{best}, RTS"},
     ]
     for row in claims:
-        # "before" numbers are the seed's baseline, not a target: say whether ours is comparable.
+        # "before" numbers are the source paper's baseline, not a target: say whether ours is comparable.
         if "before" in row["claim"]:
-            row["verdict"] = f"our baseline is {row['ours'] / row['seed']:.2f}x the seed's"
+            row["verdict"] = f"our baseline is {row['ours'] / row['claimed']:.2f}x the source paper's"
         else:
-            row["verdict"] = _verdict(row["ours"], row["seed"])
+            row["verdict"] = _verdict(row["ours"], row["claimed"])
     files = write_report(runs[best], out)
     summary = {"quick": quick, "seed": seed, "duration_s": duration, "trials": trials, "scenario": "urban-canyon",
                "claims": claims, "solutions": sol, "best_ins": best,
@@ -88,13 +88,13 @@ def reproduce_positioning_claims(out_dir: str | Path, *, quick: bool = False,
 
 
 def _markdown(s: dict) -> str:
-    lines = ["# Positioning: seed 000 section 6.3, measured", "",
+    lines = ["# Positioning: the GNSSDO paper section 6.3, measured", "",
              f"Written by `chronofuse reproduce positioning`{' (the quick run)' if s['quick'] else ''}: {s['trials']} drives "
              f"of {s['duration_s']:g} s each on the urban-canyon loop (15 m buildings on 30 m streets, 3 m multipath; "
              f"1 Hz GNSS, 100 Hz IMU), the same seed ({s['seed']}) for every configuration.", "",
-             "| claim | seed | ours | floor (error-free IMU) | solution | verdict |", "|---|---|---|---|---|---|"]
+             "| claim | source paper | ours | floor (error-free IMU) | solution | verdict |", "|---|---|---|---|---|---|"]
     for r in s["claims"]:
-        lines.append(f"| {r['claim']} | {r['seed']:g} | {r['ours']:.2f} | {r['floor']} | {r['solution']} | {r['verdict']} |")
+        lines.append(f"| {r['claim']} | {r['claimed']:g} | {r['ours']:.2f} | {r['floor']} | {r['solution']} | {r['verdict']} |")
     lines += ["", "## Every solution", "", "| configuration | solution | CEP50 (m) | CEP95 (m) | vertical 95 % (m) | availability |",
               "|---|---|---|---|---|---|"]
     for cfg, sols in s["solutions"].items():

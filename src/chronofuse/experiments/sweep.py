@@ -1,4 +1,4 @@
-"""Parameter sweeps of the two-node link on Dask (orchestration only; SPEC 6 "sweeps scale out on Dask").
+"""Parameter sweeps of the two-node link on Dask (orchestration only).
 
 A sweep is a list of tasks, one per (parameter value, chunk of ``chunk_trials`` trials). Task
 ``(value, c)`` simulates its trials from ``child_seed(root, key(value), c)``, ``key`` the value's

@@ -53,7 +53,7 @@ __all__ = [
     "record_statistics",
 ]
 
-#: Root seed of every simulation here (one SeedSequence per experiment, SPEC section 1).
+#: Root seed of every simulation here (one SeedSequence per experiment).
 SEED = 20261124
 
 

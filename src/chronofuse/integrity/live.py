@@ -1,4 +1,4 @@
-"""Clock-bias detection on a text stream, epoch by epoch: standard input, a pipe, a FIFO (issue 10.6).
+"""Clock-bias detection on a text stream, epoch by epoch: standard input, a pipe, a FIFO.
 
 :func:`stream_verdicts` reads ``time,clock_bias`` lines as they arrive and yields one
 :class:`~chronofuse.integrity.streaming.EpochVerdict` per epoch through

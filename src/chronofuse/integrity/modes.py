@@ -1,4 +1,4 @@
-"""Clock-bias integrity on a data file: the mode chosen from what the file provides (SPEC 4).
+"""Clock-bias integrity on a data file: the mode chosen from what the file provides.
 
 :func:`detect_file` is what ``chronofuse detect FILE`` does, as a library call that returns the same
 document the command prints with ``--json``:
@@ -74,7 +74,7 @@ from chronofuse.validation import InputDataError, InputError, check_scalar
 MODES = ("detection", "identification")
 
 #: With ``train_s``, the detectors keep P_fa at or below nominal in this share of trainings (the
-#: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`; issue 10.4).
+#: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`).
 TRAINING_CONFIDENCE = 0.9
 
 
@@ -198,7 +198,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
                             train_s: float | None = None) -> dict:
     """Identification mode on a RINEX observation file with its navigation file and antenna position.
 
-    Every code observable of the file is tested (issue 10.7: a fault on P2 was invisible when only C1
+    Every code observable of the file is tested (a fault on P2 was invisible when only C1
     was): with one code, channels are named by satellite (``G20``); with several, by satellite and code
     (``G20 C1``, ``G20 P2``). Per epoch, the state is ``ok`` when at least :data:`MIN_TESTED_CHANNELS`
     channels of the L1 code (the one a position/time solution uses) are tested and the position check
@@ -222,7 +222,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
         biases = channel_clock_biases(obs, nav, position, code=code, observations=observations, navigation=navigation)
         if not runs:
             interval_s = float(biases.interval_s)
-            detector.interval_s = interval_s  # the file's own interval (issue 10.7)
+            detector.interval_s = interval_s  # the file's own interval
             n_epochs = int(np.asarray(biases.t_s).size)
             _check_length(n_epochs, detector.window, str(obs))
             options = {}

@@ -1,4 +1,4 @@
-"""The receiver's own status per epoch: its fix flags and its time accuracy estimate (issue 10.5).
+"""The receiver's own status per epoch: its fix flags and its time accuracy estimate.
 
 A receiver that loses its fix keeps reporting a clock bias: it extrapolates its clock with the last
 frequency (the Navisys GR-701W in ``tests/data/receivers/gpsd/navisys-gr701w.log`` for 29 s, its bias

@@ -7,7 +7,7 @@ spoofer's drag-off of the receivers' time. :data:`ENVIRONMENTS` holds the four p
 name. (The run's ``Scenario``, a TOML file, is :class:`chronofuse.experiments.scenario.Scenario`; it
 names one of these environments.)
 
-The drag-off of a spoofer that starts at ``t0`` (SPEC section 2.2) is a polynomial in ``t - t0``::
+The drag-off of a spoofer that starts at ``t0`` is a polynomial in ``t - t0``::
 
     s(t) = spoof_rate_s_per_s (t - t0) + spoof_accel_s_per_s2 (t - t0)^2 / 2,   zero before t0,
 

@@ -1,4 +1,4 @@
-"""Oscillator truth model (SPEC 2.1): power-law noise, aging, temperature and EFC through a DAC.
+"""Oscillator truth model: power-law noise, aging, temperature and EFC through a DAC.
 
 The parameters (:class:`PowerLaw`, :class:`OscillatorModel`) and their simulation live here; the
 data-sheet presets (``preset("ocxo")``, ``PRESETS``) in :mod:`chronofuse.models.oscillator_presets`.
@@ -93,7 +93,7 @@ class PowerLaw:
 
 @dataclass(frozen=True)
 class OscillatorModel:
-    """Physical parameters of a free-running oscillator (SPEC 2.1).
+    """Physical parameters of a free-running oscillator.
 
     Attributes
     ----------
