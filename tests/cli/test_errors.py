@@ -82,3 +82,16 @@ def test_debug_prints_the_traceback_of_a_bug(monkeypatch, tmp_path):
     result = runner.invoke(app, ["--debug", "simulate", "oscillator", "--out", str(tmp_path / "o.csv")])
     assert result.exit_code == EXIT_BUG
     assert "Traceback (most recent call last)" in result.stderr and "_broken" in result.stderr
+
+
+def test_a_field_is_written_as_an_option_only_of_the_command_that_has_that_option():
+    import typer
+
+    from chronofuse.cli.main import build_app
+
+    program = typer.main.get_command(build_app())
+    error = InputError("{interval_s} == 0.3, must divide 1 s", fields=("interval_s",))
+    with program.commands["swarm"].commands["run"].make_context("run", []):
+        assert describe(error) == "--interval == 0.3, must divide 1 s"
+    with program.commands["detect"].make_context("detect", ["x.csv"]):  # detect has no --interval
+        assert describe(error) == "interval_s == 0.3, must divide 1 s"

@@ -17,7 +17,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-from chronofuse.cli.flags import label
+from chronofuse.cli.flags import FLAG_OF_FIELD, label
 from chronofuse.report.jsonio import dumps
 from chronofuse.validation import ChronofuseError, InputError, InputWarning
 
@@ -48,10 +48,27 @@ def fail(message: str) -> None:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
+def _offered() -> set[str] | None:
+    """The options of the command running now (None outside a command)."""
+    from typer._click.globals import get_current_context  # typer's click; the version is pinned
+
+    ctx = get_current_context(silent=True)
+    return None if ctx is None else {name for p in ctx.command.params for name in getattr(p, "opts", ())}
+
+
+def _label(field: str) -> str:
+    """A config field written as the running command's option that sets it; the field itself where this
+    command has no such option (a field of the same name set by another command's option is not this one's)."""
+    offered = _offered()
+    if offered is not None and FLAG_OF_FIELD.get(field) not in offered:
+        return field
+    return label(field)
+
+
 def describe(exc: BaseException) -> str | None:
     """The one-line message of a user's error, options named as on the command line; None for a bug."""
     if isinstance(exc, InputError):
-        return exc.render(label).splitlines()[0]
+        return exc.render(_label).splitlines()[0]
     if isinstance(exc, ChronofuseError):
         return (str(exc) or type(exc).__name__).splitlines()[0]
     if isinstance(exc, OSError) and exc.filename is not None:
@@ -59,7 +76,7 @@ def describe(exc: BaseException) -> str | None:
     if type(exc).__name__ == "ValidationError" and type(exc).__module__.startswith("pydantic"):
         first = exc.errors()[0]
         where = ".".join(str(part) for part in first.get("loc", ()))
-        return f"{label(where) if where else type(exc).__name__}: {first.get('msg', exc)} (got {first.get('input')!r})"
+        return f"{_label(where) if where else type(exc).__name__}: {first.get('msg', exc)} (got {first.get('input')!r})"
     return None
 
 
@@ -119,5 +136,5 @@ def collected_warnings():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         yield messages
-    messages.extend((w.message.render(label) if isinstance(w.message, InputWarning) else str(w.message)).splitlines()[0]
+    messages.extend((w.message.render(_label) if isinstance(w.message, InputWarning) else str(w.message)).splitlines()[0]
                     for w in caught)

@@ -89,8 +89,9 @@ class ClockBiasSeries:
 def _no_bias_reason(capture: Capture) -> str:
     """Why a recording gives no clock bias, naming what it holds and what would carry one."""
     if "rinex-obs" in capture.protocols:
-        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: test it in "
-                "identification mode, with its navigation file ({nav}) and the antenna position ({position_m})")
+        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: its satellites' clock "
+                "biases are tested by clock-bias detection in identification mode, given a navigation file ({nav}) "
+                "and the antenna position ({position_m})")
     if "ubx" in capture.protocols:
         held = ", ".join(sorted(capture.ubx.decoded)) or "no decodable UBX navigation message"
         return (f"no {_CLOCK_MESSAGE} message, so no receiver clock bias (the recording holds {held}); enable "
