@@ -68,9 +68,20 @@ def test_the_reported_covariance_is_chi_square_consistent_with_the_errors():
 def test_too_few_satellites_give_nan_not_a_wrong_fix():
     sat, system, up, r = _geometry(3)
     rho = np.full((3, 54), np.nan)
-    rho[:, :4] = r[:, :4]  # four GPS only: no BDS satellite for the inter-system bias
+    rho[:, :3] = r[:, :3]  # three GPS only: one fewer than position and clock need
     fix = least_squares_position(sat, rho, np.ones_like(rho), system, RX)
-    assert np.isnan(fix.position_m).all() and (fix.n_used == 4).all()
+    assert np.isnan(fix.position_m).all() and (fix.n_used == 3).all()
+
+
+def test_a_system_without_satellites_leaves_its_bias_held_and_the_fix_exact():
+    sat, system, up, r = _geometry(3)
+    gps = np.flatnonzero(system == 0)[:4]
+    rho = np.full((3, 54), np.nan)
+    rho[:, gps] = r[:, gps]  # four GPS, no BDS: the inter-system bias is held at zero, not needed
+    fix = least_squares_position(sat, rho, np.ones_like(rho), system, RX)
+    good = np.isfinite(fix.position_m).all(-1)
+    assert good.any() and (fix.n_used == 4).all()
+    assert np.abs(fix.position_m[good] - RX).max() < 1e-3 and np.abs(fix.isb_m[good]).max() < 1e-6
 
 
 def test_a_canyon_hides_satellites_across_the_street_and_a_tunnel_hides_all():

@@ -72,6 +72,7 @@ _GEORINEX_NAV_NAMES = {
     "week": "GPSWeek",
     "health": "health",
     "tgd_s": "TGD",
+    "accuracy_m": "SVacc",
 }
 
 
