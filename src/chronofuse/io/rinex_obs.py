@@ -38,7 +38,8 @@ from chronofuse.io.rinex_text import rinex_bytes
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns
 from chronofuse.validation import InputDataError
 
-__all__ = ["ObservationHeader", "GnssObservations", "read_observations", "parse_header", "SYSTEM_LETTERS"]
+__all__ = ["ObservationHeader", "GnssObservations", "read_observations", "read_any_observations", "parse_header",
+           "SYSTEM_LETTERS"]
 
 #: RINEX system letters and the names used on the command line.
 SYSTEM_LETTERS = {"gps": "G", "glo": "R", "gal": "E", "bds": "C", "qzss": "J", "sbas": "S", "navic": "I"}
@@ -325,3 +326,73 @@ def read_observations(path, *, systems=None, observables=("C",), start_gps_ns=No
                             epoch_flag=np.asarray(flags, dtype=np.uint8)[rows], header=header,
                             n_unreadable_epochs=unreadable, n_event_records=events, problems=problems,
                             source=source)
+
+
+# RINEX 2 observable names -> the RINEX 3 code they carry (RINEX 2.11 section 5.1, 2.12 for BeiDou):
+# C1 is C/A on L1 (Galileo E1), P1/P2 the P(Y) codes, C2 L2C, C5 L5 / E5a, C7 E5b, C2 on BeiDou B1I.
+_RINEX2_CODES = {"G": {"C1": "C1C", "P1": "C1W", "P2": "C2W", "C2": "C2L", "C5": "C5X"},
+                 "E": {"C1": "C1X", "C5": "C5X", "C7": "C7X", "C8": "C8X"},
+                 "C": {"C2": "C2I", "C1": "C2I", "C7": "C7I", "C6": "C6I"},
+                 "J": {"C1": "C1C", "C2": "C2L", "C5": "C5X"}}
+
+
+def read_any_observations(path, *, systems=None, observables=("C",)) -> GnssObservations:
+    """:func:`read_observations` for RINEX 3; a RINEX 2 file through georinex with its observables renamed
+    to the RINEX 3 codes they carry (``C1`` -> ``C1C`` ...), 0.000 read as missing too, so the rest of the
+    package sees one record type. Hatanaka, gzip and compress are undone either way."""
+    import logging
+    import tempfile
+    import warnings
+    from pathlib import Path
+
+    source = str(path)
+    text = rinex_bytes(path)
+    lines = text[:20000].splitlines()
+    version = _float(lines[0][:9].decode("ascii", "replace"), 0.0) if lines else 0.0
+    if version >= 3.0:
+        return read_observations(path, systems=systems, observables=observables)
+    if "RINEX VERSION / TYPE" not in (lines[0].decode("ascii", "replace") if lines else "") or \
+            lines[0][20:21].upper() != b"O":
+        raise InputDataError("not a RINEX observation file (no 'O' in the RINEX VERSION / TYPE line)", source)
+    import georinex
+
+    with tempfile.TemporaryDirectory() as tmp:
+        plain = Path(tmp) / (Path(source).name.split(".")[0] + ".obs")
+        plain.write_bytes(text)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            logging.disable(logging.CRITICAL)
+            try:
+                ds = georinex.load(plain, use=set(systems) if systems else None)
+            except Exception as err:  # georinex raises many kinds on damaged files
+                raise InputDataError(f"georinex cannot read it ({type(err).__name__}: {err})", source) from err
+            finally:
+                logging.disable(logging.NOTSET)
+    if ds is None or "time" not in ds.dims or ds.sizes["time"] == 0:
+        raise InputDataError("no observation epoch in the file", source)
+    sats = [str(s) for s in ds.sv.values]
+    letters = np.array([s[0] for s in sats])
+    values: dict[str, np.ndarray] = {}
+    for var in ds.data_vars:
+        name = str(var)
+        pseudorange = "C" + name[1:] if name[0] == "P" else name  # RINEX 2 P1/P2 are pseudoranges too
+        if len(name) != 2 or not _wanted(pseudorange, observables or (name[0],)):
+            continue
+        data = ds[var].transpose("time", "sv").values.astype(np.float64)
+        data[data == 0.0] = np.nan
+        for letter, table in _RINEX2_CODES.items():
+            code = table.get(name)
+            cols = letters == letter
+            if code is None or not cols.any():
+                continue
+            values.setdefault(code, np.full(data.shape, np.nan))[:, cols] = data[:, cols]
+    head = parse_header([b"     3.00           O" + ln[21:] if i == 0 else ln for i, ln in enumerate(lines)], source)
+    gps_ns = datetime64_to_gps_ns(ds.time.values)
+    zeros = {k: np.zeros(v.shape, dtype=np.uint8) for k, v in values.items()}
+    header = ObservationHeader(version=version, marker=head.marker, receiver=head.receiver,
+                               receiver_version=head.receiver_version, antenna=head.antenna,
+                               approx_position_m=head.approx_position_m, antenna_delta_hen_m=head.antenna_delta_hen_m,
+                               interval_s=head.interval_s, time_system=head.time_system, leap_s=head.leap_s,
+                               obs_types={}, n_header_lines=head.n_header_lines)
+    return GnssObservations(gps_ns=gps_ns, satellites=sats, values=values, lli=zeros, ssi=dict(zeros),
+                            epoch_flag=np.zeros(gps_ns.size, dtype=np.uint8), header=header, source=source)

@@ -9,6 +9,8 @@ read wherever a plain one is.
 
 from __future__ import annotations
 
+import atexit
+import sys
 from pathlib import Path
 
 from chronofuse.validation import InputDataError
@@ -25,15 +27,35 @@ def _raw(path: Path) -> bytes:
         raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
 
 
+def _release_lzw() -> None:
+    """Drop the Unix-compress extension hatanaka loads (``ncompress``, a nanobind module) before exit: the
+    console script freezes the heap at exit (``gc.freeze``), and a nanobind module still alive then prints
+    a "leaked functions" warning on stderr (georinex holds it too). Without its last references it is freed by reference count."""
+    for module, attr in (("hatanaka.general_compression", "lzw"), ("georinex.rio", "unlzw")):
+        holder = sys.modules.get(module)
+        if holder is not None and hasattr(holder, attr):
+            delattr(holder, attr)
+    for name in [m for m in sys.modules if m == "ncompress" or m.startswith("ncompress.")]:
+        del sys.modules[name]
+
+
+atexit.register(_release_lzw)
+
+
+def _hatanaka():
+    import hatanaka
+
+    return hatanaka
+
+
 def rinex_bytes(path) -> bytes:
     """The plain RINEX text (bytes) of ``path``: gzip, compress and Hatanaka undone.
 
     Raises :class:`InputDataError` naming the file when it is missing, or its compression is damaged.
     """
-    import hatanaka
-
     path = Path(path)
     raw = _raw(path)
+    hatanaka = _hatanaka()
     try:
         return hatanaka.decompress(raw)
     except Exception as exc:  # hatanaka raises ValueError / HatanakaException / OSError on damaged input
