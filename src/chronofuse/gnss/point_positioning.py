@@ -14,8 +14,9 @@ Per epoch, weighted least squares (Misra & Enge 2011, 6.1; Groves 2013, 9.4.1) o
   ``0.3^2 (1 + 1 / sin el)`` + code bias ``0.3^2`` + ionosphere ``(0.5 I)^2`` + troposphere
   ``(0.3 / (sin el + 0.1))^2`` + the broadcast orbit and clock accuracy ``URA^2`` (SISA for Galileo) (m^2);
 * elevation mask; outlier exclusion: while the weighted residuals fail the chi-square test at
-  ``1 - outlier_probability`` with ``n - m`` degrees of freedom, the satellite with the largest normalized
-  residual is left out and the epoch solved again (at most ``max_exclusions`` per epoch);
+  ``1 - outlier_probability`` with ``n - m`` degrees of freedom, the satellite whose removal leaves the
+  smallest residual sum of squares is left out (each candidate tried, as RTKLIB's RAIM FDE does) and the
+  epoch solved again (at most ``max_exclusions`` per epoch);
 * epochs with GDOP above ``max_gdop`` (30, RTKLIB's default) or too few satellites give no fix (NaN).
 
 The solve starts at the header's approximate position when given (a starting point only, never a
@@ -124,6 +125,23 @@ def _elevation_azimuth(receiver_m: np.ndarray, satellite_m: np.ndarray):
     return np.arctan2(u, np.hypot(e, n)), np.mod(np.arctan2(e, n), 2 * math.pi)
 
 
+def _best_exclusion(satellite_m, corrected_m, sigma_m, usable, sys_index, x0_m) -> np.ndarray:
+    """For each epoch (rows of the arguments), the satellite whose removal leaves the smallest weighted
+    residual sum of squares: every candidate is left out in turn and the epoch solved again (solution
+    separation; the largest single residual can point at a good satellite when the fault is pulled into
+    the clock). Returns the column index per epoch."""
+    rows, sats = corrected_m.shape
+    trial = np.broadcast_to(corrected_m[:, None, :], (rows, sats, sats)).copy()
+    trial[:, np.arange(sats), np.arange(sats)] = np.nan
+    sigma = np.broadcast_to(sigma_m[:, None, :], trial.shape)
+    fix = least_squares_position(satellite_m[:, None], trial, sigma, sys_index, x0_m[:, None, :], iterations=3)
+    isb = np.concatenate([np.zeros(fix.clock_m.shape + (1,)), fix.isb_m], axis=-1)[..., sys_index]
+    pred = np.linalg.norm(satellite_m[:, None] - fix.position_m[..., None, :], axis=-1) + fix.clock_m[..., None] + isb
+    ssr = np.nansum(((trial - pred) / sigma) ** 2, axis=-1)
+    ssr = np.where(usable & np.isfinite(fix.position_m[..., 0]), ssr, np.inf)
+    return np.argmin(ssr, axis=-1)
+
+
 def point_positions(obs, nav: GpsNavigation, systems=("G",), options: SppOptions | None = None) -> PointPositions:
     """Single-point fixes of every epoch of ``obs`` (module docstring) with ``nav``'s ephemerides of the
     systems ``systems`` (letters, the first is the clock reference)."""
@@ -189,8 +207,10 @@ def point_positions(obs, nav: GpsNavigation, systems=("G",), options: SppOptions
             fail = (dof > 0) & (chi2 > limit) & np.isfinite(fix.position_m[:, 0]) & (excluded.sum(-1) < opt.max_exclusions)
             if not fail.any() or opt.max_exclusions == 0:
                 break
-            worst = np.nanargmax(np.where(np.isfinite(normalized), np.abs(normalized), -1.0), axis=-1)
-            excluded[np.flatnonzero(fail), worst[fail]] = True
+            rows = np.flatnonzero(fail)
+            worst = _best_exclusion(geo.satellite_m[rows], np.where(usable, corrected, np.nan)[rows],
+                                    np.sqrt(var)[rows], usable[rows], sys_index, fix.position_m[rows])
+            excluded[rows, worst] = True
     assert fix is not None
     position = np.where(np.isfinite(fix.position_m) & (fix.gdop <= opt.max_gdop)[:, None], fix.position_m, np.nan)
     ok = np.isfinite(position[:, 0])
