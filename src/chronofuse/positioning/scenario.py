@@ -62,7 +62,9 @@ class DriveData:
     ``truth`` at the GNSS epochs (:class:`NavigationTruth` sampled every ``gnss_interval_s``, the first row the
     start); IMU blocks ``gyro_rad_per_s``, ``accel_m_per_s2`` (trials, epochs, samples, 3) measured between
     epochs; GNSS ``fix_lat_lon_h`` (trials, epochs, 3), NaN without a fix, its ``fix_cov_ned_m2`` (trials,
-    epochs, 3, 3) and ``gdop`` (trials, epochs); ``imu_rate_hz``."""
+    epochs, 3, 3) and ``gdop`` (trials, epochs); ``imu_rate_hz``; the pseudoranges the fixes came from,
+    for tight coupling: ``pseudorange_m`` and ``sigma_m`` (trials, epochs, S), ``satellite_m`` (epochs, S, 3)
+    ECEF and ``system`` (S,)."""
 
     truth: NavigationTruth
     gyro_rad_per_s: np.ndarray
@@ -71,6 +73,10 @@ class DriveData:
     fix_cov_ned_m2: np.ndarray
     gdop: np.ndarray
     imu_rate_hz: float
+    pseudorange_m: np.ndarray | None = None
+    sigma_m: np.ndarray | None = None
+    satellite_m: np.ndarray | None = None
+    system: np.ndarray | None = None
 
 
 def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s: float, trials: int, *, seed=0,
@@ -120,9 +126,12 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
     fixes = np.empty((trials, epochs, 3))
     cov = np.empty((trials, epochs, 3, 3))
     gdop = np.empty((trials, epochs))
+    rho = np.empty((trials, epochs, satellites.position_m.shape[1]))
+    sigma = np.empty_like(rho)
     for i in range(trials):
         obs = simulate_pseudoranges(receiver[None], heading[None], t, satellites, ENVIRONMENTS[scenario],
                                     seed=child_seed(base, first_trial + i, 1))
+        rho[i], sigma[i] = obs.pseudorange_m[0], obs.sigma_m[0]
         fix = least_squares_position(obs.satellite_m, obs.pseudorange_m[0], obs.sigma_m[0], obs.system,
                                      receiver[0] + 1e3)
         lat, lon, h = pymap3d.ecef2geodetic(fix.position_m[:, 0], fix.position_m[:, 1], fix.position_m[:, 2], deg=False)
@@ -134,4 +143,5 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
                             rate_hz=1.0)
     return DriveData(truth=truth, gyro_rad_per_s=gyro, accel_m_per_s2=accel, fix_lat_lon_h=fixes,
                      fix_cov_ned_m2=np.where(np.isfinite(cov), cov, np.eye(3)), gdop=gdop,
-                     imu_rate_hz=float(imu_rate_hz))
+                     imu_rate_hz=float(imu_rate_hz), pseudorange_m=rho, sigma_m=sigma,
+                     satellite_m=satellites.position_m, system=satellites.system)
