@@ -166,7 +166,7 @@ def reproduce_positioning_claims(out_dir: str | Path, *, quick: bool = False,
     ``rtklib``: also run RTKLIB's rnx2rtkp on them (it must be installed)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    duration, trials = (300.0, 4) if quick else (1200.0, 20)
+    duration, trials = (300.0, 4) if quick else (1200.0, 10)
     rows, stats, runs = simulated_claims(duration, trials, progress)
     files = write_report(runs[runs["best"]], out)
     summary = {"quick": quick, "duration_s": duration, "trials": trials, "scenario": SCENARIO, "claims": rows,
