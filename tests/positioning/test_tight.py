@@ -3,14 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
-import pymap3d
 import pytest
 
+from chronofuse.experiments.positioning_tight import few_satellites_experiment, horizontal_errors_m, run_tight
 from chronofuse.models.imu import imu_grade
-from chronofuse.positioning.errors import ned_difference_m
-from chronofuse.positioning.loose import LooselyCoupled
 from chronofuse.positioning.scenario import simulate_drive
-from chronofuse.positioning.tight import TightlyCoupled
 
 #: The documented figures (docs/positioning): with 3 (2) satellites for 60 s (industrial IMU, 12 m/s city loop,
 #: open-sky budget), the tightly coupled horizontal error stays under 6 m (60 m), where the loosely coupled
@@ -25,56 +22,19 @@ def _drive(trials=4, seed=11):
     return imu, drive
 
 
-def _few_satellites(drive, keep: int):
-    """The drive's pseudoranges with only the ``keep`` highest satellites left during the window."""
-    rho = drive.pseudorange_m.copy()
-    t = drive.truth
-    lat, lon, h = t.lat_lon_h[0, 1:, 0], t.lat_lon_h[0, 1:, 1], t.lat_lon_h[0, 1:, 2]
-    rx = np.stack(pymap3d.geodetic2ecef(lat, lon, h, deg=False), -1)
-    d = drive.satellite_m - rx[:, None, :]
-    e, n, u = pymap3d.uvw2enu(d[..., 0], d[..., 1], d[..., 2], lat[:, None], lon[:, None], deg=False)
-    elevation = np.arctan2(u, np.hypot(e, n))
-    for k in range(WINDOW.start, WINDOW.stop):
-        seen = np.isfinite(rho[:, k]).all(0)
-        order = np.argsort(-np.where(seen, elevation[k], -np.inf))
-        rho[:, k, order[keep:]] = np.nan
-    fixes = drive.fix_lat_lon_h.copy()
-    fixes[:, WINDOW] = np.nan  # fewer than four: no single-point fix for the loose filter
-    return rho, fixes
-
-
 def _tight(imu, drive, rho):
-    t = drive.truth
-    start = t.lat_lon_h[0, 0]
-    x0 = np.array(pymap3d.geodetic2ecef(*start, deg=False))
-    first = np.isfinite(rho[0, 0])
-    clock0 = float(np.nanmean(rho[0, 0, first] - np.linalg.norm(drive.satellite_m[0, first] - x0, axis=-1)))
-    filt = TightlyCoupled(imu, start, t.v_ned_m_per_s[0, 0], t.c_bn[0, 0], drive.imu_rate_hz,
-                          start_clock_m=clock0, sigma_clock_m=30.0).fit()
-    return filt, filt.run(rho, gyro_rad_per_s=drive.gyro_rad_per_s, accel_m_per_s2=drive.accel_m_per_s2,
-                          satellite_m=drive.satellite_m, sigma_m=drive.sigma_m, system=drive.system)
+    return run_tight(imu, drive, rho)
 
 
-def _horizontal(lat_lon_h, truth):
-    err = ned_difference_m(lat_lon_h, np.broadcast_to(truth.lat_lon_h[:, 1:], lat_lon_h.shape))
-    return np.hypot(err[..., 0], err[..., 1])
+_horizontal = horizontal_errors_m
 
 
 @pytest.mark.parametrize("keep", [2, 3])
 def test_two_or_three_satellites_for_a_minute_keep_the_tight_filter_bounded_and_not_the_loose_one(keep):
-    imu, drive = _drive()
-    rho, fixes = _few_satellites(drive, keep)
-    t = drive.truth
-    _, tight = _tight(imu, drive, rho)
-    loose = LooselyCoupled(imu, t.lat_lon_h[0, 0], t.v_ned_m_per_s[0, 0], t.c_bn[0, 0], drive.imu_rate_hz,
-                           sigma_r_m=1.0, sigma_v_m_per_s=0.1, sigma_psi_rad=0.01).fit()
-    free = loose.run(fixes, gyro_rad_per_s=drive.gyro_rad_per_s, accel_m_per_s2=drive.accel_m_per_s2,
-                     fix_cov_ned_m2=drive.fix_cov_ned_m2)
-    h_tight = _horizontal(tight.lat_lon_h, t)[:, WINDOW]
-    h_loose = _horizontal(free.lat_lon_h, t)[:, WINDOW]
-    assert (tight.n_used[:, WINDOW] == keep).all()
-    assert h_tight.max() < TIGHT_BOUND_M[keep]
-    assert h_loose.max() > 2.0 * h_tight.max()  # the loose INS drifts with no fix to hold it
+    result = few_satellites_experiment(keep, trials=4, seed=11, window=WINDOW)
+    assert result["n_used"] == keep
+    assert max(result["tight_max_m"]) < TIGHT_BOUND_M[keep]
+    assert max(result["loose_max_m"]) > 2.0 * max(result["tight_max_m"])  # the loose INS drifts with no fix
 
 
 def test_with_every_satellite_the_tight_filter_is_as_good_as_the_fixes():

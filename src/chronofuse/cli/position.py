@@ -145,7 +145,8 @@ def reproduce_positioning(
     out: Path = typer.Option(Path("docs/positioning"), "--out", help="Report folder (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
 ) -> None:
-    """Seed 000 section 6.3: GPS+BDS+INS with smoothing against the claimed CEP95 and vertical 95 %."""
+    """The source's positioning claims (GPS+BDS+INS with smoothing) on the calibrated error budget, with
+    intervals, beside ours and RTKLIB's fixes of the real stations."""
     from chronofuse.experiments.positioning_claims import reproduce_positioning_claims
 
     summary = run_reproduction("reproduce positioning", reproduce_positioning_claims, out, quick=quick,
@@ -153,8 +154,12 @@ def reproduce_positioning(
     if summary is None:
         return
     con = human_console(False)
-    table = Table("claim", "seed", "ours", "physical floor", "verdict", title="Seed 000 section 6.3, measured")
+    table = Table("claim", "source", "ours [95 % CI]", "floor [95 % CI]", "verdict",
+                  title="The source's positioning claims, measured")
+    ci = lambda v, lo_hi: f"{v:.2f} [{lo_hi[0]:.2f}, {lo_hi[1]:.2f}]"  # noqa: E731
     for row in summary["claims"]:
-        table.add_row(row["claim"], f"{row['seed']:g}", f"{row['ours']:.2f}", row["floor"], row["verdict"])
+        floor = row["floor"]
+        table.add_row(row["claim"], f"{row['seed']:g}", ci(row["ours"], row["ci95"]),
+                      "-" if floor is None else ci(floor["value"], floor["ci95"]), row["verdict"])
     con.print(table)
     con.print(f"report -> {out}/")

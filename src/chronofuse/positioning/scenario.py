@@ -81,14 +81,15 @@ class DriveData:
 
 def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s: float, trials: int, *, seed=0,
                    imu_rate_hz: float = 100.0, speed_m_per_s: float = 12.0, first_trial: int = 0,
-                   nav: GpsNavigation | None = None) -> DriveData:
+                   nav: GpsNavigation | None = None, environment=None) -> DriveData:
     """Simulate ``trials`` drives of ``duration_s`` in ``scenario`` (a key of
     :data:`chronofuse.gnss.simulate.ENVIRONMENTS`) with ``systems`` ("gps" or "gps+bds") and the IMU ``imu`` (a
     grade name or an :class:`~chronofuse.models.imu.ImuModel`).
 
     Trial ``i`` draws from ``child_seed(seed, first_trial + i, ...)``, so a run split into chunks of trials gives
     the same numbers as one run. With ``nav`` (a real GPS broadcast ephemeris) the GPS satellites are where it
-    puts them, the drive starting at the file's first clock reference time; it must then hold every system
+    puts them, the drive starting at the file's first clock reference time; ``environment`` (a
+    :class:`~chronofuse.gnss.simulate.SignalEnvironment`) replaces the scenario's signal environment; it must then hold every system
     asked for (it is refused, naming the file, for "gps+bds": our navigation reader takes GPS records only).
     """
     check_choice(scenario, "scenario", ENVIRONMENTS)
@@ -129,7 +130,8 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
     rho = np.empty((trials, epochs, satellites.position_m.shape[1]))
     sigma = np.empty_like(rho)
     for i in range(trials):
-        obs = simulate_pseudoranges(receiver[None], heading[None], t, satellites, ENVIRONMENTS[scenario],
+        env = ENVIRONMENTS[scenario] if environment is None else environment
+        obs = simulate_pseudoranges(receiver[None], heading[None], t, satellites, env,
                                     seed=child_seed(base, first_trial + i, 1))
         rho[i], sigma[i] = obs.pseudorange_m[0], obs.sigma_m[0]
         fix = least_squares_position(obs.satellite_m, obs.pseudorange_m[0], obs.sigma_m[0], obs.system,
