@@ -57,15 +57,17 @@ _DESCRIPTIONS = {
 def _wrapper(name: str):
     """The public function for one statistic: ``compute(name, ...)`` with its own name and docstring."""
 
-    def statistic(x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True) -> Deviation:
-        return compute(name, x_s, rate_hz, tau_s, ci=ci, bias_correction=bias_correction)
+    def statistic(x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True,
+                  gap_rule: str | None = None) -> Deviation:
+        return compute(name, x_s, rate_hz, tau_s, ci=ci, bias_correction=bias_correction, gap_rule=gap_rule)
 
     statistic.__name__ = statistic.__qualname__ = name
     statistic.__doc__ = (
         f"{_DESCRIPTIONS[name][0].upper()}{_DESCRIPTIONS[name][1:]}.\n\n"
         "Parameters: ``x_s`` phase in seconds, shape (N,), NaN for missing samples; ``rate_hz`` sample\n"
         "rate (> 0); ``tau_s`` averaging times in seconds, shape (k,) (``tau_grid`` builds octave/decade\n"
-        "grids); ``ci`` confidence of the interval; ``bias_correction`` as Stable32.\n"
+        "grids); ``ci`` confidence of the interval; ``bias_correction`` as Stable32; ``gap_rule`` which\n"
+        "terms a missing sample removes (see :func:`compute`).\n"
         "Returns a :class:`Deviation` of shape (k,) (see :func:`compute`)."
     )
     return statistic

@@ -70,3 +70,30 @@ def basic_sums(J: np.ndarray, M: np.ndarray, S: np.ndarray, F: np.ndarray, alpha
                 acc += (1.0 - j / m_terms) * sz2
         total[r] = acc
     return total, norm
+
+
+@numba.njit(cache=True, nogil=True)
+def weighted_sz_sum(pairs: np.ndarray, S: float, F: float, alpha: int, d: int, weights: np.ndarray) -> tuple[float, float]:
+    """``sum_j w_j sz(j/S)**2`` for ``j = 0..J`` with ``w_0 = pairs[0]``, ``w_j = 2 pairs[j]`` (0 < j < J) and
+    ``w_J = pairs[J]`` (``J = pairs.size - 1``), and ``sz(0)**2``: the gap-aware twin of :func:`basic_sums`, whose
+    weights ``M - j`` are the pair counts of a record without gaps. ``pairs`` (J + 1,): the number of pairs of
+    terms kept ``j`` apart."""
+    last = pairs.size - 1
+    acc = 0.0
+    norm = 0.0
+    for j in range(last + 1):
+        if pairs[j] == 0.0 and j > 0:
+            continue
+        t = j / S
+        sz = 0.0
+        for q in range(2 * d + 1):
+            sz += weights[q] * _sx(t + (q - d), F, alpha)
+        sz2 = sz * sz
+        if j == 0:
+            norm = sz2
+            acc += pairs[0] * sz2
+        elif j < last:
+            acc += 2.0 * pairs[j] * sz2
+        else:
+            acc += pairs[j] * sz2
+    return acc, norm
