@@ -32,9 +32,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
 from chronofuse.io.formats import capture_format
+from chronofuse.io.record_columns import ColumnChoice, choose_columns, time_ns_per_unit
+from chronofuse.io.timestamps import date_time_to_ns, infer_time_unit, is_date_time
+from chronofuse.io.units import header_facts
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
 from chronofuse.validation import InputDataError, check_choice, check_scalar
 
@@ -42,8 +46,6 @@ __all__ = ["ClockRecord", "read_record", "KINDS"]
 
 KINDS = ("phase", "freq")
 
-_UNIT_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12}
-_TIME_NAMES = {"t", "time", "mjd", "epoch", "t_s", "time_s", "unix", "timestamp"}
 # A sample further than this fraction of the interval from its grid slot is not on a regular grid.
 _SLOT_TOLERANCE = 0.25
 # --rate and the time column agree when their intervals differ by less than this (relative).
@@ -74,6 +76,9 @@ class ClockRecord:
         The name (or 1-based number) of the value column read.
     jitter_rms_s, jitter_max_s : float
         Rms and largest distance of the time tags from their grid slots (0 without a time column).
+    notes : tuple of str
+        What the reader took from the file rather than from the caller (the values' unit from a header
+        line, the sample interval from a header block, the lines of a header block it skipped).
     """
 
     values: np.ndarray
@@ -85,6 +90,7 @@ class ClockRecord:
     column: str
     jitter_rms_s: float = 0.0
     jitter_max_s: float = 0.0
+    notes: tuple[str, ...] = ()
 
     @property
     def t_s(self) -> np.ndarray | None:
@@ -92,55 +98,6 @@ class ClockRecord:
         if self.t_ns is None:
             return None
         return (self.t_ns - self.t_ns[0]) / NS_PER_S
-
-
-def _unit_scale(name: str) -> float:
-    match = re.search(r"_([a-z]+)$", name.lower())
-    if match and match.group(1) in _UNIT_SCALE:
-        return _UNIT_SCALE[match.group(1)]
-    return 1.0
-
-
-def _time_ns_per_unit(name: str) -> int:
-    """Nanoseconds per unit of a time column named ``name`` (``mjd``: days; ``_ms``, ``_us``, ``_ns``)."""
-    lowered = name.lower()
-    if lowered == "mjd" or lowered.startswith("mjd_"):
-        return SECONDS_PER_DAY * NS_PER_S
-    match = re.search(r"_([a-z]+)$", lowered)
-    return {"ms": 1_000_000, "us": 1_000, "ns": 1}.get(match.group(1) if match else "", NS_PER_S)
-
-
-def _pick_columns(layout: Layout, path: Path, column: str | None) -> tuple[int | None, int, str]:
-    """Choose (time index or None, value index, value name)."""
-    width, header = layout.width, layout.header
-    names = header if header is not None else [str(i + 1) for i in range(width)]
-    if header is not None and len(header) != width:
-        raise InputDataError(
-            f"header has {len(header)} names but the first data line has {width} values", str(path),
-            layout.first_data_line
-        )
-    time_idx = None
-    if width >= 2:
-        lowered = [n.lower() for n in names]
-        time_idx = next((i for i, n in enumerate(lowered) if n in _TIME_NAMES or n.startswith(("t_", "mjd"))), 0)
-    if column is not None:
-        if column in names:
-            value_idx = names.index(column)
-        elif column.isdigit() and 1 <= int(column) <= width:
-            value_idx = int(column) - 1
-        else:
-            raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{width})", str(path),
-                                 layout.header_line or layout.first_data_line)
-    elif width == 1:
-        value_idx = 0
-    elif width == 2:
-        value_idx = 1 - time_idx
-    else:
-        raise InputDataError(f"{width} columns {names}: choose the value column with --column", str(path),
-                             layout.first_data_line)
-    if value_idx == time_idx:
-        time_idx = None
-    return time_idx, value_idx, names[value_idx]
 
 
 def _line_of(path: Path, layout: Layout, k: int) -> int:
@@ -250,12 +207,13 @@ def _check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) -
 def read_record(
     path: str | Path,
     *,
-    kind: str = "phase",
+    kind: str | None = None,
     rate_hz: float | None = None,
     column: str | None = None,
     nominal_hz: float | None = None,
     max_gap_fraction: float = 0.5,
     station: str | None = None,
+    zero_is_gap: bool = False,
 ) -> ClockRecord:
     """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), or a
     receiver recording's clock (:func:`chronofuse.io.capture_series.capture_record`).
@@ -264,30 +222,37 @@ def read_record(
     ----------
     path : str or Path
         The file.
-    kind : {"phase", "freq"}
-        What the values are: phase in seconds (after the column's unit scale) or fractional frequency.
+    kind : {"phase", "freq"}, optional
+        What the values are: phase (seconds after the column's unit) or fractional frequency. By default
+        from the value column's unit or name (:mod:`chronofuse.io.record_columns`), phase without either;
+        a kind that contradicts the unit is refused.
     rate_hz : float, optional
-        Sample rate. Required for one-column files; with a time column it sets the grid interval, and
-        overrides the time column (with a warning) where the two disagree.
+        Sample rate. Required for one-column files unless a header line states the sample interval; with a
+        time column it sets the grid interval, and overrides the time column (with a warning) where the two
+        disagree.
     column : str, optional
         Name (from the header) or 1-based number of the value column.
     nominal_hz : float, optional
-        For ``kind="freq"`` files holding absolute frequency in Hz (a counter's readings): the nominal
-        frequency, so that ``y = f / nominal_hz - 1``.
+        For frequency in Hz: the nominal frequency, so that ``y = f / nominal_hz - 1`` (a counter's readings)
+        or ``y = df / nominal_hz`` (a column of frequency offsets in Hz, told by values far from nominal).
     max_gap_fraction : float
         A record whose gaps exceed this fraction of its samples is rejected (too little data).
     station : str, optional
         The station of a RINEX clock product (the first without it); refused for any other file.
+    zero_is_gap : bool
+        Read a value of exactly 0 as a missing sample (Stable32's convention for gaps).
 
     Raises
     ------
     InputDataError
-        Empty file, an archive, text where numbers are expected, an ambiguous decimal comma, a ragged line,
-        non-monotonic time, a time tag off the regular grid, absolute frequency without ``nominal_hz``, or
-        a record made mostly of gaps: each names the file and, where there is one, the line.
+        Empty file, an archive, text where numbers are expected, an ambiguous decimal comma or date, a ragged
+        line, non-monotonic time, a time tag off the regular grid, a unit that contradicts ``kind``, frequency
+        in Hz without ``nominal_hz``, or a record made mostly of gaps: each names the file and, where there is
+        one, the line.
     """
     path = Path(path)
-    check_choice(kind, "kind", KINDS)
+    if kind is not None:
+        check_choice(kind, "kind", KINDS)
     if rate_hz is not None:
         check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
     if not path.exists():
@@ -297,33 +262,32 @@ def read_record(
     if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
         from chronofuse.io.capture_series import capture_record  # the receiver parsers only when needed
 
-        return capture_record(path, kind=kind, rate_hz=rate_hz, station=station)
+        return capture_record(path, kind=kind or "phase", rate_hz=rate_hz, station=station)
     if station is not None:
         raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
                              str(path))
     layout = sniff(path)
-    time_idx, value_idx, name = _pick_columns(layout, path, column)
+    facts = header_facts(list(layout.comments) + list(layout.preamble))
+    first_row = next(iter(data_lines(path, layout)))[1]
+    choice = choose_columns(layout, path, column, kind, facts, first_row, is_date_time)
+    notes = _notes(layout, choice, facts)
     try:
-        values, time_text, _ = read_columns(path, layout, value_idx, time_idx)
+        values, time_text, _ = read_columns(path, layout, choice.value_field, choice.time_field)
     except (OSError, EOFError) as exc:
         raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
     if values.size == 0:
         raise InputDataError("no data lines (empty file, or only comments and a header)", str(path))
     if np.isinf(values).any():
         raise InputDataError("infinite value", str(path), _line_of(path, layout, int(np.flatnonzero(np.isinf(values))[0])))
-    scale = 1.0 if layout.header is None else _unit_scale(name)
-    if scale != 1.0:
-        values = values * scale
+    if zero_is_gap:
+        values = np.where(values == 0.0, np.nan, values)
+    values = _to_si(values, choice, nominal_hz, path, layout)
 
     t_ns, grid = None, None
     jitter = (0.0, 0.0)
     sample_of_slot = None  # sample index at each slot (-1: a slot the time column skipped)
     if time_text is not None:
-        t_name = layout.header[time_idx] if layout.header is not None else "t"
-        t_raw, bad = decimal_text_to_ns(time_text, _time_ns_per_unit(t_name))
-        if bad >= 0:
-            raise InputDataError(f"cannot read {time_text[bad].as_py()!r} as a time", str(path),
-                                 _line_of(path, layout, bad))
+        t_raw = _time_tags(time_text, choice, path, layout)
         if t_raw.size >= 2:
             grid = _time_grid(t_raw, rate_hz, path, layout)
         if grid is not None:
@@ -339,11 +303,21 @@ def read_record(
             t_ns = t_raw[0] + np.rint(np.arange(values.size) * (1e9 / rate_hz)).astype(np.int64)
         else:
             t_ns = t_raw
+    elif facts.interval_s is not None:
+        stated = 1.0 / facts.interval_s
+        if rate_hz is None:
+            rate_hz = stated
+            notes.append(f"sample interval {facts.interval_s:g} s from header line {facts.interval_line}")
+        elif abs(rate_hz / stated - 1.0) > _RATE_AGREEMENT:
+            warnings.warn(f"{path}: --rate {rate_hz:g} Hz where header line {facts.interval_line} states a sample "
+                          f"interval of {facts.interval_s:g} s ({stated:g} Hz); --rate used", stacklevel=2)
     if rate_hz is None:
         raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
 
-    if kind == "freq":
+    if choice.kind == "freq" and (choice.unit is None or choice.unit.quantity != "hertz"):
         values = _check_frequency(values, path, nominal_hz)
+    elif choice.kind == "phase":
+        _check_phase_steps(values, rate_hz, path, choice)
 
     n_gaps = int(np.isnan(values).sum())
     if n_gaps == values.size:
@@ -363,14 +337,83 @@ def read_record(
     return ClockRecord(
         values=values,
         rate_hz=float(rate_hz),
-        kind=kind,
+        kind=choice.kind,
         t_ns=t_ns,
         source=str(path),
         n_gaps=n_gaps,
-        column=name,
+        column=choice.value_name,
         jitter_rms_s=jitter[0],
         jitter_max_s=jitter[1],
+        notes=tuple(notes),
     )
+
+
+def _notes(layout: Layout, choice: ColumnChoice, facts) -> list[str]:
+    """What the reader takes from the file itself, said once in the record."""
+    notes = []
+    block = [n for n, _ in layout.preamble if n != layout.header_line]
+    if block:
+        notes.append(f"{len(block)} header-block line{'s' * (len(block) > 1)} before the data skipped "
+                     f"(lines {block[0]}-{block[-1]})")
+    if choice.unit is not None and choice.unit_from != "name":
+        notes.append(f"values in {choice.unit.text}, from {choice.unit_from}")
+    return notes
+
+
+def _to_si(values: np.ndarray, choice: ColumnChoice, nominal_hz: float | None, path: Path, layout: Layout) -> np.ndarray:
+    """Phase in seconds or fractional frequency from values written in ``choice.unit``."""
+    unit = choice.unit
+    if unit is None:
+        return values
+    if unit.quantity == "hertz":
+        if nominal_hz is None:
+            raise InputDataError(f"column {choice.value_name!r} is in {unit.text}: give the nominal frequency "
+                                 "(--nominal-hz) to make fractional frequency of it", str(path),
+                                 layout.header_line or layout.first_data_line)
+        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
+        hz = values * unit.scale
+        finite = hz[np.isfinite(hz)]
+        absolute = finite.size and abs(float(np.median(finite)) / nominal_hz - 1.0) < 1e-3
+        return hz / nominal_hz - 1.0 if absolute else hz / nominal_hz
+    return values * unit.scale if unit.scale != 1.0 else values
+
+
+def _time_tags(text, choice: ColumnChoice, path: Path, layout: Layout) -> np.ndarray:
+    """Integer ns of the time column: date-time stamps, or numbers in the name's unit or the one their
+    magnitude says (:func:`chronofuse.io.timestamps.infer_time_unit`)."""
+    first = text[0].as_py().strip() if len(text) else ""
+    if layout.pair == choice.time_field or is_date_time(first):
+        return date_time_to_ns(text, str(path), lambda k: _line_of(path, layout, k))
+    per_unit = time_ns_per_unit(choice.time_name) if choice.time_name else None
+    if per_unit is None:
+        try:
+            per_unit = infer_time_unit(text, choice.time_name, str(path))
+        except (pa.ArrowInvalid, ValueError):
+            per_unit = None  # text that is no number: the exact conversion below names it
+    try:
+        t_raw, bad = decimal_text_to_ns(text, per_unit or NS_PER_S)
+    except OverflowError as exc:
+        raise InputDataError(f"time column {choice.time_name or '1'!r}: {exc}; name its unit (e.g. t_ms, t_ns)",
+                             str(path), layout.first_data_line) from None
+    if bad >= 0:
+        raise InputDataError(f"cannot read {text[bad].as_py()!r} as a time", str(path), _line_of(path, layout, bad))
+    return t_raw
+
+
+def _check_phase_steps(values: np.ndarray, rate_hz: float, path: Path, choice: ColumnChoice) -> None:
+    """Warn when phase steps imply a frequency offset no clock has (|dx/dt| > 1e-3): values in ns or ps
+    read as seconds."""
+    head = values[: min(values.size, 100_001)]
+    steps = np.abs(np.diff(head))
+    steps = steps[np.isfinite(steps)]
+    if steps.size == 0:
+        return
+    implied = float(np.median(steps)) * rate_hz
+    if implied > _PLAUSIBLE_Y:
+        unit = f" (read in {choice.unit.text})" if choice.unit is not None else ""
+        warnings.warn(f"{path}: phase steps of {float(np.median(steps)):.3g} s per sample{unit} imply a fractional "
+                      f"frequency of {implied:.3g}, implausible for a clock; if the values are in ns or ps, say so in "
+                      "the column name (e.g. phase_ns) or a 'unit:' header line", stacklevel=3)
 
 
 def column_names(path: str | Path) -> list[str] | None:

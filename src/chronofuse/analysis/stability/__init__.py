@@ -26,6 +26,8 @@ __all__ = [
     "htotdev",
     "ttotdev",
     "theo1",
+    "theobr",
+    "theoh",
     "tie_rms",
     "mtie",
     "compute",
@@ -49,6 +51,8 @@ _DESCRIPTIONS = {
     "ttotdev": "time total deviation tau/sqrt(3) MTOTDEV in seconds, NIST SP 1065 eq. (29)",
     "htotdev": "Hadamard total deviation, NIST SP 1065 eqs. (30)-(31), bias-corrected as Stable32",
     "theo1": "Theo1 deviation at tau = 0.75 m tau0 (m even), NIST SP 1065 (Theo1)",
+    "theobr": "bias-removed Theo1 at tau = 0.75 m tau0 (m even), NIST SP 1065 (TheoBR); Howe, Metrologia 2006",
+    "theoh": "hybrid: overlapping ADEV below 10 % of the record, TheoBR above, NIST SP 1065 (TheoH)",
     "tie_rms": "rms time interval error in seconds, ITU-T G.810",
     "mtie": "maximum time interval error in seconds, ITU-T G.810 (no confidence interval)",
 }
@@ -84,5 +88,7 @@ mtotdev = _wrapper("mtotdev")
 htotdev = _wrapper("htotdev")
 ttotdev = _wrapper("ttotdev")
 theo1 = _wrapper("theo1")
+theobr = _wrapper("theobr")
+theoh = _wrapper("theoh")
 tie_rms = _wrapper("tie_rms")
 mtie = _wrapper("mtie")

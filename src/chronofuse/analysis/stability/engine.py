@@ -186,6 +186,10 @@ def compute(
     """
     check_choice(statistic, "statistic", STATISTICS)
     spec = STATISTICS[statistic]
+    if spec.combine is not None:  # a statistic made of others (TheoH): each part runs this pipeline
+        check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
+        return spec.combine(_phase(x_s)[0], rate_hz, tau_s, ci=ci, bias_correction=bias_correction,
+                            gap_rule=gap_rule)
     x, n_missing = _phase(x_s)
     check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
     check_scalar(ci, "ci", min_val=0, max_val=1, include_min=False, include_max=False)

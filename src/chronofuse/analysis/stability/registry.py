@@ -27,6 +27,7 @@ from chronofuse.analysis.stability.kernels_allan import (
     tdev_raw,
 )
 from chronofuse.analysis.stability.kernels_theo import max_m_theo1, theo1_raw
+from chronofuse.analysis.stability.kernels_theobr import max_m_theobr, theobr_raw
 from chronofuse.analysis.stability.kernels_tie import max_m_mtie, max_m_tie_rms, mtie_raw, tie_rms_raw
 from chronofuse.analysis.stability.kernels_total import (
     htotdev_raw,
@@ -50,6 +51,18 @@ GAP_RULES = ("samples", "span", "window", "fill")
 EDF_FAMILIES = ("greenhall", "totdev", "mtotdev", "htotdev", "theo1", "none")
 
 FILL = ("fill",)
+
+
+def _theoh(*args, **kwargs):
+    from chronofuse.analysis.stability.hybrid import theoh  # it calls the engine, which imports this module
+
+    return theoh(*args, **kwargs)
+
+
+def _theoh_grid(*args):
+    from chronofuse.analysis.stability.hybrid import theoh_grid
+
+    return theoh_grid(*args)
 
 Kernel = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 BiasFunction = Callable[[np.ndarray, np.ndarray, int], np.ndarray]
@@ -87,6 +100,12 @@ class StatisticSpec:
     overlapping : bool
         The statistic averages overlapping terms (all but ADEV and HDEV): its B1 noise identification
         divides by the overlapping Allan variance.
+    combine : callable or None
+        For a statistic made of others (TheoH): ``combine(x_s, rate_hz, tau_s, ci=, bias_correction=,
+        gap_rule=) -> Deviation``, which ``compute`` calls instead of its own pipeline.
+    grid : callable or None
+        ``grid(kind, n_points, rate_hz) -> tau_s`` for a statistic whose averaging times are not
+        ``tau_factor m / rate_hz`` on one grid of factors (TheoH).
     """
 
     name: str
@@ -101,6 +120,8 @@ class StatisticSpec:
     gap_rule: str = "samples"
     overlapping: bool = True
     gap_rules: tuple[str, ...] = ("samples", "span")
+    combine: Callable | None = None
+    grid: Callable | None = None
 
     def __post_init__(self):
         check_choice(self.gaps, "gaps", GAP_POLICIES)
@@ -136,6 +157,10 @@ STATISTICS: dict[str, StatisticSpec] = {
         ),
         StatisticSpec("theo1", theo1_raw, max_m_theo1, "fill", tau_factor=0.75, m_step=2, edf_family="theo1",
                       gap_rule="fill", gap_rules=FILL),
+        StatisticSpec("theobr", theobr_raw, max_m_theobr, "fill", tau_factor=0.75, m_step=2, edf_family="theo1",
+                      gap_rule="fill", gap_rules=FILL),
+        StatisticSpec("theoh", theobr_raw, max_m_theobr, "fill", edf_family="theo1", gap_rule="fill", gap_rules=FILL,
+                      combine=_theoh, grid=_theoh_grid),
         StatisticSpec("tie_rms", tie_rms_raw, max_m_tie_rms, "skip", edf_family="none"),
         StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none", gap_rule="window", gap_rules=("window",)),
     )
