@@ -27,7 +27,6 @@ __all__ = ["stability_figure", "TIME_STATISTICS"]
 TIME_STATISTICS = ("tdev", "ttotdev", "tie_rms", "mtie")
 _FREQUENCY_GUIDES = ((-1.0, "white/flicker PM"), (-0.5, "white FM"), (0.0, "flicker FM"), (0.5, "RW FM"))
 _TIME_GUIDES = ((-0.5, "white PM"), (0.0, "flicker PM"), (0.5, "white FM"))
-_MASK_STYLES = ("-", "--", ":", "-.")
 
 
 def _draw_curves(ax, deviations: dict[str, Deviation], scale: float, colors: list[str]) -> None:
@@ -56,34 +55,48 @@ def _draw_guides(ax, deviations: dict[str, Deviation], scale: float, guides) -> 
         return
     tau0, value0, tau_end = anchor
     span = np.array([tau0, max(tau_end, tau0 * 10)])
+    low, high = ax.get_ylim()  # the guides never stretch the axes the data set
     for slope, label in guides:
         line = value0 * (span / tau0) ** slope
-        ax.plot(span, line, ls=(0, (4, 4)), lw=0.7, color="0.55", zorder=0)
-        ax.annotate(f"$\\tau^{{{slope:+g}}}$ {label}", (span[-1], line[-1]), fontsize=6, color="0.4",
-                    xytext=(2, 0), textcoords="offset points", va="center")
+        ax.plot(span, line, ls=(0, (4, 4)), lw=0.7, color="0.55", zorder=0, scalex=False, scaley=False)
+        end = float(np.clip(line[-1], low, high))
+        ax.annotate(f"$\\tau^{{{slope:+g}}}$ {label}", (span[-1], end), fontsize=6, color="0.4",
+                    xytext=(2, 0), textcoords="offset points", va="center", annotation_clip=False)
+    ax.set_ylim(low, high)
+
+
+_MASK_COLORS = ("k", "tab:purple", "tab:brown", "tab:olive", "tab:cyan", "tab:pink")
 
 
 def _draw_masks(ax, deviations: dict[str, Deviation], verdicts, masks, scale: float) -> None:
+    """Each clock's MTIE/TDEV masks (one colour per clock, one line style per metric); for filtered
+    classes the dTE_L curve that was checked (it is not the plotted unfiltered one); failing points ringed."""
     taus = np.concatenate([d.tau_s for d in deviations.values()]) if deviations else np.array([1.0])
     grid = np.geomspace(max(taus.min(), 1e-3), taus.max(), 400)
     for k, clock in enumerate(masks):
-        for metric in ("mtie", "tdev"):
+        color = _MASK_COLORS[k % len(_MASK_COLORS)]
+        for metric, style in (("mtie", "-"), ("tdev", "--")):
             mask = getattr(clock, metric)
             if mask is None or metric not in deviations:
                 continue
             limit = mask.limit_s(grid) * scale
             if not np.isfinite(limit).any():
                 continue
-            ax.plot(grid, limit, color="k", ls=_MASK_STYLES[k % len(_MASK_STYLES)], lw=1.4,
-                    label=f"{clock.name} {metric.upper()} mask")
-    for verdict in verdicts:
+            ax.plot(grid, limit, color=color, ls=style, lw=1.4, label=f"{clock.name} {metric.upper()} mask")
+    ringed = False
+    for k, verdict in enumerate(verdicts):
+        color = _MASK_COLORS[k % len(_MASK_COLORS)]
         for res in (verdict.mtie, verdict.tdev):
             if res is None or res.metric not in deviations:
                 continue
+            if verdict.filtered:
+                ax.plot(res.tau_s, res.value_s * scale, ":", marker=".", ms=3, lw=1, color=color,
+                        label=f"{res.metric.upper()} of dTE_L ({verdict.clock})")
             bad = res.evaluated & ~res.passed_each
             if bad.any():
                 ax.plot(res.tau_s[bad], res.value_s[bad] * scale, "o", ms=9, mfc="none", mec="tab:red", mew=1.5,
-                        label=f"fails {verdict.clock}")
+                        label=None if ringed else "fails a mask")
+                ringed = True
 
 
 def _finish(ax, ylabel: str) -> None:
@@ -123,10 +136,13 @@ def stability_figure(deviations: dict[str, Deviation], *, verdicts=(), masks=(),
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (kind, group) in zip(axes, panels):
         scale = 1e9 if kind == "time" else 1.0
+        ax.set_xscale("log")
+        ax.set_yscale("log")
         _draw_curves(ax, group, scale, colors)
-        _draw_guides(ax, group, scale, _TIME_GUIDES if kind == "time" else _FREQUENCY_GUIDES)
         if kind == "time":
             _draw_masks(ax, group, verdicts, masks, scale)
+        ax.autoscale_view()
+        _draw_guides(ax, group, scale, _TIME_GUIDES if kind == "time" else _FREQUENCY_GUIDES)
         _finish(ax, "time statistic (ns)" if kind == "time" else "deviation (dimensionless)")
     if title:
         fig.suptitle(title)
