@@ -93,6 +93,8 @@ class Layout:
         Index of a date field followed by a clock-time field: the two are one time column.
     quoted : bool
         Fields are quoted (``"0,5","1,25"``).
+    rows : tuple of list of str
+        The fields of the first data lines (up to 200) that the sniff read.
     """
 
     compression: str | None
@@ -106,6 +108,7 @@ class Layout:
     comments: tuple = ()
     pair: int | None = None
     quoted: bool = False
+    rows: tuple = ()
 
 
 def _compression(path: Path) -> str | None:
@@ -252,7 +255,7 @@ def sniff(path: Path) -> Layout:
                 or (pair is not None and (is_date(t) or is_clock(t)))):
             raise InputDataError(f"cannot read {t!r} as a number", str(path), data[0][0])
     return Layout(compression, delimiter, decimal_comma, names, header_line, first, width, tuple(preamble),
-                  tuple(comments), pair, quoted)
+                  tuple(comments), pair, quoted, tuple(row for _, row in tokens))
 
 
 def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> None:
@@ -366,13 +369,84 @@ def _float_values(column: pa.ChunkedArray) -> np.ndarray:
     return np.concatenate(views) if len(views) > 1 else views[0].copy()
 
 
-def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | None):
-    """``(values (N,) float64, time text (N,) as a pyarrow string array or None, fast: bool)``.
+def _stream_numeric_times(path: Path, layout: Layout, value_col: int, time_col: int,
+                          ns_per_unit: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Values (N,) float64 and time tags (N,) int64 ns read batch by batch with pyarrow's streaming CSV
+    reader, each batch's time text parsed at once by :func:`~chronofuse.io.kernels_time.parse_decimal_ns`
+    and dropped: the text of the whole column is never held (at 1e8 tags it is 2 GB). None when pyarrow
+    cannot take the layout or a tag is not a plain decimal number (the caller's slower path names it)."""
+    from chronofuse.io.kernels_time import FRACTION_DIGITS, parse_decimal_ns
+
+    ratio = Fraction(ns_per_unit) / 10**FRACTION_DIGITS
+    names = [f"c{i}" for i in range(layout.width)]
+    types = {f"c{value_col}": pa.float64(), f"c{time_col}": pa.string()}
+    values, times = [], []
+    read_options = pcsv.ReadOptions(skip_rows=layout.first_data_line - 1, column_names=names, block_size=1 << 24)
+    parse_options = pcsv.ParseOptions(delimiter=layout.delimiter or "\x1f")
+    convert_options = pcsv.ConvertOptions(
+        column_types=types, include_columns=[f"c{value_col}", f"c{time_col}"], null_values=_NULLS,
+        strings_can_be_null=False, quoted_strings_can_be_null=False, decimal_point="," if layout.decimal_comma else ".")
+
+    def take(value_chunk: pa.Array, text: pa.Array) -> bool:
+        if text.null_count:
+            return False
+        if len(text) == 0:
+            return True
+        buffers = text.buffers()
+        offsets = np.frombuffer(buffers[1], dtype=np.int32 if pa.types.is_string(text.type) else np.int64)
+        data = np.frombuffer(buffers[2], dtype=np.uint8) if buffers[2] is not None else np.zeros(0, np.uint8)
+        out = np.empty(len(text), dtype=np.int64)
+        if parse_decimal_ns(data, offsets, text.offset, len(text), int(ns_per_unit), ratio.numerator,
+                            ratio.denominator, out) >= 0:
+            return False
+        times.append(out)
+        values.append(_float_values(pa.chunked_array([value_chunk])))
+        return True
+
+    try:
+        # A plain file under 1.5 GB is parsed at once on every core; larger or compressed ones batch by batch,
+        # so that the column's text (2 GB at 1e8 tags) is never held whole.
+        whole = layout.compression is None and path.stat().st_size < 1_500_000_000
+        if whole:
+            table = pcsv.read_csv(str(path), read_options=read_options, parse_options=parse_options,
+                                  convert_options=convert_options)
+            for value_chunk, text in zip(table.column(f"c{value_col}").chunks, table.column(f"c{time_col}").chunks):
+                if not take(value_chunk, text):
+                    return None
+            del table
+        else:
+            source = pa.OSFile(str(path)) if layout.compression is None else open_binary(path, layout.compression)
+            with source as fh, pcsv.open_csv(fh, read_options=read_options, parse_options=parse_options,
+                                             convert_options=convert_options) as reader:
+                for batch in reader:
+                    if not take(batch.column(f"c{value_col}"), batch.column(f"c{time_col}")):
+                        return None
+    except (pa.ArrowInvalid, ValueError):
+        return None
+    if not values:
+        return None
+    joined = np.concatenate(values) if len(values) > 1 else values[0]
+    del values
+    stamps = np.concatenate(times) if len(times) > 1 else times[0]
+    pa.default_memory_pool().release_unused()
+    return joined, stamps
+
+
+def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | None,
+                 time_ns_per_unit: int | Fraction | None = None):
+    """``(values (N,) float64, time (N,) or None, fast: bool)``; the time is a pyarrow string array, or
+    integer ns (int64) when ``time_ns_per_unit`` (whole ns per unit of a numeric time column) is given and
+    pyarrow takes the layout (:func:`_stream_numeric_times`).
 
     ``value_col`` and ``time_col`` are field indices; a time column at ``layout.pair`` is the date field
     and the clock-time field after it, joined by a space. Raises :class:`InputDataError` naming the line
     for a ragged line or text where a number belongs.
     """
+    if (time_col is not None and time_ns_per_unit is not None and layout.pair is None and layout.delimiter != " "
+            and Fraction(time_ns_per_unit).denominator == 1):
+        streamed = _stream_numeric_times(path, layout, value_col, time_col, int(time_ns_per_unit))
+        if streamed is not None:
+            return streamed[0], streamed[1], True
     text_cols = sorted(_text_columns(layout, time_col))
     columns = [value_col] + text_cols
     table = _fast_table(path, layout, columns, time_col)

@@ -29,6 +29,7 @@ from __future__ import annotations
 import re
 import warnings
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -132,47 +133,89 @@ class _Grid:
     jitter_max_s: float
 
 
-def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
-    """Place integer-ns time tags (N,) on a regular grid; None when ``rate_hz`` overrides the time column.
-
-    Each step is a whole number of intervals (within ``_SLOT_TOLERANCE``): the slots are the running sum
-    of those numbers, so timing jitter never accumulates along the record; the interval is then the
-    least-squares slope of offset against slot, snapped to a round value when that changes no slot.
-    """
+def _median_step(t_ns: np.ndarray, path: Path, layout: Layout) -> float:
+    """The lower median of the steps of ``t_ns`` (N,); a step that does not advance is an error naming its line."""
     steps = np.diff(t_ns)
     if (steps <= 0).any():
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise InputDataError(
             f"time is not increasing ({t_ns[k - 1] / NS_PER_S:.9g} s then {t_ns[k] / NS_PER_S:.9g} s on the file's "
             "scale)", str(path), _line_of(path, layout, k))
-    first_guess = float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])  # lower median
+    return float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])
+
+
+def _overridden(first_guess: float, rate_hz: float | None, path: Path) -> float | None:
+    """The interval (ns) to use: the median step, or ``--rate``'s; None when ``--rate`` overrides the column."""
+    if rate_hz is None:
+        return first_guess
+    given = 1e9 / rate_hz
+    if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
+        warnings.warn(
+            f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
+            f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=4)
+        return None
+    return given
+
+
+def _bad_step(t_ns: np.ndarray, k: int, guess: float, path: Path, layout: Layout) -> InputDataError:
+    step = t_ns[k] - t_ns[k - 1]
+    return InputDataError(
+        f"time step {step / 1e9:.9g} s is not a whole number of {guess / 1e9:.9g} s sample intervals "
+        f"(the median step; tolerance {_SLOT_TOLERANCE} of an interval)", str(path), _line_of(path, layout, k))
+
+
+def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
+    """Place integer-ns time tags (N,) on a regular grid; None when ``rate_hz`` overrides the time column.
+
+    Each step is a whole number of intervals (within ``_SLOT_TOLERANCE``): the slots are the running sum
+    of those numbers, so timing jitter never accumulates along the record; the interval is then the
+    least-squares slope of offset against slot, snapped to a round value when that changes no slot. The
+    passes over the tags are numba loops (:mod:`chronofuse.io.kernels_time`); :func:`_time_grid_numpy` is
+    their twin.
+    """
+    from chronofuse.io.kernels_time import centred_slope, grid_pass, residual_pass
+
+    guess = _overridden(_median_step(t_ns, path, layout), rate_hz, path)
+    if guess is None:
+        return None
+    slots = np.empty(t_ns.size, dtype=np.int64)
+    bad, sums = grid_pass(t_ns, guess, _SLOT_TOLERANCE, slots)
+    if bad >= 0:
+        raise _bad_step(t_ns, bad, guess, path, layout)
     if rate_hz is not None:
-        given = 1e9 / rate_hz
-        if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
-            warnings.warn(
-                f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
-                f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=3)
-            return None
-        first_guess = given
-    ratio = steps / first_guess
+        interval = guess
+    else:
+        interval = centred_slope(t_ns, slots, sums[0] / t_ns.size, sums[1] / t_ns.size)
+        interval = _snapped(interval, int(slots[-1]))
+    start, rms, peak = residual_pass(t_ns, slots, interval)
+    return _Grid(slots, interval, start, rms / 1e9, peak / 1e9)
+
+
+def _snapped(interval: float, last_slot: int) -> float:
+    for candidate in _snap(interval):
+        if abs(candidate - interval) * last_slot < 0.01 * interval:
+            return candidate
+    return interval
+
+
+def _time_grid_numpy(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
+    """The readable twin of :func:`_time_grid` (whole-array numpy; several arrays of N on the way)."""
+    guess = _overridden(_median_step(t_ns, path, layout), rate_hz, path)
+    if guess is None:
+        return None
+    steps = np.diff(t_ns)
+    ratio = steps / guess
     counts = np.rint(ratio).astype(np.int64)
     bad = np.flatnonzero((np.abs(ratio - counts) > _SLOT_TOLERANCE) | (counts < 1))
     if bad.size:
-        k = int(bad[0])
-        raise InputDataError(
-            f"time step {steps[k] / 1e9:.9g} s is not a whole number of {first_guess / 1e9:.9g} s sample intervals "
-            f"(the median step; tolerance {_SLOT_TOLERANCE} of an interval)", str(path), _line_of(path, layout, k + 1))
+        raise _bad_step(t_ns, int(bad[0]) + 1, guess, path, layout)
     slots = np.concatenate(([0], np.cumsum(counts)))
     offsets = (t_ns - t_ns[0]).astype(np.float64)
     if rate_hz is not None:
-        interval = first_guess
+        interval = guess
     else:  # least-squares line offset = start + interval * slot
         sc = slots - slots.mean()
-        interval = float(np.dot(sc, offsets - offsets.mean()) / np.dot(sc, sc))
-        for candidate in _snap(interval):
-            if abs(candidate - interval) * slots[-1] < 0.01 * interval:
-                interval = candidate
-                break
+        interval = _snapped(float(np.dot(sc, offsets - offsets.mean()) / np.dot(sc, sc)), int(slots[-1]))
     resid = offsets - slots * interval
     start = float(np.mean(resid))  # the grid's phase against the first time tag
     resid -= start
@@ -268,11 +311,16 @@ def read_record(
                              str(path))
     layout = sniff(path)
     facts = header_facts(list(layout.comments) + list(layout.preamble))
-    first_row = next(iter(data_lines(path, layout)))[1]
+    first_row = list(layout.rows[0])
     choice = choose_columns(layout, path, column, kind, facts, first_row, is_date_time)
     notes = _notes(layout, choice, facts)
+    stamped = choice.time_field is not None and (layout.pair == choice.time_field
+                                                 or is_date_time(first_row[choice.time_field]))
+    per_unit = None
+    if choice.time_field is not None and not stamped:
+        per_unit = _numeric_time_unit(path, layout, choice)
     try:
-        values, time_text, _ = read_columns(path, layout, choice.value_field, choice.time_field)
+        values, time_data, _ = read_columns(path, layout, choice.value_field, choice.time_field, per_unit)
     except (OSError, EOFError) as exc:
         raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
     if values.size == 0:
@@ -286,18 +334,29 @@ def read_record(
     t_ns, grid = None, None
     jitter = (0.0, 0.0)
     sample_of_slot = None  # sample index at each slot (-1: a slot the time column skipped)
-    if time_text is not None:
-        t_raw = _time_tags(time_text, choice, path, layout)
+    if time_data is not None:
+        if isinstance(time_data, np.ndarray):
+            t_raw = time_data
+        elif stamped:
+            t_raw = date_time_to_ns(time_data, str(path), lambda k: _line_of(path, layout, k))
+        else:
+            t_raw = _time_tags(time_data, choice, per_unit, path, layout)
+        del time_data
         if t_raw.size >= 2:
             grid = _time_grid(t_raw, rate_hz, path, layout)
         if grid is not None:
+            from chronofuse.io.kernels_time import grid_epochs
+
             rate_hz = 1e9 / grid.interval_ns
-            placed = np.full(int(grid.slots[-1]) + 1, np.nan)
-            placed[grid.slots] = values
-            sample_of_slot = np.full(placed.size, -1, dtype=np.int64)
-            sample_of_slot[grid.slots] = np.arange(values.size)
-            values = placed
-            t_ns = t_raw[0] + np.rint(grid.start_ns + np.arange(values.size) * grid.interval_ns).astype(np.int64)
+            size = int(grid.slots[-1]) + 1
+            if size == values.size:  # no slot skipped: the values are already in place
+                sample_of_slot = None
+            else:
+                placed = np.full(size, np.nan)
+                placed[grid.slots] = values
+                values = placed
+                sample_of_slot = grid.slots
+            t_ns = grid_epochs(np.int64(t_raw[0]), grid.start_ns, grid.interval_ns, values.size)
             jitter = (grid.jitter_rms_s, grid.jitter_max_s)
         elif rate_hz is not None and t_raw.size >= 2:
             t_ns = t_raw[0] + np.rint(np.arange(values.size) * (1e9 / rate_hz)).astype(np.int64)
@@ -324,8 +383,8 @@ def read_record(
         raise InputDataError("every value is missing (NaN)", str(path), layout.first_data_line)
     if n_gaps > max_gap_fraction * values.size:
         start, length = _longest_nan_run(values)
-        if sample_of_slot is not None:
-            k = sample_of_slot[start] if sample_of_slot[start] >= 0 else sample_of_slot[max(start - 1, 0)]
+        if sample_of_slot is not None:  # the slots of the samples: the last sample at or before the run
+            k = int(np.searchsorted(sample_of_slot, start, side="right")) - 1
         else:
             k = start
         raise InputDataError(
@@ -378,20 +437,24 @@ def _to_si(values: np.ndarray, choice: ColumnChoice, nominal_hz: float | None, p
     return values * unit.scale if unit.scale != 1.0 else values
 
 
-def _time_tags(text, choice: ColumnChoice, path: Path, layout: Layout) -> np.ndarray:
-    """Integer ns of the time column: date-time stamps, or numbers in the name's unit or the one their
-    magnitude says (:func:`chronofuse.io.timestamps.infer_time_unit`)."""
-    first = text[0].as_py().strip() if len(text) else ""
-    if layout.pair == choice.time_field or is_date_time(first):
-        return date_time_to_ns(text, str(path), lambda k: _line_of(path, layout, k))
+def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice) -> int | Fraction:
+    """ns per unit of a numeric time column: from its name, else from the magnitude of its first 10 001
+    values (:func:`chronofuse.io.timestamps.infer_time_unit`, which warns), else seconds."""
     per_unit = time_ns_per_unit(choice.time_name) if choice.time_name else None
-    if per_unit is None:
-        try:
-            per_unit = infer_time_unit(text, choice.time_name, str(path))
-        except (pa.ArrowInvalid, ValueError):
-            per_unit = None  # text that is no number: the exact conversion below names it
+    if per_unit is not None:
+        return per_unit
+    head = [row[choice.time_field] for row in layout.rows if len(row) > choice.time_field]  # the sniffed lines
     try:
-        t_raw, bad = decimal_text_to_ns(text, per_unit or NS_PER_S)
+        inferred = infer_time_unit(pa.array(head, type=pa.string()), choice.time_name, str(path))
+    except (pa.ArrowInvalid, ValueError):
+        inferred = None  # text that is no number: the exact conversion names it
+    return inferred if inferred is not None else NS_PER_S
+
+
+def _time_tags(text, choice: ColumnChoice, per_unit, path: Path, layout: Layout) -> np.ndarray:
+    """Integer ns of a numeric time column read as text (the layouts the streaming reader does not take)."""
+    try:
+        t_raw, bad = decimal_text_to_ns(text, per_unit)
     except OverflowError as exc:
         raise InputDataError(f"time column {choice.time_name or '1'!r}: {exc}; name its unit (e.g. t_ms, t_ns)",
                              str(path), layout.first_data_line) from None

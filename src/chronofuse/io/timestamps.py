@@ -93,8 +93,8 @@ def date_time_to_ns(text: pa.Array, source: str, line_of) -> np.ndarray:
 
 def infer_time_unit(text: pa.Array, name: str, source: str) -> int | Fraction | None:
     """For a time column of numbers ``text`` whose name gives no unit: the unit their magnitude says they
-    are in (ns per unit), with a warning; None when seconds is right. Only the first 10 001 values are
-    looked at (as float64: enough for a magnitude)."""
+    are in (ns per unit), with a warning; None when seconds is right. Only the first values are looked at
+    (the reader passes the up to 200 it sniffed; as float64: enough for a magnitude)."""
     head = pc.cast(pc.utf8_trim_whitespace(pc.cast(text.slice(0, 10_001), pa.string())), pa.float64())
     t = head.to_numpy(zero_copy_only=False)
     if t.size == 0:
