@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -22,9 +23,15 @@ from pathlib import Path
 from chronofuse.io.columns import Layout
 from chronofuse.io.units import INDEX_NAMES, ColumnUnit, HeaderFacts, column_unit
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
-from chronofuse.validation import InputDataError
+import numpy as np
 
-__all__ = ["ColumnChoice", "choose_columns", "base_name", "time_ns_per_unit", "TIME_NAMES"]
+from chronofuse.validation import InputDataError, check_scalar
+
+__all__ = ["ColumnChoice", "choose_columns", "base_name", "time_ns_per_unit", "TIME_NAMES", "to_si", "check_frequency",
+           "check_phase_steps", "record_notes", "PLAUSIBLE_Y"]
+
+#: Fractional frequency beyond this magnitude is implausible for a clock (warned, or refused when narrow).
+PLAUSIBLE_Y = 1e-3
 
 TIME_NAMES = {"t", "time", "mjd", "epoch", "unix", "timestamp", "date", "datetime", "date time", "utc", "gps time",
               "time stamp", "tag", "time tag"}
@@ -130,3 +137,74 @@ def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | N
     time_name = names[time_idx] if time_idx is not None else ""
     return ColumnChoice(None if time_idx is None else _field(layout, time_idx), _field(layout, value_idx), time_name,
                         value_name, resolved, unit, unit_from)
+
+
+def check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) -> np.ndarray:
+    """Fractional frequency from the values (absolute frequency with ``nominal_hz``), see module docstring."""
+    if nominal_hz is not None:
+        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
+        return values / nominal_hz - 1.0
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return values
+    largest = float(np.max(np.abs(finite)))
+    if largest <= PLAUSIBLE_Y:
+        return values
+    mean = float(np.mean(finite))
+    spread = float(np.std(finite))
+    one_sign = bool(np.all(finite > 0) or np.all(finite < 0))
+    if one_sign and abs(mean) > PLAUSIBLE_Y and spread < PLAUSIBLE_Y * abs(mean):
+        raise InputDataError(
+            f"frequency values of mean {mean:.9g} with a relative spread of {spread / abs(mean):.1e} look like an "
+            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency (--nominal-hz)",
+            str(path))
+    warnings.warn(
+        f"{path}: fractional frequency up to {largest:.3g} in magnitude is implausible for a clock (|y| > "
+        f"{PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give --nominal-hz)", stacklevel=3)
+    return values
+
+
+def record_notes(layout: Layout, choice: ColumnChoice, facts) -> list[str]:
+    """What the reader takes from the file itself, said once in the record."""
+    notes = []
+    block = [n for n, _ in layout.preamble if n != layout.header_line]
+    if block:
+        notes.append(f"{len(block)} header-block line{'s' * (len(block) > 1)} before the data skipped "
+                     f"(lines {block[0]}-{block[-1]})")
+    if choice.unit is not None and choice.unit_from != "name":
+        notes.append(f"values in {choice.unit.text}, from {choice.unit_from}")
+    return notes
+
+
+def to_si(values: np.ndarray, choice: ColumnChoice, nominal_hz: float | None, path: Path, layout: Layout) -> np.ndarray:
+    """Phase in seconds or fractional frequency from values written in ``choice.unit``."""
+    unit = choice.unit
+    if unit is None:
+        return values
+    if unit.quantity == "hertz":
+        if nominal_hz is None:
+            raise InputDataError(f"column {choice.value_name!r} is in {unit.text}: give the nominal frequency "
+                                 "(--nominal-hz) to make fractional frequency of it", str(path),
+                                 layout.header_line or layout.first_data_line)
+        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
+        hz = values * unit.scale
+        finite = hz[np.isfinite(hz)]
+        absolute = finite.size and abs(float(np.median(finite)) / nominal_hz - 1.0) < 1e-3
+        return hz / nominal_hz - 1.0 if absolute else hz / nominal_hz
+    return values * unit.scale if unit.scale != 1.0 else values
+
+
+def check_phase_steps(values: np.ndarray, rate_hz: float, path: Path, choice: ColumnChoice) -> None:
+    """Warn when phase steps imply a frequency offset no clock has (|dx/dt| > 1e-3): values in ns or ps
+    read as seconds."""
+    head = values[: min(values.size, 100_001)]
+    steps = np.abs(np.diff(head))
+    steps = steps[np.isfinite(steps)]
+    if steps.size == 0:
+        return
+    implied = float(np.median(steps)) * rate_hz
+    if implied > PLAUSIBLE_Y:
+        unit = f" (read in {choice.unit.text})" if choice.unit is not None else ""
+        warnings.warn(f"{path}: phase steps of {float(np.median(steps)):.3g} s per sample{unit} imply a fractional "
+                      f"frequency of {implied:.3g}, implausible for a clock; if the values are in ns or ps, say so in "
+                      "the column name (e.g. phase_ns) or a 'unit:' header line", stacklevel=3)

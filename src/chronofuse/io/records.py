@@ -37,7 +37,15 @@ import pyarrow as pa
 
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
 from chronofuse.io.formats import capture_format
-from chronofuse.io.record_columns import ColumnChoice, choose_columns, time_ns_per_unit
+from chronofuse.io.record_columns import (
+    ColumnChoice,
+    check_frequency,
+    check_phase_steps,
+    choose_columns,
+    record_notes,
+    time_ns_per_unit,
+    to_si,
+)
 from chronofuse.io.timestamps import date_time_to_ns, infer_time_unit, is_date_time
 from chronofuse.io.units import header_facts
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
@@ -51,8 +59,6 @@ KINDS = ("phase", "freq")
 _SLOT_TOLERANCE = 0.25
 # --rate and the time column agree when their intervals differ by less than this (relative).
 _RATE_AGREEMENT = 1e-3
-# Fractional frequency beyond this magnitude is implausible for a clock (warned, or refused when narrow).
-_PLAUSIBLE_Y = 1e-3
 
 
 @dataclass(frozen=True)
@@ -222,31 +228,6 @@ def _time_grid_numpy(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout
     return _Grid(slots, interval, start, float(np.sqrt(np.mean(resid**2))) / 1e9, float(np.abs(resid).max()) / 1e9)
 
 
-def _check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) -> np.ndarray:
-    """Fractional frequency from the values (absolute frequency with ``nominal_hz``), see module docstring."""
-    if nominal_hz is not None:
-        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
-        return values / nominal_hz - 1.0
-    finite = values[np.isfinite(values)]
-    if finite.size == 0:
-        return values
-    largest = float(np.max(np.abs(finite)))
-    if largest <= _PLAUSIBLE_Y:
-        return values
-    mean = float(np.mean(finite))
-    spread = float(np.std(finite))
-    one_sign = bool(np.all(finite > 0) or np.all(finite < 0))
-    if one_sign and abs(mean) > _PLAUSIBLE_Y and spread < _PLAUSIBLE_Y * abs(mean):
-        raise InputDataError(
-            f"frequency values of mean {mean:.9g} with a relative spread of {spread / abs(mean):.1e} look like an "
-            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency (--nominal-hz)",
-            str(path))
-    warnings.warn(
-        f"{path}: fractional frequency up to {largest:.3g} in magnitude is implausible for a clock (|y| > "
-        f"{_PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give --nominal-hz)", stacklevel=3)
-    return values
-
-
 def read_record(
     path: str | Path,
     *,
@@ -313,7 +294,7 @@ def read_record(
     facts = header_facts(list(layout.comments) + list(layout.preamble))
     first_row = list(layout.rows[0])
     choice = choose_columns(layout, path, column, kind, facts, first_row, is_date_time)
-    notes = _notes(layout, choice, facts)
+    notes = record_notes(layout, choice, facts)
     stamped = choice.time_field is not None and (layout.pair == choice.time_field
                                                  or is_date_time(first_row[choice.time_field]))
     per_unit = None
@@ -329,7 +310,7 @@ def read_record(
         raise InputDataError("infinite value", str(path), _line_of(path, layout, int(np.flatnonzero(np.isinf(values))[0])))
     if zero_is_gap:
         values = np.where(values == 0.0, np.nan, values)
-    values = _to_si(values, choice, nominal_hz, path, layout)
+    values = to_si(values, choice, nominal_hz, path, layout)
 
     t_ns, grid = None, None
     jitter = (0.0, 0.0)
@@ -374,9 +355,9 @@ def read_record(
         raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
 
     if choice.kind == "freq" and (choice.unit is None or choice.unit.quantity != "hertz"):
-        values = _check_frequency(values, path, nominal_hz)
+        values = check_frequency(values, path, nominal_hz)
     elif choice.kind == "phase":
-        _check_phase_steps(values, rate_hz, path, choice)
+        check_phase_steps(values, rate_hz, path, choice)
 
     n_gaps = int(np.isnan(values).sum())
     if n_gaps == values.size:
@@ -407,36 +388,6 @@ def read_record(
     )
 
 
-def _notes(layout: Layout, choice: ColumnChoice, facts) -> list[str]:
-    """What the reader takes from the file itself, said once in the record."""
-    notes = []
-    block = [n for n, _ in layout.preamble if n != layout.header_line]
-    if block:
-        notes.append(f"{len(block)} header-block line{'s' * (len(block) > 1)} before the data skipped "
-                     f"(lines {block[0]}-{block[-1]})")
-    if choice.unit is not None and choice.unit_from != "name":
-        notes.append(f"values in {choice.unit.text}, from {choice.unit_from}")
-    return notes
-
-
-def _to_si(values: np.ndarray, choice: ColumnChoice, nominal_hz: float | None, path: Path, layout: Layout) -> np.ndarray:
-    """Phase in seconds or fractional frequency from values written in ``choice.unit``."""
-    unit = choice.unit
-    if unit is None:
-        return values
-    if unit.quantity == "hertz":
-        if nominal_hz is None:
-            raise InputDataError(f"column {choice.value_name!r} is in {unit.text}: give the nominal frequency "
-                                 "(--nominal-hz) to make fractional frequency of it", str(path),
-                                 layout.header_line or layout.first_data_line)
-        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
-        hz = values * unit.scale
-        finite = hz[np.isfinite(hz)]
-        absolute = finite.size and abs(float(np.median(finite)) / nominal_hz - 1.0) < 1e-3
-        return hz / nominal_hz - 1.0 if absolute else hz / nominal_hz
-    return values * unit.scale if unit.scale != 1.0 else values
-
-
 def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice) -> int | Fraction:
     """ns per unit of a numeric time column: from its name, else from the magnitude of its first 10 001
     values (:func:`chronofuse.io.timestamps.infer_time_unit`, which warns), else seconds."""
@@ -461,22 +412,6 @@ def _time_tags(text, choice: ColumnChoice, per_unit, path: Path, layout: Layout)
     if bad >= 0:
         raise InputDataError(f"cannot read {text[bad].as_py()!r} as a time", str(path), _line_of(path, layout, bad))
     return t_raw
-
-
-def _check_phase_steps(values: np.ndarray, rate_hz: float, path: Path, choice: ColumnChoice) -> None:
-    """Warn when phase steps imply a frequency offset no clock has (|dx/dt| > 1e-3): values in ns or ps
-    read as seconds."""
-    head = values[: min(values.size, 100_001)]
-    steps = np.abs(np.diff(head))
-    steps = steps[np.isfinite(steps)]
-    if steps.size == 0:
-        return
-    implied = float(np.median(steps)) * rate_hz
-    if implied > _PLAUSIBLE_Y:
-        unit = f" (read in {choice.unit.text})" if choice.unit is not None else ""
-        warnings.warn(f"{path}: phase steps of {float(np.median(steps)):.3g} s per sample{unit} imply a fractional "
-                      f"frequency of {implied:.3g}, implausible for a clock; if the values are in ns or ps, say so in "
-                      "the column name (e.g. phase_ns) or a 'unit:' header line", stacklevel=3)
 
 
 def column_names(path: str | Path) -> list[str] | None:
