@@ -204,3 +204,27 @@ def test_every_failing_tau_is_listed_in_the_summary(data_dir):
     v = MASKS["prtc-b"].check(x, 1.0)
     listed = v.summary().split("MTIE fail at tau ")[1].split(" s;")[0].split(", ")
     assert [float(t) for t in listed] == v.mtie.failing_tau_s.tolist() and len(listed) > 4
+
+
+@pytest.mark.parametrize("clock", [k for k, c in MASKS.items() if c.filtered and (c.mtie or c.tdev)])
+def test_the_real_records_pass_or_fail_each_filtered_mask_as_a_second_filter_does(data_dir, clock):
+    """The filtered masks (dTE_L after the 0.1 Hz low-pass) against the Cs 5071A and GPS records, checked by
+    a second route: the continuous filter discretized by the bilinear transform (scipy.signal.bilinear)
+    instead of the reader's impulse-invariant one, MTIE and TDEV of that, and the test's own reading of the
+    limit. Tau by tau the verdicts agree wherever the margin exceeds 5 %."""
+    from scipy.signal import bilinear, lfilter
+
+    b, a = bilinear([1.0], [1.0 / (2 * np.pi * 0.1), 1.0], fs=1.0)
+    masks = MASKS[clock]
+    for name, (x, _, _) in _records(data_dir).items():
+        verdict = masks.check(x, 1.0)
+        second = lfilter(b, a, x - x[0]) + x[0]
+        wander = second - np.mean(x)
+        for metric, stat, res in (("mtie", mtie, verdict.mtie), ("tdev", tdev, verdict.tdev)):
+            if res is None:
+                continue
+            theirs = stat(wander, 1.0, res.tau_s)
+            limit = masks.limit_s(metric, res.tau_s, interval_s=1.0)
+            clear = res.evaluated & (np.abs(limit - theirs.dev) > 0.05 * limit)
+            np.testing.assert_array_equal(res.passed_each[clear], (theirs.dev <= limit)[clear],
+                                          err_msg=f"{name} {metric} {clock}")
