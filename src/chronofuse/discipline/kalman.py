@@ -27,8 +27,10 @@ Learning (:meth:`KalmanServo.fit`). A Kalman servo given no ``h`` or no ``measur
 them from a recorded stretch: the free oscillator's offsets (a locked stretch turned open loop by
 :func:`~chronofuse.discipline.servo.open_loop_offset_s`) are second-differenced, which removes phase and
 frequency, and the white-FM ``h0``, random-walk-FM ``h-2`` and white measurement noise are fitted to the
-differences' spectrum by Whittle's likelihood (:func:`chronofuse.integrity.noise_model.fit_noise_whittle`,
-the model the clock-bias detector fits: ``r(0..2)`` of the second difference); epochs of an outlying
+differences' spectrum by Whittle's likelihood with a tapered periodogram
+(:func:`chronofuse.integrity.noise_model.fit_noise_whittle` with ``taper=True``: without the taper the
+measurement noise leaks into the lowest frequencies and a weak ``h-2`` comes out many times too large;
+the model is the clock-bias detector's ``r(0..2)`` of the second difference); epochs of an outlying
 difference are left out first. Given values are held fixed. The fitted ``h_`` has no flicker term (the
 three-parameter model has none; flicker is seen as a mix of the two).
 
@@ -246,7 +248,7 @@ class KalmanServo(Servo):
             raise ValueError(f"offset_s gives {int(np.isfinite(df).sum())} valid second differences; fitting the "
                              "noise needs at least 30")
         if contiguous_runs(df, 8):
-            h0, hm2, sigma_rho_m = fit_noise_whittle(df, interval_s, **known)
+            h0, hm2, sigma_rho_m = fit_noise_whittle(df, interval_s, taper=True, **known)
         else:
             h0, hm2, sigma_rho_m = fit_noise(empirical_autocorrelation(df), interval_s, **known)
         self.h_ = self.h if self.h is not None else PowerLaw(h0=h0, hm2=hm2)
