@@ -31,52 +31,18 @@ from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.gnss.constellation import constellation, satellite_positions_ecef
 from chronofuse.gnss.ephemeris import GpsNavigation, satellite_position_ecef, select_ephemeris
 from chronofuse.models.clock import two_state_clock_phase_s
+from chronofuse.models.environment import SignalEnvironment, signal_environments
 from chronofuse.models.noise import gauss_markov
 from chronofuse.seeding import child_rng, root_seed
 from chronofuse.timescale import seconds_to_ns
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputDataError
 
 __all__ = ["SignalEnvironment", "ENVIRONMENTS", "RangeObservations", "Satellites", "model_satellites",
            "broadcast_satellites", "simulate_pseudoranges"]
 
 
-@dataclass(frozen=True)
-class SignalEnvironment:
-    """Where the receiver is: obstruction, multipath and outages, and the receiver's own errors."""
-
-    name: str
-    elevation_mask_deg: float = 10.0
-    building_height_m: float = 0.0
-    street_width_m: float = 20.0
-    multipath_sigma_m: float = 0.5
-    multipath_tau_s: float = 20.0
-    outages_s: tuple[tuple[float, float], ...] = ()
-    sigma_zenith_m: float = 0.3
-    iono_zenith_m: float = 1.0
-    tropo_zenith_m: float = 0.1
-    isb_sigma_m: float = 10.0
-    clock_h0: float = 2e-19
-    clock_hm2: float = 6e-22
-
-    def __post_init__(self):
-        for name in ("elevation_mask_deg", "building_height_m", "multipath_sigma_m", "sigma_zenith_m",
-                     "iono_zenith_m", "tropo_zenith_m", "isb_sigma_m", "clock_h0", "clock_hm2"):
-            check_scalar(getattr(self, name), name, min_val=0.0)
-        for name in ("street_width_m", "multipath_tau_s"):
-            check_scalar(getattr(self, name), name, min_val=0.0, include_min=False)
-        for start, end in self.outages_s:
-            if not end > start:
-                raise ValueError(f"outage ({start}, {end}) must end after it starts")
-
-
-ENVIRONMENTS: dict[str, SignalEnvironment] = {
-    "open-sky": SignalEnvironment("open-sky"),
-    # Street canyon: 15 m buildings on a 30 m street (mask 45 deg across the street), multipath 3 m.
-    "urban-canyon": SignalEnvironment("urban-canyon", building_height_m=15.0, street_width_m=30.0,
-                                      multipath_sigma_m=3.0, multipath_tau_s=10.0),
-    # Open road with tunnels: 60 s without any satellite every 10 minutes, from 300 s on.
-    "tunnel": SignalEnvironment("tunnel", outages_s=tuple((300.0 + 600.0 * j, 360.0 + 600.0 * j) for j in range(24))),
-}
+#: The pseudorange views of the one environment registry (:mod:`chronofuse.models.environment`), by name.
+ENVIRONMENTS: dict[str, SignalEnvironment] = signal_environments()
 
 
 @dataclass(frozen=True)
