@@ -82,6 +82,7 @@ def _run(installed: Path, *args: str) -> subprocess.CompletedProcess:
 def _clock_bias_csv(path: Path, step_at: int | None) -> Path:
     rng = np.random.default_rng(4)
     n = 1200
+    # a receiver clock with a frequency offset, white FM and white phase noise: stationary first differences
     bias = 2e-4 + 1e-8 * np.arange(n) + np.cumsum(2e-10 * rng.standard_normal(n)) + 3e-9 * rng.standard_normal(n)
     if step_at is not None:
         bias[step_at:] += 2e-7
@@ -122,16 +123,18 @@ def test_chronofuse_gnssdo_runs_the_plugin_servo_named_by_controller(installed):
 
 def test_chronofuse_detect_runs_the_plugin_detector_named_by_detector(installed, tmp_path):
     stepped = _clock_bias_csv(tmp_path / "stepped.csv", step_at=800)
-    done = _run(installed, "detect", str(stepped), "--detector", "example-jump", "--train", "300", "--json")
+    done = _run(installed, "detect", str(stepped), "--detector", "example-jump", "--train", "300", "--pfa", "1e-5",
+                "--json")
     assert done.returncode == 1, done.stderr
     doc = json.loads(done.stdout)
     assert [a["t_ns"] for a in doc["alarms"]] == [800_000_000_000]
-    lines = _run(installed, "detect", str(stepped), "--detector", "example-jump", "--train", "300", "--json-lines")
+    lines = _run(installed, "detect", str(stepped), "--detector", "example-jump", "--train", "300", "--pfa", "1e-5",
+                 "--json-lines")
     assert lines.returncode == 1, lines.stderr
     alarms = [json.loads(line)["t_ns"] for line in lines.stdout.splitlines() if json.loads(line)["state"] == "alarm"]
     assert alarms[0] == 800_000_000_000
     clean = _run(installed, "detect", str(_clock_bias_csv(tmp_path / "clean.csv", None)), "--detector",
-                 "example-jump", "--train", "300", "--json")
+                 "example-jump", "--train", "300", "--pfa", "1e-5", "--json")
     assert clean.returncode == 0, clean.stderr
     refused = _run(installed, "detect", str(stepped), "--detector", "example-jump", "--train", "300", "--window", "5")
     assert refused.returncode == 2 and "has no window" in refused.stderr

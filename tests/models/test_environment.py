@@ -94,7 +94,8 @@ def test_a_signal_view_given_with_another_clock_takes_the_receiver_models_clock(
 def test_a_tunnel_takes_the_fix_away_in_the_timing_view_and_jamming_in_the_pseudorange_view():
     tunnel = receiver_environment("tunnel")
     truth = simulate_receivers(tunnel, 1000, 2, seed=3)
-    inside = (truth.t_s >= 300.0) & (truth.t_s < 360.0)
+    inside = ((truth.t_s >= 300.0) & (truth.t_s < 360.0)) | ((truth.t_s >= 900.0) & (truth.t_s < 960.0))
+    assert np.array_equal(tunnel.jammed(truth.t_s), inside)
     assert not truth.epochs.has_fix[..., inside].any()
     assert truth.epochs.has_fix[..., ~inside].mean() > 0.99
     jam = gnss_simulate.ENVIRONMENTS["jamming"]
