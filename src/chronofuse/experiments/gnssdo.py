@@ -102,6 +102,9 @@ class GnssdoSetup:
             check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
             check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
+            if "natural_hz" not in SERVOS.entry(self.controller).config.model_fields:
+                raise ValueError(f"--loop-bandwidth == {self.loop_bandwidth_hz}: --controller {self.controller!r} has "
+                                 "no loop-bandwidth setting (pi has)")
         check_choice(self.fusion, "--fusion", ("fusion", "selection"))
         if self.integrity_pfa is not None:
             check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
