@@ -157,7 +157,7 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
 
     Every servo gets the DAC and the 1 s interval; the registry's context also offers the oscillator's
     h-coefficients and the receivers' short-term noise, which the Kalman types design with. ``pi``: the
-    seed's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1); a servo without a
+    GNSSDO paper's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1); a servo without a
     loop-bandwidth setting refuses ``loop_bandwidth_hz`` by name.
     """
     _check_controller(name)
