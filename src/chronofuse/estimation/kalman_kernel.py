@@ -37,7 +37,6 @@ from __future__ import annotations
 import math
 
 import numba
-import numpy as np
 
 __all__ = ["predict", "update", "innovation_variance", "symmetrize", "work_size", "predict_flat", "update_flat",
            "innovation_variance_flat", "symmetrize_flat"]
