@@ -37,7 +37,7 @@ from chronofuse.analysis.stability.noise_id import identify_noise_methods
 from chronofuse.analysis.stability.registry import EDF_FAMILIES, GAP_POLICIES, STATISTICS, StatisticSpec
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.analysis.stability.taus import taus_to_factors
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import check_array, check_scalar
 
 __all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM"]
 
@@ -184,8 +184,12 @@ def compute(
     Deviation
         All fields filled; ``tau_s``, ``dev``, ``n``, ``alpha``, ``edf``, ``lo``, ``hi`` of shape (k,).
     """
-    check_choice(statistic, "statistic", STATISTICS)
-    spec = STATISTICS[statistic]
+    if statistic in STATISTICS:
+        spec = STATISTICS[statistic]
+    else:  # a plugin's statistic, or an unknown name (refused, listing every name)
+        from chronofuse.analysis.stability.statistic_registry import statistic_spec
+
+        spec = statistic_spec(statistic)
     if spec.combine is not None:  # a statistic made of others (TheoH): each part runs this pipeline
         check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
         return spec.combine(_phase(x_s)[0], rate_hz, tau_s, ci=ci, bias_correction=bias_correction,
