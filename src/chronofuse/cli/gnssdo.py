@@ -18,8 +18,9 @@ def gnssdo(
     scenario: str = typer.Option("open-sky", "--environment",
                                  help="Receiver environment: open-sky, urban-canyon, outage, outliers or spoofing."),
     controller: str = typer.Option("gated-kalman", "--controller",
-                                   help="pi, kalman, adaptive-kalman, gated-kalman or huber-kalman (default: "
-                                        "gated-kalman, picked by measurement)."),
+                                   help="Servo: null, pi, kalman, adaptive-kalman, gated-kalman, huber-kalman, or one "
+                                        "a plugin registers (group chronofuse.servos); default gated-kalman, picked "
+                                        "by measurement."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),
     duration: int = typer.Option(86_400, "--duration", help="Run length (s, >= 3600)."),
     trials: int = typer.Option(1, "--trials", help="Monte Carlo trials (vectorized)."),

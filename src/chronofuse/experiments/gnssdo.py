@@ -37,10 +37,9 @@ from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.design import clairvoyant_controller, design_measurement_sigma_s, equivalent_white_sigma_s
-from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, HuberKalmanServo, KalmanServo
 from chronofuse.discipline.loop import close_loop
-from chronofuse.discipline.pi import PiServo
 from chronofuse.discipline.qualification import Qualification
+from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.states import StateConfig, run_states
 from chronofuse.io.pps_reference import read_pps_reference
@@ -49,7 +48,7 @@ from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_rng, child_seed, root_seed
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar, invalid
 
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference"]
@@ -57,8 +56,9 @@ __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "mak
 Progress = Callable[[str], None]
 
 SCENARIOS = ("open-sky", "urban-canyon", "outage", "outliers", "spoofing")
-#: Controller names: the PI servo and four Kalman servos (plain; weighted adaptive, the GNSSDO paper's; with
-#: chi-square innovation gating; with a Huber robust update).
+#: The built-in controllers the reproductions compare: the PI servo and four Kalman servos (plain; weighted
+#: adaptive, the GNSSDO paper's; with chi-square innovation gating; with a Huber robust update). Any name of
+#: the servo registry, :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen.
 CONTROLLERS = ("pi", "kalman", "adaptive-kalman", "gated-kalman", "huber-kalman")
 #: Picked by measurement: the lowest mean ratio to the clairvoyant time-error rms over open sky, urban
 #: canyon and jump outliers in ``chronofuse reproduce gnssdo`` (docs/gnssdo/README.md shows the table).
@@ -92,7 +92,7 @@ class GnssdoSetup:
 
     def __post_init__(self):
         check_choice(self.scenario, "scenario", SCENARIOS)
-        check_choice(self.controller, "controller", CONTROLLERS)
+        _check_controller(self.controller)
         check_scalar(self.receivers, "receivers", min_val=1, integer=True)
         check_scalar(self.duration_s, "duration_s", min_val=2 * SETTLE_S, integer=True)
         check_scalar(self.trials, "trials", min_val=1, integer=True)
@@ -102,6 +102,10 @@ class GnssdoSetup:
             check_scalar(self.dac_bits, "dac_bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
             check_scalar(self.loop_bandwidth_hz, "loop_bandwidth_hz", min_val=0.0, max_val=0.5, include_min=False)
+            if "natural_hz" not in SERVOS.entry(self.controller).config.model_fields:
+                raise InputError(f"{{loop_bandwidth_hz}} == {self.loop_bandwidth_hz}: {{controller}} "
+                                 f"{self.controller!r} has no loop-bandwidth setting (pi has)",
+                                 fields=("loop_bandwidth_hz", "controller"))
         check_choice(self.fusion, "fusion", ("fusion", "selection"))
         if self.integrity_pfa is not None:
             check_scalar(self.integrity_pfa, "integrity_pfa", min_val=0.0, max_val=1.0, include_min=False,
@@ -109,6 +113,11 @@ class GnssdoSetup:
         if self.outage_start_s is not None:
             check_scalar(self.outage_start_s, "outage_start_s", min_val=0.0, max_val=self.duration_s)
             check_scalar(self.outage_s, "outage_s", min_val=0.0, max_val=self.duration_s - self.outage_start_s)
+
+
+def _check_controller(name: str) -> None:
+    if name not in SERVOS:
+        raise invalid("controller", name, f"one of {list(SERVOS.names())}")
 
 
 def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
@@ -134,20 +143,19 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
 
 def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None,
                     loop_bandwidth_hz: float | None = None, measurement_sigma_s: float | None = None) -> Servo:
-    """The controller ``name`` as a designer would set it up from data sheets (not from the truth).
+    """The controller ``name`` (any servo of :data:`~chronofuse.discipline.registry.SERVOS`) as a designer
+    would set it up from data sheets (not from the truth).
 
-    ``pi``: the source paper's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1);
-    Kalman types: the oscillator's h-coefficients and the short-term noise of the receivers.
+    Every servo gets the DAC and the 1 s interval; the registry's context also offers the oscillator's
+    h-coefficients and the receivers' short-term noise, which the Kalman types design with. ``pi``: the
+    GNSSDO paper's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1); a servo without a
+    loop-bandwidth setting refuses ``loop_bandwidth_hz`` by name.
     """
-    check_choice(name, "controller", CONTROLLERS)
-    if name == "pi":
-        if loop_bandwidth_hz is not None:
-            return PiServo.from_bandwidth(loop_bandwidth_hz, 1.0, dac=dac)
-        return PiServo(dac=dac)
-    cls = {"kalman": KalmanServo, "adaptive-kalman": AdaptiveKalmanServo, "gated-kalman": GatedKalmanServo,
-           "huber-kalman": HuberKalmanServo}[name]
+    _check_controller(name)
     sigma = design_measurement_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
-    return cls(osc.h, sigma, dac=dac)
+    settings = {} if loop_bandwidth_hz is None else {"natural_hz": loop_bandwidth_hz}
+    context = {"interval_s": 1.0, "dac": dac, "h": osc.h, "measurement_sigma_s": sigma}
+    return SERVOS.create(name, context=context, **settings)
 
 
 def _free_phase(osc: OscillatorModel, steps: int, trials: int, root: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray]:
@@ -268,7 +276,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
     first four hours by :func:`~chronofuse.discipline.design.equivalent_white_sigma_s` (what a user with a reference would do once).
     """
-    check_choice(controller, "controller", CONTROLLERS)
+    _check_controller(controller)
     e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
     e = e - np.mean(e)
     steps = e.size
