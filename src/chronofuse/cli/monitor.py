@@ -50,6 +50,7 @@ def monitor(
     window: int = typer.Option(20, "--window", help="HOD detector window (differences)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="HOD detector false-alarm probability per epoch."),
     training: int = typer.Option(120, "--training", help="Clock-bias epochs that fit each receiver's noise model."),
+    train: float | None = typer.Option(None, "--train", help="Fit each receiver's noise model on its first SECONDS of clock bias instead (as detect --train)."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON summary document on stdout at the end."),
 ) -> None:
@@ -66,8 +67,10 @@ def monitor(
         chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
+        if train is not None and train <= 0:
+            fail(f"--train {train:g}: must be > 0 seconds")
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
-                                   jump_s=jump_ns * 1e-9)
+                                   jump_s=jump_ns * 1e-9, train_s=train)
         log = EpochLog(db) if db is not None else None
 
     def ack(records: list[dict]) -> None:

@@ -36,7 +36,8 @@ from chronofuse.io.sources_decode import StreamDecoder
 from chronofuse.record import EpochRecord
 from chronofuse.validation import InputDataError
 
-__all__ = ["ReceiverBytes", "ClockProductLines", "TextLines", "open_stream", "read_chunks", "SNIFF_BYTES"]
+__all__ = ["ReceiverBytes", "ClockProductLines", "ClockProductReceivers", "TextLines", "open_stream", "read_chunks",
+           "decoder_for", "SNIFF_BYTES"]
 
 #: Bytes looked at to tell a stream's format (fewer when it ends or two whole lines have come).
 SNIFF_BYTES = 4096
@@ -123,6 +124,66 @@ class ClockProductLines(_Lines):
 
     def close(self) -> list:
         return self.feed(b"", final=True)
+
+
+class ClockProductReceivers:
+    """A RINEX clock product's stations as receivers for the monitor: :class:`ClockProductLines` chunks with
+    every receiver field (a clock product reports only the bias: no fix report, ``fix_mode`` 0 and NaN DOPs,
+    as :func:`chronofuse.io.rinex_epochs.read_rinex_clock_epochs` gives them; the leap count of the header's
+    ``LEAP SECONDS``, else the table). ``decode``/``finish`` give ``[(station, record)]``."""
+
+    def __init__(self, source: str):
+        self.lines = ClockProductLines(source)
+        self._leap: int | None = None
+
+    def _receivers(self, parts: list) -> list:
+        from chronofuse.epochs import ReceiverEpochs
+        from chronofuse.timescale import gps_minus_utc_s
+
+        out = []
+        for station, record in parts:
+            leap = self._leap if self._leap is not None else gps_minus_utc_s(record.t_ns)
+            fields = ReceiverEpochs.absent(record.t_ns, 1, 1, leap_s=leap)
+            fields["clock_bias_s"] = record.columns["clock_bias_s"][None, None, :]
+            epochs = ReceiverEpochs(**fields)
+            full = epochs.to_record(record.source, position=record.provenance.position, position_unit="line")
+            out.append((station, full.select(0, 0)))
+        return out
+
+    def decode(self, data: bytes) -> list:
+        if self.lines.in_header and self._leap is None:
+            for line in data.decode("ascii", errors="replace").splitlines():
+                if "LEAP SECONDS" in line[60:]:
+                    try:
+                        self._leap = int(line[:6])
+                    except ValueError:
+                        pass
+                if "END OF HEADER" in line:
+                    break
+        return self._receivers(self.lines.feed(data))
+
+    def finish(self) -> list:
+        return self._receivers(self.lines.close())
+
+
+def decoder_for(source):
+    """The decoder a monitor source's bytes need: gpsd JSON, a replayed RINEX clock product (each station a
+    receiver), or raw NMEA/UBX. Each has ``decode(data)`` and ``finish()`` giving ``[(key, record)]`` (``key``
+    a station, or None for the source's one receiver)."""
+    from chronofuse.io.sources_decode import GpsdJsonDecoder
+
+    if getattr(source, "kind", "raw") == "gpsd":
+        return GpsdJsonDecoder()
+    path = getattr(source, "path", None)
+    if path is not None:
+        from chronofuse.io.formats import sniff_format
+
+        try:
+            if sniff_format(path) == "rinex-clock":
+                return ClockProductReceivers(str(path))
+        except InputDataError:
+            pass  # the source itself says what is wrong with the file when it reads it
+    return StreamDecoder(source=getattr(source, "name", "<stream>"))
 
 
 class TextLines(_Lines):

@@ -22,7 +22,7 @@ from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
 from chronofuse.record import RECEIVER_UNITS, EpochRecord
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s, utc_to_gps_ns
 
-__all__ = ["StreamDecoder", "GpsdJsonDecoder", "decoder_for", "split_rows", "rows_record", "record_rows", "dicts_record"]
+__all__ = ["StreamDecoder", "GpsdJsonDecoder", "split_rows", "rows_record", "record_rows", "dicts_record"]
 
 _NEVER = int(np.iinfo(np.int64).min)
 
@@ -106,6 +106,15 @@ class StreamDecoder:
     def close_record(self) -> EpochRecord | None:
         """:meth:`close`, as one record chunk."""
         return self._decode(self.scanner.close(), final=True)
+
+    def decode(self, data: bytes) -> list:
+        """:meth:`feed_record` as ``[(None, record)]`` (the one receiver of the stream), or ``[]``."""
+        record = self.feed_record(data)
+        return [] if record is None else [(None, record)]
+
+    def finish(self) -> list:
+        record = self.close_record()
+        return [] if record is None else [(None, record)]
 
     @property
     def n_damaged(self) -> int:
@@ -209,6 +218,14 @@ class GpsdJsonDecoder:
     def close_record(self) -> EpochRecord | None:
         return dicts_record(self.close(), "<gpsd>")
 
+    def decode(self, data: bytes) -> list:
+        record = self.feed_record(data)
+        return [] if record is None else [(None, record)]
+
+    def finish(self) -> list:
+        record = self.close_record()
+        return [] if record is None else [(None, record)]
+
     def close(self) -> list[dict]:
         out: list[dict] = []
         if self._buffer.strip():
@@ -263,8 +280,3 @@ def _absent_epoch(gps_ns: int, leap_s: int) -> dict:
     return {"gps_ns": gps_ns, "fix_mode": 0, "time_valid": False, "n_sats": -1, "gdop": math.nan,
             "pdop": math.nan, "hdop": math.nan, "vdop": math.nan, "tdop": math.nan, "leap_s": leap_s,
             "leap_pending": 0, "qerr_s": math.nan, "clock_bias_s": math.nan, "clock_drift_s_per_s": math.nan}
-
-
-def decoder_for(source) -> StreamDecoder | GpsdJsonDecoder:
-    """The decoder a source's bytes need: gpsd JSON or raw NMEA/UBX."""
-    return GpsdJsonDecoder() if getattr(source, "kind", "raw") == "gpsd" else StreamDecoder()
