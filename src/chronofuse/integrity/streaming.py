@@ -63,7 +63,7 @@ class EpochVerdict:
             return None if math.isnan(v) else float(v)
 
         return {"t_ns": int(self.t_ns), "statistic": num(self.statistic), "threshold": num(self.threshold),
-                "state": self.state, "events": list(self.events)}
+                "alarm": bool(self.alarm), "state": self.state, "events": list(self.events)}
 
 
 class StreamingMonitor:

@@ -81,7 +81,8 @@ class GridPlacer:
     own clock: u-blox ``iTOW`` steps by 999 or 1001 ms now and then) and in a later slot than the epoch
     before; an empty slot becomes a gap epoch (float columns NaN, ``valid`` True: a gap says nothing bad,
     ``n_sats`` -1, ``leap_s`` carried from the epoch before, other integers and flags 0, provenance -1). The gridded
-    epochs carry the grid's times (``t_ns`` exact integers) and ``interval_ns``; ``info`` holds ``n_gaps``,
+    epochs carry the grid's times (``t_ns`` exact integers) and ``interval_ns``, and the column ``tag_offset_s``
+    (each epoch's own time tag less its slot's time, s; NaN in a gap); ``info`` holds ``n_gaps``,
     ``jitter_rms_s`` and ``jitter_max_s`` (the tags' distance from their slots) so far.
 
     Every decision depends only on the epochs before it (the interval on the first ``learn_steps + 1``), so
@@ -195,6 +196,9 @@ class GridPlacer:
             columns[name] = out
             if values.size:
                 self._carry[name] = values[-1]
+        offset_s = np.full(n, np.nan)
+        offset_s[at] = r  # each epoch's time tag less its slot's time: where the source put it
+        columns["tag_offset_s"] = offset_s
         valid = np.ones(n, dtype=bool)
         valid[at] = record.valid
         position = np.full(n, -1, dtype=np.int64)
@@ -202,7 +206,7 @@ class GridPlacer:
         info = {**record.info, "n_gaps": self._n_gaps, "jitter_rms_s": float(np.sqrt(self._sum_sq / self._n_placed)),
                 "jitter_max_s": self._max}
         return EpochRecord.from_arrays(self._t0 + (first + np.arange(n, dtype=np.int64)) * interval, columns,
-                                       dict(record.units), source=record.source, valid=valid, interval_ns=interval,
+                                       {**record.units, "tag_offset_s": "s"}, source=record.source, valid=valid, interval_ns=interval,
                                        time_scale=record.time_scale, position=position,
                                        position_unit=record.provenance.unit, info=info)
 

@@ -29,6 +29,7 @@ from chronofuse.integrity.watch import ClockWatch, DetectionSettings
 from chronofuse.io.capture_series import clock_epochs, clock_grid
 from chronofuse.io.sources_decode import dicts_record, record_rows
 from chronofuse.timescale import NS_PER_S
+from chronofuse.validation import InputDataError
 
 __all__ = ["MonitorSettings", "ReceiverMonitor", "decide_second"]
 
@@ -61,9 +62,10 @@ class MonitorSettings:
                                  max_time_acc_s=self.max_time_acc_s)
 
 
-#: An epoch is held for its verdict at most this long of the receiver's own time (GPS ns): a receiver whose
-#: clock bias stops before its grid has learnt its interval does not hold its later epochs back.
-MAX_HOLD_NS = 60 * NS_PER_S
+#: An epoch is held for its verdict while at most this many later epochs of the receiver have been decoded: a
+#: receiver whose clock bias stops before its grid has learnt its interval (from its first 9 epochs with a
+#: bias) does not hold its later epochs back.
+MAX_HOLD_EPOCHS = 32
 
 _NO_VERDICT = {"statistic": math.nan, "alarm": False, "state": "unavailable", "events": []}
 
@@ -91,6 +93,7 @@ class ReceiverMonitor:
         self.grid = clock_grid(None)
         self._held: deque = deque()
         self._verdicts: dict[int, object] = {}
+        self.restarts: list[str] = []  # why the clock-bias grid had to start again (a changed output rate)
 
     @property
     def horizon_ns(self) -> int | None:
@@ -116,12 +119,32 @@ class ReceiverMonitor:
             self.last = held
         clock = clock_epochs(record)
         if clock is not None:
-            self._verdicts.update((v.t_ns, v) for v in self.watch.push(self.grid.push(clock)))
+            try:
+                gridded = self.grid.push(clock)
+            except InputDataError as err:  # the receiver changed its rate: a new grid and a new watch from here
+                self.restarts.append(str(err))
+                self.watch, self.grid = ClockWatch(self.settings.detection()), clock_grid(None)
+                gridded = self.grid.push(clock)
+            self._note(gridded, self.watch.push(gridded))
         return self._release(final=False)
 
+    def _note(self, gridded, verdicts) -> None:
+        """Each verdict under its epoch's own time tag (the grid moved a jittered tag to its slot)."""
+        if gridded is None:
+            return
+        offsets = gridded.columns["tag_offset_s"]
+        for t, offset, verdict in zip(gridded.t_ns.tolist(), offsets.tolist(), verdicts):
+            if offset == offset:  # a gap of the grid has no epoch of its own
+                self._verdicts[t + int(round(offset * 1e9))] = verdict
+
     def close(self) -> list[dict]:
-        """End of the stream: every epoch still held, with the verdicts decided at the end."""
-        self._verdicts.update((v.t_ns, v) for v in self.watch.push(self.grid.close()))
+        """End of the stream: every epoch still held, with the verdicts decided at the end (a grid that never
+        learnt its interval, one epoch with a bias, leaves its epoch without a verdict)."""
+        try:
+            gridded = self.grid.close()
+        except InputDataError:
+            gridded = None
+        self._note(gridded, self.watch.push(gridded))
         self.watch.close()
         return self._release(final=True)
 
@@ -137,7 +160,7 @@ class ReceiverMonitor:
             record = self._held[0]
             has_bias = math.isfinite(record["clock_bias_s"])
             verdict = self._verdicts.pop(record["gps_ns"], None)
-            waited = self._last_gps_ns - record["gps_ns"] > MAX_HOLD_NS  # a grid that never learns its interval
+            waited = len(self._held) > MAX_HOLD_EPOCHS  # a grid that never learns its interval
             if has_bias and verdict is None and not (final or waited):
                 break
             if verdict is not None:
