@@ -14,17 +14,17 @@ NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
 STEPS = 900
 
 
-def ubx_recording(clock_bias_s, *, fix_type=None, time_acc_ns=None, week: int = WEEK, start_tow_s: int = 100_000,
+def ubx_recording(clock_bias_s, *, fix_type=None, time_acc_ns=None, week: int = WEEK, start_tow_ms: int = 100_000_000,
                   leap_s: int = 18) -> bytes:
     """One epoch per second: NAV-TIMEGPS (week, leap), NAV-SOL (fix and its ``gpsFixOK`` flag), NAV-DOP and
     NAV-CLOCK (``clkB`` the bias in whole ns, ``tAcc``). ``fix_type`` (per epoch, u-blox ``gpsFix``: 0 no fix,
-    3 3-D) and ``time_acc_ns`` (per epoch) default to 3 and 10 ns."""
+    3 3-D) and ``time_acc_ns`` (per epoch) default to 3 and 10 ns; the first epoch's ``iTOW`` is ``start_tow_ms``."""
     n = len(clock_bias_s)
     fix_type = np.full(n, 3) if fix_type is None else np.asarray(fix_type)
     time_acc_ns = np.full(n, 10) if time_acc_ns is None else np.asarray(time_acc_ns)
     out = []
     for k, bias in enumerate(clock_bias_s):
-        itow = (start_tow_s + k) * 1000
+        itow = start_tow_ms + k * 1000
         fix = int(fix_type[k])
         out.append(UBXMessage("NAV", "NAV-TIMEGPS", GET, iTOW=itow, fTOW=0, week=week, leapS=leap_s, towValid=1,
                               weekValid=1, leapSValid=1, tAcc=10).serialize())

@@ -231,13 +231,14 @@ class ReceiverEpochs:
         """One receiver of one trial as a table, one row per epoch, columns :data:`EXPORT_COLUMNS`.
 
         ``time_utc`` is the receiver's UTC label (:meth:`utc_ns`) in ISO 8601 with milliseconds and ``Z``
-        (``2025-01-01T00:00:00.000Z``); ``mode`` is ``fix_mode``; ``clock_drift`` is
+        (``2025-01-01T00:00:00.000Z``), or nanoseconds when an epoch has a part of a millisecond; ``mode`` is ``fix_mode``; ``clock_drift`` is
         ``clock_drift_s_per_s``; seconds stay seconds. Absent values are NaN (``n_sats`` -1).
         """
         one = self.select(receiver, trial)
-        utc = gps_ns_to_datetime64(one.utc_ns()[0, 0])
+        utc_ns = one.utc_ns()[0, 0]
+        unit = "ms" if np.all(utc_ns % 1_000_000 == 0) else "ns"  # sub-millisecond tags keep their digits
         columns = {
-            "time_utc": np.datetime_as_string(utc, unit="ms", timezone="UTC"),
+            "time_utc": np.datetime_as_string(gps_ns_to_datetime64(utc_ns), unit=unit, timezone="UTC"),
             "mode": one.fix_mode[0, 0],
             "n_sats": one.n_sats[0, 0],
             "gdop": one.gdop[0, 0],

@@ -21,11 +21,15 @@ __all__ = ["Monitor"]
 
 
 def _utc_label(gps_ns: int, leap_s: int) -> str:
+    """The receiver's UTC label of an epoch in ISO 8601, to the millisecond, or to the nanosecond when the
+    epoch has a part of a millisecond (a gpsd TPV time written to the ns keeps its digits)."""
     import numpy as np
 
     from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 
-    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(gps_ns - leap_s * NS_PER_S)), unit="ms")) + "Z"
+    utc_ns = gps_ns - leap_s * NS_PER_S
+    unit = "ms" if utc_ns % 1_000_000 == 0 else "ns"
+    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(utc_ns)), unit=unit)) + "Z"
 
 
 class Monitor:
