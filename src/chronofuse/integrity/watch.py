@@ -214,17 +214,23 @@ class ClockWatch:
         if record is None or record.n_epochs == 0:
             return []
         if self.pipeline is None:
-            self._start(record)
+            self.begin(int(record.t_ns[0]), int(record.interval_ns))
         frame = _inputs(record)
         names = list(frame)
-        out = []
-        for k in range(record.n_epochs):
-            epoch = {name: frame[name][k] for name in names}
-            epoch["training"] = bool(self.settings.in_training(np.int64(epoch["t_ns"]), self._t0, self._interval_ns))
-            if self._phase == "training" and not epoch["training"]:
-                self._end_training()
-            out.append(self._step(epoch))
-        return out
+        return [self.step({name: frame[name][k] for name in names}) for k in range(record.n_epochs)]
+
+    def begin(self, t0_ns: int, interval_ns: int) -> None:
+        """Start a grid at ``t0_ns`` of ``interval_ns`` (what the first pushed chunk does)."""
+        self._start_grid(t0_ns, interval_ns)
+
+    def step(self, epoch: dict) -> EpochVerdict:
+        """One epoch of the grid (``t_ns``, ``clock_bias_s``, ``valid``, optionally ``time_acc_s``) after
+        :meth:`begin`: its verdict."""
+        epoch = dict(epoch)
+        epoch["training"] = bool(self.settings.in_training(np.int64(epoch["t_ns"]), self._t0, self._interval_ns))
+        if self._phase == "training" and not epoch["training"]:
+            self._end_training()
+        return self._step(epoch)
 
     def close(self) -> list[EpochVerdict]:
         """End of the stream: a training stretch still open is fitted now (its epochs keep their verdicts)."""
@@ -232,8 +238,8 @@ class ClockWatch:
             self._end_training()
         return []
 
-    def _start(self, record) -> None:
-        self._t0, self._interval_ns = int(record.t_ns[0]), int(record.interval_ns)
+    def _start_grid(self, t0_ns: int, interval_ns: int) -> None:
+        self._t0, self._interval_ns = int(t0_ns), int(interval_ns)
         self.pipeline = detection_pipeline(self.settings, self._interval_ns / 1e9)
         if self.settings.trains:
             self._phase = "training"
