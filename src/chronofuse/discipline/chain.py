@@ -27,8 +27,10 @@ from chronofuse.discipline.fusion import FusionRun
 from chronofuse.discipline.loop import LoopRun
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.servo import Servo, freeze
+from chronofuse.discipline.stages import IntegrityStage, corrected_pps_error, gnssdo_pipeline
 from chronofuse.discipline.states import StateConfig, StateRun
 from chronofuse.epochs import ReceiverEpochs
+from chronofuse.integrity.watch import DetectionSettings
 from chronofuse.validation import check_array, check_choice, check_scalar
 
 __all__ = ["ChainConfig", "GnssdoRun", "corrected_pps_error", "integrity_alarms", "discipline_run", "gnssdo_frame"]
@@ -95,15 +97,6 @@ class GnssdoRun:
         freeze(self)
 
 
-def corrected_pps_error(pps_error_s, qerr_s, sign: int = 1, lag: int = 0) -> np.ndarray:
-    """``pps + sign * qerr`` shifted by ``lag`` pulses along the last axis (see the module docstring)."""
-    pps = np.asarray(pps_error_s, dtype=np.float64)
-    q = np.asarray(qerr_s, dtype=np.float64)
-    if lag:
-        q = np.concatenate([np.full(q.shape[:-1] + (lag,), np.nan), q[..., :-lag]], axis=-1)
-    return pps + sign * q
-
-
 def integrity_alarms(clock_bias_s, interval_s: float, pfa: float, train_s: float, hold_s: float) -> np.ndarray:
     """Per-receiver exclusion mask from the clock-bias detection pipeline (:mod:`chronofuse.integrity.watch`).
 
@@ -111,9 +104,6 @@ def integrity_alarms(clock_bias_s, interval_s: float, pfa: float, train_s: float
     millisecond repair, the HOD detector fitted on its first ``train_s`` seconds and the latch; a receiver is
     excluded while its alarm is raised and ``hold_s`` after it clears (:class:`~.stages.IntegrityStage`).
     """
-    from chronofuse.discipline.stages import IntegrityStage
-    from chronofuse.integrity.watch import DetectionSettings
-
     bias = check_array(clock_bias_s, "clock_bias_s", ndim=3, allow_nan=True)
     interval_ns = int(round(interval_s * 1e9))
     stage = IntegrityStage(DetectionSettings(pfa=pfa, train_s=train_s, max_time_acc_s=None), interval_ns, hold_s)
@@ -138,8 +128,6 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     ``pps_error_s`` (trials, receivers, steps): each receiver's raw 1PPS edge error (s; NaN without a
     pulse), corrected here with the epochs' qErr per ``config``. The servo's interval is the epoch step.
     """
-    from chronofuse.discipline.stages import gnssdo_pipeline
-
     free = check_array(free_phase_s, "free_phase_s", ndim=2)
     pps = check_array(pps_error_s, "pps_error_s", ndim=3, allow_nan=True)
     if not isinstance(epochs, ReceiverEpochs):

@@ -3,7 +3,7 @@
 Per second, with ``trials`` and ``receivers`` as the lead axes of the receiver columns:
 
 1. :class:`QualifyStage`: each receiver's 1PPS error corrected by its qErr (``pps + sign * qErr[k - lag]``,
-   :func:`chronofuse.discipline.chain.corrected_pps_error`) and qualified
+   :func:`corrected_pps_error`) and qualified
    (:class:`~chronofuse.discipline.qualification.Qualification`: fix, time, satellites, GDOP, a pulse);
 2. :class:`IntegrityStage`: each receiver's clock bias through the detection pipeline
    (:class:`chronofuse.integrity.watch.ClockWatch`: status gate, millisecond repair, detector, latch, its
@@ -34,8 +34,19 @@ from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.states import StateConfig, advance, run_states
 from chronofuse.estimation.pipeline import Pipeline
+from chronofuse.integrity.watch import ClockWatch, DetectionSettings, watch_record
+from chronofuse.record import EpochRecord
 
-__all__ = ["QualifyStage", "IntegrityStage", "FusionStage", "LoopStage", "StateStage", "gnssdo_pipeline"]
+__all__ = ["corrected_pps_error", "QualifyStage", "IntegrityStage", "FusionStage", "LoopStage", "StateStage", "gnssdo_pipeline"]
+
+
+def corrected_pps_error(pps_error_s, qerr_s, sign: int = 1, lag: int = 0) -> np.ndarray:
+    """``pps + sign * qerr`` shifted by ``lag`` pulses along the last axis (see the module docstring)."""
+    pps = np.asarray(pps_error_s, dtype=np.float64)
+    q = np.asarray(qerr_s, dtype=np.float64)
+    if lag:
+        q = np.concatenate([np.full(q.shape[:-1] + (lag,), np.nan), q[..., :-lag]], axis=-1)
+    return pps + sign * q
 
 
 class QualifyStage:
@@ -72,8 +83,6 @@ class QualifyStage:
         return {"pps_corrected_s": e, "qualified": self._qualify(e, epoch)}
 
     def run(self, frame) -> dict:
-        from chronofuse.discipline.chain import corrected_pps_error
-
         e = corrected_pps_error(frame["pps_error_s"], frame["qerr_s"], self.qerr_sign, self.qerr_lag)
         return {"pps_corrected_s": e, "qualified": self._qualify(e, frame)}
 
@@ -108,8 +117,6 @@ class IntegrityStage:
         self._since = None
 
     def step(self, epoch) -> dict:
-        from chronofuse.integrity.watch import ClockWatch
-
         bias = np.asarray(epoch["clock_bias_s"], dtype=np.float64)
         valid = np.asarray(epoch["valid"], dtype=bool)
         t = int(np.asarray(epoch["t_ns"]).flat[0])
@@ -128,9 +135,6 @@ class IntegrityStage:
         return {"integrity_alarm": alarm, "excluded": self._since <= self._hold}
 
     def run(self, frame) -> dict:
-        from chronofuse.integrity.watch import watch_record
-        from chronofuse.record import EpochRecord
-
         bias = np.asarray(frame["clock_bias_s"], dtype=np.float64)
         valid = np.asarray(frame["valid"], dtype=bool)
         t = np.asarray(frame["t_ns"], dtype=np.int64).reshape(-1, bias.shape[-1])[0]
@@ -281,8 +285,6 @@ class StateStage:
 def gnssdo_pipeline(servo: Servo, config, interval_ns: int, *, seed=None) -> Pipeline:
     """The five stages (module docstring) for a :class:`~chronofuse.discipline.chain.ChainConfig` and a
     ``servo``; integrity runs only when ``config.integrity_pfa`` is set (else no receiver is excluded)."""
-    from chronofuse.integrity.watch import DetectionSettings
-
     stages = [("qualify", QualifyStage(config.qualification, config.qerr_sign, config.qerr_lag))]
     if config.integrity_pfa is not None:
         settings = DetectionSettings(pfa=config.integrity_pfa, train_s=config.integrity_train_s, max_time_acc_s=None)

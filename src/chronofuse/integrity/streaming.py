@@ -39,8 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from chronofuse.estimation.pipeline import Pipeline
+from chronofuse.integrity.clock_events import MILLISECOND_S
 from chronofuse.integrity.detector import HodDetector
-from chronofuse.integrity.stages import frequency_sigma
+from chronofuse.integrity.stages import ClockRepair, DetectorStage, Latch, StatusGate, frequency_sigma
 
 #: Epoch states of :class:`EpochVerdict`.
 STATES = ("ok", "alarm", "unavailable")
@@ -66,6 +68,22 @@ class EpochVerdict:
                 "alarm": bool(self.alarm), "state": self.state, "events": list(self.events)}
 
 
+def epoch_events(status: str, clock_reset_s: float, latch_event: str, training: bool, failed: bool) -> tuple[str, ...]:
+    """The events of one epoch, in order: training, the receiver's status, a clock reset, a raise or clear."""
+    events = []
+    if training:
+        events.append("training")
+    elif failed:
+        events.append("training failed")
+    if status:
+        events.append(status)
+    if clock_reset_s:
+        events.append(f"clock reset {round(clock_reset_s / MILLISECOND_S):+d} ms")
+    if latch_event:
+        events.append(latch_event)
+    return tuple(events)
+
+
 class StreamingMonitor:
     """Clock steering, receiver status, the HOD test and a latched alarm, one epoch at a time (module docstring):
     the stages of :mod:`chronofuse.integrity.stages` stepped for an already fitted detector.
@@ -77,9 +95,6 @@ class StreamingMonitor:
 
     def __init__(self, detector: HodDetector, *, clear_after: int | None = None, tolerance_s: float = 1e-4,
                  clear_sigma: float = 5.0):
-        from chronofuse.estimation.pipeline import Pipeline
-        from chronofuse.integrity.stages import ClockRepair, DetectorStage, Latch, StatusGate
-
         if not hasattr(detector, "whitener_"):
             raise RuntimeError("StreamingMonitor needs a fitted detector: call fit() first")
         self.detector = detector
@@ -97,12 +112,10 @@ class StreamingMonitor:
 
     def step(self, t_ns: int, clock_bias_s: float, *, receiver_ok: bool = True) -> EpochVerdict:
         """One epoch: its time (int ns), clock bias (s; NaN/None = missing) and receiver status."""
-        from chronofuse.integrity.watch import epoch_events
-
         x = math.nan if clock_bias_s is None else float(clock_bias_s)
         v = self.pipeline.step({"t_ns": int(t_ns), "clock_bias_s": x, "valid": bool(receiver_ok), "training": False})
         events = epoch_events(v["status"], v["clock_reset_s"], v["latch_event"], False, False)
         return EpochVerdict(int(t_ns), v["statistic"], v["threshold"], v["over"], v["state"], events)
 
 
-__all__ = ["STATES", "EpochVerdict", "StreamingMonitor"]
+__all__ = ["STATES", "EpochVerdict", "StreamingMonitor", "epoch_events"]

@@ -29,15 +29,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from chronofuse.estimation.pipeline import Pipeline, PipelineResult, stack_steps
-from chronofuse.integrity.clock_events import MILLISECOND_S
 from chronofuse.integrity.detector import HodDetector
 from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S
 from chronofuse.integrity.stages import ClockRepair, DetectorStage, Latch, StatusGate
-from chronofuse.integrity.streaming import EpochVerdict
+from chronofuse.integrity.streaming import EpochVerdict, epoch_events
 from chronofuse.validation import check_scalar
 
 __all__ = ["DetectionSettings", "TRAINING_CONFIDENCE", "Watched", "ClockWatch", "detection_pipeline",
-           "watch_record", "epoch_events", "verdicts"]
+           "watch_record", "verdicts"]
 
 #: With a training stretch, the detectors keep P_fa at or below nominal in this share of trainings (the
 #: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`).
@@ -286,22 +285,6 @@ class ClockWatch:
         outliers = np.zeros(0, dtype=np.int64) if self.pipeline is None else _outliers(self.pipeline)
         return Watched(PipelineResult(columns), training, self._phase == "testing", self.reasons, detector,
                        self._interval_ns / 1e9 if self._interval_ns else math.nan, outliers)
-
-
-def epoch_events(status: str, clock_reset_s: float, latch_event: str, training: bool, failed: bool) -> tuple[str, ...]:
-    """The events of one epoch, in order: training, the receiver's status, a clock reset, a raise or clear."""
-    events = []
-    if training:
-        events.append("training")
-    elif failed:
-        events.append("training failed")
-    if status:
-        events.append(status)
-    if clock_reset_s:
-        events.append(f"clock reset {round(clock_reset_s / MILLISECOND_S):+d} ms")
-    if latch_event:
-        events.append(latch_event)
-    return tuple(events)
 
 
 def _verdict(values: dict, phase: str) -> EpochVerdict:
