@@ -242,8 +242,12 @@ class EpochRecord:
     def from_arrays(cls, t_ns, columns: Mapping[str, np.ndarray], units: Mapping[str, str], *, source: str,
                     valid=None, interval_ns: int | None = None, time_scale: str = "gps", position=None,
                     position_unit: str = "index", info: Mapping | None = None) -> EpochRecord:
-        """A record from arrays: ``valid`` all True and positions ``0 .. epochs - 1`` unless given."""
-        t = np.asarray(t_ns, dtype=np.int64)
+        """A record from arrays: ``valid`` all True and positions ``0 .. epochs - 1`` unless given; ``t_ns`` must be
+        integers (a float time tag is refused, never rounded)."""
+        t = np.asarray(t_ns)
+        if t.dtype.kind not in "iu":
+            raise ValueError(f"t_ns has dtype {t.dtype}, must be integer nanoseconds (int64)")
+        t = t.astype(np.int64, copy=False)
         shape = np.shape(next(iter(columns.values()))) if columns else t.shape
         valid = np.ones(shape, dtype=bool) if valid is None else np.asarray(valid, dtype=bool)
         position = np.arange(t.size, dtype=np.int64) if position is None else position
