@@ -59,7 +59,8 @@ class PipelineStep:
     values: Mapping[str, Any]
 
     def __post_init__(self):
-        object.__setattr__(self, "values", MappingProxyType(dict(self.values)))
+        if not isinstance(self.values, MappingProxyType):
+            object.__setattr__(self, "values", MappingProxyType(dict(self.values)))
 
     def __getitem__(self, name: str):
         return self.values[name]
@@ -137,7 +138,7 @@ class Pipeline:
         values = dict(epoch)
         for _, stage in self.stages:
             values.update(stage.step(values))
-        return PipelineStep(values)
+        return PipelineStep(MappingProxyType(values))  # a fresh dict: no copy needed
 
     def run(self, frame) -> PipelineResult:
         """Every epoch of ``frame`` (a record, or columns (..., steps)) through every stage; mutates nothing."""

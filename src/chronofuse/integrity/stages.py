@@ -23,7 +23,6 @@ Each stage's ``step`` and ``run`` share one core, so the pipeline streamed equal
 from __future__ import annotations
 
 import math
-from collections import deque
 from typing import ClassVar
 
 import numpy as np
@@ -143,7 +142,9 @@ class DetectorStage:
         self.detector.reset()
 
     def step(self, epoch) -> dict:
-        x = math.nan if int(epoch["t_ns"]) in self._outliers else float(epoch["repaired_bias_s"])
+        x = float(epoch["repaired_bias_s"])
+        if self._outliers and int(epoch["t_ns"]) in self._outliers:
+            x = math.nan
         out = self.detector.step(x)
         return {"detector_input_s": x, "statistic": float(out.statistic), "threshold": float(out.threshold),
                 "dof": int(out.dof), "over": bool(out.alarm)}
@@ -197,7 +198,8 @@ class Latch:
 
     def reset(self) -> None:
         n = self._n
-        self._history = deque([math.nan] * (3 * n + 1), maxlen=3 * n + 1)
+        self._ring = [math.nan] * (2 * n + 1)  # the last 2n + 1 detector inputs, NaN before the first
+        self._pos = 0
         self._state = [False, 0, math.nan]  # raised, quiet epochs, frequency before the raise
 
     def _advance(self, st: list, over: bool, dof: int, statistic: float, threshold: float, training: bool,
@@ -228,12 +230,15 @@ class Latch:
         return state, event
 
     def step(self, epoch) -> dict:
-        h = self._history
-        h.append(float(epoch["detector_input_s"]))
-        n, ts = self._n, float(self.detector.interval_s)
-        size = len(h)
-        freq_now = (h[size - 1] - h[size - 1 - n]) / (n * ts)
-        freq_before = (h[size - 1 - n] - h[size - 1 - 2 * n]) / (n * ts)
+        ring, n = self._ring, self._n
+        size = 2 * n + 1
+        k = self._pos
+        ring[k] = float(epoch["detector_input_s"])
+        self._pos = (k + 1) % size
+        ts = float(self.detector.interval_s)
+        mid, old = ring[(k - n) % size], ring[(k - 2 * n) % size]
+        freq_now = (ring[k] - mid) / (n * ts)
+        freq_before = (mid - old) / (n * ts)
         state, event = self._advance(self._state, bool(epoch["over"]), int(epoch["dof"]), float(epoch["statistic"]),
                                      float(epoch["threshold"]), bool(epoch["training"]), freq_now, freq_before)
         return {"state": state, "latch_event": event}

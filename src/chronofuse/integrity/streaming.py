@@ -113,8 +113,9 @@ class StreamingMonitor:
     def step(self, t_ns: int, clock_bias_s: float, *, receiver_ok: bool = True) -> EpochVerdict:
         """One epoch: its time (int ns), clock bias (s; NaN/None = missing) and receiver status."""
         x = math.nan if clock_bias_s is None else float(clock_bias_s)
-        v = self.pipeline.step({"t_ns": int(t_ns), "clock_bias_s": x, "valid": bool(receiver_ok), "training": False})
-        events = epoch_events(v["status"], v["clock_reset_s"], v["latch_event"], False, False)
+        v = self.pipeline.step({"t_ns": t_ns, "clock_bias_s": x, "valid": receiver_ok, "training": False}).values
+        status, reset, event = v["status"], v["clock_reset_s"], v["latch_event"]
+        events = epoch_events(status, reset, event, False, False) if (status or reset or event) else ()
         return EpochVerdict(int(t_ns), v["statistic"], v["threshold"], v["over"], v["state"], events)
 
 
