@@ -158,7 +158,7 @@ class StreamDetection:
             clock = self.clocks[name]
             record = clock.record()
             watched = clock.watch.result() if record is not None else None
-            rows.append(station_row(name, record, self.settings, watched))
+            rows.append(station_row(name, record, self.settings, watched, source=self.source))
         return product_document(rows, self.settings, n_bad_lines=self.reader.n_bad_lines, source=self.source)
 
 

@@ -15,16 +15,18 @@ from chronofuse.validation import InputDataError
 __all__ = ["clock_product_document", "station_row", "product_document"]
 
 
-def station_row(name: str, record, settings: DetectionSettings, watched=None) -> dict:
+def station_row(name: str, record, settings: DetectionSettings, watched=None, source: str = "") -> dict:
     """One station's row: its verdicts, or ``unavailable`` with the reason when it is too short for the window
     or the training (or has one epoch: nothing to difference). ``record`` is the station's gridded clock bias
-    (None: one epoch); ``watched`` a clock the live driver already watched (else the batch driver runs)."""
+    (None: one epoch); ``watched`` a clock the live driver already watched (else the batch driver runs);
+    ``source`` the product, named with the station in a reason."""
     row = {"station": name, "n_epochs": 1 if record is None else int(record.n_epochs),
            "interval_s": float("nan") if record is None else record.interval_s}
+    where = f"{source or (record.source if record is not None else '')} {name}".strip()
     try:
         if record is None:
-            raise InputDataError("one epoch: nothing to difference")
-        check_length(record.n_epochs, settings.window, record.source)
+            raise InputDataError("one epoch: nothing to difference", where)
+        check_length(record.n_epochs, settings.window, where)
         watched = watch_record(record, settings) if watched is None else watched
         doc = detection_document(watched, settings, n_skipped=n_skipped(record), time_scale=record.time_scale)
     except InputDataError as err:
@@ -64,5 +66,5 @@ def clock_product_document(clocks, settings: DetectionSettings) -> dict:
     rows = []
     for name in clocks.stations:
         record = None if clocks.gps_ns[name].size < 2 else station_clock_bias(clocks, name)
-        rows.append(station_row(name, record, settings))
+        rows.append(station_row(name, record, settings, source=clocks.source))
     return product_document(rows, settings, n_bad_lines=clocks.n_bad_lines, source=clocks.source)
