@@ -157,7 +157,7 @@ class DetectorStage:
                 "dof": np.asarray(res.dof), "over": np.asarray(res.alarm)}
 
 
-def frequency_sigma(detector) -> float:
+def frequency_sigma(detector, window: int | None = None) -> float:
     """Standard deviation (s/s) of the difference of two window means of the first difference under the
     detector's noise model: ``sqrt(2 (2 s2 + n q1 t_s + n^3 q2 t_s^3 / 3)) / (n t_s)`` (white phase, white FM
     and random-walk FM over one window, two independent windows; :mod:`chronofuse.integrity.streaming`);
@@ -167,32 +167,35 @@ def frequency_sigma(detector) -> float:
     except AttributeError:
         return math.nan
     q1, q2, s2 = (v * getattr(detector, "inflation_", 1.0) for v in (q1, q2, s2))
-    n, ts = int(detector.window), float(detector.interval_s)
+    n, ts = int(window if window is not None else detector.window), float(detector.interval_s)
     return math.sqrt(2.0 * (2.0 * s2 + n * q1 * ts + n**3 * q2 * ts**3 / 3.0)) / (n * ts)
 
 
 class Latch:
     """Raised alarms that stay raised while the anomaly lasts (module docstring, step 4).
 
-    ``detector``: the detector the latch follows (its window, interval and fitted noise model set the
-    frequency test); ``clear_after`` quiet tested epochs (default: one window) and ``clear_sigma``.
+    ``detector``: the detector the latch follows (its interval and fitted noise model set the frequency
+    test); ``window``: the frequency test's window (default: the detector's, else 20 epochs); ``clear_after``
+    quiet tested epochs (default: one window) and ``clear_sigma``.
     """
 
     needs: ClassVar[tuple[str, ...]] = ("over", "dof", "statistic", "threshold", "detector_input_s", "training")
     gives: ClassVar[tuple[str, ...]] = ("state", "latch_event")
 
-    def __init__(self, detector, *, clear_after: int | None = None, clear_sigma: float = 5.0):
+    def __init__(self, detector, *, window: int | None = None, clear_after: int | None = None,
+                 clear_sigma: float = 5.0):
         self.detector = detector
+        self.window = window
         self.clear_after = clear_after
         self.clear_sigma = clear_sigma
         self.reset()
 
     @property
     def _n(self) -> int:
-        return int(self.detector.window)
+        return int(self.window if self.window is not None else getattr(self.detector, "window", 20))
 
     def fit(self, frame=None) -> Latch:
-        self.sigma_freq_ = frequency_sigma(self.detector)
+        self.sigma_freq_ = frequency_sigma(self.detector, self._n)
         self.reset()
         return self
 

@@ -111,7 +111,8 @@ def detection_pipeline(settings: DetectionSettings, interval_s: float) -> Pipeli
         ("status", StatusGate(settings.max_time_acc_s)),
         ("repair", ClockRepair(settings.reset_tolerance_s)),
         ("detector", DetectorStage(detector)),
-        ("latch", Latch(detector, clear_after=settings.clear_after, clear_sigma=settings.clear_sigma)),
+        ("latch", Latch(detector, window=settings.window, clear_after=settings.clear_after,
+                        clear_sigma=settings.clear_sigma)),
     ])
 
 
