@@ -145,9 +145,9 @@ class DetectorStage:
         x = float(epoch["repaired_bias_s"])
         if self._outliers and int(epoch["t_ns"]) in self._outliers:
             x = math.nan
-        out = self.detector.step(x)
-        return {"detector_input_s": x, "statistic": float(out.statistic), "threshold": float(out.threshold),
-                "dof": int(out.dof), "over": bool(out.alarm)}
+        out = self.detector.step(x)  # a StepOutput: float statistic and threshold, int dof, bool alarm
+        return {"detector_input_s": x, "statistic": out.statistic, "threshold": out.threshold, "dof": out.dof,
+                "over": out.alarm}
 
     def run(self, frame) -> dict:
         x = np.asarray(frame["repaired_bias_s"], dtype=np.float64)
@@ -238,12 +238,12 @@ class Latch:
         k = self._pos
         ring[k] = float(epoch["detector_input_s"])
         self._pos = (k + 1) % size
-        ts = float(self.detector.interval_s)
-        mid, old = ring[(k - n) % size], ring[(k - 2 * n) % size]
-        freq_now = (ring[k] - mid) / (n * ts)
-        freq_before = (mid - old) / (n * ts)
-        state, event = self._advance(self._state, bool(epoch["over"]), int(epoch["dof"]), float(epoch["statistic"]),
-                                     float(epoch["threshold"]), bool(epoch["training"]), freq_now, freq_before)
+        span = n * float(self.detector.interval_s)
+        mid, old = ring[k - n], ring[k - 2 * n]  # negative indices wrap the ring
+        freq_now = (ring[k] - mid) / span
+        freq_before = (mid - old) / span
+        state, event = self._advance(self._state, epoch["over"], epoch["dof"], epoch["statistic"], epoch["threshold"],
+                                     epoch["training"], freq_now, freq_before)
         return {"state": state, "latch_event": event}
 
     def run(self, frame) -> dict:
