@@ -57,12 +57,14 @@ _NEAR_EPOCHS = 16  # how far back a late message may still find its epoch
 
 @dataclass
 class UbxDecodeStats:
-    """Messages decoded per type, frames pyubx2 refused (first reasons kept), and epochs that could not
-    be dated (no week and no valid UTC date anywhere in the stream)."""
+    """Messages decoded per type, frames pyubx2 refused (first reasons kept), epochs that could not be
+    dated (no week and no valid UTC date anywhere in the stream), and TIM-TP pulses whose epoch never
+    came (not made epochs: see :func:`chronofuse.io.ubx_pulses.attach_pulses`)."""
 
     decoded: Counter = field(default_factory=Counter)
     parse_errors: int = 0
     undated_epochs: int = 0
+    pulses_without_epoch: int = 0
     errors: list = field(default_factory=list)
 
 
@@ -85,6 +87,17 @@ class _Epoch:
         self.leap_s: int | None = None
         self.leap_pending = 0
         self.clock_bias_s = self.clock_drift_s_per_s = self.time_acc_s = math.nan
+
+
+#: NAV-DOP's "no value": 9999 in units of 0.01 (a timing receiver in fixed-position mode sends it for
+#: pDOP/hDOP/vDOP, having no position solution to dilute). gpsd treats it as missing; so do we.
+_DOP_INVALID = 99.99
+
+
+def _dop(value) -> float:
+    """A NAV-DOP value (pyubx2 has applied the 0.01 scale), NaN for u-blox's invalid 99.99."""
+    value = float(value)
+    return math.nan if value >= _DOP_INVALID - 1e-6 else value
 
 
 def _utc_label_ns(year, month, day, hour, minute, second, nano) -> int | None:
@@ -182,8 +195,8 @@ class UbxEpochBuilder:
             if m.validTimeToLsEvent and m.lsChange and 0 < m.timeToLsEvent <= 86_400:
                 ep.leap_pending = int(np.sign(m.lsChange))
         elif name == "NAV-DOP":
-            ep.gdop, ep.pdop, ep.hdop = float(m.gDOP), float(m.pDOP), float(m.hDOP)
-            ep.vdop, ep.tdop = float(m.vDOP), float(m.tDOP)
+            ep.gdop, ep.pdop, ep.hdop = _dop(m.gDOP), _dop(m.pDOP), _dop(m.hDOP)
+            ep.vdop, ep.tdop = _dop(m.vDOP), _dop(m.tDOP)
         elif name == "NAV-CLOCK":
             ep.clock_bias_s = m.clkB * 1e-9
             ep.clock_drift_s_per_s = m.clkD * 1e-9
@@ -208,8 +221,13 @@ class UbxEpochBuilder:
         self._epochs.append(_Epoch(-1))  # a sentinel "next epoch" so that every real one is closed
         rows = self.pop_complete(stats, max_undated=0)
         self._epochs = []
-        if self._pulses and rows is not None:
-            rows = attach_pulses(rows, self._pulses)
+        if self._pulses:
+            if rows is not None:
+                rows, unmatched = attach_pulses(rows, self._pulses)
+            else:
+                unmatched = len(self._pulses)
+            if stats is not None:
+                stats.pulses_without_epoch += unmatched
         self._pulses = []
         return rows
 
@@ -281,13 +299,19 @@ class UbxEpochBuilder:
             dated[0] = False  # the carried anchor is no epoch of this batch
         rows = {k: v[dated] for k, v in rows.items()}
         if not streaming:
-            return attach_pulses(rows, self._pulses)
+            rows, unmatched = attach_pulses(rows, self._pulses)
+            if stats is not None:
+                stats.pulses_without_epoch += unmatched
+            return rows
         if rows["gps_ns"].size == 0:
             return rows
         last_gps = int(rows["gps_ns"][-1])
         ready = [p for p in self._pulses if pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
         self._pulses = [p for p in self._pulses if p not in ready]
-        return attach_pulses(rows, ready)
+        rows, unmatched = attach_pulses(rows, ready)
+        if stats is not None:
+            stats.pulses_without_epoch += unmatched
+        return rows
 
 
 def nav_sat_used(raw: bytes) -> int:
