@@ -4,7 +4,12 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-fast bench clean
+.PHONY: demo test test-fast bench clean debian-parts
+
+# The real parts the monitor's tests start (Debian's packages): chronyd and chronyc, gpsd and gpsfake,
+# headless Chromium and its driver. Installed when one is missing (CI runs as root on a clean machine).
+DEBIAN_PARTS := chrony gpsd gpsd-clients chromium chromium-driver
+DEBIAN_TOOLS := chronyd chronyc gpsd gpsfake chromium chromedriver
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -15,10 +20,17 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/chronofuse run --out out/demo
 
-test: $(STAMP)
+debian-parts:
+	@for tool in $(DEBIAN_TOOLS); do PATH="$$PATH:/usr/sbin" command -v $$tool >/dev/null || missing=1; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages: $(DEBIAN_PARTS)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(DEBIAN_PARTS); \
+	fi
+
+test: $(STAMP) debian-parts
 	$(BIN)/python -m pytest -n 2 --durations=15
 
-test-fast: $(STAMP)
+test-fast: $(STAMP) debian-parts
 	$(BIN)/python -m pytest -n 2 -m "not slow"
 
 bench: $(STAMP)

@@ -28,17 +28,20 @@ __all__ = ["Backoff", "SourceEvent", "FileSource", "SerialSource", "TcpSource", 
            "parse_source"]
 
 _CHUNK = 65536
-GPSD_WATCH = b'?WATCH={"enable":true,"json":true};\n'
+GPSD_WATCH = b'?WATCH={"enable":true,"json":true,"pps":true};\n'
 
 
 @dataclass(frozen=True)
 class SourceEvent:
-    """``kind``: "up", "data", "down" or "end"; ``data``: bytes for "data", the reason for "down"."""
+    """``kind``: "up", "data", "down" or "end"; ``data``: bytes for "data", the reason for "down";
+    ``time_s``: the monotonic clock when it was read; ``wall_ns``: the system clock then (UNIX ns), the
+    arrival time a time server needs."""
 
     source: str
     kind: str
     data: bytes | str = b""
     time_s: float = 0.0
+    wall_ns: int = 0
 
 
 class Backoff:
@@ -221,7 +224,7 @@ class SourceGroup:
     def start(self) -> SourceGroup:
         for source in self.sources:
             def emit(kind, data=b"", _name=source.name):
-                self.events.put(SourceEvent(_name, kind, data, time.monotonic()))
+                self.events.put(SourceEvent(_name, kind, data, time.monotonic(), time.time_ns()))
 
             thread = threading.Thread(target=source.run, args=(emit, self._stop), name=source.name, daemon=True)
             thread.start()

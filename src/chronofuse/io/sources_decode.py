@@ -23,6 +23,7 @@ from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s
 __all__ = ["StreamDecoder", "GpsdJsonDecoder", "decoder_for", "split_rows"]
 
 _NEVER = int(np.iinfo(np.int64).min)
+_GPS_EPOCH_UNIX_S = 315_964_800  # 1980-01-06T00:00:00 UTC
 
 
 def split_rows(rows: dict | None) -> list[dict]:
@@ -129,13 +130,23 @@ def _joined(parts: list[dict]) -> dict | None:
 class GpsdJsonDecoder:
     """A gpsd server's JSON reports (gpsd_json(5)) to epochs: a TPV with a ``time`` opens an epoch
     (UTC label, ``mode``, ``leapseconds`` when gpsd knows it, else the leap-second table), a SKY adds its
-    DOPs and ``uSat``; an epoch closes when the next TPV time arrives."""
+    DOPs and ``uSat``; an epoch closes when the next TPV time arrives.
+
+    Timing reports (sent when the watch asks for ``"pps":true``): ``TOFF`` is gpsd's receipt of the
+    receiver's time message (``real`` the UTC second it names, ``clock`` the system time it arrived): it
+    becomes the epoch's ``received_unix_ns``. ``PPS`` is a 1PPS edge timed by the system (kernel PPS or
+    a modem-control line): ``clock`` is the edge, ``real`` the second it marks; it becomes
+    ``pps_unix_ns`` (and its ``qErr``, ps, the epoch's ``qerr_s``). Neither carries the receiver's clock
+    bias or drift, which gpsd does not report."""
 
     def __init__(self) -> None:
         self._buffer = b""
         self._current: dict | None = None
         self._last_gps_ns = np.iinfo(np.int64).min
+        self._toff: dict[int, int] = {}  # UTC UNIX s -> system receipt, UNIX ns
+        self._pps: dict[int, tuple[int, float]] = {}  # UTC UNIX s -> (edge, UNIX ns; qErr s)
         self.bad_lines = 0
+        self.timing_reports = 0
         self.protocol = "gpsd"
 
     def feed(self, data: bytes) -> list[dict]:
@@ -182,6 +193,22 @@ class GpsdJsonDecoder:
                 self._current = _absent_epoch(gps_ns, leap)
             self._current["fix_mode"] = int(doc.get("mode", 0))
             self._current["time_valid"] = int(doc.get("mode", 0)) >= 2
+        elif cls in ("TOFF", "PPS"):
+            try:
+                real_s = int(doc["real_sec"]) + (1 if int(doc.get("real_nsec", 0)) >= 500_000_000 else 0)
+                clock_ns = int(doc["clock_sec"]) * NS_PER_S + int(doc.get("clock_nsec", 0))
+            except (KeyError, TypeError, ValueError):
+                self.bad_lines += 1
+                return
+            self.timing_reports += 1
+            if cls == "TOFF":
+                self._toff[real_s] = clock_ns
+            else:
+                qerr = doc.get("qErr")
+                self._pps[real_s] = (clock_ns, math.nan if qerr is None else float(qerr) * 1e-12)
+            for table in (self._toff, self._pps):
+                while len(table) > 16:
+                    table.pop(min(table))
         elif cls == "SKY" and self._current is not None:
             for name in ("gdop", "pdop", "hdop", "vdop", "tdop"):
                 if name in doc:
@@ -191,6 +218,14 @@ class GpsdJsonDecoder:
 
     def _emit(self, out: list) -> None:
         if self._current is not None and self._current["gps_ns"] > self._last_gps_ns:
+            utc_s = (self._current["gps_ns"] - self._current["leap_s"] * NS_PER_S) // NS_PER_S + _GPS_EPOCH_UNIX_S
+            if utc_s in self._toff:
+                self._current["received_unix_ns"] = self._toff.pop(utc_s)
+            if utc_s in self._pps:
+                edge, qerr = self._pps.pop(utc_s)
+                self._current["pps_unix_ns"] = edge
+                if math.isfinite(qerr):
+                    self._current["qerr_s"] = qerr
             out.append(self._current)
             self._last_gps_ns = self._current["gps_ns"]
         self._current = None

@@ -1,10 +1,22 @@
 """The monitor loop: sources -> live decoders -> per-receiver decisions -> cross-receiver decisions ->
-the durable log -> acknowledgements (and the live table).
+the durable log -> acknowledgements (and the live table, the web page, the time server feed).
 
 Each pass drains the source events that arrived, decodes them per receiver, groups the epochs of all
 receivers by GPS time (an epoch is decided once every connected receiver has passed it, or after
 ``hold_s`` of wall time), commits the decided records to the log in one transaction and only then
 hands them to ``on_ack`` (the ``--json-lines`` printer): what was acknowledged is on disk.
+
+Freshness: each record carries ``received_unix_ns``, the system clock when the first bytes of its epoch
+arrived (the start of the chunk in which the receiver began that epoch: an epoch closes when the next one
+starts, so the chunk that closes epoch k is the one in which epoch k+1 began). A receiver whose last
+epoch is older than ``stale_s`` is stale (an event, and a reason in its verdict) until epochs come again.
+
+Sources that cannot be had: a source that has not come up within ``connect_timeout_s`` of the start
+(0: at its first failure; a missing file, a serial port that does not exist, a refused connection), or
+whose link has been down for longer than ``reconnect_timeout_s`` (None: retried for ever, with backoff),
+ends the run with :class:`SourceUnavailable` naming it, after what was decided has been committed.
+Every outage is one ``link_down`` event with its reason and one ``link_up`` with its duration
+(:mod:`chronofuse.monitor.events`).
 """
 
 from __future__ import annotations
@@ -15,9 +27,15 @@ from collections import defaultdict
 from chronofuse.io.sources import SourceGroup
 from chronofuse.io.sources_decode import decoder_for
 from chronofuse.monitor.decisions import MonitorSettings, ReceiverMonitor, decide_second
+from chronofuse.monitor.events import EventTracker, MonitorEvent
 from chronofuse.monitor.log import EpochLog
+from chronofuse.validation import InputDataError
 
-__all__ = ["Monitor"]
+__all__ = ["Monitor", "SourceUnavailable"]
+
+
+class SourceUnavailable(InputDataError):
+    """A source that could not be opened (or stayed down) within the retry policy; names the source."""
 
 
 def _utc_label(gps_ns: int, leap_s: int) -> str:
@@ -30,39 +48,62 @@ def _utc_label(gps_ns: int, leap_s: int) -> str:
 
 class Monitor:
     """Watch ``sources`` (see :mod:`chronofuse.io.sources`), log to ``log`` (an :class:`EpochLog` or
-    None), call ``on_ack(records)`` after each commit and ``on_event(receiver, kind, detail)`` on
-    connection changes."""
+    None), call ``on_ack(records)`` after each commit and ``on_event(event)`` with each
+    :class:`~chronofuse.monitor.events.MonitorEvent` (connection, freshness, alarm and dissent edges),
+    after it is in the log. ``stale_s``: silence after which a receiver is stale; ``connect_timeout_s``
+    and ``reconnect_timeout_s``: the retry policy (module docstring)."""
 
     def __init__(self, sources, settings: MonitorSettings = MonitorSettings(), log: EpochLog | None = None,
-                 on_ack=None, on_event=None, hold_s: float = 2.0) -> None:
+                 on_ack=None, on_event=None, hold_s: float = 2.0, stale_s: float = 5.0,
+                 connect_timeout_s: float | None = None, reconnect_timeout_s: float | None = None) -> None:
         self.sources = list(sources)
         self.settings = settings
         self.log = log
         self.on_ack = on_ack
         self.on_event = on_event
         self.hold_s = hold_s
+        self.stale_s = stale_s
+        self.connect_timeout_s = connect_timeout_s
+        self.reconnect_timeout_s = reconnect_timeout_s
         self.receivers = {s.name: ReceiverMonitor(s.name, settings) for s in self.sources}
         self.decoders = {s.name: decoder_for(s) for s in self.sources}
+        self.tracker = EventTracker()
         self._pending: dict[int, list] = defaultdict(list)
         self._pending_since: dict[int, float] = {}
         self._previous_bias: dict[str, float] = {}
         self._ended: set[str] = set()
+        self._ever_up: set[str] = set()
+        self._epoch_start_ns: dict[str, int] = {}  # receiver -> arrival (UNIX ns) of the epoch in progress
+        self._last_arrival_s: dict[str, float] = {}  # receiver -> monotonic arrival of its last epoch
+        self._started_s = time.monotonic()
         self.acknowledged = 0
+
+    def age_s(self, receiver: str, now_s: float | None = None) -> float | None:
+        """Seconds since the receiver's last epoch arrived (None: none yet)."""
+        last = self._last_arrival_s.get(receiver)
+        return None if last is None else (time.monotonic() if now_s is None else now_s) - last
+
+    def is_stale(self, receiver: str) -> bool:
+        return self.tracker.is_stale(receiver)
 
     def run(self, duration_s: float | None = None, on_tick=None, tick_s: float = 0.25) -> None:
         """Run until every source has ended (files) or ``duration_s`` has passed; ``on_tick(self)`` is
-        called about every ``tick_s`` (the live table's refresh)."""
+        called about every ``tick_s`` (the live table's refresh). Raises :class:`SourceUnavailable`
+        (after committing what was decided) when the retry policy gives up on a source."""
         group = SourceGroup(self.sources).start()
-        start = last_tick = time.monotonic()
+        start = last_tick = self._started_s = time.monotonic()
         try:
             while len(self._ended) < len(self.sources):
                 if duration_s is not None and time.monotonic() - start >= duration_s:
                     break
-                self.step(group, timeout_s=tick_s)
+                self.step(group, timeout_s=min(tick_s, 0.25))
                 if on_tick is not None and time.monotonic() - last_tick >= tick_s:
                     on_tick(self)
                     last_tick = time.monotonic()
             self._flush(final=True)
+        except SourceUnavailable:
+            self._flush(final=True)
+            raise
         finally:
             group.stop()
             if on_tick is not None:
@@ -70,41 +111,96 @@ class Monitor:
 
     def step(self, group: SourceGroup, timeout_s: float = 0.25, max_events: int = 256) -> None:
         """One pass: drain up to ``max_events`` source events, decide and commit what is ready."""
-        events, conn_events = [], []
+        events = []
         event = group.get(timeout_s)
         while event is not None:
             events.append(event)
             if len(events) >= max_events:
                 break
             event = group.get(0.0) if not group.events.empty() else None
+        notices: list[MonitorEvent] = []
+        wall_s = time.time()
         for ev in events:
             rx = self.receivers[ev.source]
             if ev.kind == "data":
-                for epoch in self.decoders[ev.source].feed(ev.data):
+                epochs = self.decoders[ev.source].feed(ev.data)
+                self._received(ev.source, epochs, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
+                for epoch in epochs:
                     self._add(rx.decide(epoch))
-            else:
-                if ev.kind == "up":
-                    rx.connected = True
-                elif ev.kind in ("down", "end"):
-                    if rx.connected and ev.kind == "down":
-                        rx.outages += 1
-                    rx.connected = False
-                    if ev.kind == "end":
-                        for epoch in self.decoders[ev.source].close():
-                            self._add(rx.decide(epoch))
-                        self._ended.add(ev.source)
-                detail = ev.data if isinstance(ev.data, str) else ""
-                conn_events.append((ev.source, time.time(), ev.kind, detail))
-                if self.on_event is not None:
-                    self.on_event(ev.source, ev.kind, detail)
-        self._flush(final=False, events=conn_events)
+                continue
+            reason = ev.data if isinstance(ev.data, str) else ""
+            if ev.kind == "up":
+                rx.connected = True
+                self._ever_up.add(ev.source)
+            elif ev.kind in ("down", "end"):
+                if rx.connected and ev.kind == "down":
+                    rx.outages += 1
+                rx.connected = False
+                if ev.kind == "end":
+                    epochs = self.decoders[ev.source].close()
+                    self._received(ev.source, epochs, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
+                    for epoch in epochs:
+                        self._add(rx.decide(epoch))
+                    self._ended.add(ev.source)
+            notices += self.tracker.link(ev.source, ev.kind, reason, wall_s)
+            if ev.kind in ("down", "end") and ev.source not in self._ever_up:
+                self._check_connect(ev.source, reason, final=ev.kind == "end")
+        notices += self._freshness(wall_s)
+        self._flush(final=False, notices=notices)
+        self._check_reconnect(wall_s)
+
+    def _received(self, receiver: str, epochs: list[dict], wall_ns: int, mono_s: float) -> None:
+        """Stamp each epoch released by this chunk with the arrival of its first bytes (module docstring)."""
+        if not epochs:
+            self._epoch_start_ns.setdefault(receiver, wall_ns)
+            return
+        for epoch in epochs:
+            # a gpsd source brings gpsd's own receipt time (its TOFF report): that one is kept
+            if epoch.get("received_unix_ns") is None:
+                epoch["received_unix_ns"] = self._epoch_start_ns.get(receiver, wall_ns)
+            self._epoch_start_ns[receiver] = wall_ns
+        self._last_arrival_s[receiver] = mono_s
+
+    def _freshness(self, wall_s: float) -> list[MonitorEvent]:
+        now = time.monotonic()
+        out = []
+        for name in self.receivers:
+            out += self.tracker.freshness(name, self.age_s(name, now), self.stale_s, wall_s)
+        return out
+
+    def _check_connect(self, name: str, reason: str, final: bool) -> None:
+        waited = time.monotonic() - self._started_s
+        limit = self.connect_timeout_s
+        if limit is None:
+            return
+        if final or waited >= limit:
+            raise SourceUnavailable(f"cannot be read: {reason or 'no data'}"
+                                    + (f" (retried for {waited:.0f} s)" if limit > 0 else ""), name)
+
+    def _check_reconnect(self, wall_s: float) -> None:
+        now = time.monotonic()
+        for name in self.receivers:
+            if name in self._ended:
+                continue
+            if name not in self._ever_up:
+                if self.connect_timeout_s is not None and now - self._started_s >= self.connect_timeout_s > 0 \
+                        and self.tracker.states.get(name) is not None:
+                    st = self.tracker.states[name]
+                    raise SourceUnavailable(f"cannot be read: {st.down_reason or 'no data'} (retried for "
+                                            f"{now - self._started_s:.0f} s)", name)
+                continue
+            down = self.tracker.outage_s(name, wall_s)
+            if self.reconnect_timeout_s is not None and down is not None and down > self.reconnect_timeout_s:
+                reason = self.tracker.states[name].down_reason
+                raise SourceUnavailable(f"down for {down:.0f} s ({reason}); giving up after "
+                                        f"{self.reconnect_timeout_s:g} s", name)
 
     def _add(self, record: dict) -> None:
         record["utc"] = _utc_label(record["gps_ns"], record["leap_s"])
         self._pending[record["gps_ns"]].append(record)
         self._pending_since.setdefault(record["gps_ns"], time.monotonic())
 
-    def _flush(self, final: bool, events=()) -> None:
+    def _flush(self, final: bool, notices: list[MonitorEvent] = ()) -> None:
         now = time.monotonic()
         live = [rx for rx in self.receivers.values() if rx.connected and rx.name not in self._ended]
         horizon = min((rx._last_gps_ns for rx in live if rx._last_gps_ns is not None), default=None)
@@ -119,9 +215,13 @@ class Monitor:
             self._pending_since.pop(gps_ns)
             decide_second(group, self.settings.jump_s, self._previous_bias)
             records += group
+        notices = list(notices) + self.tracker.records(records, time.time())
         if self.log is not None:
-            self.log.append(records, list(events))
+            self.log.append(records, notices)
         if records:
             self.acknowledged += len(records)
             if self.on_ack is not None:
                 self.on_ack(records)
+        if self.on_event is not None:
+            for notice in notices:
+                self.on_event(notice)
