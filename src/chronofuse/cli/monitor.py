@@ -22,15 +22,12 @@ def register(app: typer.Typer) -> None:
 
 
 def _replay_source(path: Path, speed: float, index: int):
-    """A recording replayed at ``speed`` x its own pace (its bytes spread over its time span / speed)."""
-    from chronofuse.io.inspect import read_capture
-    from chronofuse.io.sources import FileSource
-    from chronofuse.timescale import NS_PER_S
+    """A recording replayed burst by burst at ``speed`` x its own epochs' pace."""
+    from chronofuse.io.replay import ReplaySource
 
-    capture = read_capture(path)
-    span_s = (capture.rows["gps_ns"][-1] - capture.rows["gps_ns"][0]) / NS_PER_S if capture.n_epochs > 1 else 0
-    rate = path.stat().st_size / span_s * speed if span_s > 0 else None
-    return FileSource(path, name=f"{path.name}#{index}", rate_bytes_s=rate, chunk=4096)
+    if not path.is_file():
+        fail(f"{path}: no such file")
+    return ReplaySource(path, name=f"{path.name}#{index}", speed=speed)
 
 
 def _timeout(value: float | None, name: str) -> float | None:

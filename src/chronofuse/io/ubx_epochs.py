@@ -13,6 +13,8 @@ Messages used (u-blox 8 / M8 and F9 interface descriptions; field names as pyubx
   1 UTC): it is paired with the epoch of that pulse, not with the epoch it arrives in.
 * TIM-TM2: time marks on the EXTINT input (rising-edge times kept as GPS ns).
 * RXM-RAWX: ``rcvTow``, ``week`` and ``leapS`` (valid when ``recStat.leapSec``).
+* NAV-EOE (protocol 18 and later): the end of the navigation epoch ``iTOW``. A live stream closes that
+  epoch at once instead of waiting for the next epoch's first message (one epoch interval later).
 
 Every navigation message carries ``iTOW`` (GPS time of week, ms) of its epoch; messages with the same
 ``iTOW`` are one epoch. The full epoch is ``week * 604800 s + iTOW``; the week comes from a message that
@@ -46,7 +48,7 @@ from chronofuse.timescale import (
 __all__ = ["UBX_TYPES", "UbxDecodeStats", "UbxEpochBuilder", "decode_ubx", "GPSD_FIX_MODE"]
 
 UBX_TYPES = frozenset({"NAV-PVT", "NAV-SOL", "NAV-STATUS", "NAV-TIMEGPS", "NAV-TIMEUTC", "NAV-TIMELS",
-                       "NAV-DOP", "NAV-SAT", "NAV-CLOCK", "TIM-TP", "TIM-TM2", "RXM-RAWX"})
+                       "NAV-DOP", "NAV-SAT", "NAV-CLOCK", "TIM-TP", "TIM-TM2", "RXM-RAWX", "NAV-EOE"})
 
 #: u-blox ``fixType``/``gpsFix`` -> gpsd TPV mode: 0 no fix, 1 dead reckoning only, 2 2-D, 3 3-D,
 #: 4 GNSS + dead reckoning, 5 time only (a surveyed timing receiver: 3, as gpsd reports it).
@@ -71,11 +73,12 @@ class UbxDecodeStats:
 class _Epoch:
     __slots__ = ("itow_ms", "week", "utc_ns", "mode", "time_valid", "n_sats", "n_used_sat", "gdop", "pdop",
                  "hdop", "vdop", "tdop", "leap_s", "leap_pending", "clock_bias_s", "clock_drift_s_per_s",
-                 "time_acc_s", "leap_from_utc", "raw_only")
+                 "time_acc_s", "leap_from_utc", "raw_only", "ended")
 
     def __init__(self, itow_ms: int) -> None:
         self.itow_ms = itow_ms
         self.raw_only = False
+        self.ended = False  # NAV-EOE seen: nothing more will come for this epoch
         self.week = -1
         self.utc_ns: int | None = None  # a valid UTC label (UTC count since the GPS epoch)
         self.leap_from_utc = False
@@ -157,7 +160,9 @@ class UbxEpochBuilder:
                 ep.leap_s = int(m.leapS)
             return
         ep = self._epoch(int(m.iTOW))
-        if name == "NAV-PVT":
+        if name == "NAV-EOE":
+            ep.ended = True
+        elif name == "NAV-PVT":
             ep.mode = GPSD_FIX_MODE.get(int(m.fixType), 0)
             ep.n_sats = int(m.numSV)
             ep.pdop = float(m.pDOP)
@@ -206,8 +211,11 @@ class UbxEpochBuilder:
         """Streaming: the epochs before the one in progress as arrays, removed from the builder. The last
         dated epoch and the receiver's last leap count carry over to later calls, so an epoch without a
         week of its own is placed from its predecessors; TIM-TP pulses wait for their epoch. Epochs
-        before anything dates them wait (at most ``max_undated``). None when nothing is ready."""
-        closed = self._epochs[:-1]
+        before anything dates them wait (at most ``max_undated``); an epoch whose NAV-EOE has come is
+        complete even while it is the last one. None when nothing is ready."""
+        ended = [i for i, ep in enumerate(self._epochs) if ep.ended]
+        cut = max(len(self._epochs) - 1, ended[-1] + 1 if ended else 0)
+        closed = self._epochs[:cut]
         if not closed:
             return None
         rows = self._rows_of(closed, stats, streaming=True, final=len(closed) > max_undated)
