@@ -78,17 +78,22 @@ def monitor(
     reconnect = _timeout(reconnect_timeout_s, "--reconnect-timeout-s")
     with user_errors():
         from chronofuse.io.sources import parse_source
-        from chronofuse.monitor.decisions import MonitorSettings
-        from chronofuse.monitor.log import EpochLog
-        from chronofuse.monitor.web import parse_address
 
         chosen = [parse_source(s) for s in (sources or [])]
+        for source in chosen:
+            path = getattr(source, "path", None)
+            if path is not None and not path.exists():
+                fail(f"{path}: no such file (a source is serial:PORT, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file)")
         chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
         names = [s.name for s in chosen]
         if len(set(names)) != len(names):
             fail(f"two sources share the name {next(n for n in names if names.count(n) > 1)!r}")
+        from chronofuse.monitor.decisions import MonitorSettings
+        from chronofuse.monitor.log import EpochLog
+        from chronofuse.monitor.web import parse_address
+
         address = parse_address(http) if http is not None else None
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
                                    jump_s=jump_ns * 1e-9)

@@ -175,7 +175,7 @@ class Monitor:
             return
         if final or waited >= limit:
             raise SourceUnavailable(f"cannot be read: {reason or 'no data'}"
-                                    + (f" (retried for {waited:.0f} s)" if limit > 0 else ""), name)
+                                    + (f" (retried for {waited:.0f} s)" if limit > 0 else ""), self._where(name))
 
     def _check_reconnect(self, wall_s: float) -> None:
         now = time.monotonic()
@@ -187,13 +187,19 @@ class Monitor:
                         and self.tracker.states.get(name) is not None:
                     st = self.tracker.states[name]
                     raise SourceUnavailable(f"cannot be read: {st.down_reason or 'no data'} (retried for "
-                                            f"{now - self._started_s:.0f} s)", name)
+                                            f"{now - self._started_s:.1f} s)", self._where(name))
                 continue
             down = self.tracker.outage_s(name, wall_s)
             if self.reconnect_timeout_s is not None and down is not None and down > self.reconnect_timeout_s:
                 reason = self.tracker.states[name].down_reason
                 raise SourceUnavailable(f"down for {down:.0f} s ({reason}); giving up after "
-                                        f"{self.reconnect_timeout_s:g} s", name)
+                                        f"{self.reconnect_timeout_s:g} s", self._where(name))
+
+    def _where(self, name: str) -> str:
+        """A source as the user named it: a recording's path, else its name (``serial port``, host:port)."""
+        source = next(s for s in self.sources if s.name == name)
+        path = getattr(source, "path", None)
+        return f"{name} ({path})" if path is not None and str(path) != name else name
 
     def _add(self, record: dict) -> None:
         record["utc"] = _utc_label(record["gps_ns"], record["leap_s"])
