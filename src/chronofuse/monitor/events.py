@@ -88,10 +88,10 @@ class EventTracker:
             st.link, st.down_since_s, st.attempts = "up", None, 0
             return [event]
         if kind == "down":
-            st.attempts += 1
             if st.link == "down":
+                st.attempts += 1
                 return []  # a retry that failed again: the same outage
-            st.link, st.down_since_s, st.down_reason = "down", wall_s, reason
+            st.link, st.down_since_s, st.down_reason, st.attempts = "down", wall_s, reason, 0
             return [MonitorEvent(receiver, "link_down", wall_s, reason)]
         if kind == "end":
             st.link = "ended"

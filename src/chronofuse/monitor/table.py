@@ -5,7 +5,7 @@ It draws the status document (:mod:`chronofuse.monitor.status`), so the table, `
 web page give one verdict. Layouts by width (columns kept whole; a receiver's name is shortened in the
 middle, never cut to three letters):
 
-- 80 columns: receiver, link, age, fix, sats, GDOP, ok, bias, alarms, and why not usable;
+- 80 columns: receiver, link, age, fix, satellites, GDOP, ok (usable), bias, alarms, and why not usable;
 - 100 columns: adds the UTC time of day, the leap count and qErr;
 - 140 and more: the whole record (date and time, drift, flags, outages).
 
@@ -31,10 +31,10 @@ _LAYOUTS = (
            "why")),
     (0, ("receiver", "link", "age", "fix", "sats", "gdop", "ok", "bias", "alarms", "why")),
 )
-_HEADERS = {"receiver": "receiver", "link": "link", "age": "age s", "fix": "fix", "sats": "sats", "gdop": "GDOP",
+_HEADERS = {"receiver": "receiver", "link": "link", "age": "age s", "fix": "fix", "sats": "sv", "gdop": "GDOP",
             "ok": "ok", "utc_full": "UTC", "utc_time": "UTC", "leap": "leap", "bias": "bias ns",
-            "drift": "drift ns/s", "qerr": "qErr ns", "alarms": "alarms", "outages": "outages", "flags": "flags",
-            "why": "why not usable"}
+            "drift": "drift ns/s", "qerr": "qErr ns", "alarms": "alm", "outages": "outages", "flags": "flags",
+            "why": "why not ok"}
 _LEFT = {"receiver", "utc_full", "utc_time", "flags", "why"}
 
 
@@ -105,14 +105,15 @@ def receiver_table(monitor, width: int | None = None, doc: dict | None = None) -
 
     doc = doc if doc is not None else status_document(monitor)
     cols = layout_for(10_000 if width is None else width)
-    name_width = 24 if width is None or width >= 140 else 18 if width >= 100 else 12
+    name_width = 26 if width is None or width >= 140 else 22 if width >= 100 else 16
     table = Table(title=f"chronofuse monitor: {len(doc['receivers'])} receiver(s), {doc['acknowledged']:,} epochs "
-                        f"logged, stale after {doc['stale_s']:g} s", expand=False, padding=(0, 1),
-                  pad_edge=False, collapse_padding=True)
+                        f"logged, stale after {doc['stale_s']:g} s", expand=width is not None, padding=(0, 1, 0, 0),
+                  pad_edge=False, box=None, header_style="bold underline", width=width)
     for col in cols:
         wrap = col == "why"
         table.add_column(_HEADERS[col], justify="left" if col in _LEFT else "right", no_wrap=not wrap,
-                         overflow="fold" if wrap else "ellipsis", ratio=1 if wrap else None)
+                         overflow="fold" if wrap else "ellipsis", ratio=1 if wrap else None,
+                         min_width=12 if wrap else None)
     for entry in doc["receivers"]:
         cells = _cells(entry, name_width)
         table.add_row(*(Text.from_markup(cells[c]) if c not in ("receiver", "why") else Text(cells[c]) for c in cols))
