@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from pathlib import Path
 
 import typer
@@ -21,13 +22,13 @@ def register(app: typer.Typer) -> None:
     app.command("monitor")(monitor)
 
 
-def _replay_source(path: Path, speed: float, index: int):
-    """A recording replayed burst by burst at ``speed`` x its own epochs' pace."""
+def _replay_source(path: Path, speed: float, index: int, start_at: float):
+    """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
     from chronofuse.io.replay import ReplaySource
 
     if not path.is_file():
         fail(f"{path}: no such file")
-    return ReplaySource(path, name=f"{path.name}#{index}", speed=speed)
+    return ReplaySource(path, name=f"{path.name}#{index}", speed=speed, start_at=start_at)
 
 
 def _timeout(value: float | None, name: str) -> float | None:
@@ -84,7 +85,8 @@ def monitor(
             path = getattr(source, "path", None)
             if path is not None and not path.exists():
                 fail(f"{path}: no such file (a source is serial:PORT, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file)")
-        chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
+        start_at = time.monotonic() + 1.0  # the replays' first epochs together (GPS-locked receivers are)
+        chosen += [_replay_source(p, speed, i, start_at) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
         names = [s.name for s in chosen]

@@ -84,12 +84,29 @@ def frame_schedule(data: bytes) -> list[tuple[int, float]]:
     return schedule
 
 
-class ReplaySource(FileSource):
-    """A recording sent burst by burst at its own epochs' pace times ``speed`` (module docstring)."""
+_SCHEDULES: dict[tuple, list] = {}
+_SCHEDULES_LOCK = threading.Lock()
 
-    def __init__(self, path, name: str | None = None, speed: float = 1.0) -> None:
+
+def _cached_schedule(path: Path, data: bytes) -> list[tuple[int, float]]:
+    """:func:`frame_schedule` of a file, computed once per file version (many replays of one recording)."""
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
+    with _SCHEDULES_LOCK:
+        if key not in _SCHEDULES:
+            _SCHEDULES[key] = frame_schedule(data)
+        return _SCHEDULES[key]
+
+
+class ReplaySource(FileSource):
+    """A recording sent burst by burst at its own epochs' pace times ``speed`` (module docstring).
+    ``start_at``: the monotonic instant of its first epoch (replays given one start send their epochs
+    together, as receivers locked to GPS time do); None: when its thread starts."""
+
+    def __init__(self, path, name: str | None = None, speed: float = 1.0, start_at: float | None = None) -> None:
         super().__init__(path, name=name or Path(path).name)
         self.speed = float(speed)
+        self.start_at = start_at
 
     def run(self, emit, stop: threading.Event) -> None:
         try:
@@ -100,8 +117,8 @@ class ReplaySource(FileSource):
             emit("end")
             return
         emit("up")
-        schedule = frame_schedule(data) + [(len(data), None)]
-        start = time.monotonic()
+        schedule = _cached_schedule(self.path, data) + [(len(data), None)]
+        start = time.monotonic() if self.start_at is None else self.start_at
         for (offset, due), (following, _) in zip(schedule[:-1], schedule[1:]):
             wait = start + due / self.speed - time.monotonic()
             if wait > 0 and stop.wait(wait):

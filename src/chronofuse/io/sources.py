@@ -224,7 +224,13 @@ class SourceGroup:
     def start(self) -> SourceGroup:
         for source in self.sources:
             def emit(kind, data=b"", _name=source.name):
-                self.events.put(SourceEvent(_name, kind, data, time.monotonic(), time.time_ns()))
+                event = SourceEvent(_name, kind, data, time.monotonic(), time.time_ns())
+                while not self._stop.is_set():  # a full queue waits for the consumer, not past a stop
+                    try:
+                        self.events.put(event, timeout=0.1)
+                        return
+                    except queue.Full:
+                        continue
 
             thread = threading.Thread(target=source.run, args=(emit, self._stop), name=source.name, daemon=True)
             thread.start()
@@ -238,9 +244,11 @@ class SourceGroup:
             return None
 
     def stop(self, join_s: float = 2.0) -> None:
+        """Stop every source thread (at most ``join_s`` in all for the stragglers)."""
         self._stop.set()
+        deadline = time.monotonic() + join_s
         for thread in self._threads:
-            thread.join(join_s)
+            thread.join(max(deadline - time.monotonic(), 0.0))
 
     def __enter__(self) -> SourceGroup:
         return self.start()

@@ -72,12 +72,33 @@ class StreamDecoder:
             if name not in self.protocols and sum(stats.decoded.values()):
                 self.protocols += (name,)
                 self._closed.setdefault(name, None)
+        if self.protocols == ("ubx",) and not self._pending["ubx"]:
+            return self._ubx_only(final)
         self._take("ubx", self._ubx.pop_complete(self.ubx_stats))
         self._take("nmea", self._nmea.pop_complete())
         if final:
             self._take("ubx", self._ubx.pop_all(self.ubx_stats))
             self._take("nmea", self._nmea.pop_all())
         return self._release(np.iinfo(np.int64).max if final else self._horizon())
+
+    def _ubx_only(self, final: bool) -> list[dict]:
+        """A stream of UBX alone: epochs as dicts straight from the builder (no merge to wait for, no
+        arrays to set up for the one or two epochs a chunk closes)."""
+        records = self._ubx.pop_complete_records(self.ubx_stats)
+        if final:
+            records += self._ubx.pop_all_records(self.ubx_stats)
+        kept = []
+        for epoch in sorted(records, key=lambda r: r["gps_ns"]):
+            if epoch["gps_ns"] > self._last_gps_ns:
+                kept.append(epoch)
+                self._last_gps_ns = epoch["gps_ns"]
+        if kept:
+            last = kept[-1]["gps_ns"]
+            previous = self._closed.get("ubx")
+            self._closed["ubx"] = last if previous is None else max(previous, last)
+            if self._first_closed is None:
+                self._first_closed = kept[0]["gps_ns"]
+        return kept
 
     def _take(self, name: str, rows: dict | None) -> None:
         if rows is not None and rows["gps_ns"].size:

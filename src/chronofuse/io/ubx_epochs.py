@@ -36,6 +36,7 @@ import numpy as np
 from pyubx2 import UBXReader
 from pyubx2.ubxhelpers import calc_checksum
 
+from chronofuse.io.ubx_layouts import decode_fixed
 from chronofuse.io.ubx_pulses import attach_pulses, pulse_gps_ns
 from chronofuse.timescale import (
     MS_PER_WEEK,
@@ -224,6 +225,33 @@ class UbxEpochBuilder:
         self._epochs = self._epochs[len(closed):]
         return rows
 
+    def pop_complete_records(self, stats: UbxDecodeStats | None = None, max_undated: int = 64) -> list[dict]:
+        """:meth:`pop_complete` as one dict per epoch, computed without arrays: the live path's twin for a
+        receiver that sends UBX only (a few epochs per call, where array set-up costs more than the work;
+        :func:`_records_of` is the scalar twin of :meth:`_rows_of`, and the tests compare the two)."""
+        ended = [i for i, ep in enumerate(self._epochs) if ep.ended]
+        cut = max(len(self._epochs) - 1, ended[-1] + 1 if ended else 0)
+        closed = self._epochs[:cut]
+        if not closed:
+            return []
+        records = _records_of(self, closed, stats, final=len(closed) > max_undated)
+        if records is None:
+            return []
+        self._epochs = self._epochs[len(closed):]
+        return records
+
+    def pop_all_records(self, stats: UbxDecodeStats | None = None) -> list[dict]:
+        """:meth:`pop_all` as one dict per epoch (see :meth:`pop_complete_records`)."""
+        self._epochs.append(_Epoch(-1))
+        records = self.pop_complete_records(stats, max_undated=0)
+        self._epochs = []
+        if self._pulses:
+            unmatched = _attach_pulses_records(records, self._pulses)
+            if stats is not None:
+                stats.pulses_without_epoch += unmatched
+        self._pulses = []
+        return records
+
     def pop_all(self, stats: UbxDecodeStats | None = None) -> dict | None:
         """Streaming, at the end of the stream: every epoch left (the one in progress too)."""
         self._epochs.append(_Epoch(-1))  # a sentinel "next epoch" so that every real one is closed
@@ -322,6 +350,108 @@ class UbxEpochBuilder:
         return rows
 
 
+_MISSING = int(np.iinfo(np.int64).min)
+
+
+def _records_of(builder: UbxEpochBuilder, eps: list, stats, final: bool) -> list[dict] | None:
+    """Scalar twin of :meth:`UbxEpochBuilder._rows_of` in its streaming use: the same placement on weeks
+    (:func:`_place_on_weeks`), leap filling (:func:`_fill_leap`) and pulse pairing, one epoch at a time."""
+    has_anchor = builder._anchor is not None
+    if has_anchor:
+        anchor = _Epoch(builder._anchor[0])
+        anchor.week = builder._anchor[1]
+        anchor.leap_s = builder._last_leap
+        eps = [anchor] + list(eps)
+    n = len(eps)
+    approx = []
+    for e in eps:
+        if e.week >= 0:
+            approx.append(e.week * NS_PER_WEEK + e.itow_ms * 1_000_000)
+        elif e.utc_ns is not None:
+            leap = e.leap_s if e.leap_s is not None else int(gps_minus_utc_s(e.utc_ns))
+            approx.append(e.utc_ns + leap * NS_PER_S)
+        else:
+            approx.append(_MISSING)
+    have = [i for i, a in enumerate(approx) if a != _MISSING]
+    if not have:
+        if stats is not None and final:
+            stats.undated_epochs += n - (1 if has_anchor else 0)
+        return None if not final else []
+    gps = []
+    for i, e in enumerate(eps):
+        # nearest dated epoch in stream order (the left one on a tie), as _place_on_weeks
+        j = min(have, key=lambda h: (abs(h - i), h > i))
+        step_ms = e.itow_ms - eps[j].itow_ms
+        step_ms = (step_ms + MS_PER_WEEK // 2) % MS_PER_WEEK - MS_PER_WEEK // 2
+        estimate = approx[j] + step_ms * 1_000_000
+        week = int(np.rint((estimate - e.itow_ms * 1_000_000) / NS_PER_WEEK))
+        gps.append(week * NS_PER_WEEK + e.itow_ms * 1_000_000)
+    own = []
+    leap = []
+    for i, e in enumerate(eps):
+        if e.leap_s is not None:
+            leap.append(e.leap_s)
+            own.append(True)
+        elif e.utc_ns is not None:
+            leap.append(round((gps[i] - e.utc_ns) / NS_PER_S))
+            own.append(True)
+        else:
+            leap.append(-1)
+            own.append(False)
+    if any(own):  # carry the last own count forward, the first one backward (_fill_leap)
+        first = next(v for v, o in zip(leap, own) if o)
+        current = first
+        for i in range(n):
+            if own[i]:
+                current = leap[i]
+            else:
+                leap[i] = current
+    else:
+        leap = [int(gps_minus_utc_s(g)) for g in gps]
+    records = []
+    for i, e in enumerate(eps):
+        if has_anchor and i == 0:
+            continue
+        records.append({
+            "gps_ns": gps[i], "fix_mode": e.mode, "time_valid": bool(e.time_valid),
+            "n_sats": e.n_sats if e.n_sats >= 0 else e.n_used_sat, "gdop": e.gdop, "pdop": e.pdop,
+            "hdop": e.hdop, "vdop": e.vdop, "tdop": e.tdop, "leap_s": int(leap[i]), "leap_pending": e.leap_pending,
+            "qerr_s": math.nan, "clock_bias_s": e.clock_bias_s, "clock_drift_s_per_s": e.clock_drift_s_per_s})
+    builder._anchor = (eps[-1].itow_ms, gps[-1] // NS_PER_WEEK)  # every epoch is placed once one is dated
+    owned = [i for i in range(n) if own[i]]
+    if owned:
+        builder._last_leap = int(leap[owned[-1]])
+    if not records:
+        return records
+    last_gps = records[-1]["gps_ns"]
+    ready = [p for p in builder._pulses if pulse_gps_ns(p, records[-1]["leap_s"]) <= last_gps]
+    builder._pulses = [p for p in builder._pulses if p not in ready]
+    unmatched = _attach_pulses_records(records, ready)
+    if stats is not None:
+        stats.pulses_without_epoch += unmatched
+    return records
+
+
+def _attach_pulses_records(records: list[dict], pulses: list) -> int:
+    """:func:`~chronofuse.io.ubx_pulses.attach_pulses` on records (in time order); returns the unmatched."""
+    import bisect
+
+    times = [r["gps_ns"] for r in records]
+    unmatched = 0
+    for week, tow_ms, base, qerr in pulses:
+        t = week * NS_PER_WEEK + tow_ms * 1_000_000
+        if base == 1:
+            j = bisect.bisect_right(times, t) - 1
+            leap = records[max(j, 0)]["leap_s"] if times else int(gps_minus_utc_s(t))
+            t += leap * NS_PER_S
+        j = bisect.bisect_left(times, t)
+        if j < len(times) and times[j] == t:
+            records[j]["qerr_s"] = qerr
+        else:
+            unmatched += 1
+    return unmatched
+
+
 def nav_sat_used(raw: bytes) -> int:
     """Satellites used in the navigation solution, from a whole UBX-NAV-SAT frame read by its layout (u-blox
     8 / M8 and F9 interface descriptions, UBX-NAV-SAT): payload ``iTOW`` U4, ``version`` U1, ``numSvs`` U1,
@@ -390,8 +520,10 @@ def decode_ubx(frames, builder: UbxEpochBuilder, stats: UbxDecodeStats) -> None:
                 builder.push_nav_sat(frame.raw)  # read by its layout, see nav_sat_used
                 stats.decoded[frame.name] += 1
                 continue
-            raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
-            msg = UBXReader.parse(raw, validate=0)
+            msg = decode_fixed(frame.name, frame.raw)  # pyubx2's layout, compiled (io/ubx_layouts.py)
+            if msg is None:
+                raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
+                msg = UBXReader.parse(raw, validate=0)
             builder.push(frame.name, msg)
         except Exception as err:  # pyubx2 raises several types on short or odd payloads; count, go on
             stats.parse_errors += 1

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
+from datetime import datetime, timedelta
 
 from chronofuse.io.sources import SourceGroup
 from chronofuse.io.sources_decode import decoder_for
@@ -38,12 +39,16 @@ class SourceUnavailable(InputDataError):
     """A source that could not be opened (or stayed down) within the retry policy; names the source."""
 
 
+_GPS_EPOCH = datetime(1980, 1, 6)
+
+
 def _utc_label(gps_ns: int, leap_s: int) -> str:
-    import numpy as np
-
-    from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
-
-    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(gps_ns - leap_s * NS_PER_S)), unit="ms")) + "Z"
+    """The receiver's UTC label of an epoch, ISO 8601 with milliseconds and ``Z`` (what
+    ``numpy.datetime_as_string(..., unit="ms")`` gives, computed in integers without numpy)."""
+    utc_ns = int(gps_ns) - int(leap_s) * 1_000_000_000
+    seconds, rest_ns = divmod(utc_ns, 1_000_000_000)
+    stamp = _GPS_EPOCH + timedelta(seconds=seconds)
+    return f"{stamp:%Y-%m-%dT%H:%M:%S}.{rest_ns // 1_000_000:03d}Z"
 
 
 class Monitor:
@@ -76,6 +81,9 @@ class Monitor:
         self._epoch_start_ns: dict[str, int] = {}  # receiver -> arrival (UNIX ns) of the epoch in progress
         self._last_arrival_s: dict[str, float] = {}  # receiver -> monotonic arrival of its last epoch
         self._started_s = time.monotonic()
+        self._last_checks_s = self._last_flush_s = 0.0
+        self.check_s = 0.1  # freshness and retry checks, s
+        self.flush_s = 0.05  # commits of decided records (each an fsync), s apart at most this often
         self.acknowledged = 0
 
     def age_s(self, receiver: str, now_s: float | None = None) -> float | None:
@@ -145,9 +153,14 @@ class Monitor:
             notices += self.tracker.link(ev.source, ev.kind, reason, wall_s)
             if ev.kind in ("down", "end") and ev.source not in self._ever_up:
                 self._check_connect(ev.source, reason, final=ev.kind == "end")
-        notices += self._freshness(wall_s)
-        self._flush(final=False, notices=notices)
-        self._check_reconnect(wall_s)
+        now = time.monotonic()
+        if now - self._last_checks_s >= self.check_s:  # freshness and the retry policy: a few times a second
+            self._last_checks_s = now
+            notices += self._freshness(wall_s)
+            self._check_reconnect(wall_s)
+        if notices or now - self._last_flush_s >= self.flush_s:  # one commit per flush interval, not per chunk
+            self._last_flush_s = now
+            self._flush(final=False, notices=notices)
 
     def _received(self, receiver: str, epochs: list[dict], wall_ns: int, mono_s: float) -> None:
         """Stamp each epoch released by this chunk with the arrival of its first bytes (module docstring)."""
