@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from pathlib import Path
 
 import typer
@@ -22,7 +21,7 @@ def register(app: typer.Typer) -> None:
     app.command("monitor")(monitor)
 
 
-def _replay_source(path: Path, speed: float, index: int, start_at: float):
+def _replay_source(path: Path, speed: float, index: int, start_at):
     """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
     from chronofuse.io.replay import ReplaySource
 
@@ -85,7 +84,9 @@ def monitor(
             path = getattr(source, "path", None)
             if path is not None and not path.exists():
                 fail(f"{path}: no such file (a source is serial:PORT, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file)")
-        start_at = time.monotonic() + 1.0  # the replays' first epochs together (GPS-locked receivers are)
+        from chronofuse.io.replay import SharedStart
+
+        start_at = SharedStart()  # the replays' first epochs together (GPS-locked receivers are)
         chosen += [_replay_source(p, speed, i, start_at) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")

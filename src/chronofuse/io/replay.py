@@ -26,7 +26,7 @@ from chronofuse.io.formats import open_data
 from chronofuse.io.frames import scan_bytes
 from chronofuse.io.sources import FileSource
 
-__all__ = ["ReplaySource", "frame_schedule"]
+__all__ = ["ReplaySource", "SharedStart", "frame_schedule"]
 
 _WEEK_S = 604_800.0
 _DAY_S = 86_400.0
@@ -84,6 +84,22 @@ def frame_schedule(data: bytes) -> list[tuple[int, float]]:
     return schedule
 
 
+class SharedStart:
+    """One start instant for several replays: fixed by the first replay to start (plus ``lead_s``, the
+    time the others' threads need to come up), so their epochs go out together."""
+
+    def __init__(self, lead_s: float = 0.2) -> None:
+        self.lead_s = lead_s
+        self._at: float | None = None
+        self._lock = threading.Lock()
+
+    def at(self) -> float:
+        with self._lock:
+            if self._at is None:
+                self._at = time.monotonic() + self.lead_s
+            return self._at
+
+
 _SCHEDULES: dict[tuple, list] = {}
 _SCHEDULES_LOCK = threading.Lock()
 
@@ -100,10 +116,10 @@ def _cached_schedule(path: Path, data: bytes) -> list[tuple[int, float]]:
 
 class ReplaySource(FileSource):
     """A recording sent burst by burst at its own epochs' pace times ``speed`` (module docstring).
-    ``start_at``: the monotonic instant of its first epoch (replays given one start send their epochs
-    together, as receivers locked to GPS time do); None: when its thread starts."""
+    ``start_at``: the monotonic instant of its first epoch, or a :class:`SharedStart` (replays given one
+    start send their epochs together, as receivers locked to GPS time do); None: when its thread starts."""
 
-    def __init__(self, path, name: str | None = None, speed: float = 1.0, start_at: float | None = None) -> None:
+    def __init__(self, path, name: str | None = None, speed: float = 1.0, start_at=None) -> None:
         super().__init__(path, name=name or Path(path).name)
         self.speed = float(speed)
         self.start_at = start_at
@@ -118,7 +134,10 @@ class ReplaySource(FileSource):
             return
         emit("up")
         schedule = _cached_schedule(self.path, data) + [(len(data), None)]
-        start = time.monotonic() if self.start_at is None else self.start_at
+        if self.start_at is None:
+            start = time.monotonic()
+        else:
+            start = self.start_at.at() if isinstance(self.start_at, SharedStart) else float(self.start_at)
         for (offset, due), (following, _) in zip(schedule[:-1], schedule[1:]):
             wait = start + due / self.speed - time.monotonic()
             if wait > 0 and stop.wait(wait):
