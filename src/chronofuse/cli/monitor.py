@@ -52,6 +52,7 @@ def monitor(
     window: int = typer.Option(20, "--window", help="HOD detector window (differences)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="HOD detector false-alarm probability per epoch."),
     training: int = typer.Option(120, "--training", help="Clock-bias epochs that fit each receiver's noise model."),
+    train: float | None = typer.Option(None, "--train", help="Fit each receiver's noise model on its first SECONDS of clock bias instead (as detect --train)."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
     stale_s: float = typer.Option(5.0, "--stale-s", help="A receiver silent for longer than this (s) is stale: not usable, an event."),
     connect_timeout_s: float = typer.Option(0.0, "--connect-timeout-s", help="Retry a source that cannot be opened at the start for this long (s; inf: for ever); then exit 2 naming it. 0: the first failure."),
@@ -90,6 +91,8 @@ def monitor(
         chosen += [_replay_source(p, speed, i, start_at) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
+        if train is not None and train <= 0:
+            fail(f"--train {train:g}: must be > 0 seconds")
         names = [s.name for s in chosen]
         if len(set(names)) != len(names):
             fail(f"two sources share the name {next(n for n in names if names.count(n) > 1)!r}")
@@ -99,7 +102,7 @@ def monitor(
 
         address = parse_address(http) if http is not None else None
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
-                                   jump_s=jump_ns * 1e-9)
+                                   jump_s=jump_ns * 1e-9, train_s=train)
         log = EpochLog(db) if db is not None else None
     try:
         lines_file = open(json_lines_file, "a", encoding="utf-8") if json_lines_file is not None else None

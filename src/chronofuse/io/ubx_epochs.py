@@ -416,7 +416,8 @@ def _records_of(builder: UbxEpochBuilder, eps: list, stats, final: bool) -> list
             "gps_ns": gps[i], "fix_mode": e.mode, "time_valid": bool(e.time_valid),
             "n_sats": e.n_sats if e.n_sats >= 0 else e.n_used_sat, "gdop": e.gdop, "pdop": e.pdop,
             "hdop": e.hdop, "vdop": e.vdop, "tdop": e.tdop, "leap_s": int(leap[i]), "leap_pending": e.leap_pending,
-            "qerr_s": math.nan, "clock_bias_s": e.clock_bias_s, "clock_drift_s_per_s": e.clock_drift_s_per_s})
+            "qerr_s": math.nan, "clock_bias_s": e.clock_bias_s, "clock_drift_s_per_s": e.clock_drift_s_per_s,
+            "time_acc_s": e.time_acc_s})
     builder._anchor = (eps[-1].itow_ms, gps[-1] // NS_PER_WEEK)  # every epoch is placed once one is dated
     owned = [i for i in range(n) if own[i]]
     if owned:

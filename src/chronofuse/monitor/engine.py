@@ -1,5 +1,6 @@
-"""The monitor loop: sources -> live decoders -> per-receiver decisions -> cross-receiver decisions ->
-the durable log -> acknowledgements (and the live table, the web page, the time server feed).
+"""The monitor loop: sources -> live decoders (record chunks) -> per-receiver decisions (qualification and
+the detection pipeline) -> cross-receiver decisions -> the durable log -> acknowledgements (and the live
+table, the web page, the time server feed).
 
 Each pass drains the source events that arrived, decodes them per receiver, groups the epochs of all
 receivers by GPS time (an epoch is decided once every connected receiver has passed it, or after
@@ -8,8 +9,9 @@ hands them to ``on_ack`` (the ``--json-lines`` printer): what was acknowledged i
 
 Freshness: each record carries ``received_unix_ns``, the system clock when the first bytes of its epoch
 arrived (the start of the chunk in which the receiver began that epoch: an epoch closes when the next one
-starts, so the chunk that closes epoch k is the one in which epoch k+1 began). A receiver whose last
-epoch is older than ``stale_s`` is stale (an event, and a reason in its verdict) until epochs come again.
+starts, so the chunk that closes epoch k is the one in which epoch k+1 began; a gpsd source gives gpsd's
+own receipt time, its TOFF report). A receiver whose last epoch is older than ``stale_s`` is stale (an
+event, and a reason in its verdict) until epochs come again.
 
 Sources that cannot be had: a source that has not come up within ``connect_timeout_s`` of the start
 (0: at its first failure; a missing file, a serial port that does not exist, a refused connection), or
@@ -25,8 +27,8 @@ import time
 from collections import defaultdict
 from datetime import datetime, timedelta
 
+from chronofuse.io.record_streams import decoder_for
 from chronofuse.io.sources import SourceGroup
-from chronofuse.io.sources_decode import decoder_for
 from chronofuse.monitor.decisions import MonitorSettings, ReceiverMonitor, decide_second
 from chronofuse.monitor.events import EventTracker, MonitorEvent
 from chronofuse.monitor.log import EpochLog
@@ -71,8 +73,11 @@ class Monitor:
         self.connect_timeout_s = connect_timeout_s
         self.reconnect_timeout_s = reconnect_timeout_s
         self.receivers = {s.name: ReceiverMonitor(s.name, settings) for s in self.sources}
+        self.sources_by_name = {s.name: s for s in self.sources}
         self.decoders = {s.name: decoder_for(s) for s in self.sources}
         self.tracker = EventTracker()
+        self._source_of = {s.name: s.name for s in self.sources}  # receiver -> its source (a product: many)
+        self._arrivals: dict[tuple[str, int], int] = {}  # (receiver, gps_ns) -> arrival of its first bytes
         self._pending: dict[int, list] = defaultdict(list)
         self._pending_since: dict[int, float] = {}
         self._previous_bias: dict[str, float] = {}
@@ -131,24 +136,27 @@ class Monitor:
         for ev in events:
             rx = self.receivers[ev.source]
             if ev.kind == "data":
-                epochs = self.decoders[ev.source].feed(ev.data)
-                self._received(ev.source, epochs, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
-                for epoch in epochs:
-                    self._add(rx.decide(epoch))
+                parts = self.decoders[ev.source].decode(ev.data)
+                self._received(ev.source, parts, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
+                self._take(ev.source, parts)
                 continue
             reason = ev.data if isinstance(ev.data, str) else ""
             if ev.kind == "up":
-                rx.connected = True
+                for each in self._of_source(ev.source):
+                    each.connected = True
                 self._ever_up.add(ev.source)
             elif ev.kind in ("down", "end"):
                 if rx.connected and ev.kind == "down":
                     rx.outages += 1
-                rx.connected = False
+                for each in self._of_source(ev.source):
+                    each.connected = False
                 if ev.kind == "end":
-                    epochs = self.decoders[ev.source].close()
-                    self._received(ev.source, epochs, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
-                    for epoch in epochs:
-                        self._add(rx.decide(epoch))
+                    parts = self.decoders[ev.source].finish()
+                    self._received(ev.source, parts, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
+                    self._take(ev.source, parts)
+                    for each in self._of_source(ev.source):
+                        for record in each.close():
+                            self._add(record)
                     self._ended.add(ev.source)
             notices += self.tracker.link(ev.source, ev.kind, reason, wall_s)
             if ev.kind in ("down", "end") and ev.source not in self._ever_up:
@@ -162,22 +170,54 @@ class Monitor:
             self._last_flush_s = now
             self._flush(final=False, notices=notices)
 
-    def _received(self, receiver: str, epochs: list[dict], wall_ns: int, mono_s: float) -> None:
-        """Stamp each epoch released by this chunk with the arrival of its first bytes (module docstring)."""
-        if not epochs:
-            self._epoch_start_ns.setdefault(receiver, wall_ns)
+    def _of_source(self, source: str) -> list[ReceiverMonitor]:
+        return [rx for name, rx in self.receivers.items() if self._source_of[name] == source]
+
+    def source_of(self, receiver: str) -> str:
+        """The source a receiver's epochs come from (itself, or the replayed product holding it)."""
+        return self._source_of.get(receiver, receiver)
+
+    def _take(self, source: str, parts: list) -> None:
+        """Decoded record chunks of ``source``, each for its receiver (``key`` None: the source's own; else a
+        station of a replayed clock product, created when first met)."""
+        for key, record in parts:
+            name = source if key is None else f"{source}/{key}"
+            rx = self.receivers.get(name)
+            if rx is None:
+                rx = self.receivers[name] = ReceiverMonitor(name, self.settings)
+                rx.connected = self.receivers[source].connected
+                self._source_of[name] = source
+            for row in rx.take(record):
+                self._add(row)
+
+    def _received(self, source: str, parts: list, wall_ns: int, mono_s: float) -> None:
+        """Note the arrival of each epoch decoded from this chunk (module docstring): epoch k began in the
+        chunk that closed epoch k-1."""
+        decoder = self.decoders[source]
+        if not parts:
+            self._epoch_start_ns.setdefault(source, wall_ns)
             return
-        for epoch in epochs:
-            # a gpsd source brings gpsd's own receipt time (its TOFF report): that one is kept
-            if epoch.get("received_unix_ns") is None:
-                epoch["received_unix_ns"] = self._epoch_start_ns.get(receiver, wall_ns)
-            self._epoch_start_ns[receiver] = wall_ns
-        self._last_arrival_s[receiver] = mono_s
+        timing = getattr(decoder, "timing", None)  # gpsd: its TOFF receipt and PPS edge per epoch
+        for key, record in parts:
+            name = source if key is None else f"{source}/{key}"
+            for t in record.t_ns.tolist():
+                told = timing.pop(t, None) if timing is not None else None
+                if told is not None and told.get("received_unix_ns") is not None:
+                    self._arrivals[(name, t)] = told["received_unix_ns"]
+                else:
+                    self._arrivals[(name, t)] = self._epoch_start_ns.get(source, wall_ns)
+                if told is not None and told.get("pps_unix_ns") is not None:
+                    self._arrivals[(name, t, "pps")] = told["pps_unix_ns"]
+                self._epoch_start_ns[source] = wall_ns
+            self._last_arrival_s[name] = mono_s
+        self._last_arrival_s[source] = mono_s
 
     def _freshness(self, wall_s: float) -> list[MonitorEvent]:
         now = time.monotonic()
         out = []
         for name in self.receivers:
+            if self._source_of[name] in self._ended:
+                continue  # a recording read to its end is not silent
             out += self.tracker.freshness(name, self.age_s(name, now), self.stale_s, wall_s)
         return out
 
@@ -192,7 +232,7 @@ class Monitor:
 
     def _check_reconnect(self, wall_s: float) -> None:
         now = time.monotonic()
-        for name in self.receivers:
+        for name in self.sources_by_name:
             if name in self._ended:
                 continue
             if name not in self._ever_up:
@@ -216,13 +256,18 @@ class Monitor:
 
     def _add(self, record: dict) -> None:
         record["utc"] = _utc_label(record["gps_ns"], record["leap_s"])
+        key = (record["receiver"], record["gps_ns"])
+        record["received_unix_ns"] = self._arrivals.pop(key, None)
+        pps = self._arrivals.pop(key + ("pps",), None)
+        if pps is not None:
+            record["pps_unix_ns"] = pps
         self._pending[record["gps_ns"]].append(record)
         self._pending_since.setdefault(record["gps_ns"], time.monotonic())
 
     def _flush(self, final: bool, notices: list[MonitorEvent] = ()) -> None:
         now = time.monotonic()
-        live = [rx for rx in self.receivers.values() if rx.connected and rx.name not in self._ended]
-        horizon = min((rx._last_gps_ns for rx in live if rx._last_gps_ns is not None), default=None)
+        live = [rx for name, rx in self.receivers.items() if rx.connected and self._source_of[name] not in self._ended]
+        horizon = min((rx.horizon_ns for rx in live if rx.horizon_ns is not None), default=None)
         ready = []
         for gps_ns in sorted(self._pending):
             old = now - self._pending_since[gps_ns] >= self.hold_s
