@@ -91,7 +91,7 @@ def test_a_bad_source_is_one_line_naming_it_and_exit_2(spec):
     assert len(errors) == 1, done.stderr
     name = spec.split(":", 1)[1] if spec.startswith(("serial:", "tcp:")) else spec
     assert name.replace("127.0.0.1:1", "127.0.0.1") in errors[0] or "gpsd:127.0.0.1:1" in errors[0], errors
-    assert time.monotonic() - started < 20
+    assert time.monotonic() - started < 40
 
 
 def test_a_source_that_comes_up_within_the_connect_timeout_is_used_and_the_retries_are_visible(tmp_path):
@@ -127,7 +127,7 @@ def test_without_a_retry_window_a_refused_source_gives_up_and_says_how_long_it_t
     started = time.monotonic()
     done = _chronofuse("monitor", f"tcp:127.0.0.1:{port}", "--connect-timeout-s", "1.5", timeout_s=30)
     assert done.returncode == 2
-    assert 1.4 < time.monotonic() - started < 15
+    assert 1.4 < time.monotonic() - started < 40  # the program's start-up included (seconds on a loaded machine)
     error = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert len(error) == 1 and f"127.0.0.1:{port}" in error[0] and "retried for" in error[0], done.stderr
 
@@ -184,7 +184,7 @@ def test_an_outage_with_many_reconnection_attempts_is_counted_once_with_its_dura
     threading.Thread(target=serve, daemon=True).start()
     db = tmp_path / "log.db"
     proc = MonitorProcess([f"tcp:127.0.0.1:{port}", "--db", str(db), "--no-table", "--connect-timeout-s", "5"], tmp_path)
-    proc.wait_for_stderr(r"link_up: back after (\d+) failed", 20)
+    proc.wait_for_stderr(r"link_up: back after (\d+) failed", 45)
     time.sleep(1.0)
     proc.stop()
     table = json.loads(_log("log", "outages", str(db), "--json").stdout)["table"]

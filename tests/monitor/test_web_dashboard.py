@@ -55,13 +55,16 @@ def test_the_dashboard_shows_every_receiver_updates_within_two_seconds_and_shows
     recording.write_bytes(ubx_stream(_bias(160, seed=7, anomaly=Anomaly("step", float(STEP_EPOCH), offset_s=400e-9))))
     live = [TcpReceiver(), TcpReceiver()]
     feeds = [ubx_epochs(_bias(60, seed=11 + i), start_tow_s=200_000, eoe=True) for i in range(2)]
+    first = 10  # the detection pipeline holds a receiver's first epochs while its grid learns the interval
     proc = MonitorProcess([live[0].spec, live[1].spec, "--replay", str(recording), "--speed", "10", "--training",
                            "40", "--http", "127.0.0.1:0", "--stale-s", "30", "--db", str(tmp_path / "log.db")], tmp_path)
     driver = chromium(tmp_path / "profile")
     try:
         url = proc.url()
-        for rx in live:
-            rx.send(feeds[live.index(rx)][0])
+        for k in range(first):
+            for rx in live:
+                rx.send(feeds[live.index(rx)][k])
+            time.sleep(0.05)
         driver.get(url)
         # note every row that is ever drawn in alarm, with its text then (an alarm may last two seconds)
         driver.execute_script("""
@@ -80,15 +83,16 @@ def test_the_dashboard_shows_every_receiver_updates_within_two_seconds_and_shows
 
         # a new epoch of a live receiver reaches the page within 2 s of its last byte being sent
         latencies = []
-        for k in range(1, 6):
+        for k in range(first, first + 5):
             sent = time.monotonic()
-            live[0].send(feeds[0][k])
+            live[0].send(feeds[0][k])  # both receivers send the epoch together, as GPS-locked receivers do
+            live[1].send(feeds[1][k])
             want = str((2300 * 604800 + 200_000 + k) * 10**9)
             _wait(lambda: rows()[live[0].name].get_attribute("data-gps-ns") == want, 5, f"epoch {k} on the page")
             latencies.append(time.monotonic() - sent)
-            live[1].send(feeds[1][k])
             time.sleep(0.3)
         assert max(latencies) < 2.0, latencies
+        print("dashboard latencies, s:", [round(x, 3) for x in latencies])
 
         # the alarm injected into the replayed stream shows (it lasts about two seconds at this pace): the
         # event list, the chart's marks, the row's alarm count; and while it lasts, the row and its badge

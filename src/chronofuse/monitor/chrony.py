@@ -57,7 +57,8 @@ def sock_sample(tv_unix_ns: int, offset_s: float, leap: int = 0, pulse: bool = F
 
 def feeding(record: dict, stale: bool = False) -> bool:
     """Whether a receiver's record may feed the time server: usable, no alarm, no dissent, no jump, not stale."""
-    return (bool(record.get("usable")) and not record.get("alarm") and not record.get("dissent")
+    alarm = record["state"] == "alarm" if "state" in record else record.get("alarm")
+    return (bool(record.get("usable")) and not alarm and not record.get("alarm") and not record.get("dissent")
             and not record.get("jump") and not stale)
 
 

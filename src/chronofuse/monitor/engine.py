@@ -3,8 +3,8 @@ the detection pipeline) -> cross-receiver decisions -> the durable log -> acknow
 table, the web page, the time server feed).
 
 Each pass drains the source events that arrived, decodes them per receiver, groups the epochs of all
-receivers by GPS time (an epoch is decided once every connected receiver has passed it, or after
-``hold_s`` of wall time), commits the decided records to the log in one transaction and only then
+receivers by GPS time (an epoch is decided once every connected receiver within ``near_s`` (60 s) of it
+on GPS time has passed it, or after ``hold_s`` of wall time), commits the decided records to the log in one transaction and only then
 hands them to ``on_ack`` (the ``--json-lines`` printer): what was acknowledged is on disk.
 
 Freshness: each record carries ``received_unix_ns``, the system clock when the first bytes of its epoch
@@ -27,6 +27,7 @@ import time
 from collections import defaultdict
 from datetime import datetime, timedelta
 
+from chronofuse.discipline.verdict import ReceiverVerdict, reasons
 from chronofuse.io.record_streams import decoder_for
 from chronofuse.io.sources import SourceGroup
 from chronofuse.monitor.decisions import MonitorSettings, ReceiverMonitor, decide_second
@@ -76,6 +77,8 @@ class Monitor:
         self.sources_by_name = {s.name: s for s in self.sources}
         self.decoders = {s.name: decoder_for(s) for s in self.sources}
         self.tracker = EventTracker()
+        self._verdict_stage = ReceiverVerdict(settings.gdop_max, settings.min_sats)
+        self.decided: dict[str, dict] = {}  # receiver -> its last decided record (what the operator is shown)
         self._source_of = {s.name: s.name for s in self.sources}  # receiver -> its source (a product: many)
         self._arrivals: dict[tuple[str, int], int] = {}  # (receiver, gps_ns) -> arrival of its first bytes
         self._pending: dict[int, list] = defaultdict(list)
@@ -89,6 +92,7 @@ class Monitor:
         self._last_checks_s = self._last_flush_s = 0.0
         self.check_s = 0.1  # freshness and retry checks, s
         self.flush_s = 0.05  # commits of decided records (each an fsync), s apart at most this often
+        self.near_s = 60.0  # receivers further behind on GPS time than this are not waited for, s
         self.acknowledged = 0
 
     def age_s(self, receiver: str, now_s: float | None = None) -> float | None:
@@ -248,6 +252,17 @@ class Monitor:
                 raise SourceUnavailable(f"down for {down:.0f} s ({reason}); giving up after "
                                         f"{self.reconnect_timeout_s:g} s", self._where(name))
 
+    def _verdict(self, r: dict) -> None:
+        """The receiver verdict (:mod:`chronofuse.discipline.verdict`): ``qualified`` keeps the
+        qualification alone, ``usable`` becomes every condition, ``reasons`` says which failed."""
+        bits = self._verdict_stage.step({"t_ns": r["gps_ns"], "fix_mode": r["fix_mode"], "time_valid": r["time_valid"],
+                                         "gdop": r["gdop"], "n_sats": r["n_sats"], "leap_s": r["leap_s"],
+                                         "state": r.get("state", "alarm" if r.get("alarm") else "ok"),
+                                         "dissent": r["dissent"], "jump": r["jump"]})["unusable_bits"]
+        r["qualified"] = bool(r["usable"])
+        r["usable"] = bits == 0
+        r["reasons"] = reasons(bits, r, gdop_max=self.settings.gdop_max, min_sats=self.settings.min_sats)
+
     def _where(self, name: str) -> str:
         """A source as the user named it: a recording's path, else its name (``serial port``, host:port)."""
         source = next(s for s in self.sources if s.name == name)
@@ -267,17 +282,25 @@ class Monitor:
     def _flush(self, final: bool, notices: list[MonitorEvent] = ()) -> None:
         now = time.monotonic()
         live = [rx for name, rx in self.receivers.items() if rx.connected and self._source_of[name] not in self._ended]
-        horizon = min((rx.horizon_ns for rx in live if rx.horizon_ns is not None), default=None)
+        marks = sorted(rx.horizon_ns for rx in live if rx.horizon_ns is not None)
+        near_ns = int(max(self.hold_s, self.near_s) * 1e9)
         ready = []
         for gps_ns in sorted(self._pending):
             old = now - self._pending_since[gps_ns] >= self.hold_s
-            if final or old or horizon is None or gps_ns <= horizon:
+            # waited for: the receivers not past this epoch yet but within ``near_s`` of it on GPS time; one
+            # further behind (a replay of another day beside live receivers) would only make every epoch
+            # wait the whole hold
+            waiting = any(gps_ns - near_ns <= mark < gps_ns for mark in marks)
+            if final or old or not waiting:
                 ready.append(gps_ns)
         records = []
         for gps_ns in ready:
             group = self._pending.pop(gps_ns)
             self._pending_since.pop(gps_ns)
             decide_second(group, self.settings.jump_s, self._previous_bias)
+            for r in group:
+                self._verdict(r)
+                self.decided[r["receiver"]] = r
             records += group
         notices = list(notices) + self.tracker.records(records, time.time())
         if self.log is not None:

@@ -127,14 +127,15 @@ class EventTracker:
         for r in records:
             st = self._state(r["receiver"])
             gps_ns = int(r["gps_ns"])
+            flags = {"alarm": _alarmed(r), "dissent": bool(r.get("dissent"))}
             for flag, since_name, up, down, why in (
                     ("alarm", "alarm_since", "alarm_raised", "alarm_cleared", _alarm_detail),
                     ("dissent", "dissent_since", "dissent", "dissent_cleared", _dissent_detail)):
                 since = getattr(st, since_name)
-                if r.get(flag) and since is None:
+                if flags[flag] and since is None:
                     setattr(st, since_name, (wall_s, gps_ns))
                     out.append(MonitorEvent(r["receiver"], up, wall_s, why(r), gps_ns))
-                elif not r.get(flag) and since is not None:
+                elif not flags[flag] and since is not None:
                     setattr(st, since_name, None)
                     out.append(MonitorEvent(r["receiver"], down, wall_s, f"at {r.get('utc', gps_ns)}", gps_ns,
                                             duration_s=(gps_ns - since[1]) / 1e9))
@@ -142,6 +143,11 @@ class EventTracker:
                 out.append(MonitorEvent(r["receiver"], "jump", wall_s, f"clock-bias jump at {r.get('utc', gps_ns)}",
                                         gps_ns))
         return out
+
+
+def _alarmed(r: dict) -> bool:
+    """The integrity alarm as the detection pipeline latches it (its ``state``), else the epoch's own flag."""
+    return r["state"] == "alarm" if "state" in r else bool(r.get("alarm"))
 
 
 def _alarm_detail(r: dict) -> str:

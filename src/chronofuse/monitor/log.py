@@ -29,7 +29,7 @@ RECORD_COLUMNS = (
     ("vdop", "REAL"), ("tdop", "REAL"), ("leap_s", "INTEGER"), ("leap_pending", "INTEGER"), ("qerr_s", "REAL"),
     ("clock_bias_s", "REAL"), ("clock_drift_s_per_s", "REAL"), ("usable", "INTEGER"), ("statistic", "REAL"),
     ("alarm", "INTEGER"), ("dissent", "INTEGER"), ("jump", "INTEGER"), ("reasons", "TEXT"),
-    ("received_unix_ns", "INTEGER"),
+    ("received_unix_ns", "INTEGER"), ("qualified", "INTEGER"), ("state", "TEXT"),
 )
 #: (column, SQLite type) of one logged event.
 EVENT_COLUMNS = (("receiver", "TEXT"), ("wall_time_s", "REAL"), ("kind", "TEXT"), ("detail", "TEXT"),

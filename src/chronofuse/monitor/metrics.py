@@ -33,7 +33,8 @@ GAUGES = (
      lambda r: _last(r, "clock_drift_s_per_s")),
     ("chronofuse_receiver_qerr_seconds", "quantization error of the coming 1PPS edge", lambda r: _last(r, "qerr_s")),
     ("chronofuse_receiver_gps_minus_utc_seconds", "GPS - UTC the receiver announces", lambda r: _last(r, "leap_s")),
-    ("chronofuse_receiver_alarm", "1 while the clock-bias integrity alarm is raised", lambda r: _last(r, "alarm")),
+    ("chronofuse_receiver_alarm", "1 while the clock-bias integrity alarm is raised (latched)",
+     lambda r: None if r["last"] is None else float(r["last"].get("state") == "alarm" or bool(r["last"].get("alarm")))),
     ("chronofuse_receiver_dissent", "1 while its UTC or leap count disagrees", lambda r: _last(r, "dissent")),
 )
 COUNTERS = (

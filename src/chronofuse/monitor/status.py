@@ -26,7 +26,7 @@ SCHEMA_ID = "chronofuse.monitor.status/1"
 #: The fields of a receiver's last record in the document.
 RECORD_FIELDS = ("gps_ns", "utc", "fix_mode", "time_valid", "n_sats", "gdop", "pdop", "hdop", "vdop", "tdop",
                  "leap_s", "leap_pending", "qerr_s", "clock_bias_s", "clock_drift_s_per_s", "statistic", "alarm",
-                 "dissent", "jump", "received_unix_ns")
+                 "state", "dissent", "jump", "received_unix_ns")
 
 #: What a gpsd source cannot give: gpsd's JSON (TPV/SKY/TOFF) carries no receiver clock bias or drift,
 #: no pending leap second, and a qErr only inside PPS reports (a receiver with a PPS line gpsd reads).
@@ -58,7 +58,7 @@ def verdict(record: dict | None, *, stale: bool, link: str, age_s: float | None,
         return None, reasons
     reasons = [str(r) for r in (record.get("reasons") or [])]
     if not record.get("usable") and not reasons:
-        reasons.append("not qualified")
+        reasons.append("not yet decided")  # a record held for its verdict (the monitor shows it at once)
     if stale:
         reasons.append(f"stale: no epoch for {age_s:.1f} s (> {stale_s:g} s)" if age_s is not None else "stale")
     if link == "down":
@@ -76,15 +76,15 @@ def status_document(monitor, events=(), chrony=None, now_s: float | None = None)
     sources = {s.name: s for s in monitor.sources}
     receivers = []
     for name, rx in monitor.receivers.items():
-        st = monitor.tracker.states.get(name)
+        st = monitor.tracker.states.get(monitor.source_of(name))
         link = (st.link if st is not None and st.link is not None else "unknown")
         age = monitor.age_s(name, mono)
         stale = monitor.is_stale(name)
-        last = rx.last
+        last = monitor.decided.get(name)  # decided: its verdict is known (a record may wait for it)
         usable, reasons = verdict(last, stale=stale, link=link, age_s=age, stale_s=monitor.stale_s)
         receivers.append({
             "receiver": name,
-            "source": getattr(sources.get(name), "kind", "raw"),
+            "source": getattr(sources.get(monitor.source_of(name)), "kind", "raw"),
             "link": link,
             "age_s": None if age is None else round(age, 3),
             "stale": stale,
@@ -93,7 +93,7 @@ def status_document(monitor, events=(), chrony=None, now_s: float | None = None)
             "epochs": rx.epochs,
             "alarms": rx.alarms,
             "outages": rx.outages,
-            "unavailable": unavailable_fields(sources.get(name)),
+            "unavailable": unavailable_fields(sources.get(monitor.source_of(name))),
             "last": None if last is None else {k: _clean(last.get(k)) for k in RECORD_FIELDS},
         })
     return {

@@ -66,7 +66,7 @@ def _cells(entry: dict, name_width: int) -> dict:
 
     usable = entry["usable"]
     flags = []
-    if last.get("alarm"):
+    if last.get("state") == "alarm" or last.get("alarm"):
         flags.append("[red]ALARM[/red]")
     if last.get("dissent"):
         flags.append("[yellow]dissent[/yellow]")
