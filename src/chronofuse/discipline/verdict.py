@@ -23,7 +23,8 @@ table cannot know yet and passes; any other disagreement fails at any date (a lo
 17 s in 2026 is wrong: there has been no negative leap second).
 
 The stage follows the pipeline interface (:mod:`chronofuse.estimation.pipeline`): ``step`` takes one epoch,
-``run`` a frame of arrays; both share :func:`verdict_bits`.
+``run`` a frame of arrays (:func:`verdict_bits`); ``step`` uses its scalar twin :func:`verdict_bits_one`,
+and the tests hold the two equal.
 """
 
 from __future__ import annotations
@@ -31,12 +32,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import ClassVar
 
+import bisect
+import math
+
 import numpy as np
 
-from chronofuse.timescale import NS_PER_S, gps_minus_utc_s, utc_to_gps_ns
+from chronofuse.timescale import LEAP_SECONDS, NS_PER_S, TAI_MINUS_GPS_S, gps_minus_utc_s, utc_to_gps_ns
 from chronofuse.validation import check_scalar
 
-__all__ = ["ReceiverVerdict", "verdict_bits", "reasons", "REASON_BITS", "LEAP_TABLE_KNOWN_UNTIL_GPS_NS"]
+__all__ = ["ReceiverVerdict", "verdict_bits", "verdict_bits_one", "reasons", "REASON_BITS", "LEAP_TABLE_KNOWN_UNTIL_GPS_NS"]
 
 NO_FIX, TIME_INVALID, NO_GDOP, GDOP_HIGH, FEW_SATS, ALARM, DISSENT, LEAP_TABLE, JUMP, STALE = (1 << k for k in range(10))
 #: name -> bit
@@ -65,6 +69,32 @@ def verdict_bits(fix_mode, time_valid, gdop, n_sats, leap_s, t_ns, alarm, dissen
     bits = np.zeros(np.broadcast(*(c for c, _ in checks)).shape, dtype=np.int64)
     for failed, bit in checks:
         bits = bits | np.where(failed, bit, 0)
+    return bits
+
+
+_STARTS_GPS_NS = [int(utc_to_gps_ns(np.datetime64(day, "ns"))) for day, _ in LEAP_SECONDS]
+_GPS_MINUS_UTC = [tai_utc - TAI_MINUS_GPS_S for _, tai_utc in LEAP_SECONDS]
+
+
+def verdict_bits_one(fix_mode, time_valid, gdop, n_sats, leap_s, t_ns, alarm, dissent, jump, *, gdop_max: float,
+                     min_sats: int) -> int:
+    """:func:`verdict_bits` of one epoch in plain Python, the live path's twin (a few microseconds where
+    the array version's set-up costs a hundred; the tests compare the two)."""
+    t_ns = int(t_ns)
+    i = bisect.bisect_right(_STARTS_GPS_NS, t_ns) - 1
+    table = _GPS_MINUS_UTC[i] if i >= 0 else None
+    leap_ok = table is not None and (leap_s == table or (t_ns >= LEAP_TABLE_KNOWN_UNTIL_GPS_NS and leap_s == table + 1))
+    finite = gdop == gdop and gdop not in (math.inf, -math.inf)
+    bits = 0
+    bits |= NO_FIX if fix_mode < 2 else 0
+    bits |= TIME_INVALID if not time_valid else 0
+    bits |= NO_GDOP if not finite else 0
+    bits |= GDOP_HIGH if finite and not gdop < gdop_max else 0
+    bits |= FEW_SATS if n_sats < min_sats else 0
+    bits |= ALARM if alarm else 0
+    bits |= DISSENT if dissent else 0
+    bits |= LEAP_TABLE if not leap_ok else 0
+    bits |= JUMP if jump else 0
     return bits
 
 
@@ -125,7 +155,10 @@ class ReceiverVerdict:
                             e["dissent"], e["jump"], gdop_max=self.gdop_max, min_sats=self.min_sats)
 
     def step(self, epoch) -> dict:
-        bits = int(self._bits(epoch))
+        e = epoch
+        bits = verdict_bits_one(int(e["fix_mode"]), bool(e["time_valid"]), float(e["gdop"]), int(e["n_sats"]),
+                                int(e["leap_s"]), int(e["t_ns"]), e["state"] == "alarm", bool(e["dissent"]),
+                                bool(e["jump"]), gdop_max=self.gdop_max, min_sats=self.min_sats)
         return {"usable": bits == 0, "unusable_bits": bits}
 
     def run(self, frame) -> dict:
