@@ -146,3 +146,29 @@ def test_a_leap_one_above_the_table_passes_only_after_the_table_is_known_to_end(
     assert verdict_bits(leap_s=19, t_ns=before, **common) != 0
     assert verdict_bits(leap_s=19, t_ns=after, **common) == 0  # a leap second announced after the table
     assert verdict_bits(leap_s=17, t_ns=after, **common) != 0  # never a count below it
+
+
+def test_the_log_queries_count_availability_alarms_and_unusable_runs_as_logged(tmp_path):
+    from chronofuse.monitor import logquery
+    from chronofuse.monitor.log import EpochLog
+
+    bias = _bias(200, 5, Anomaly("ramp", 100.0, rate_s_per_s=50e-9))
+    path = tmp_path / "rx.ubx"
+    path.write_bytes(ubx_stream(bias))
+    log = EpochLog(tmp_path / "log.db")
+    acked: list[dict] = []
+    Monitor([ReplaySource(path, name="rx", speed=100.0)], KNOWN, log=log, on_ack=acked.extend).run(duration_s=60)
+    log.close()
+    db = tmp_path / "log.db"
+    latched = [r["gps_ns"] for r in acked if r["state"] == "alarm"]
+    runs = logquery.intervals(db, "alarm")
+    assert int(runs["epochs"].sum()) == len(latched) > 0
+    assert int(runs["start_gps_ns"].iloc[0]) == latched[0]
+    unusable = logquery.intervals(db, "unusable")
+    assert int(unusable["epochs"].sum()) == sum(not r["usable"] for r in acked)
+    assert "integrity alarm (latched)" in unusable["reasons"].iloc[-1]
+    avail = logquery.availability(db, 20.0)
+    assert int(avail["epochs"].sum()) == len(acked) and int(avail["usable"].sum()) == sum(r["usable"] for r in acked)
+    full = avail[avail["epochs"] == 20]
+    assert (full["expected"] == 20.0).all()
+    np.testing.assert_allclose(full["availability"], full["usable"] / 20.0)

@@ -7,8 +7,8 @@ Every query opens the SQLite file read-only and answers with a :class:`pandas.Da
   :data:`~chronofuse.monitor.log.RECORD_COLUMNS` (what an export writes, row for row);
 - :func:`outages`: one row per outage, from its ``link_down`` event to the ``link_up`` that ended it
   (``end_unix_s`` NaN while it lasted to the end of the log), with the reason and the attempts made;
-- :func:`intervals`: runs of consecutive epochs of one receiver with a flag set (``alarm``, ``dissent``,
-  ``jump``, or unusable): start and end epoch, UTC labels, epochs, duration;
+- :func:`intervals`: runs of consecutive epochs of one receiver with a flag set (``alarm``: the latched
+  state, ``dissent``, ``jump``, or unusable): start and end epoch, UTC labels, epochs, duration;
 - :func:`availability`: per receiver and interval of ``interval_s`` (on the GPS time scale, aligned to
   whole intervals since the GPS epoch), the epochs logged, the usable ones, the epochs expected at the
   receiver's own epoch interval (the median step), and usable / expected.
@@ -95,6 +95,8 @@ def epochs(path, receiver: str | None = None, start_gps_ns: int | None = None,
         frame[col] = frame[col].fillna(0).astype(bool)
     frame["received_unix_ns"] = frame["received_unix_ns"].astype("Int64")
     frame["reasons"] = frame["reasons"].fillna("").astype(str)
+    frame["qualified"] = frame["qualified"].astype("boolean")
+    frame["state"] = frame["state"].astype(object).where(frame["state"].notna(), None)
     return frame
 
 
@@ -145,7 +147,12 @@ def intervals(path, flag: str, receiver: str | None = None, start_gps_ns: int | 
     frame = epochs(path, receiver, start_gps_ns, end_gps_ns)
     rows = []
     for name, mine in frame.groupby("receiver", sort=True):
-        on = (~mine["usable"] if flag == "unusable" else mine[flag]).to_numpy()
+        if flag == "unusable":
+            on = (~mine["usable"]).to_numpy()
+        elif flag == "alarm" and mine["state"].notna().any():
+            on = (mine["state"] == "alarm").to_numpy()  # the latched alarm, as the verdict uses it
+        else:
+            on = mine[flag].to_numpy()
         gps = mine["gps_ns"].to_numpy()
         step = int(np.median(np.diff(gps))) if gps.size > 1 else NS_PER_S
         edges = np.diff(np.concatenate([[0], on.astype(np.int8), [0]]))
