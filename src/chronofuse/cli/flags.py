@@ -62,7 +62,7 @@ FLAGS: dict[str, Flag] = {
     "--sigma-rho": Flag("mean pseudorange noise", "number", _M, fields=("sigma_rho_m",)),
     "--noise": Flag("a noise model JSON file (a previous detect --json document)", "path", fields=("noise",)),
     "--train": Flag("learn the missing noise parameters from the first stretch of this length", "number", _S,
-                    fields=("train_s", "training_s")),
+                    fields=("train_s",)),
     "--window": Flag("HOD detector window", "count", "epochs", fields=("window",)),
     "--pfa": Flag("false-alarm probability per epoch", "number", fields=("pfa",)),
     "--position": Flag("static antenna position, ECEF X,Y,Z", "text", _M, fields=("position_m",)),
