@@ -108,7 +108,7 @@ def position(
                                           "the ephemerides of the fixes. Without: GPS orbits of the simulated drive "
                                           "from its broadcast ephemeris (the drive starts at its first record)."),
     reference: str | None = typer.Option(None, "--position", help="With --obs: the receiver's known antenna position "
-                                         "X,Y,Z (ECEF, m); statistics against it."),
+                                         "X,Y,Z (m, ECEF); statistics against it."),
     start: float | None = typer.Option(None, "--start", help="With --obs: first epoch, after the file's first (s)."),
     end: float | None = typer.Option(None, "--end", help="With --obs: last epoch, after the file's first (s)."),
     mask_deg: float = typer.Option(10.0, "--elevation-mask-deg", help="With --obs: elevation mask (deg)."),
