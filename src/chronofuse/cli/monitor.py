@@ -105,7 +105,7 @@ def monitor(
         from chronofuse.monitor.log import EpochLog
         from chronofuse.monitor.web import parse_address
 
-        address = parse_address(http) if http is not None else None
+        address = parse_address(http, "--http") if http is not None else None
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, train_s=train,
                                    jump_s=jump_ns * 1e-9, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho)
         log = EpochLog(db) if db is not None else None

@@ -303,7 +303,7 @@ def detect_file(
 
         clocks = read_station_clocks(path)
         if station is None:
-            _only_chi_square(detector, "the table of every station of a clock product (give --station)")
+            _only_chi_square(detector, "the table of every station of a clock product (give {station})", ("station",))
             return clock_product_document(clocks, settings)
         doc = detect_record(station_clock_bias(clocks, station), settings)
         doc["station"] = station
@@ -313,9 +313,10 @@ def detect_file(
     return detect_record(read_clock_bias(path, rate_hz, column), settings)
 
 
-def _only_chi_square(detector: str, where: str) -> None:
+def _only_chi_square(detector: str, where: str, fields: tuple[str, ...] = ()) -> None:
     if detector != "chi-square":
-        raise InputDataError(f"detector (--detector) {detector!r}: {where} runs the chi-square test only")
+        raise InputError(f"{{detector}} == {detector!r}: {where} runs the chi-square test only",
+                         fields=("detector", *fields))
 
 
 def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidence):
@@ -326,8 +327,8 @@ def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidenc
     entry = DETECTORS.entry(name)
     needs = tuple(getattr(entry.target, "inputs", ()))
     if needs:
-        raise InputDataError(f"detector (--detector) {name!r} needs the input(s) {list(needs)}; a clock-bias file "
-                             "gives one clock bias")
+        raise InputError(f"{{detector}} == {name!r} needs the input(s) {list(needs)}; a clock-bias file "
+                         "gives one clock bias", fields=("detector",))
     fields = entry.config.model_fields
     settings = {"pfa": pfa}
     for key, value in (("window", window), ("confidence", confidence)):

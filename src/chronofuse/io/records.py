@@ -157,9 +157,10 @@ def _overridden(first_guess: float, rate_hz: float | None, path: Path) -> float 
         return first_guess
     given = 1e9 / rate_hz
     if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
-        warnings.warn(
-            f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
-            f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=4)
+        warnings.warn(InputWarning(
+            f"{path}: {{rate_hz}} {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
+            f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", fields=("rate_hz",)),
+            stacklevel=4)
         return None
     return given
 
@@ -348,8 +349,9 @@ def read_record(
             rate_hz = stated
             notes.append(f"sample interval {facts.interval_s:g} s from header line {facts.interval_line}")
         elif abs(rate_hz / stated - 1.0) > _RATE_AGREEMENT:
-            warnings.warn(f"{path}: --rate {rate_hz:g} Hz where header line {facts.interval_line} states a sample "
-                          f"interval of {facts.interval_s:g} s ({stated:g} Hz); --rate used", stacklevel=2)
+            warnings.warn(InputWarning(f"{path}: {{rate_hz}} {rate_hz:g} Hz where header line {facts.interval_line} "
+                                       f"states a sample interval of {facts.interval_s:g} s ({stated:g} Hz); "
+                                       "{rate_hz} used", fields=("rate_hz",)), stacklevel=2)
     if rate_hz is None:
         raise InputError("one-column file: give the sample rate ({rate_hz}, Hz)", str(path), fields=("rate_hz",))
 
@@ -427,11 +429,12 @@ def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None 
     check_choice(kind, "kind", KINDS)
     capture = read_capture(path, receiver=station)
     if station is not None and "rinex-clock" not in capture.protocols:
-        raise InputDataError("--station picks a station of a RINEX clock product (.clk); this recording has "
-                             "one receiver", str(path))
+        raise InputError("{station} picks a station of a RINEX clock product (.clk); this recording has "
+                         "one receiver", str(path), fields=("station",))
     if station is None and len(capture.receivers) > 1:
-        warnings.warn(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
-                      f"{capture.receivers[0]}, is analysed (--station picks any)", stacklevel=2)
+        warnings.warn(InputWarning(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
+                                   f"{capture.receivers[0]}, is analysed ({{station}} picks any)", fields=("station",)),
+                      stacklevel=2)
     series = capture_clock_series(capture, rate_hz)
     column = "clock_bias_s" if kind == "phase" else "clock_drift_s_per_s"
     values = np.asarray(series.column(column, np.nan), dtype=np.float64)
