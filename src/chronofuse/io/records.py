@@ -146,7 +146,7 @@ def _median_step(t_ns: np.ndarray, path: Path, layout: Layout) -> float:
     if (steps <= 0).any():
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise InputDataError(
-            f"time is not increasing ({t_ns[k - 1] / NS_PER_S:.9g} s then {t_ns[k] / NS_PER_S:.9g} s on the file's "
+            f"time is not increasing ({int(t_ns[k - 1])} ns then {int(t_ns[k])} ns on the file's "
             "scale)", str(path), _line_of(path, layout, k))
     return float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])
 
