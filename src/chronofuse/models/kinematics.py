@@ -228,8 +228,16 @@ def climb(position_m, velocity_m_s, *, load_factor_g: float, start_s: float, pul
 
 def line_of_sight(node_a, node_b, t_s):
     """Range (trials, k), m, the unit vector from A to B (trials, k, 3), and the velocities of A and B
-    (trials, k, 3), m/s, at true times ``t_s`` (trials, k), in the paths' common frame."""
+    (trials, k, 3), m/s, at true times ``t_s`` (trials, k), in the paths' common frame.
+
+    Where the nodes coincide (range below 1 mm) the line of sight is the direction the range opens along,
+    that of the relative velocity (the one-sided limit), so that the range rate there is ``|v_B - v_A|``."""
     rel = node_b.position_at(t_s) - node_a.position_at(t_s)
+    v_a, v_b = node_a.velocity_at(t_s), node_b.velocity_at(t_s)
     rng_m = np.linalg.norm(rel, axis=-1)
-    u = np.divide(rel, rng_m[..., None], out=np.zeros_like(rel), where=rng_m[..., None] > 0.0)
-    return rng_m, u, node_a.velocity_at(t_s), node_b.velocity_at(t_s)
+    near = rng_m < 1e-3
+    if np.any(near):
+        rel = np.where(near[..., None], v_b - v_a, rel)
+    norm = np.linalg.norm(rel, axis=-1)
+    u = np.divide(rel, norm[..., None], out=np.zeros_like(rel), where=norm[..., None] > 0.0)
+    return rng_m, u, v_a, v_b

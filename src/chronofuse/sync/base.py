@@ -53,11 +53,13 @@ class ExchangeSample:
     velocity_m_s: np.ndarray
     snr_db: np.ndarray
     a_los_velocity_m_s: np.ndarray
+    reference_offset_s: np.ndarray | None = None
 
     @classmethod
-    def from_array(cls, k: int, interval_s: float, z: np.ndarray) -> "ExchangeSample":
-        """Exchange ``k`` from ``z`` of shape (trials, 6) (columns :data:`MEASUREMENT_COLUMNS`)."""
-        return cls(k, k * interval_s, z[:, 0], z[:, 1], z[:, 2], z[:, 3], z[:, 4], z[:, 5])
+    def from_array(cls, k: int, interval_s: float, z: np.ndarray, reference_offset_s=None) -> "ExchangeSample":
+        """Exchange ``k`` from ``z`` of shape (trials, 6) (columns :data:`MEASUREMENT_COLUMNS`);
+        ``reference_offset_s`` (trials,), optional: a GNSS time comparison of the two nodes (NaN: none)."""
+        return cls(k, k * interval_s, z[:, 0], z[:, 1], z[:, 2], z[:, 3], z[:, 4], z[:, 5], reference_offset_s)
 
 
 #: The columns of a measurement array ``Z`` (trials, steps, 6) that every sync algorithm takes.
@@ -141,38 +143,51 @@ class SyncAlgorithm(ABC):
             self._state = self.init_state(1)
             self._k = 0
 
-    def step(self, z) -> SyncStep:
-        """Streaming: one exchange ``z`` (6,) of one trial (columns :data:`MEASUREMENT_COLUMNS`)."""
+    def step(self, z, reference_offset_s=None) -> SyncStep:
+        """Streaming: one exchange ``z`` (6,) of one trial (columns :data:`MEASUREMENT_COLUMNS`), with an
+        optional reference offset (a GNSS time comparison; NaN or None: none)."""
         self._check_fitted()
         z = check_array(z, "z", ndim=1, allow_nan=True)
         if z.shape != (len(MEASUREMENT_COLUMNS),):
             raise ValueError(f"z has shape {z.shape}, must be ({len(MEASUREMENT_COLUMNS)},) = {MEASUREMENT_COLUMNS}")
-        self._state, est = self.update(self._state, ExchangeSample.from_array(self._k, self.interval_s, z[None, :]))
+        ref = None if reference_offset_s is None else np.array([float(reference_offset_s)])
+        self._state, est = self.update(self._state, ExchangeSample.from_array(self._k, self.interval_s, z[None, :], ref))
         self._k += 1
         unc, code = self.uncertainty(self._state), self.node_state(self._state)
         return SyncStep(offset_s=float(est[0]), uncertainty_s=float("nan") if unc is None else float(unc[0]),
                         node_state=-1 if code is None else int(code[0]))
 
-    def run(self, Z) -> SyncResult:
-        """Batch over ``Z`` (trials, steps, 6) through the same core; does not mutate ``self``."""
-        self._check_fitted()
-        Z = check_array(Z, "Z", ndim=3, allow_nan=True)
-        if Z.shape[2] != len(MEASUREMENT_COLUMNS):
-            raise ValueError(f"Z has shape {Z.shape}, its last axis must be {len(MEASUREMENT_COLUMNS)} = "
-                             f"{MEASUREMENT_COLUMNS}")
+    def run(self, Z, reference_offset_s=None) -> SyncResult:
+        """Batch over ``Z`` (trials, steps, 6) through the same core, with optional reference offsets
+        (trials, steps) (NaN: none at that exchange); does not mutate ``self``."""
+        Z, ref = self._check_run(Z, reference_offset_s)
         trials, steps, _ = Z.shape
         state = self.init_state(trials)
         out = np.empty((trials, steps))
         unc = np.full((trials, steps), np.nan)
         codes = np.full((trials, steps), -1, dtype=np.int64)
         for k in range(steps):
-            state, out[:, k] = self.update(state, ExchangeSample.from_array(k, self.interval_s, Z[:, k]))
+            sample = ExchangeSample.from_array(k, self.interval_s, Z[:, k], None if ref is None else ref[:, k])
+            state, out[:, k] = self.update(state, sample)
             u, c = self.uncertainty(state), self.node_state(state)
             if u is not None:
                 unc[:, k] = u
             if c is not None:
                 codes[:, k] = c
         return SyncResult(offset_s=out, uncertainty_s=unc, node_state=codes, algorithm=self.name)
+
+    def _check_run(self, Z, reference_offset_s):
+        self._check_fitted()
+        Z = check_array(Z, "Z", ndim=3, allow_nan=True)
+        if Z.shape[2] != len(MEASUREMENT_COLUMNS):
+            raise ValueError(f"Z has shape {Z.shape}, its last axis must be {len(MEASUREMENT_COLUMNS)} = "
+                             f"{MEASUREMENT_COLUMNS}")
+        ref = None
+        if reference_offset_s is not None:
+            ref = check_array(reference_offset_s, "reference_offset_s", ndim=2, allow_nan=True)
+            if ref.shape != Z.shape[:2]:
+                raise ValueError(f"reference_offset_s has shape {ref.shape}, must be {Z.shape[:2]}")
+        return Z, ref
 
 
 class NullSync(SyncAlgorithm):

@@ -31,7 +31,8 @@ from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.clock_markov import ClockMarkovModel
 from chronofuse.models.link import LinkModel
 from chronofuse.models.link_noise import TOA_MODELS, toa_sigma_array_s, velocity_sigma_array_m_s
-from chronofuse.sync.base import ExchangeSample, SyncAlgorithm
+from chronofuse.sync.base import ExchangeSample, SyncAlgorithm, SyncResult
+from chronofuse.sync.doppler_kernel import run_doppler_kernel
 from chronofuse.sync.measurement import (
     known_offset_terms_s,
     offset_measurement_s,
@@ -153,11 +154,21 @@ class DopplerKf(SyncAlgorithm):
         post = update(x, P, np.where(gated | ~np.isfinite(z), np.nan, z)[:, None], h[:, None, :],
                       np.where(np.isfinite(r), r, 1.0)[:, None, None])
         z3 = range_measurement_m(sample.t_i_s, sample.t_b_s, sample.t_r_s)
-        mon = self.monitor_.update(state["monitor"], sample, y, s, z3, post.x[:, 1], r)
+        ref_e = None
+        if sample.reference_offset_s is not None:  # the offset residual against a GNSS time comparison
+            ref_e = z - sample.reference_offset_s - np.einsum("ti,ti->t", h[:, 1:], x[:, 1:])
+        mon = self.monitor_.update(state["monitor"], sample, y, s, z3, post.x[:, 1], r, ref_e)
         sigma = np.sqrt(post.P[:, 0, 0] + (state["cal"] * 0.5) ** 2)
         states = self.states_.update(state["states"], sigma, np.isfinite(z) & ~gated, mon["alarm"], self.interval_s)
         return ({"x": post.x, "P": post.P, "monitor": mon, "states": states, "urt": state["urt"], "cal": state["cal"],
                  "sigma": sigma}, post.x[:, 0].copy())
+
+    def run(self, Z, reference_offset_s=None) -> SyncResult:
+        """Batch run through the numba loop of :mod:`chronofuse.sync.doppler_kernel`, the numpy twin of
+        :meth:`update` (``SyncAlgorithm.run(self, Z)`` is the numpy path; the tests compare them)."""
+        Z, ref = self._check_run(Z, reference_offset_s)
+        off, sig, code = run_doppler_kernel(self, Z, ref)
+        return SyncResult(offset_s=off, uncertainty_s=sig, node_state=code, algorithm=self.name)
 
     def uncertainty(self, state):
         return state.get("sigma")

@@ -10,8 +10,10 @@ cannot jump, and a range cannot jump either. Two tests look for it:
    Their pair ``nu`` (covariance ``C``, the two noises correlated through the URT jitter) is projected on
    the URT signature ``s``: ``u = s' C^-1 nu / sqrt(s' C^-1 s)``, standard normal while nothing changes.
    A two-sided CUSUM (Page 1954) on ``u``, clipped at ``+-clip`` so that one NLOS arrival cannot raise an
-   alarm alone, with reference ``cusum_k`` and threshold ``cusum_h``, flags a step. Exchanges the filters
-   gate as outliers are left out (an outlier is one exchange; a URT step is every exchange after it).
+   alarm alone, with reference ``cusum_k`` and threshold ``cusum_h``, flags a step. Every exchange enters
+   the test, those the filters gate as outliers too (clipped): an outlier is one exchange, a URT step is
+   every exchange after it, and a large step would otherwise be gated forever. The range filter itself
+   leaves gated exchanges out and restarts from the measurement after ``range_restart`` in a row.
    The average run length to a false alarm of CUSUM ``(k, h)`` on N(0, 1) input is
    ``(exp(2k(h + 1.166)) - 2k(h + 1.166) - 1) / (2 k^2)`` (Siegmund 1985): 4.5e7 exchanges for the
    defaults ``k = 1``, ``h = 8`` (five days at 100 Hz).
@@ -50,7 +52,8 @@ class MonitorConfig(BaseModel):
     cusum_h: float = Field(8.0, gt=0.0, description="CUSUM threshold, standard deviations")
     clip: float = Field(4.0, gt=0.0, description="largest |u| one exchange adds, standard deviations")
     accel_psd_m2_s3: float = Field(25.0, gt=0.0, description="white-acceleration density of the range filter")
-    range_gate: float = Field(25.0, gt=0.0, description="chi-square(1) gate of the range innovation")
+    range_gate: float = Field(25.0, gt=0.0, description="chi-square(1) gate of the range filter's update")
+    range_restart: int = Field(20, ge=1, description="gated exchanges in a row after which the range filter restarts")
     window: int = Field(300, ge=4, le=5000, description="reference residuals the GLR looks back over")
     glr_threshold: float = Field(40.0, gt=0.0, description="GLR alarm threshold (chi-square-like)")
     reference_sigma_s: float = Field(5e-9, ge=0.0, description="each node's GNSS time error, s")
@@ -77,7 +80,7 @@ class UrtMonitor:
         w = int(self.config.window)
         nan = np.full(trials, np.nan)
         return {"R": nan, "v": nan.copy(), "P00": nan.copy(), "P01": nan.copy(), "P11": nan.copy(),
-                "pos": np.zeros(trials), "neg": np.zeros(trials), "alarm": np.zeros(trials, dtype=bool),
+                "gated_run": np.zeros(trials, dtype=np.int64), "pos": np.zeros(trials), "neg": np.zeros(trials), "alarm": np.zeros(trials, dtype=bool),
                 "alarm_reason": np.zeros(trials, dtype=np.int64), "u": np.full(trials, np.nan),
                 "ref_e": np.full((trials, w), np.nan), "ref_w": np.zeros((trials, w)), "ref_t": np.zeros((trials, w)),
                 "glr": np.zeros(trials)}
@@ -105,11 +108,14 @@ class UrtMonitor:
         P01 = P01 + dt * P11 + q * dt**2 / 2.0
         P11 = P11 + q * dt
         ok = np.isfinite(z) & np.isfinite(v)
-        init = ~started & ok
         scale = 1.0 + v / (2.0 * C)
         nu3 = z - scale * R
         s3 = scale**2 * P00 + r3
-        use3 = ok & started & (nu3 * nu3 <= cfg.range_gate * s3)
+        gated3 = ok & started & (nu3 * nu3 > cfg.range_gate * s3)
+        gated_run = np.where(ok, np.where(gated3, state["gated_run"] + 1, 0), state["gated_run"])
+        init = ok & (~started | (gated_run >= cfg.range_restart))
+        test = ok & started
+        use3 = test & ~gated3
         # joint projection on the URT signature (z1 in s, z3 in m), the noises correlated through the jitter
         c13 = offset_range_cov_s_m(cfg.urt_jitter_s)
         s1 = offset_innovation_var_s2
@@ -117,7 +123,7 @@ class UrtMonitor:
         a, b = URT_SIGNATURE
         proj = (a * (s3 * offset_innovation_s - c13 * nu3) + b * (s1 * nu3 - c13 * offset_innovation_s)) / det
         norm = (a * a * s3 - 2.0 * a * b * c13 + b * b * s1) / det
-        use = use3 & np.isfinite(offset_innovation_s)
+        use = test & np.isfinite(offset_innovation_s)
         u = np.where(use, proj / np.sqrt(np.where(use, norm, 1.0)), np.nan)
         uc = np.where(use, np.clip(u, -cfg.clip, cfg.clip), 0.0)
         pos = np.where(use, np.maximum(0.0, state["pos"] + uc - cfg.cusum_k), state["pos"])
@@ -137,9 +143,10 @@ class UrtMonitor:
         R = np.where(init, z / scale, R)
         vr = np.where(init, v, vr)
         P00, P01, P11 = np.where(init, r3, P00), np.where(init, 0.0, P01), np.where(init, rv, P11)
+        gated_run = np.where(init, 0, gated_run)
         alarm = state["alarm"] | (pos > cfg.cusum_h) | (neg > cfg.cusum_h)
         reason = np.where(state["alarm"], state["alarm_reason"], np.where(alarm, 1, 0))
-        out = {"R": R, "v": vr, "P00": P00, "P01": P01, "P11": P11, "pos": pos, "neg": neg, "u": u, "alarm": alarm,
+        out = {"R": R, "v": vr, "P00": P00, "P01": P01, "P11": P11, "gated_run": gated_run, "pos": pos, "neg": neg, "u": u, "alarm": alarm,
                "alarm_reason": reason, "ref_e": state["ref_e"], "ref_w": state["ref_w"], "ref_t": state["ref_t"],
                "glr": state["glr"]}
         if reference_residual_s is not None:
@@ -166,11 +173,12 @@ class UrtMonitor:
             return np.cumsum(a[:, ::-1], axis=1)[:, ::-1]
 
         sw, swe, swt, swte, swtt = (suffix(a) for a in (w, w * ee, w * t, w * t * ee, w * t * t))
-        step = np.where(sw > 0, swe**2 / np.where(sw > 0, sw, 1.0), 0.0)
+        onset = w > 0  # an onset is a stored residual
+        step = np.where(onset, swe**2 / np.where(onset, sw, 1.0), 0.0)
         # ramp g = t - theta_j: sum w g e = swte - theta swe, sum w g^2 = swtt - 2 theta swt + theta^2 sw
         num = swte - t * swe
         den = swtt - 2.0 * t * swt + t * t * sw
-        ramp = np.where(den > 1e-300, num**2 / np.where(den > 1e-300, den, 1.0), 0.0)
+        ramp = np.where(onset & (den > 1e-300), num**2 / np.where(den > 1e-300, den, 1.0), 0.0)
         glr = np.maximum(step.max(axis=1), ramp.max(axis=1))
         hit = have & (glr > cfg.glr_threshold)
         alarm = state["alarm"] | hit
