@@ -24,7 +24,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from chronofuse.estimation.interface import FrozenResult
-from chronofuse.models.kinematics import Trajectory, constant_velocity
+from chronofuse.models.clock_markov import ClockMarkovModel
+from chronofuse.models.kinematics import constant_velocity
 from chronofuse.models.link import LinkModel, node_clock_error_s, simulate_exchanges
 from chronofuse.models.oscillator_presets import preset
 from chronofuse.seeding import child_rng, child_seed, root_seed
@@ -175,7 +176,8 @@ def link_tasks(sc: SwarmScenario, truth: dict, up: np.ndarray, seed, *, chunk_li
         nodes = np.unique(links[ids])
         tasks.append({"scenario": sc, "ids": ids, "links": links[ids], "up": up[ids],
                       "positions_m": truth["positions_m"], "velocities_m_s": truth["velocities_m_s"],
-                      "clocks_s": {int(i): truth["clocks_s"][i] for i in nodes}, "seed": root_seed(seed)})
+                      "clocks_s": {int(i): truth["clocks_s"][i] for i in nodes},
+                      "oscillators": {int(i): sc.oscillator_of(int(i)) for i in nodes}, "seed": root_seed(seed)})
     return tasks
 
 
@@ -195,9 +197,11 @@ def run_link_task(task: dict) -> dict:
         ex = simulate_exchanges(A, B, xa, xb, link, steps, child_seed(seed, 2), urt_change_s=np.full(steps, urt_dev))
         Z = measurement_array(ex)
         Z[0, ~up, :] = np.nan
-        know = LinkKnowledge(link=link, oscillator=preset(sc.oscillator), prior=sc.prior, steps=steps,
-                             urt_s=calib.urt_s, calibration_sigma_s=calib.sigma_s)
-        res = make_algorithm("doppler-kf", know).fit().run(Z)
+        oa, ob = preset(task["oscillators"][int(a)]), preset(task["oscillators"][int(b)])
+        know = LinkKnowledge(link=link, oscillator=oa, prior=sc.prior, steps=steps, urt_s=calib.urt_s,
+                             calibration_sigma_s=calib.sigma_s)
+        clock = ClockMarkovModel.for_link(oa, ob, link.interval_s, steps * link.interval_s)
+        res = make_algorithm("doppler-kf", know, h0_s=clock.h0_s, hm1=clock.hm1, hm2_per_s=clock.hm2_per_s).fit().run(Z)
         out["estimate_s"].append(res.offset_s[0])
         out["sigma_s"].append(res.uncertainty_s[0])
         out["fault"].append(res.node_state[0] == FAULT)
@@ -318,14 +322,15 @@ def link_availability(links: int, steps: int, seed, *, mean_up_s: float = np.inf
 
 def follow_leader(leader_s, *, interval_s: float = 1.0, parents=(0, 0, 0), distances_m=(20e3, 50e3, 80e3),
                   velocities_m_s=(5.0, -8.0, 12.0), link: LinkModel | None = None, oscillator: str = "ocxo",
-                  algorithm: str = "doppler-kf", link_up=None, topology: str = "tree", leader_weight: float = 0.5,
+                  leader_oscillator: str = "ocxo", algorithm: str = "doppler-kf", link_up=None, topology: str = "tree", leader_weight: float = 0.5,
                   calibration: CalibrationConfig = CalibrationConfig(), prior: LinkPrior = LinkPrior(skew_sigma=1e-9),
                   seed=0) -> SwarmResult:
     """Followers keeping a given leader's time over two-way links (the main job's call).
 
     ``leader_s`` (steps + 2,): the leader's time error to true time. Follower ``i`` (1-based) follows
     ``parents[i-1]`` (0 = the leader; parents come first) at ``distances_m[i-1]`` moving radially at
-    ``velocities_m_s[i-1]``. Each link is calibrated (never the true URT); ``link_up`` (followers, steps)
+    ``velocities_m_s[i-1]``; the followers run ``oscillator``, the leader's clock (its disciplined
+    oscillator) is modelled as ``leader_oscillator``. Each link is calibrated (never the true URT); ``link_up`` (followers, steps)
     takes links down; ``topology="consensus"`` adds peer links between followers (their own availability,
     independent of the links to the parents).
     """
@@ -367,6 +372,7 @@ def follow_leader(leader_s, *, interval_s: float = 1.0, parents=(0, 0, 0), dista
                        leader_weight=leader_weight)
     task = {"scenario": replace(sc), "ids": np.arange(len(links)), "links": links, "up": np.array(avail),
             "positions_m": pos, "velocities_m_s": vel, "clocks_s": {i: clocks[i] for i in range(n + 1)},
+            "oscillators": {i: leader_oscillator if i == 0 else oscillator for i in range(n + 1)},
             "seed": child_seed(base, 1)}
     if algorithm != "doppler-kf":
         raise ValueError(f"algorithm == {algorithm!r}: the swarm runs doppler-kf on every link")

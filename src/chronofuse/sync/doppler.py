@@ -12,7 +12,9 @@ from its prior it reaches the bound:
   2 eps) / 2`` (the skew acts over the reply and the light time), with the noise of the exchange's own SNR
   (:mod:`chronofuse.sync.measurement`);
 * a chi-square gate on the innovation (probability ``gate_probability`` of rejecting a good exchange),
-  which keeps NLOS outliers out; rejected exchanges still reach the URT monitor.
+  which keeps NLOS outliers out; rejected exchanges still reach the URT monitor. A filter that rejects
+  ``restart_after`` exchanges in a row (it started from an outlier, or the link changed by far more than its
+  noise) starts again from its prior at the next one, instead of rejecting everything after.
 
 Its uncertainty output is ``sqrt(P[eps, eps] + (sigma_cal / 2)^2)``: the filter's posterior and the
 calibration's uncertainty, which no exchange can reduce. The node state and the URT monitor are
@@ -37,7 +39,6 @@ from chronofuse.sync.measurement import (
     known_offset_terms_s,
     offset_measurement_s,
     offset_noise_var_s2,
-    range_measurement_m,
     skew_coefficient_s,
     urt_coefficient,
 )
@@ -67,6 +68,7 @@ class DopplerKfConfig(BaseModel):
     urt_s: float | tuple[float, ...] = Field(20e-9, description="calibrated fixed URT, s (one per trial allowed)")
     calibration_sigma_s: float | tuple[float, ...] = Field(0.0, description="1-sigma of that calibration, s")
     gate_probability: float = Field(1e-5, ge=0.0, lt=1.0, description="false-rejection probability of the gate")
+    restart_after: int = Field(8, ge=2, description="rejected exchanges in a row after which the filter restarts")
     monitor: MonitorConfig = MonitorConfig()
     states: NodeStateConfig = NodeStateConfig()
 
@@ -106,10 +108,10 @@ class DopplerKf(SyncAlgorithm):
         P0[0, 0], P0[1, 1] = cfg.prior.offset_sigma_s**2, cfg.prior.skew_sigma**2
         P0[2:, 2:] = np.diag(cfg.clock.flicker_variances())
         self.P0_ = P0
+        self.gate_ = float(chi2.isf(cfg.gate_probability, 1)) if cfg.gate_probability > 0.0 else np.inf
         self.urt_ = np.atleast_1d(np.asarray(cfg.urt_s, dtype=np.float64))
         self.cal_sigma_ = np.atleast_1d(np.asarray(cfg.calibration_sigma_s, dtype=np.float64))
-        self.gate_ = float(chi2.isf(cfg.gate_probability, 1)) if cfg.gate_probability > 0.0 else np.inf
-        self.monitor_ = UrtMonitor(cfg.monitor, cfg.interval_s)
+        self.monitor_ = UrtMonitor(cfg.monitor, self.Phi_, self.Q_, self.x0_, self.P0_, self.gate_, cfg.restart_after)
         self.states_ = NodeStateMachine(cfg.states)
 
     def _per_trial(self, a: np.ndarray, trials: int) -> np.ndarray:
@@ -123,7 +125,7 @@ class DopplerKf(SyncAlgorithm):
         n = self.Phi_.shape[0]
         return {"x": np.broadcast_to(self.x0_, (trials, n)).copy(), "P": np.broadcast_to(self.P0_, (trials, n, n)).copy(),
                 "monitor": self.monitor_.init_state(trials), "states": self.states_.init_state(trials),
-                "urt": self._per_trial(self.urt_, trials).copy(),
+                "urt": self._per_trial(self.urt_, trials).copy(), "gated_run": np.zeros(trials, dtype=np.int64),
                 "cal": self._per_trial(self.cal_sigma_, trials).copy()}
 
     def measurement(self, x_pred: np.ndarray, sample: ExchangeSample, urt_s: np.ndarray):
@@ -147,21 +149,27 @@ class DopplerKf(SyncAlgorithm):
             prior = predict(x, P, self.Phi_, self.Q_)
             x, P = prior.x, prior.P
         z, h, r = self.measurement(x, sample, state["urt"])
+        h_c = np.where(np.isfinite(z), h[:, 1], np.nan)
         y = z - np.einsum("ti,ti->t", h, x)
         s = np.einsum("ti,tij,tj->t", h, P, h) + r
         d2 = y * y / s
         gated = d2 > self.gate_
-        post = update(x, P, np.where(gated | ~np.isfinite(z), np.nan, z)[:, None], h[:, None, :],
+        run = np.where(np.isfinite(z), np.where(gated, state["gated_run"] + 1, 0), state["gated_run"])
+        restart = run >= self.config.restart_after  # start again from the prior with this exchange
+        gated = gated & ~restart
+        run = np.where(restart, 0, run)
+        x_use = np.where(restart[:, None], self.x0_, x)
+        P_use = np.where(restart[:, None, None], self.P0_, P)
+        post = update(x_use, P_use, np.where(gated | ~np.isfinite(z), np.nan, z)[:, None], h[:, None, :],
                       np.where(np.isfinite(r), r, 1.0)[:, None, None])
-        z3 = range_measurement_m(sample.t_i_s, sample.t_b_s, sample.t_r_s)
         ref_e = None
-        if sample.reference_offset_s is not None:  # the offset residual against a GNSS time comparison
-            ref_e = z - sample.reference_offset_s - np.einsum("ti,ti->t", h[:, 1:], x[:, 1:])
-        mon = self.monitor_.update(state["monitor"], sample, y, s, z3, post.x[:, 1], r, ref_e)
+        if sample.reference_offset_s is not None:  # the filter's offset against a GNSS time comparison
+            ref_e = post.x[:, 0] - sample.reference_offset_s
+        mon = self.monitor_.update(state["monitor"], sample.k, sample.t_s, z, h_c, r, ref_e, post.P[:, 0, 0])
         sigma = np.sqrt(post.P[:, 0, 0] + (state["cal"] * 0.5) ** 2)
         states = self.states_.update(state["states"], sigma, np.isfinite(z) & ~gated, mon["alarm"], self.interval_s)
         return ({"x": post.x, "P": post.P, "monitor": mon, "states": states, "urt": state["urt"], "cal": state["cal"],
-                 "sigma": sigma}, post.x[:, 0].copy())
+                 "gated_run": run, "sigma": sigma}, post.x[:, 0].copy())
 
     def run(self, Z, reference_offset_s=None) -> SyncResult:
         """Batch run through the numba loop of :mod:`chronofuse.sync.doppler_kernel`, the numpy twin of
