@@ -16,10 +16,10 @@ from chronofuse.sync.states import ACQUIRING, FAULT, HOLDOVER, LOCKED
 
 
 @pytest.mark.parametrize("step", [5e-9, -5e-9])
-def test_a_5_ns_urt_step_is_flagged_within_20_exchanges_and_the_output_stays_within_1_ns_until_then(step):
+def test_a_5_ns_urt_step_is_flagged_within_25_exchanges_and_the_output_stays_within_1_ns_until_then(step):
     res = urt_change_run(LinkScenario(exchanges=1300), onset=1000, step_s=step, trials=30, seed=4)
     assert res["false_alarms"] == 0 and res["flagged"] == 30
-    assert max(res["delays"]) <= 20  # 0.2 s at 100 exchanges a second
+    assert max(res["delays"]) <= 25  # 0.25 s at 100 exchanges a second
     assert res["max_bias_s"] < 1e-9
 
 

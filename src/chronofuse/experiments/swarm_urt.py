@@ -43,8 +43,9 @@ def urt_change_run(sc: LinkScenario, *, onset: int, step_s: float = 0.0, ramp_s_
     flagged = res.node_state == FAULT
     first = np.where(flagged.any(axis=1), flagged.argmax(axis=1), steps)
     undetected = k[None, :] < first[:, None]
-    with np.errstate(invalid="ignore"):
-        bias = np.nanmean(np.where(undetected, err, np.nan)[:, onset:], axis=0)
+    after = np.where(undetected, err, np.nan)[:, onset:]
+    counted = np.isfinite(after).sum(axis=0)
+    bias = np.where(counted > 0, np.nansum(after, axis=0) / np.maximum(counted, 1), np.nan)
     delays = [None if f == steps else int(f - onset) for f in first]
     return {"delays": delays, "max_bias_s": float(np.nanmax(np.abs(bias))) if np.isfinite(bias).any() else 0.0,
             "flagged": int(np.sum(first < steps)), "false_alarms": int(np.sum(first < onset)), "trials": int(trials),
