@@ -212,7 +212,7 @@ def bound_of(sc: LinkScenario, ex: Exchanges, calibration: UrtCalibration | None
 
 def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, seed=0, urt_mode: str = "calibrated",
              threshold_s: float = 1e-9, networks: dict | None = None, outage: tuple[int, int] | None = None,
-             overrides: dict | None = None) -> dict:
+             overrides: dict | None = None, variants: dict | None = None) -> dict:
     """Run ``algorithms`` on ``trials`` links of ``sc`` (module docstring).
 
     Returns a dict: per algorithm ``rmse_s`` and its interval ``rmse_ci_s``, ``ratio`` to the bound and
@@ -220,7 +220,9 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
     ``threshold_s``; None if never), ``mse_per_trial_s2``; ``bound_s`` (``rms``, ``final``, per trial);
     ``calibration`` (the URT estimates' error and stated sigma); the scenario. ``networks`` maps "bp" /
     "lstm" to trained residual networks. ``outage = (k0, k1)`` also loses exchanges ``k0 .. k1 - 1`` and adds
-    ``robustness`` (the paper's eqs. 49-50). ``overrides`` maps an algorithm name to configuration fields.
+    ``robustness`` (the paper's eqs. 49-50). ``overrides`` maps an algorithm name to configuration fields;
+    ``variants`` maps more labels to ``(name, fields)``: the same algorithm with other settings, on the same
+    exchanges, reported under the label.
     """
     if outage is not None:
         k0, k1 = (int(k) for k in outage)
@@ -236,8 +238,10 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
     bound_var = bound.offset_var_s2.mean(axis=1)
     out = {name: {} for name in ("rmse_s", "rmse_ci_s", "ratio", "ratio_ci", "convergence_epochs",
                                  "mse_per_trial_s2", "robustness")}
-    for name in algorithms:
-        alg = make_algorithm(name, know, networks=networks, **(overrides or {}).get(name, {})).fit()
+    runs = [(name, name, (overrides or {}).get(name, {})) for name in algorithms]
+    runs += [(label, name, fields) for label, (name, fields) in (variants or {}).items()]
+    for name, algorithm, fields in runs:
+        alg = make_algorithm(algorithm, know, networks=networks, **fields).fit()
         err = alg.run(Z).offset_s - ex.offset_s
         mse = per_trial_mse(err)
         r, lo, hi = rmse_interval(mse)
