@@ -200,8 +200,12 @@ def run_link_task(task: dict) -> dict:
         oa, ob = preset(task["oscillators"][int(a)]), preset(task["oscillators"][int(b)])
         know = LinkKnowledge(link=link, oscillator=oa, prior=sc.prior, steps=steps, urt_s=calib.urt_s,
                              calibration_sigma_s=calib.sigma_s)
-        clock = ClockMarkovModel.for_link(oa, ob, link.interval_s, steps * link.interval_s)
-        res = make_algorithm("doppler-kf", know, h0_s=clock.h0_s, hm1=clock.hm1, hm2_per_s=clock.hm2_per_s).fit().run(Z)
+        algorithm = task.get("algorithm", "doppler-kf")
+        fields = {}
+        if algorithm == "doppler-kf":  # the two ends' own oscillators
+            clock = ClockMarkovModel.for_link(oa, ob, link.interval_s, steps * link.interval_s)
+            fields = {"h0_s": clock.h0_s, "hm1": clock.hm1, "hm2_per_s": clock.hm2_per_s}
+        res = make_algorithm(algorithm, know, **fields).fit().run(Z)
         out["estimate_s"].append(res.offset_s[0])
         out["sigma_s"].append(res.uncertainty_s[0])
         out["fault"].append(res.node_state[0] == FAULT)
@@ -329,7 +333,8 @@ def follow_leader(leader_s, *, interval_s: float = 1.0, parents=(0, 0, 0), dista
 
     ``leader_s`` (steps + 2,): the leader's time error to true time. Follower ``i`` (1-based) follows
     ``parents[i-1]`` (0 = the leader; parents come first) at ``distances_m[i-1]`` moving radially at
-    ``velocities_m_s[i-1]``; the followers run ``oscillator``, the leader's clock (its disciplined
+    ``velocities_m_s[i-1]``; every link runs ``algorithm`` (one without an uncertainty, unlike ``doppler-kf``,
+    never lets a follower report LOCKED); the followers run ``oscillator``, the leader's clock (its disciplined
     oscillator) is modelled as ``leader_oscillator``. Each link is calibrated (never the true URT); ``link_up`` (followers, steps)
     takes links down; ``topology="consensus"`` adds peer links between followers (their own availability,
     independent of the links to the parents).
@@ -374,8 +379,7 @@ def follow_leader(leader_s, *, interval_s: float = 1.0, parents=(0, 0, 0), dista
             "positions_m": pos, "velocities_m_s": vel, "clocks_s": {i: clocks[i] for i in range(n + 1)},
             "oscillators": {i: leader_oscillator if i == 0 else oscillator for i in range(n + 1)},
             "seed": child_seed(base, 1)}
-    if algorithm != "doppler-kf":
-        raise ValueError(f"algorithm == {algorithm!r}: the swarm runs doppler-kf on every link")
+    task["algorithm"] = algorithm
     part = run_link_task(task)
     alive = np.ones((n + 1, steps), dtype=bool)
     leader = np.zeros(steps, dtype=np.int64)

@@ -41,9 +41,9 @@ class CalibrationConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    duration_s: float = Field(600.0, gt=0.0, le=86400.0, description="length of the calibration window, s")
-    reference_interval_s: float = Field(1.0, gt=0.0, le=60.0, description="one GNSS time comparison every, s")
-    reference_sigma_s: float = Field(5e-9, ge=0.0, le=1e-6, description="white error of each node's GNSS time, s")
+    duration_s: float = Field(600.0, gt=0.0, le=86400.0, description="length of the calibration window (s)")
+    reference_interval_s: float = Field(1.0, gt=0.0, le=60.0, description="one GNSS time comparison every (s)")
+    reference_sigma_s: float = Field(5e-9, ge=0.0, le=1e-6, description="white error of each node's GNSS time (s)")
 
     @property
     def comparisons(self) -> int:

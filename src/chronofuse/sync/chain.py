@@ -28,11 +28,12 @@ delay ``(T_i + T_r - T_B)/2`` and the reply stamp ``T_B``; a test checks that sh
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.clock import clock_process_noise
+from chronofuse.registry import Config
 from chronofuse.sync.base import ExchangeSample, SyncAlgorithm
 from chronofuse.sync.rvc import rvc_offset
 from chronofuse.sync.twoway import ptp_delay_s
@@ -41,29 +42,27 @@ from chronofuse.sync.urt import UrtCompensation
 __all__ = ["RvcKfConfig", "RvcKfChain", "FEATURES", "residual_features"]
 
 
-class RvcKfConfig(BaseModel):
+class RvcKfConfig(Config):
     """The paper's chain's settings; fields carry their units."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    interval_s: float = Field(0.01, gt=0.0, description="exchange interval, s")
-    light_time: str = Field("paper", pattern="^(paper|exact)$", description="RVC formula: the paper's eq. (9) or exact")
-    urt_mode: str = Field("calibrated", pattern="^(paper|calibrated|none)$", description="URT compensation")
-    urt_batch: int = Field(100, ge=50, le=200, description="URT batch M, exchanges")
-    urt_refresh_s: float = Field(10.0, gt=0.0, description="URT batch refresh period, s")
+    interval_s: float = Field(0.01, gt=0.0, description="exchange interval (s)")
+    light_time: str = Field("paper", pattern="^(paper|exact)$", description="RVC formula: the paper's eq. (9) or exact (choice)")
+    urt_mode: str = Field("calibrated", pattern="^(paper|calibrated|none)$", description="URT compensation: paper, calibrated or none (choice)")
+    urt_batch: int = Field(100, ge=50, le=200, description="URT batch M (exchanges)")
+    urt_refresh_s: float = Field(10.0, gt=0.0, description="URT batch refresh period (s)")
     urt_s: float | tuple[float, ...] = Field(0.0, description="calibrated fixed URT, s (one per trial allowed)")
-    toa_sigma_s: float = Field(1.25e-9, ge=0.0, description="TOA noise sigma, s")
-    urt_jitter_s: float = Field(2e-9, ge=0.0, description="URT jitter sigma, s")
-    velocity_sigma_m_s: float = Field(20.0, ge=0.0, description="Doppler velocity sigma, m/s")
-    reply_delay_s: float = Field(4e-3, gt=0.0, description="reply slot T_B, s")
-    snr_db: float = Field(10.0, description="the link's SNR (a network input), dB")
-    hm2_per_s: float = Field(7.6e-27, ge=0.0, description="random-walk FM of the clock offset, 1/s")
-    h0_s: float = Field(4e-24, ge=0.0, description="white FM of the clock offset, s")
-    beta: float = Field(1e-3, gt=0.0, description="the paper's q_eps = beta R (eq. 35)")
-    frequency_sigma: float = Field(1e-6, gt=0.0, description="prior sigma of the frequency offset")
-    warmup_fraction: float = Field(0.6, ge=0.0, le=1.0, description="network warm-up, fraction of the run")
-    steps: int = Field(2000, ge=1, description="exchanges in the run (for the warm-up)")
-    clip_s: float = Field(5e-9, ge=0.0, description="the network's output is clipped to +-clip_s, s")
+    toa_sigma_s: float = Field(1.25e-9, ge=0.0, description="TOA noise sigma (s)")
+    urt_jitter_s: float = Field(2e-9, ge=0.0, description="URT jitter sigma (s)")
+    velocity_sigma_m_s: float = Field(20.0, ge=0.0, description="Doppler velocity sigma (m/s)")
+    reply_delay_s: float = Field(4e-3, gt=0.0, description="reply slot T_B (s)")
+    snr_db: float = Field(10.0, description="the link's SNR, a network input (dB)")
+    hm2_per_s: float = Field(7.6e-27, ge=0.0, description="random-walk FM of the clock offset (1/s)")
+    h0_s: float = Field(4e-24, ge=0.0, description="white FM of the clock offset (s)")
+    beta: float = Field(1e-3, gt=0.0, description="the paper's q_eps = beta R, eq. 35 (dimensionless)")
+    frequency_sigma: float = Field(1e-6, gt=0.0, description="prior sigma of the frequency offset (fractional)")
+    warmup_fraction: float = Field(0.6, ge=0.0, le=1.0, description="network warm-up (fraction of the run)")
+    steps: int = Field(2000, ge=1, description="run length, for the warm-up (exchanges)")
+    clip_s: float = Field(5e-9, ge=0.0, description="the network's output is clipped to +-clip_s (s)")
 
 
 class RvcKfChain(SyncAlgorithm):

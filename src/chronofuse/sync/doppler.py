@@ -26,13 +26,14 @@ The Kalman predict and update are the estimation layer's (:mod:`chronofuse.estim
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 from scipy.stats import chi2
 
 from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.clock_markov import ClockMarkovModel
 from chronofuse.models.link import LinkModel
 from chronofuse.models.link_noise import TOA_MODELS, toa_sigma_array_s, velocity_sigma_array_m_s
+from chronofuse.registry import Config
 from chronofuse.sync.base import ExchangeSample, SyncAlgorithm, SyncResult
 from chronofuse.sync.doppler_kernel import run_doppler_kernel
 from chronofuse.sync.measurement import (
@@ -49,28 +50,26 @@ from chronofuse.sync.states import NodeStateConfig, NodeStateMachine
 __all__ = ["DopplerKfConfig", "DopplerKf"]
 
 
-class DopplerKfConfig(BaseModel):
+class DopplerKfConfig(Config):
     """What the node knows: its link's noise model, both clocks' noise, the prior, the calibration."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    interval_s: float = Field(0.01, gt=0.0, description="exchange interval, s")
-    toa_model: str = Field("table", description="TOA noise model: table, crb or none")
-    rms_bandwidth_hz: float = Field(28.47e6, gt=0.0, description="RMS bandwidth of the Cramér-Rao TOA model, Hz")
-    carrier_hz: float = Field(1.0e9, gt=0.0, description="carrier of the Doppler measurement, Hz")
-    urt_jitter_s: float = Field(2e-9, ge=0.0, description="sigma of the reply-delay jitter, s")
-    h0_s: float = Field(4e-24, ge=0.0, description="white FM of the clock offset (both clocks), s")
-    hm1: float = Field(3.5e-23, ge=0.0, description="flicker FM of the clock offset (both clocks)")
-    hm2_per_s: float = Field(7.6e-27, ge=0.0, description="random-walk FM of the clock offset, 1/s")
-    flicker_lo_hz: float = Field(5e-3, gt=0.0, description="lowest corner of the flicker model, Hz")
-    flicker_hi_hz: float = Field(100.0, gt=0.0, description="highest corner of the flicker model, Hz")
-    prior: LinkPrior = LinkPrior()
+    interval_s: float = Field(0.01, gt=0.0, description="exchange interval (s)")
+    toa_model: str = Field("table", description="TOA noise model: table, crb or none (choice)")
+    rms_bandwidth_hz: float = Field(28.47e6, gt=0.0, description="RMS bandwidth of the Cramér-Rao TOA model (Hz)")
+    carrier_hz: float = Field(1.0e9, gt=0.0, description="carrier of the Doppler measurement (Hz)")
+    urt_jitter_s: float = Field(2e-9, ge=0.0, description="sigma of the reply-delay jitter (s)")
+    h0_s: float = Field(4e-24, ge=0.0, description="white FM of the clock offset (both clocks) (s)")
+    hm1: float = Field(3.5e-23, ge=0.0, description="flicker FM of the clock offset, both clocks (dimensionless)")
+    hm2_per_s: float = Field(7.6e-27, ge=0.0, description="random-walk FM of the clock offset (1/s)")
+    flicker_lo_hz: float = Field(5e-3, gt=0.0, description="lowest corner of the flicker model (Hz)")
+    flicker_hi_hz: float = Field(100.0, gt=0.0, description="highest corner of the flicker model (Hz)")
+    prior: LinkPrior = Field(LinkPrior(), description="the link's prior (section)")
     urt_s: float | tuple[float, ...] = Field(20e-9, description="calibrated fixed URT, s (one per trial allowed)")
-    calibration_sigma_s: float | tuple[float, ...] = Field(0.0, description="1-sigma of that calibration, s")
-    gate_probability: float = Field(1e-5, ge=0.0, lt=1.0, description="false-rejection probability of the gate")
-    restart_after: int = Field(8, ge=2, description="rejected exchanges in a row after which the filter restarts")
-    monitor: MonitorConfig = MonitorConfig()
-    states: NodeStateConfig = NodeStateConfig()
+    calibration_sigma_s: float | tuple[float, ...] = Field(0.0, description="1-sigma of that calibration (s)")
+    gate_probability: float = Field(1e-5, ge=0.0, lt=1.0, description="false-rejection probability of the gate (dimensionless)")
+    restart_after: int = Field(8, ge=2, description="rejected exchanges in a row after which the filter restarts (exchanges)")
+    monitor: MonitorConfig = Field(MonitorConfig(), description="the URT monitor (section)")
+    states: NodeStateConfig = Field(NodeStateConfig(), description="the node state machine (section)")
 
     @classmethod
     def from_models(cls, link: LinkModel, clock: ClockMarkovModel, prior: LinkPrior, urt_s, calibration_sigma_s=0.0,

@@ -1,7 +1,8 @@
 """``doppler-kf``'s batch run as one numba loop, beside its numpy twin (:meth:`DopplerKf.update`).
 
 The same arithmetic as the numpy path, exchange after exchange and trial after trial: the Kalman predict
-and scalar update (Joseph form, as :mod:`chronofuse.estimation.kalman`) with the chi-square gate, the URT
+and scalar update of the shared compiled kernel :mod:`chronofuse.estimation.kalman_kernel` (Joseph form, the
+twin of :mod:`chronofuse.estimation.kalman`) with the chi-square gate, the URT
 monitor's lagging filter, CUSUM and reference GLR (:mod:`chronofuse.sync.monitor`), and the node-state rules
 (:mod:`chronofuse.sync.states`). The tests compare both paths on the same exchanges; the numpy path is
 the readable one, this one exists because a sweep runs millions of exchanges (about 40x faster at 60
@@ -16,6 +17,7 @@ import numba
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
+from chronofuse.estimation.kalman_kernel import innovation_variance, predict, update
 from chronofuse.models.link_noise import DOPPLER_SIGMA_TABLE_HZ, SNR_TABLE_DB, TOA_SIGMA_TABLE_S
 
 __all__ = ["run_doppler_kernel"]
@@ -33,80 +35,24 @@ def _toa(snr, code, bw, snr_tab, toa_tab):
 
 
 @numba.njit(cache=True)
-def _predict(x, P, Phi, Q, xn, tmp):
-    """x <- Phi x, P <- Phi P Phi' + Q, in place (``xn``, ``tmp`` scratch)."""
-    n = x.size
-    for a in range(n):
-        acc = 0.0
-        for b in range(n):
-            acc += Phi[a, b] * x[b]
-        xn[a] = acc
-    for a in range(n):
-        x[a] = xn[a]
-        for b in range(n):
-            acc = 0.0
-            for c in range(n):
-                acc += Phi[a, c] * P[c, b]
-            tmp[a, b] = acc
-    for a in range(n):
-        for b in range(n):
-            acc = Q[a, b]
-            for c in range(n):
-                acc += tmp[a, c] * Phi[b, c]
-            P[a, b] = acc
-
-
-@numba.njit(cache=True)
-def _joseph(P, K, h, r, A, out):
-    """P <- (I - K h') P (I - K h')' + K r K', symmetrised, in place (``A``, ``out`` scratch)."""
-    n = K.size
-    for a in range(n):
-        for b in range(n):
-            A[a, b] = (1.0 if a == b else 0.0) - K[a] * h[b]
-    for a in range(n):
-        for b in range(n):
-            acc = 0.0
-            for c in range(n):
-                acc += A[a, c] * P[c, b]
-            out[a, b] = acc
-    for a in range(n):
-        for b in range(n):
-            acc = 0.0
-            for c in range(n):
-                acc += out[a, c] * A[b, c]
-            P[a, b] = acc + K[a] * r * K[b]
-    for a in range(n):
-        for b in range(a + 1, n):
-            m = 0.5 * (P[a, b] + P[b, a])
-            P[a, b] = m
-            P[b, a] = m
-
-
-@numba.njit(cache=True)
 def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carrier, jitter, snr_tab, toa_tab,
             dop_tab, restart_after, mon_on, lag, PhiL, QL, ck, ch, clip, orun, settled, window, glr_thr, ref_sigma, lock_sigma, lock_hold,
             hold_after, dt):
     trials, steps, _ = Z.shape
     n = x0.size
-    xn = np.empty(n)
-    P2 = np.empty((n, n))
     off = np.empty((trials, steps))
     sig = np.empty((trials, steps))
     code = np.empty((trials, steps), dtype=np.int64)
     x = np.empty(n)
     P = np.empty((n, n))
     h = np.empty(n)
-    Ph = np.empty(n)
-    K = np.empty(n)
-    tmp = np.empty((n, n))
     ring_e = np.empty(window)
     ring_w = np.empty(window)
     ring_t = np.empty(window)
     xd = np.empty(n)
     Pd = np.empty((n, n))
     hd = np.empty(n)
-    Phd = np.empty(n)
-    Kd = np.empty(n)
+    ht = np.empty(n)
     xp = np.empty(n)
     Pp = np.empty((n, n))
     lz = np.empty(lag)
@@ -143,7 +89,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
             snr = Z[i, k, 4]
             alos = Z[i, k, 5]
             if k > 0:  # x- = Phi x, P- = Phi P Phi' + Q
-                _predict(x, P, Phi, Q, xn, tmp)
+                predict(x, P, Phi, Q, x, P)
             eps = x[0]
             z1 = (t_i - t_r + t_b) / 2.0
             known = -vel * (t_b - t_i) / (2.0 * C) + (t_i - eps) * alos / C
@@ -160,15 +106,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
             for a in range(n):
                 hx += h[a] * x[a]
             y = z - hx
-            for a in range(n):
-                acc = 0.0
-                for b in range(n):
-                    acc += P[a, b] * h[b]
-                Ph[a] = acc
-            s = 0.0
-            for a in range(n):
-                s += h[a] * Ph[a]
-            s += r
+            s = innovation_variance(P, h) + r
             finite = not (math.isnan(z) or math.isnan(r))
             gated = finite and (y * y / s > gate)
             if finite:
@@ -178,23 +116,8 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                 gated = False
                 x[:] = x0
                 P[:, :] = P0
-                hx = 0.0
-                for a in range(n):
-                    hx += h[a] * x[a]
-                y = z - hx
-                for a in range(n):
-                    acc = 0.0
-                    for b in range(n):
-                        acc += P[a, b] * h[b]
-                    Ph[a] = acc
-                s = r
-                for a in range(n):
-                    s += h[a] * Ph[a]
             if finite and not gated:  # K = P h / s, x += K y, P = (I - K h') P (I - K h')' + K r K'
-                for a in range(n):
-                    K[a] = Ph[a] / s
-                    x[a] += K[a] * y
-                _joseph(P, K, h, r, tmp, P2)
+                update(x, P, z, h, r, x, P)
             sigma = math.sqrt(P[0, 0] + (cs * 0.5) ** 2)
             ref_e = x[0] - ref[i, k] if has_ref else math.nan
             if mon_on:
@@ -203,7 +126,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                 if k >= lag:
                     # the lagging filter takes the measurement lag old, then predicts this exchange
                     if started:
-                        _predict(xd, Pd, Phi, Q, xn, tmp)
+                        predict(xd, Pd, Phi, Q, xd, Pd)
                     started = True
                     hd[0] = 1.0
                     for a in range(1, n):
@@ -211,14 +134,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                     yd = lz[0]
                     for a in range(n):
                         yd -= hd[a] * xd[a]
-                    for a in range(n):
-                        acc = 0.0
-                        for b in range(n):
-                            acc += Pd[a, b] * hd[b]
-                        Phd[a] = acc
-                    sd = lr[0]
-                    for a in range(n):
-                        sd += hd[a] * Phd[a]
+                    sd = innovation_variance(Pd, hd) + lr[0]
                     gd = (not math.isnan(yd)) and yd * yd > gate * sd
                     if not math.isnan(yd):
                         lrun = lrun + 1 if gd else 0
@@ -227,47 +143,16 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                         gd = False
                         xd[:] = x0
                         Pd[:, :] = P0
-                        yd = lz[0]
-                        for a in range(n):
-                            yd -= hd[a] * xd[a]
-                        for a in range(n):
-                            acc = 0.0
-                            for b in range(n):
-                                acc += Pd[a, b] * hd[b]
-                            Phd[a] = acc
-                        sd = lr[0]
-                        for a in range(n):
-                            sd += hd[a] * Phd[a]
-                    if (not math.isnan(yd)) and not gd:
-                        for a in range(n):
-                            Kd[a] = Phd[a] / sd
-                            xd[a] += Kd[a] * yd
-                        _joseph(Pd, Kd, hd, lr[0], tmp, P2)
-                    for a in range(n):  # x_pred = Phi^lag xd, P_pred = Phi^lag Pd Phi^lag' + Q_lag
-                        acc = 0.0
-                        for b in range(n):
-                            acc += PhiL[a, b] * xd[b]
-                        xp[a] = acc
-                    for a in range(n):
-                        for b in range(n):
-                            acc = 0.0
-                            for c2 in range(n):
-                                acc += PhiL[a, c2] * Pd[c2, b]
-                            tmp[a, b] = acc
-                    for a in range(n):
-                        for b in range(n):
-                            acc = QL[a, b]
-                            for c2 in range(n):
-                                acc += tmp[a, c2] * PhiL[b, c2]
-                            Pp[a, b] = acc
-                    pv = 0.0
+                    if (not math.isnan(lz[0])) and not gd:
+                        update(xd, Pd, lz[0], hd, lr[0], xd, Pd)
+                    predict(xd, Pd, PhiL, QL, xp, Pp)  # x_pred = Phi^lag xd, P_pred = Phi^lag Pd Phi^lag' + Q_lag
+                    ht[0] = 1.0
+                    for a in range(1, n):
+                        ht[a] = cm
+                    pv = innovation_variance(Pp, ht)
                     hx = 0.0
                     for a in range(n):
-                        ha = 1.0 if a == 0 else cm
-                        hx += ha * xp[a]
-                        for b in range(n):
-                            hb = 1.0 if b == 0 else cm
-                            pv += ha * Pp[a, b] * hb
+                        hx += ht[a] * xp[a]
                     var = pv + r
                     resid = zm - hx
                     if (not math.isnan(resid)) and (not math.isnan(var)) and pv < settled * r:

@@ -4,7 +4,7 @@
 is :class:`~chronofuse.sync.chain.RvcKfChain` in the calibrated URT mode (the configuration a node runs
 in real time), its per-exchange core fused into one numba kernel: RVC (the paper's eq. 9 or its exact
 form), URT compensation with the calibrated fixed part, the Kalman predict/update with ``H = [1 0 0]``
-(Joseph form, as :mod:`chronofuse.estimation.kalman`), the nine residual inputs and the BP 9-32-1 forward
+(the shared compiled kernel :mod:`chronofuse.estimation.kalman_kernel`), the nine residual inputs and the BP 9-32-1 forward
 pass (eqs. 39-43) with the clip and warm-up. The numpy twin is ``RvcKfChain`` itself
 (tests/sync/test_fast.py compares them); the kernel exists only because a Python step costs about 100 us
 and the paper claims 1-2 us.
@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
+from chronofuse.estimation.kalman_kernel import predict, update
 from chronofuse.sync.chain import RvcKfChain
 
 __all__ = ["FastSeedChain"]
@@ -33,6 +34,9 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_
     v0_out = v0.copy()
     est = np.empty(n)
     feat = np.empty(9)
+    F = np.eye(3)
+    F[0, 1] = dt
+    hrow = np.array([1.0, 0.0, 0.0])
     for i in range(n):
         tp = tp_all[i] if tp_all.size > 1 else tp_all[0]
         if exact:
@@ -51,46 +55,14 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_
             s0_out[i] = C * (t_i[i] + t_r[i] - t_b[i]) / 2.0
             v0_out[i] = v[i]
         else:
-            # predict: x- = F x, P- = F P F' + Q with F = [[1, dt, 0], [0, 1, 0], [0, 0, 1]]
-            x0 = x[i, 0] + dt * x[i, 1]
-            x1 = x[i, 1]
-            x2 = x[i, 2]
-            p = P[i]
-            pp = np.empty((3, 3))
-            fp = np.empty((3, 3))
-            for b in range(3):
-                fp[0, b] = p[0, b] + dt * p[1, b]
-                fp[1, b] = p[1, b]
-                fp[2, b] = p[2, b]
-            for a in range(3):
-                pp[a, 0] = fp[a, 0] + dt * fp[a, 1] + Q[a, 0]
-                pp[a, 1] = fp[a, 1] + Q[a, 1]
-                pp[a, 2] = fp[a, 2] + Q[a, 2]
+            # x- = F x, P- = F P F' + Q (the shared compiled kernel), then the control x-[2] = v_doppler
+            xi = x_out[i]
+            Pi = P_out[i]
+            predict(x[i], P[i], F, Q, xi, Pi)
             if not math.isnan(v[i]):
-                x2 = v[i]  # B u with u = v_doppler - v
-            if math.isnan(z):
-                x_out[i, 0], x_out[i, 1], x_out[i, 2] = x0, x1, x2
-                P_out[i] = pp
-            else:
-                # update with H = [1 0 0]: S = P00 + R, K = P[:, 0] / S, Joseph form
-                s = pp[0, 0] + R
-                y = z - x0
-                kg = np.empty(3)
-                for a in range(3):
-                    kg[a] = pp[a, 0] / s
-                x_out[i, 0] = x0 + kg[0] * y
-                x_out[i, 1] = x1 + kg[1] * y
-                x_out[i, 2] = x2 + kg[2] * y
-                ikh = np.eye(3)
-                for a in range(3):
-                    ikh[a, 0] -= kg[a]
-                tmp = ikh @ pp @ ikh.T
-                for a in range(3):
-                    for b in range(3):
-                        tmp[a, b] += kg[a] * R * kg[b]
-                for a in range(3):
-                    for b in range(3):
-                        P_out[i, a, b] = 0.5 * (tmp[a, b] + tmp[b, a])
+                xi[2] = v[i]  # B u with u = v_doppler - v
+            if not math.isnan(z):
+                update(xi, Pi, z, hrow, R, xi, Pi)  # H = [1 0 0], Joseph form
         e = x_out[i, 0]
         if use_net and k >= warmup:
             feat[0] = (z - e) * 1e9

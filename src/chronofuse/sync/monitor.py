@@ -51,16 +51,16 @@ class MonitorConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    enabled: bool = True
-    lag: int = Field(24, ge=2, le=1000, description="how far the lagging filter runs behind, exchanges")
-    cusum_k: float = Field(0.9, gt=0.0, description="CUSUM reference value, standard deviations")
-    cusum_h: float = Field(10.0, gt=0.0, description="CUSUM threshold, standard deviations")
-    clip: float = Field(4.0, gt=0.0, description="|u| beyond which an exchange is an outlier, standard deviations")
-    outlier_run: int = Field(4, ge=2, description="outliers of one sign in a row that are a step, not outliers")
-    settled: float = Field(0.1, gt=0.0, description="test once the prediction's variance is below this share of r")
-    window: int = Field(300, ge=4, le=5000, description="reference residuals the GLR looks back over")
-    glr_threshold: float = Field(40.0, gt=0.0, description="GLR alarm threshold (chi-square-like)")
-    reference_sigma_s: float = Field(5e-9, ge=0.0, description="each node's GNSS time error, s")
+    enabled: bool = Field(True, description="run the monitor (switch)")
+    lag: int = Field(24, ge=2, le=1000, description="how far the lagging filter runs behind (exchanges)")
+    cusum_k: float = Field(0.9, gt=0.0, description="CUSUM reference value (standard deviations)")
+    cusum_h: float = Field(10.0, gt=0.0, description="CUSUM threshold (standard deviations)")
+    clip: float = Field(4.0, gt=0.0, description="|u| beyond which an exchange is an outlier (standard deviations)")
+    outlier_run: int = Field(4, ge=2, description="outliers of one sign in a row that are a step (exchanges)")
+    settled: float = Field(0.1, gt=0.0, description="test once the prediction's variance is below this share of r (dimensionless)")
+    window: int = Field(300, ge=4, le=5000, description="reference residuals the GLR looks back over (comparisons)")
+    glr_threshold: float = Field(40.0, gt=0.0, description="GLR alarm threshold (chi-square units)")
+    reference_sigma_s: float = Field(5e-9, ge=0.0, description="each node's GNSS time error (s)")
 
 
 def cusum_average_run_length(k: float, h: float) -> float:

@@ -41,12 +41,12 @@ class LinkPrior(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    offset_mean_s: float = Field(0.0, description="mean of the initial clock offset B - A, s")
-    offset_sigma_s: float = Field(1e-6, ge=0.0, description="sigma of the initial clock offset, s")
-    skew_mean: float = Field(0.0, ge=-1e-3, le=1e-3, description="mean fractional frequency offset B - A")
-    skew_sigma: float = Field(1e-8, ge=0.0, le=1e-4, description="sigma of the fractional frequency offset")
-    urt_sigma_s: float = Field(5e-9, ge=0.0, le=1e-6, description="sigma of the fixed reply delay across links, s")
-    range_spread_m: float = Field(0.0, ge=0.0, le=1e6, description="half-width of the initial range's spread, m")
+    offset_mean_s: float = Field(0.0, description="mean of the initial clock offset B - A (s)")
+    offset_sigma_s: float = Field(1e-6, ge=0.0, description="sigma of the initial clock offset (s)")
+    skew_mean: float = Field(0.0, ge=-1e-3, le=1e-3, description="mean fractional frequency offset B - A (fractional)")
+    skew_sigma: float = Field(1e-8, ge=0.0, le=1e-4, description="sigma of the fractional frequency offset (fractional)")
+    urt_sigma_s: float = Field(5e-9, ge=0.0, le=1e-6, description="sigma of the fixed reply delay across links (s)")
+    range_spread_m: float = Field(0.0, ge=0.0, le=1e6, description="half-width of the initial range's spread (m)")
 
     def draw(self, distance_m: float, trials: int, seed) -> PriorDraw:
         """Trial ``i``'s draw comes from ``child_seed(seed, i, key)``: it does not depend on the trial count."""

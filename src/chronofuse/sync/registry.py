@@ -1,9 +1,12 @@
-"""Sync algorithms by name: each a class and a pydantic configuration whose fields carry their units.
+"""Sync algorithms by name: :data:`SYNC`, the family's registry on the shared mechanism (:mod:`chronofuse.registry`).
 
-:func:`make_algorithm` builds an unfitted algorithm from what a node on the link knows
-(:class:`LinkKnowledge`: its link model, both clocks' oscillator, the link's prior and its URT
-calibration), optionally with configuration fields overridden (a grid of settings). Adding an algorithm
-is one module and one :data:`REGISTRY` entry.
+Each member is a class and a configuration (a :class:`~chronofuse.registry.Config` whose fields carry their
+units). :func:`make_algorithm` builds an unfitted algorithm for a node that knows :class:`LinkKnowledge`
+(its link model, both clocks' oscillator, the link's prior and its URT calibration): every setting the
+caller does not give is taken from that knowledge, and a setting given is validated by the configuration
+(a bad one is refused by name). Adding an algorithm is one module and one :data:`SYNC` entry; a plugin adds
+one through the entry-point group ``chronofuse.sync`` (its :class:`~chronofuse.registry.Entry` builds the
+member from ``context["knowledge"]``).
 
 =================== =========================================================================================
 null                the do-nothing baseline (estimate 0; linuxptp's ``nullf``)
@@ -30,15 +33,15 @@ Names used before these (``proposed``, ``proposed-no-nn``, ``lstm``, ``ours-dopp
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from chronofuse.models.clock_markov import ClockMarkovModel
 from chronofuse.models.link import LinkModel
 from chronofuse.models.oscillator import OscillatorModel
 from chronofuse.models.oscillator_presets import preset
+from chronofuse.registry import Config, Entry, Registry
 from chronofuse.sync.base import NullSync, SyncAlgorithm
 from chronofuse.sync.chain import RvcKfChain, RvcKfConfig
 from chronofuse.sync.doppler import DopplerKf, DopplerKfConfig
@@ -49,8 +52,7 @@ from chronofuse.sync.ptp import PtpPiServo
 from chronofuse.sync.regression import ChronyRegression, PtpLinreg
 from chronofuse.sync.rvc import RttRvc
 
-__all__ = ["LinkKnowledge", "Registered", "REGISTRY", "ALGORITHM_NAMES", "NEEDS_NETWORK", "RENAMED",
-           "make_algorithm", "check_name"]
+__all__ = ["LinkKnowledge", "SYNC", "ALGORITHM_NAMES", "NEEDS_NETWORK", "RENAMED", "make_algorithm", "check_name"]
 
 
 @dataclass(frozen=True)
@@ -78,54 +80,36 @@ class LinkKnowledge:
         return ClockMarkovModel.for_link(osc, osc, self.link.interval_s, self.steps * self.link.interval_s)
 
 
-class NullConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    interval_s: float = Field(0.01, gt=0.0, description="exchange interval, s")
+class NullConfig(Config):
+    interval_s: float = Field(0.01, gt=0.0, description="exchange interval (s)")
 
 
-class PtpPiConfig(BaseModel):
+class PtpPiConfig(Config):
     """linuxptp's PI servo (:mod:`chronofuse.sync.ptp`)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    interval_s: float = Field(0.01, gt=0.0, description="exchange (sync) interval, s")
-    delay_filter: str = Field("per-exchange", pattern="^(per-exchange|median)$")
-    delay_filter_length: int = Field(10, ge=1, description="moving-median length, exchanges")
-    kp_scale: float = Field(0.7, ge=0.0, description="pi_proportional_scale")
-    ki_scale: float = Field(0.3, gt=0.0, description="pi_integral_scale")
-    first_step_threshold_s: float = Field(20e-6, ge=0.0, description="first step threshold, s")
+    interval_s: float = Field(0.01, gt=0.0, description="exchange (sync) interval (s)")
+    delay_filter: str = Field("per-exchange", pattern="^(per-exchange|median)$", description="delay filter (choice)")
+    delay_filter_length: int = Field(10, ge=1, description="moving-median length (exchanges)")
+    kp_scale: float = Field(0.7, ge=0.0, description="pi_proportional_scale (dimensionless)")
+    ki_scale: float = Field(0.3, gt=0.0, description="pi_integral_scale (dimensionless)")
+    first_step_threshold_s: float = Field(20e-6, ge=0.0, description="first step threshold (s)")
     max_frequency: float = Field(1e-4, gt=0.0, description="largest frequency adjustment (fractional)")
 
 
-class PtpLinregConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    interval_s: float = Field(0.01, gt=0.0, description="exchange interval, s")
-    first_step_threshold_s: float = Field(20e-6, ge=0.0, description="first step threshold, s")
+class PtpLinregConfig(Config):
+    interval_s: float = Field(0.01, gt=0.0, description="exchange interval (s)")
+    first_step_threshold_s: float = Field(20e-6, ge=0.0, description="first step threshold (s)")
     max_frequency: float = Field(1e-4, gt=0.0, description="largest frequency adjustment (fractional)")
 
 
-class PtpMlsConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    interval_s: float = Field(0.01, gt=0.0, description="exchange interval, s")
-    window: int = Field(32, ge=16, le=64, description="moving least-squares window, exchanges")
+class PtpMlsConfig(Config):
+    interval_s: float = Field(0.01, gt=0.0, description="exchange interval (s)")
+    window: int = Field(32, ge=16, le=64, description="moving least-squares window (exchanges)")
 
 
-class RttRvcConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    interval_s: float = Field(0.01, gt=0.0, description="exchange interval, s")
-    light_time: str = Field("paper", pattern="^(paper|exact)$", description="the paper's eq. (9) or exact")
-
-
-@dataclass(frozen=True)
-class Registered:
-    """One registry entry: the class, its configuration class, how to build the configuration from a
-    node's :class:`LinkKnowledge`, which trained network it needs (None, "bp" or "lstm") and a line."""
-
-    cls: type[SyncAlgorithm]
-    config: type[BaseModel]
-    build: Callable[[LinkKnowledge], dict]
-    network: str | None
-    description: str
-    takes_config: bool = True
+class RttRvcConfig(Config):
+    interval_s: float = Field(0.01, gt=0.0, description="exchange interval (s)")
+    light_time: str = Field("paper", pattern="^(paper|exact)$", description="the paper's eq. (9) or exact (choice)")
 
 
 def _interval(k: LinkKnowledge) -> dict:
@@ -143,34 +127,55 @@ def _chain(k: LinkKnowledge) -> dict:
 
 def _doppler(k: LinkKnowledge) -> dict:
     cfg = DopplerKfConfig.from_models(k.link, k.clock_model(), k.prior, k.urt_s, k.calibration_sigma_s)
-    return cfg.model_dump()
+    return {name: getattr(cfg, name) for name in type(cfg).model_fields}
 
 
-REGISTRY: dict[str, Registered] = {
-    "null": Registered(NullSync, NullConfig, _interval, None, "the do-nothing baseline", takes_config=False),
-    "ptp-pi": Registered(PtpPiServo, PtpPiConfig, _interval, None, "IEEE 1588 offsets, linuxptp PI servo",
-                         takes_config=False),
-    "ptp-pi-median": Registered(PtpPiServo, PtpPiConfig, lambda k: {**_interval(k), "delay_filter": "median"}, None,
-                                "the same with linuxptp's moving-median delay filter", takes_config=False),
-    "ptp-linreg": Registered(PtpLinreg, PtpLinregConfig, _interval, None, "linuxptp's linear-regression servo",
-                             takes_config=False),
-    "ptp-chrony": Registered(ChronyRegression, NullConfig, _interval, None, "chrony-style runs-test regression",
-                             takes_config=False),
-    "ptp-mls": Registered(PtpMls, PtpMlsConfig, _interval, None, "PTP offsets, moving least squares",
-                          takes_config=False),
-    "rtt-rvc": Registered(RttRvc, RttRvcConfig, _interval, None, "the paper's eq. (9) per exchange",
-                          takes_config=False),
-    "rtt-rvc-kf": Registered(RvcKfChain, RvcKfConfig, _chain, None, "the paper's chain without its network"),
-    "rtt-rvc-kf-bp": Registered(RvcKfChain, RvcKfConfig, _chain, "bp", "the paper's chain with its BP network"),
-    "rtt-rvc-kf-lstm": Registered(RvcKfChain, RvcKfConfig, _chain, "lstm", "the paper's chain with an LSTM"),
-    "rtt-rvc-kf-numba": Registered(FastSeedChain, RvcKfConfig, _chain, None, "rtt-rvc-kf in one numba kernel"),
-    "rtt-rvc-kf-bp-numba": Registered(FastSeedChain, RvcKfConfig, _chain, "bp", "rtt-rvc-kf-bp in one numba kernel"),
-    "doppler-kf": Registered(DopplerKf, DopplerKfConfig, _doppler, None, "the complete-model filter"),
-}
+def _builder(cls, defaults, network: str | None = None, *, takes_config: bool = True):
+    """``build(config, context)``: the settings the caller gave, the rest from ``context["knowledge"]``."""
 
-ALGORITHM_NAMES = tuple(REGISTRY)
-#: The algorithms that need a trained residual network, and which one.
-NEEDS_NETWORK = {name: e.network for name, e in REGISTRY.items() if e.network is not None}
+    def build(config: Config, context) -> SyncAlgorithm:
+        knowledge = context.get("knowledge") or LinkKnowledge()
+        given = {name: getattr(config, name) for name in config.model_fields_set}
+        full = type(config)(**{**defaults(knowledge), **given})
+        if not takes_config:
+            return cls(**full.settings())
+        net = None
+        if network is not None:
+            net = (context.get("networks") or {}).get(network)
+            if net is None:
+                raise ValueError(f"algorithm == {context.get('name')!r} needs a trained {network} network "
+                                 "(experiments.swarm_training.train_networks writes one)")
+            want = {"light_time": full.light_time, "urt_mode": full.urt_mode}
+            if dict(net.config.chain) != want:
+                raise ValueError(f"algorithm == {context.get('name')!r}: its network was trained behind chain "
+                                 f"{net.config.chain}, this run is {want}")
+        return cls(full, residual_model=net) if cls in (RvcKfChain, FastSeedChain) else cls(full)
+
+    return build
+
+
+SYNC = Registry("sync")
+for _name, _cls, _config, _defaults, _net, _takes, _summary in (
+    ("null", NullSync, NullConfig, _interval, None, False, "the do-nothing baseline"),
+    ("ptp-pi", PtpPiServo, PtpPiConfig, _interval, None, False, "IEEE 1588 offsets, linuxptp PI servo"),
+    ("ptp-pi-median", PtpPiServo, PtpPiConfig, lambda k: {**_interval(k), "delay_filter": "median"}, None, False,
+     "the same with linuxptp's moving-median delay filter"),
+    ("ptp-linreg", PtpLinreg, PtpLinregConfig, _interval, None, False, "linuxptp's linear-regression servo"),
+    ("ptp-chrony", ChronyRegression, NullConfig, _interval, None, False, "chrony-style runs-test regression"),
+    ("ptp-mls", PtpMls, PtpMlsConfig, _interval, None, False, "PTP offsets, moving least squares"),
+    ("rtt-rvc", RttRvc, RttRvcConfig, _interval, None, False, "the paper's eq. (9) per exchange"),
+    ("rtt-rvc-kf", RvcKfChain, RvcKfConfig, _chain, None, True, "the paper's chain without its network"),
+    ("rtt-rvc-kf-bp", RvcKfChain, RvcKfConfig, _chain, "bp", True, "the paper's chain with its BP network"),
+    ("rtt-rvc-kf-lstm", RvcKfChain, RvcKfConfig, _chain, "lstm", True, "the paper's chain with an LSTM"),
+    ("rtt-rvc-kf-numba", FastSeedChain, RvcKfConfig, _chain, None, True, "rtt-rvc-kf in one numba kernel"),
+    ("rtt-rvc-kf-bp-numba", FastSeedChain, RvcKfConfig, _chain, "bp", True, "rtt-rvc-kf-bp in one numba kernel"),
+    ("doppler-kf", DopplerKf, DopplerKfConfig, _doppler, None, True, "the complete-model filter"),
+):
+    SYNC.add(_name, Entry(_cls, _config, _summary, _builder(_cls, _defaults, _net, takes_config=_takes)))
+
+ALGORITHM_NAMES = SYNC.builtin_names()
+#: The built-in algorithms that need a trained residual network, and which one.
+NEEDS_NETWORK = {"rtt-rvc-kf-bp": "bp", "rtt-rvc-kf-lstm": "lstm", "rtt-rvc-kf-bp-numba": "bp"}
 #: Names used before, and what they are called now (None: gone, with the reason).
 RENAMED = {
     "proposed": "rtt-rvc-kf-bp", "proposed-no-nn": "rtt-rvc-kf", "lstm": "rtt-rvc-kf-lstm",
@@ -182,8 +187,8 @@ _GONE = {"ours-accel": "doppler-kf takes the Doppler velocity at every exchange,
 
 
 def check_name(name: str) -> str:
-    """``name`` if registered; else ValueError, with the new name of a renamed algorithm."""
-    if name in REGISTRY:
+    """``name`` if registered (a plugin's too); else ValueError, with the new name of a renamed algorithm."""
+    if name in SYNC:
         return name
     if name in RENAMED:
         new = RENAMED[name]
@@ -199,22 +204,6 @@ def make_algorithm(name: str, knowledge: LinkKnowledge | None = None, *, network
     ``overrides`` replace fields of its configuration (validated by it); ``networks`` maps "bp" / "lstm"
     to trained residual networks for the algorithms that need one.
     """
-    entry = REGISTRY[check_name(name)]
-    knowledge = LinkKnowledge() if knowledge is None else knowledge
-    config = entry.config(**{**entry.build(knowledge), **overrides})
-    if not entry.takes_config:
-        return entry.cls(**config.model_dump())
-    net = None
-    if entry.network is not None:
-        net = (networks or {}).get(entry.network)
-        if net is None:
-            raise ValueError(f"algorithm == {name!r} needs a trained {entry.network} network "
-                             "(experiments.swarm_training.train_networks writes one)")
-        want = {"light_time": config.light_time, "urt_mode": config.urt_mode}
-        if dict(net.config.chain) != want:
-            raise ValueError(f"algorithm == {name!r}: its network was trained behind chain {net.config.chain}, "
-                             f"this run is {want}")
-    if entry.cls in (RvcKfChain, FastSeedChain):
-        return entry.cls(config, residual_model=net)
-    return entry.cls(config)
-
+    check_name(name)
+    context = {"knowledge": LinkKnowledge() if knowledge is None else knowledge, "networks": networks, "name": name}
+    return SYNC.create(name, context=context, **overrides)

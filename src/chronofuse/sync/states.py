@@ -25,9 +25,9 @@ class NodeStateConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    lock_sigma_s: float = Field(1e-9, gt=0.0, description="uncertainty below which a node may lock, s")
-    lock_hold_s: float = Field(1.0, ge=0.0, description="how long it must stay below before LOCKED, s")
-    holdover_after: int = Field(3, ge=1, description="missed exchanges in a row that mean HOLDOVER")
+    lock_sigma_s: float = Field(1e-9, gt=0.0, description="uncertainty below which a node may lock (s)")
+    lock_hold_s: float = Field(1.0, ge=0.0, description="how long it must stay below before LOCKED (s)")
+    holdover_after: int = Field(3, ge=1, description="missed exchanges in a row that mean HOLDOVER (exchanges)")
 
 
 class NodeStateMachine:
