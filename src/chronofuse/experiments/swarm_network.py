@@ -133,13 +133,14 @@ def swarm_truth(sc: SwarmScenario, seed) -> dict:
     heading = rng.uniform(0.0, 2 * np.pi, n)
     vel = np.column_stack([sc.speed_m_s + sc.relative_speed_m_s * np.cos(heading),
                            sc.relative_speed_m_s * np.sin(heading), np.zeros(n)])
-    clocks = np.empty((n, steps + 2))
     t = np.arange(steps + 2) * dt
+    # every follower's noise in one call (trial i is node i + 1: its stream does not depend on the count)
+    clocks = np.empty((n, steps + 2))
+    clocks[0] = node_clock_error_s(preset(sc.leader_oscillator), steps, dt, child_seed(base, _NODE, 0), 1)[0]
+    clocks[1:] = node_clock_error_s(preset(sc.oscillator), steps, dt, child_seed(base, _NODE, 1), n - 1)
     for i in range(n):
-        r = child_rng(base, _NODE, i, 0)
-        x0 = sc.initial_time_sigma_s * r.standard_normal()
-        y0 = sc.initial_frequency_sigma * r.standard_normal()
-        clocks[i] = x0 + y0 * t + node_clock_error_s(preset(sc.oscillator_of(i)), steps, dt, child_seed(base, _NODE, i, 1))[0]
+        r = child_rng(base, _NODE, 2, i)
+        clocks[i] += sc.initial_time_sigma_s * r.standard_normal() + sc.initial_frequency_sigma * r.standard_normal() * t
     links = neighbour_links(pos, sc.neighbours, sc.radio_range_m)
     return {"positions_m": pos, "velocities_m_s": vel, "links": links, "clocks_s": clocks}
 
@@ -158,9 +159,8 @@ def _link_up(sc: SwarmScenario, truth: dict, seed) -> np.ndarray:
     t = np.arange(steps) * sc.interval_s
     track = truth["positions_m"][:, None, :] + truth["velocities_m_s"][:, None, :] * t[None, :, None]
     up = in_range(track, links, sc.radio_range_m)
-    for l in range(links.shape[0]):
-        up[l] &= link_availability(1, steps, child_seed(root_seed(seed), _AVAIL, l), mean_up_s=sc.mean_up_s,
-                                   mean_down_s=sc.mean_down_s, interval_s=sc.interval_s)[0]
+    up &= link_availability(links.shape[0], steps, child_seed(root_seed(seed), _AVAIL), mean_up_s=sc.mean_up_s,
+                            mean_down_s=sc.mean_down_s, interval_s=sc.interval_s)
     for node, t0, t1 in sc.cut_off:
         cut = (t >= t0) & (t < t1)
         up[(links[:, 0] == node) | (links[:, 1] == node)] &= ~cut
@@ -182,48 +182,69 @@ def link_tasks(sc: SwarmScenario, truth: dict, up: np.ndarray, seed, *, chunk_li
 
 
 def run_link_task(task: dict) -> dict:
-    """Calibrate and run each link of a task: ``estimate_s``, ``sigma_s``, ``fault`` and ``usable`` (k, steps)."""
+    """Calibrate and run each link of a task: ``estimate_s``, ``sigma_s``, ``fault`` and ``usable`` (k, steps).
+
+    The task's links are one batch (a trial per link) whose random streams are keyed by the links' indices
+    in the swarm (``first_trial``), so any cut of the links into tasks draws the same numbers."""
     sc: SwarmScenario = task["scenario"]
     steps, link = sc.steps, sc.link
-    out = {name: [] for name in ("estimate_s", "sigma_s", "fault", "usable")}
-    for l, (a, b), up in zip(task["ids"], task["links"], task["up"]):
-        seed = child_seed(task["seed"], _LINK, int(l))
-        pa, pb = task["positions_m"][a], task["positions_m"][b]
-        xa, xb = task["clocks_s"][int(a)][None, :], task["clocks_s"][int(b)][None, :]
-        urt_dev = sc.prior.urt_sigma_s * child_rng(seed, 0).standard_normal()
-        calib = _calibrate_link(sc, pa, pb, xa, xb, urt_dev, child_seed(seed, 1))
-        A = constant_velocity(pa, task["velocities_m_s"][a])
-        B = constant_velocity(pb, task["velocities_m_s"][b])
-        ex = simulate_exchanges(A, B, xa, xb, link, steps, child_seed(seed, 2), urt_change_s=np.full(steps, urt_dev))
-        Z = measurement_array(ex)
-        Z[0, ~up, :] = np.nan
-        oa, ob = preset(task["oscillators"][int(a)]), preset(task["oscillators"][int(b)])
-        know = LinkKnowledge(link=link, oscillator=oa, prior=sc.prior, steps=steps, urt_s=calib.urt_s,
-                             calibration_sigma_s=calib.sigma_s)
-        algorithm = task.get("algorithm", "doppler-kf")
+    ids, pairs, up = np.asarray(task["ids"]), np.asarray(task["links"]), np.asarray(task["up"], dtype=bool)
+    k = ids.size
+    out = {"ids": ids, "estimate_s": np.empty((k, steps)), "sigma_s": np.empty((k, steps)),
+           "fault": np.empty((k, steps), dtype=bool), "usable": np.empty((k, steps), dtype=bool)}
+    if k == 0:
+        return out
+    if np.any(np.diff(ids) != 1):
+        raise ValueError("a task's links must be consecutive in the swarm's link list")
+    first = int(ids[0])
+    base = task["seed"]
+    urt_dev = np.array([sc.prior.urt_sigma_s * child_rng(base, _LINK, int(l)).standard_normal() for l in ids])
+    pa, pb = task["positions_m"][pairs[:, 0]], task["positions_m"][pairs[:, 1]]
+    xa = np.vstack([task["clocks_s"][int(a)] for a in pairs[:, 0]])
+    xb = np.vstack([task["clocks_s"][int(b)] for b in pairs[:, 1]])
+    calib = _calibrate_links(sc, pa, pb, xb[:, 0] - xa[:, 0], urt_dev, child_seed(base, _LINK, 1_000_000), first)
+    A = constant_velocity(pa, task["velocities_m_s"][pairs[:, 0]])
+    B = constant_velocity(pb, task["velocities_m_s"][pairs[:, 1]])
+    ex = simulate_exchanges(A, B, xa, xb, link, steps, child_seed(base, _LINK, 2_000_000),
+                            urt_change_s=np.broadcast_to(urt_dev[:, None], (k, steps)), first_trial=first)
+    Z = measurement_array(ex)
+    Z[~up, :] = np.nan
+    algorithm = task.get("algorithm", "doppler-kf")
+    # one filter per pair of oscillators (the model differs), each over its links at once
+    names = [(task["oscillators"][int(a)], task["oscillators"][int(b)]) for a, b in pairs]
+    for pair in sorted(set(names)):
+        rows = np.array([i for i, n in enumerate(names) if n == pair])
+        oa, ob = preset(pair[0]), preset(pair[1])
+        know = LinkKnowledge(link=link, oscillator=oa, prior=sc.prior, steps=steps, urt_s=calib.urt_s[rows],
+                             calibration_sigma_s=calib.sigma_s[rows])
         fields = {}
         if algorithm == "doppler-kf":  # the two ends' own oscillators
             clock = ClockMarkovModel.for_link(oa, ob, link.interval_s, steps * link.interval_s)
             fields = {"h0_s": clock.h0_s, "hm1": clock.hm1, "hm2_per_s": clock.hm2_per_s}
-        res = make_algorithm(algorithm, know, **fields).fit().run(Z)
-        out["estimate_s"].append(res.offset_s[0])
-        out["sigma_s"].append(res.uncertainty_s[0])
-        out["fault"].append(res.node_state[0] == FAULT)
-        out["usable"].append(up & np.isfinite(Z[0, :, 0]))
-    return {"ids": task["ids"], **{k: np.array(v) for k, v in out.items()}}
+        res = make_algorithm(algorithm, know, **fields).fit().run(Z[rows])
+        out["estimate_s"][rows] = res.offset_s
+        out["sigma_s"][rows] = res.uncertainty_s
+        out["fault"][rows] = res.node_state == FAULT
+    out["usable"] = up & np.isfinite(Z[:, :, 0])
+    return out
 
 
-def _calibrate_link(sc, pa, pb, xa, xb, urt_dev, seed):
-    """One link's URT calibration: both nodes at rest at their initial places, GNSS time references."""
+def _calibrate_links(sc, pa, pb, offsets_s, urt_dev, seed, first_trial: int):
+    """The links' URT calibrations: both nodes at rest at their initial places, GNSS time references (each
+    link's streams keyed by its index in the swarm)."""
     cal = sc.calibration
     link = replace(sc.link, interval_s=cal.reference_interval_s)
     steps = cal.comparisons
+    k = offsets_s.size
     base = root_seed(seed)
-    a, b = constant_velocity(pa, np.zeros(3)), constant_velocity(pb, np.zeros(3))
-    ca = node_clock_error_s(preset(sc.oscillator), steps, link.interval_s, child_seed(base, 0))
-    cb = node_clock_error_s(preset(sc.oscillator), steps, link.interval_s, child_seed(base, 1)) + (xb[0, 0] - xa[0, 0])
-    ex = simulate_exchanges(a, b, ca, cb, link, steps, child_seed(base, 2), urt_change_s=np.full(steps, urt_dev))
-    ref = ex.offset_s + cal.reference_sigma_s * np.sqrt(2.0) * child_rng(base, 3).standard_normal(ex.offset_s.shape)
+    a, b = constant_velocity(pa, np.zeros((k, 3))), constant_velocity(pb, np.zeros((k, 3)))
+    # the clocks' own wander is in the GNSS reference too and cancels in the calibration: left out here
+    ca = np.zeros((k, steps + 2))
+    cb = ca + offsets_s[:, None]
+    ex = simulate_exchanges(a, b, ca, cb, link, steps, child_seed(base, 2),
+                            urt_change_s=np.broadcast_to(urt_dev[:, None], (k, steps)), first_trial=first_trial)
+    noise = np.vstack([child_rng(base, 3, first_trial + i).standard_normal(steps) for i in range(k)])
+    ref = ex.offset_s + cal.reference_sigma_s * np.sqrt(2.0) * noise
     return calibrate_urt(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s, ex.a_los_velocity_m_s,
                          link.toa_sigma_at(ex.snr_db), ref, t_s=ex.t_s, urt_jitter_s=link.urt_jitter_s,
                          reference_sigma_s=cal.reference_sigma_s)
@@ -311,13 +332,15 @@ def leader_clock_s(steps: int, interval_s: float, seed, *, oscillator: str = "oc
 def link_availability(links: int, steps: int, seed, *, mean_up_s: float = np.inf, mean_down_s: float = 10.0,
                       interval_s: float = 1.0) -> np.ndarray:
     """Links that come and go: a two-state Markov chain per link (mean up and down times, s); shape
-    (links, steps), True = up; all up when ``mean_up_s`` is infinite."""
+    (links, steps), True = up; all up when ``mean_up_s`` is infinite. Link ``l`` draws from
+    ``child_seed(seed, l)``: its chain does not depend on how many links there are."""
     if not np.isfinite(mean_up_s):
         return np.ones((links, steps), dtype=bool)
     check_scalar(mean_up_s, "mean_up_s", min_val=0.0, include_min=False)
     check_scalar(mean_down_s, "mean_down_s", min_val=0.0, include_min=False)
     p_fail, p_fix = min(1.0, interval_s / mean_up_s), min(1.0, interval_s / mean_down_s)
-    u = np.random.default_rng(root_seed(seed)).random((links, steps))
+    base = root_seed(seed)
+    u = np.vstack([child_rng(base, l).random(steps) for l in range(int(links))]) if links else np.zeros((0, steps))
     up = np.ones((links, steps), dtype=bool)  # up at the start (a filter needs a first exchange)
     for k in range(1, steps):
         up[:, k] = np.where(up[:, k - 1], u[:, k] >= p_fail, u[:, k] < p_fix)
@@ -370,7 +393,7 @@ def follow_leader(leader_s, *, interval_s: float = 1.0, parents=(0, 0, 0), dista
             for j in range(i + 1, n + 1):
                 links.append((i, j))
                 avail.append(link_availability(1, steps, child_seed(base, 3, i, j), mean_up_s=600.0,
-                                               mean_down_s=30.0, interval_s=interval_s)[0])
+                                               mean_down_s=30.0, interval_s=interval_s)[0])  # peer links: own radios
     links = np.array(links, dtype=np.int64)
     sc = SwarmScenario(nodes=n + 1, duration_s=steps * interval_s, interval_s=interval_s, oscillator=oscillator,
                        snr_db=link.snr_db, prior=prior, calibration=calibration, topology=topology,

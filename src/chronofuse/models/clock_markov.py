@@ -23,6 +23,7 @@ Van Loan, "Computing integrals involving the matrix exponential", IEEE Trans. Au
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -112,8 +113,13 @@ class ClockMarkovModel:
         return A, np.diag(qc)
 
     def discrete(self, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(Phi, Q)`` over one step of ``dt_s`` (Van Loan's method)."""
+        """``(Phi, Q)`` over one step of ``dt_s`` (Van Loan's method; computed once per model and step, then
+        copies of the stored matrices are returned)."""
         check_scalar(dt_s, "dt_s", min_val=0.0, include_min=False)
+        Phi, Q = _discrete(self, float(dt_s))
+        return Phi.copy(), Q.copy()
+
+    def _van_loan(self, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
         A, Qc = self.continuous()
         n = A.shape[0]
         block = np.zeros((2 * n, 2 * n))
@@ -147,6 +153,11 @@ class ClockMarkovModel:
             out[:, k] = state[:, 0]
             state = state @ Phi.T + draws[k] @ L.T
         return out
+
+
+@functools.lru_cache(maxsize=256)
+def _discrete(model: ClockMarkovModel, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
+    return model._van_loan(dt_s)
 
 
 def _psd_sqrt(Q: np.ndarray) -> np.ndarray:

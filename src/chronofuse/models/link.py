@@ -294,6 +294,7 @@ def simulate_exchanges(
     seed,
     *,
     urt_change_s=None,
+    first_trial: int = 0,
 ) -> Exchanges:
     """Simulate ``steps`` exchanges between A and B for every trial.
 
@@ -309,7 +310,8 @@ def simulate_exchanges(
     steps : int
         Number of exchanges.
     seed : int or SeedSequence
-        Trial ``i`` draws from ``child_seed(seed, i, key)``: independent of the trial count.
+        Trial ``i`` draws from ``child_seed(seed, first_trial + i, key)``: independent of the trial count
+        (``first_trial`` lets a batch of links be cut into chunks that draw what the whole batch would).
     urt_change_s : array of shape (steps,) or (trials, steps), optional
         Added to the fixed URT at each exchange (a changed reply delay after calibration: a step, a ramp).
 
@@ -342,14 +344,15 @@ def simulate_exchanges(
     slot = np.broadcast_to(np.arange(steps) * dt, (trials, steps))
     noise = np.empty((9, trials, steps))
     for i in range(trials):
+        j = int(first_trial) + i
         for key in (_KEY_TOA_UP, _KEY_TOA_DOWN, _KEY_URT, _KEY_DOPPLER, _KEY_REPLY, _KEY_NAV):
-            noise[key, i] = child_rng(base, i, key).standard_normal(steps)
+            noise[key, i] = child_rng(base, j, key).standard_normal(steps)
         for key in (_KEY_NLOS_UP, _KEY_NLOS_DOWN):
-            rng = child_rng(base, i, key)
+            rng = child_rng(base, j, key)
             uniform = rng.random(steps)
             noise[key, i] = nlos_excess_s(uniform, rng.exponential(size=steps), link.nlos_probability,
                                           link.nlos_mean_excess_s)
-        noise[_KEY_LOSS, i] = child_rng(base, i, _KEY_LOSS).random(steps)
+        noise[_KEY_LOSS, i] = child_rng(base, j, _KEY_LOSS).random(steps)
 
     # 1. A transmits when its clock reads the slot start.
     t1_rel = _clock_reading_time(xa, dt, slot, np.zeros((trials, steps)))

@@ -31,7 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order
 
 from chronofuse.estimation.interface import FrozenResult
@@ -80,33 +80,43 @@ def compose_network_time(links, estimate_s, sigma_s, usable, leader, alive, *, g
     state = np.full((n, steps), HOLDOVER, dtype=np.int64)
     parent = np.full((n, steps), -1, dtype=np.int64)
     hops = np.full((n, steps), -1, dtype=np.int64)
-    paths: list[list | None] = [None] * n  # each node's current (or frozen) path: [(link, sign), ...]
-    root_path: list = []
+    paths: list[tuple | None] = [None] * n  # each node's current (or frozen) path: ((link, sign), ...)
+    lookup = {}
+    for l, (a, b) in enumerate(links):
+        lookup.setdefault((int(a), int(b)), l)
+    root_path: tuple = ()
     root_prev = -1
     below = np.zeros(n)
+    var = sig**2
     for k in range(steps):
         root = int(leader[k])
         ok = usable[:, k] & ~fault[:, k] & alive[links[:, 0], k] & alive[links[:, 1], k]
         reached = np.zeros(n, dtype=bool)
         if root >= 0:
             if root != root_prev:
-                root_path = [] if (gnss[root, k] or paths[root] is None) else list(paths[root])
+                root_path = () if (gnss[root, k] or paths[root] is None) else paths[root]
                 root_prev = root
             elif gnss[root, k]:
-                root_path = []
-            paths[root] = list(root_path)
-            order, pred, via = _tree(n, links[ok], np.flatnonzero(ok), root)
+                root_path = ()
+            paths[root] = root_path
+            order, pred = _tree(n, links[ok], root)
             reached[order] = True
-            for node in order[1:]:
-                p, l = int(pred[node]), int(via[node])
-                paths[node] = paths[p] + [(l, 1 if links[l, 0] == p else -1)]
+            c_root = sum(s * est[l, k] for l, s in root_path)
+            v_root = sum(var[l, k] for l, _ in root_path)
+            corr[root, k], sigma[root, k], hops[root, k] = c_root, np.sqrt(v_root), len(root_path)
+            for node in order[1:]:  # down the tree: c_i = c_p + s e_l, sigma_i^2 = sigma_p^2 + sigma_l^2
+                p = int(pred[node])
+                l = lookup[(min(p, int(node)), max(p, int(node)))]
+                s = 1 if links[l, 0] == p else -1
+                paths[node] = paths[p] + ((l, s),)
                 parent[node, k] = p
-        for i in range(n):
-            if paths[i] is None:
-                continue
-            corr[i, k] = sum(s * est[l, k] for l, s in paths[i])
-            sigma[i, k] = np.sqrt(sum(sig[l, k] ** 2 for l, _ in paths[i]))
-            hops[i, k] = len(paths[i]) if reached[i] else -1
+                corr[node, k] = corr[p, k] + s * est[l, k]
+                sigma[node, k] = np.sqrt(sigma[p, k] ** 2 + var[l, k])
+                hops[node, k] = hops[p, k] + 1
+        for i in np.flatnonzero(~reached):  # holdover on the frozen path: its links' filters predict
+            if paths[i] is not None:
+                corr[i, k] = sum(s * est[l, k] for l, s in paths[i])
+                sigma[i, k] = np.sqrt(sum(var[l, k] for l, _ in paths[i]))
         if topology == "consensus" and root >= 0:
             corr[:, k] = _consensus_round(corr[:, k], links, est[:, k], ok, reached, parent[:, k], root, leader_weight)
         below = np.where(reached & (sigma[:, k] <= states.lock_sigma_s), below + interval_s, 0.0)
@@ -124,23 +134,14 @@ def compose_network_time(links, estimate_s, sigma_s, usable, leader, alive, *, g
                      leader=np.asarray(leader, dtype=np.int64).copy())
 
 
-def _tree(n: int, edges: np.ndarray, edge_ids: np.ndarray, root: int):
-    """Breadth-first order from ``root`` over ``edges`` (undirected), each node's predecessor and the link
-    it was reached through (the lowest-index link between the two)."""
+def _tree(n: int, edges: np.ndarray, root: int):
+    """Breadth-first order from ``root`` over ``edges`` (undirected) and each node's predecessor."""
     if edges.size == 0:
-        return np.array([root]), np.full(n, -9999), np.full(n, -1)
+        return np.array([root]), np.full(n, -9999)
     rows = np.concatenate([edges[:, 0], edges[:, 1]])
     cols = np.concatenate([edges[:, 1], edges[:, 0]])
-    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n)).tocsr()
-    order, pred = breadth_first_order(graph, root, directed=False, return_predecessors=True)
-    lookup = {}
-    for (a, b), l in zip(edges, edge_ids):
-        lookup.setdefault((int(a), int(b)), int(l))
-    via = np.full(n, -1)
-    for node in order[1:]:
-        p = int(pred[node])
-        via[node] = lookup[(min(p, int(node)), max(p, int(node)))]
-    return order, pred, via
+    graph = csr_matrix((np.ones(rows.size), (rows, cols)), shape=(n, n))
+    return breadth_first_order(graph, root, directed=False, return_predecessors=True)
 
 
 def _consensus_round(c, links, e, ok, reached, parent, root, w):
