@@ -124,3 +124,46 @@ def test_node_clock_carries_the_offset_and_frequency_offset():
     np.testing.assert_allclose(x[:, -1], 1e-6 + 1e-9 * 1.01)
     ex = simulate_exchanges(*radial_geometry(1e3, 0.0), np.zeros((2, 102)), x, NOISELESS, 100, 0)
     np.testing.assert_allclose(ex.skew, 1e-9, rtol=1e-6)
+
+
+def test_snr_falls_with_range_by_free_space_spreading_and_the_toa_noise_follows_the_table():
+    link = LinkModel(snr_db=14.0, snr_reference_range_m=50e3)
+    np.testing.assert_allclose(link.snr_at(np.array([50e3, 100e3, 25e3])), [14.0, 14.0 - 6.0206, 14.0 + 6.0206],
+                               atol=1e-3)
+    a, b = radial_geometry(50e3, 1000.0)
+    x = np.zeros((1, 3002))
+    ex = simulate_exchanges(a, b, x, x, link, 3000, 3)
+    np.testing.assert_allclose(ex.snr_db, 14.0 - 20 * np.log10(ex.range_m / 50e3), atol=1e-9)
+    assert ex.snr_db[0, 0] == pytest.approx(14.0) and ex.snr_db[0, -1] == pytest.approx(9.92, abs=0.01)
+    assert link.toa_sigma_at(2.0) == pytest.approx(2.5e-9)  # the table holds its end value below 4 dB
+
+
+def test_nlos_arrivals_are_late_by_exponential_excesses_at_the_stated_rate():
+    link = LinkModel(nlos_probability=0.1, nlos_mean_excess_s=30e-9)
+    a, b = radial_geometry(10e3, 0.0)
+    x = np.zeros((4, 5002))
+    ex = simulate_exchanges(a, b, x, x, link, 5000, 4)
+    late = ex.nlos_up_s > 0
+    assert late.mean() == pytest.approx(0.1, abs=5 * np.sqrt(0.09 / late.size))
+    assert ex.nlos_up_s[late].mean() == pytest.approx(30e-9, rel=0.05)
+    assert np.all(ex.nlos_up_s >= 0) and np.all(ex.nlos_down_s >= 0)
+
+
+def test_burst_losses_have_the_stated_fraction_and_mean_burst_length():
+    link = LinkModel(loss_fraction=0.2, loss_burst_mean=8.0)
+    a, b = radial_geometry(10e3, 0.0)
+    x = np.zeros((20, 5002))
+    ex = simulate_exchanges(a, b, x, x, link, 5000, 5)
+    assert ex.lost.mean() == pytest.approx(0.2, abs=0.02)
+    runs = [len(r) for row in ex.lost for r in "".join("1" if v else "0" for v in row).split("0") if r]
+    assert np.mean(runs) == pytest.approx(8.0, rel=0.1)
+    assert np.all(np.isnan(ex.t_i_s[ex.lost])) and np.all(np.isnan(ex.velocity_m_s[ex.lost]))
+
+
+def test_reply_slot_jitter_is_reported_in_t_b_and_the_offset_still_follows_from_it():
+    link = LinkModel(toa_model="none", urt_fixed_s=0.0, urt_jitter_s=0.0, reply_jitter_s=50e-6)
+    a, b = radial_geometry(30e3, 0.0)
+    x = np.full((1, 2002), 2e-6)
+    ex = simulate_exchanges(a, b, np.zeros((1, 2002)), x, link, 2000, 6)
+    assert np.std(ex.t_b_s) == pytest.approx(50e-6, rel=0.1)
+    np.testing.assert_allclose((ex.t_i_s - ex.t_r_s + ex.t_b_s) / 2.0, 2e-6, atol=1e-15)

@@ -7,8 +7,9 @@ evenly in ``log f``, because ``1/f = (2/pi) int_0^inf (1/f_c) / (1 + (f/f_c)^2) 
 standard construction: e.g. Keshner, "1/f noise", Proc. IEEE 70(3), 1982; Kasdin, Proc. IEEE 83(5), 1995,
 section IV). With ``M`` corners a ratio ``r`` apart, component ``j`` has the one-sided PSD
 ``h_-1 (2 ln r / pi) / f_j / (1 + (f/f_j)^2)``, hence rate ``lambda_j = 2 pi f_j`` and stationary variance
-``h_-1 ln r``. One corner per decade keeps the Allan deviation within about 5 % of the flicker floor
-``sqrt(2 ln 2 h_-1)`` inside the band (the tests check it against the closed-form Allan variance of an
+``h_-1 ln r``. One corner per decade keeps the Allan deviation within 5 % of the flicker floor
+``sqrt(2 ln 2 h_-1)`` for ``2 / f_hi < tau < 1 / (30 f_lo)`` (so up to a third of the run with the band
+:meth:`ClockMarkovModel.for_link` takes) (the tests check it against the closed-form Allan variance of an
 OU process, ``s^2 (2x - 3 + 4 e^-x - e^-2x) / x^2``, ``x = lambda tau``).
 
 Continuous model, state ``[x, y, g_1 .. g_M]`` (phase s, frequency offset with random walk, flicker parts)::
