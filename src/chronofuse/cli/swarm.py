@@ -294,12 +294,23 @@ def reproduce_swarm_command(
     scheduler: str = typer.Option("serial", "--scheduler",
                                   help="'serial', 'local' (a LocalCluster) or tcp://HOST:PORT."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
+    replot: bool = typer.Option(False, "--replot", help="Redraw figures and report from --out's swarm.json only."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
 ) -> None:
     """The swarm paper's figures 6-10 with the Bayesian bound, intervals and the paper's numbers beside ours,
     the URT-change and network checks, written to --out."""
-    from chronofuse.experiments.swarm_reproduce import FIGURES, reproduce_swarm
+    from chronofuse.experiments.swarm_reproduce import FIGURES, replot_swarm, reproduce_swarm
 
+    if replot:
+        with user_errors():
+            if not (Path(out) / "swarm.json").is_file():
+                fail(f"--replot: {out}/swarm.json does not exist (a full run writes it)")
+            doc = replot_swarm(out)
+        if json_out:
+            print_json({"out": str(out), **doc})
+        else:
+            human_console(False).print(f"report -> {out}/README.md ({len(doc['figures'])} figure(s), redrawn)")
+        return
     with user_errors():
         figures = tuple(FIGURES) if figure == "all" else (figure,)
         if any(f not in FIGURES for f in figures):

@@ -19,7 +19,7 @@ from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
 from chronofuse.models.link import LinkModel
 from chronofuse.report.swarm import DISPLAY_UNITS, plot_sweep, write_sweep
 
-__all__ = ["FIGURES", "PAPER_NUMBERS", "reproduce_swarm", "verdict"]
+__all__ = ["FIGURES", "PAPER_NUMBERS", "reproduce_swarm", "replot_swarm", "verdict"]
 
 _CLASSIC = ("ptp-mls", "rtt-rvc", "rtt-rvc-kf", "doppler-kf")
 _BP, _LSTM = "rtt-rvc-kf-bp", "rtt-rvc-kf-lstm"
@@ -88,14 +88,9 @@ def reproduce_swarm(out, *, figures=("6", "7", "8", "9", "10"), quick: bool = Fa
                           urt_mode="calibrated", scheduler=scheduler, model_files=files)
         summary = summarize(table)
         write_sweep(table, summary, out, stem=f"fig{fig}")
-        points = {}
-        for alg, value, _, ns in PAPER_NUMBERS[fig]:
-            if value is not None:
-                points.setdefault(alg, []).append((value, ns))
-        plot_sweep(summary, param, SWEEP_PARAMS[param], out / f"fig{fig}.png", seed_points=points,
-                   title=f"paper's fig. {fig}: {trials} links x {exchanges} exchanges, SNR {base.link.snr_db:g} dB, "
-                         "offsets, skews and reply delays drawn per link")
-        results[fig] = {"param": param, "algorithms": list(algorithms), "summary": summary.to_dict(orient="records")}
+        _plot(fig, summary, out, trials, exchanges, base.link.snr_db)
+        results[fig] = {"param": param, "algorithms": list(algorithms), "summary": summary.to_dict(orient="records"),
+                        "snr_db": base.link.snr_db}
     doc = {"quick": quick, "trials": trials, "exchanges": exchanges, "seed": seed, "models": files, "figures": results}
     if checks:
         from chronofuse.experiments.swarm_documents import network_document
@@ -112,6 +107,33 @@ def reproduce_swarm(out, *, figures=("6", "7", "8", "9", "10"), quick: bool = Fa
         doc["network"]["per_node"] = [{k: r.get(k) for k in ("node", "state_end", "sigma_end_ns", "to_leader", "mask")}
                                       for r in net["per_node"]]
     (out / "swarm.json").write_text(json.dumps(doc, indent=2, default=float))
+    (out / "README.md").write_text(_report(doc))
+    return doc
+
+
+def _plot(fig: str, summary, out: Path, trials: int, exchanges: int, snr_db: float) -> Path:
+    param = FIGURES[fig][0]
+    points, levels = {}, {}
+    for alg, value, rel, ns in PAPER_NUMBERS[fig]:
+        if value is not None:
+            points.setdefault(alg, []).append((value, ns))
+        else:
+            levels.setdefault(alg, []).append((rel, ns))
+    return plot_sweep(summary, param, SWEEP_PARAMS[param], out / f"fig{fig}.png", seed_points=points, seed_levels=levels,
+                      title=f"paper's fig. {fig}: {trials} links x {exchanges} exchanges, SNR {snr_db:g} dB, offsets, "
+                            "skews and reply delays drawn per link")
+
+
+def replot_swarm(out) -> dict:
+    """Redraw the figures and rewrite ``README.md`` in ``out`` from the ``swarm.json`` a full run wrote there
+    (no simulation: the numbers are that run's)."""
+    import pandas as pd
+
+    out = Path(out)
+    doc = json.loads((out / "swarm.json").read_text())
+    for fig, res in doc["figures"].items():
+        snr = res.get("snr_db", FIGURES[fig][2].link.snr_db)
+        _plot(fig, pd.DataFrame(res["summary"]), out, doc["trials"], doc["exchanges"], snr)
     (out / "README.md").write_text(_report(doc))
     return doc
 

@@ -1,4 +1,4 @@
-"""Node kinematics in 3-D (SPEC 2.3): piecewise constant-acceleration trajectories.
+"""Node kinematics in 3-D : piecewise constant-acceleration trajectories.
 
 One model serves every use: constant velocity (one segment, zero acceleration), constant acceleration
 (one segment) and manoeuvres (several segments, each with its own acceleration; position and velocity
@@ -145,7 +145,7 @@ def manoeuvre(position_m, velocity_m_s, segment_start_s, acceleration_m_s2) -> T
 
 
 def radial_geometry(distance_m, radial_velocity_m_s, radial_acceleration_m_s2=0.0) -> tuple[Trajectory, Trajectory]:
-    """The seed's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
+    """The paper's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
     away at ``radial_velocity_m_s`` (negative: closing) with ``radial_acceleration_m_s2``.
 
     Each argument is a scalar or an array of shape (trials,). Returns ``(a, b)``.

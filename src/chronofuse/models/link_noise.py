@@ -1,11 +1,11 @@
-"""Noise and impairments of a two-way radio link (seed 001 Table 1, and what a real link adds).
+"""Noise and impairments of a two-way radio link (the swarm paper's Table 1, and what a real link adds).
 
-* TOA noise (seed Table 1, SNR 4..20 dB in 2 dB steps): sigma 2.5 .. 0.45 ns, interpolated linearly in
+* TOA noise (the paper's Table 1, SNR 4..20 dB in 2 dB steps): sigma 2.5 .. 0.45 ns, interpolated linearly in
   dB; outside the table its end values (per exchange, when the SNR falls with range). The Cramér–Rao
   alternative is ``sigma_TOA = 1 / (2 pi beta sqrt(2 SNR))`` for RMS bandwidth ``beta`` (Kay,
   *Fundamentals of Statistical Signal Processing: Estimation*, 1993, example 3.13, ``2E/N0 = 2 SNR``).
-* Doppler (seed Table 1): carrier-frequency noise 190 .. 30 Hz per one-way estimate; the two-way velocity
-  ``v = -c (f_up + f_down) / (2 f0)`` (seed eq. 12: the clocks' frequency offset cancels in the sum) has
+* Doppler (the paper's Table 1): carrier-frequency noise 190 .. 30 Hz per one-way estimate; the two-way velocity
+  ``v = -c (f_up + f_down) / (2 f0)`` (the paper's eq. 12: the clocks' frequency offset cancels in the sum) has
   sigma ``c sigma_f / (sqrt(2) f0)``.
 * SNR falling with range: free-space spreading, ``SNR(R) = SNR_ref - 20 log10(R / R_ref)`` (Friis), when
   a reference range is given.
@@ -29,11 +29,11 @@ __all__ = ["SNR_TABLE_DB", "TOA_SIGMA_TABLE_S", "DOPPLER_SIGMA_TABLE_HZ", "TOA_M
            "toa_sigma_array_s", "doppler_sigma_hz", "velocity_sigma_array_m_s", "snr_at_range_db",
            "burst_loss", "nlos_excess_s"]
 
-#: Seed 001 Table 1: SNR grid, dB.
+#: The swarm paper's Table 1: SNR grid, dB.
 SNR_TABLE_DB = np.array([4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0])
-#: Seed 001 Table 1: TOA estimation error sigma at each SNR, s.
+#: The swarm paper's Table 1: TOA estimation error sigma at each SNR, s.
 TOA_SIGMA_TABLE_S = np.array([2.5, 2.0, 1.6, 1.25, 1.0, 0.8, 0.6, 0.5, 0.45]) * 1e-9
-#: Seed 001 Table 1: carrier-frequency (Doppler) noise n_i, n_r at each SNR, Hz.
+#: The swarm paper's Table 1: carrier-frequency (Doppler) noise n_i, n_r at each SNR, Hz.
 DOPPLER_SIGMA_TABLE_HZ = np.array([190.0, 152.0, 121.0, 96.0, 76.0, 61.0, 48.0, 36.0, 30.0])
 
 TOA_MODELS = ("table", "crb", "none")
@@ -43,14 +43,14 @@ def _in_table(snr_db: float, what: str) -> float:
     check_scalar(snr_db, "snr_db")
     if not SNR_TABLE_DB[0] <= snr_db <= SNR_TABLE_DB[-1]:
         raise ValueError(
-            f"snr_db == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the seed's {what} "
+            f"snr_db == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the paper's {what} "
             "table (use the Cramér-Rao TOA model for other SNRs)"
         )
     return float(snr_db)
 
 
 def toa_sigma_s(snr_db: float, model: str = "table", rms_bandwidth_hz: float = 28.47e6) -> float:
-    """TOA noise sigma, s, at ``snr_db``: the seed's table (interpolated), the Cramér–Rao form, or
+    """TOA noise sigma, s, at ``snr_db``: the paper's table (interpolated), the Cramér–Rao form, or
     ``"none"`` (noiseless timestamps, for truth checks).
 
     The default RMS bandwidth makes the Cramér–Rao form give the table's 1.25 ns at 10 dB.
@@ -77,7 +77,7 @@ def toa_sigma_array_s(snr_db, model: str = "table", rms_bandwidth_hz: float = 28
 
 
 def doppler_sigma_hz(snr_db: float) -> float:
-    """One-way carrier-frequency noise sigma, Hz, at ``snr_db`` (seed Table 1, interpolated)."""
+    """One-way carrier-frequency noise sigma, Hz, at ``snr_db`` (the paper's Table 1, interpolated)."""
     return float(np.interp(_in_table(snr_db, "Doppler"), SNR_TABLE_DB, DOPPLER_SIGMA_TABLE_HZ))
 
 

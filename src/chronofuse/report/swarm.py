@@ -19,10 +19,11 @@ DISPLAY_UNITS = {"velocity": ("m/s", 1.0), "distance": ("km", 1e-3), "reply-dela
 
 
 def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *, title: str = "",
-               seed_points: dict | None = None) -> Path:
+               seed_points: dict | None = None, seed_levels: dict | None = None) -> Path:
     """RMSE (ns, log axis) of each algorithm against the swept value with its 95 % interval as error bars,
-    the bound as a thick dashed line on top, and the paper's numbers (``{algorithm: [(value_SI, rmse_ns)]}``)
-    as open squares in the colour of that algorithm's curve."""
+    the bound as a thick dashed line on top, the paper's numbers at a value (``{algorithm: [(value_SI,
+    rmse_ns)]}``) as open squares and its numbers over the whole sweep (``{algorithm: [(label, rmse_ns)]}``,
+    e.g. "< 0.25") as dotted levels, both in the colour of that algorithm's curve."""
     shown, factor = DISPLAY_UNITS.get(param, (unit, 1.0))
     fig = Figure(figsize=(7.5, 4.8))
     FigureCanvasAgg(fig)
@@ -45,6 +46,10 @@ def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *
         xs, ys = zip(*points)
         ax.plot(np.asarray(xs) * factor, ys, linestyle="none", marker="s", markerfacecolor="none", markersize=10,
                 markeredgewidth=1.8, color=colours.get(name, "grey"), label=f"paper: {name}", zorder=6)
+    for name, levels in (seed_levels or {}).items():
+        for label, level in levels:
+            ax.axhline(level, linestyle=":", linewidth=1.8, color=colours.get(name, "grey"),
+                       label=f"paper: {name} {label} ns", zorder=4)
     ax.set_yscale("log")
     ax.set_xlabel(f"{param} ({shown})")
     ax.set_ylabel("RMSE of the clock offset (ns)")

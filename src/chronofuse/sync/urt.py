@@ -1,9 +1,9 @@
-"""Unequal-reply-time (URT) compensation (seed 001 section 2.1, eqs. 17-21), and its fix.
+"""Unequal-reply-time (URT) compensation (the swarm paper's section 2.1, eqs. 17-21), and its fix.
 
 B really transmits ``t_p = t_fixed + jitter`` after its reply stamp; the two-way offset is then biased
 by ``alpha t_p`` with ``alpha = -c / (2c + v)`` (eq. 18).
 
-``mode="paper"`` is the seed as written: from the last ``M`` (50..200) velocity-compensated offsets,
+``mode="paper"`` is the paper as written: from the last ``M`` (50..200) velocity-compensated offsets,
 ``t_p = mean(eps) / alpha`` (eqs. 19-20) and ``eps_corr = eps - alpha t_p`` (eq. 21), refreshed every
 ``T_update = 10 s``; before the first batch is full, the mean of all offsets so far. This removes the
 whole mean of ``eps``, the true clock offset included: it is right only when the true offset is zero.
