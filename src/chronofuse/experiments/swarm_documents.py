@@ -34,7 +34,8 @@ def link_report(res: dict) -> dict:
         "convergence_threshold_ns": res["threshold_s"] * 1e9,
         "robustness": {k: {"delta_rmse_ns": v["delta_rmse_s"] * 1e9, "recovery_epochs": v["recovery_epochs"]}
                        for k, v in res["robustness"].items()},
-        "calibration": {k.replace("_s", "_ns"): v * 1e9 for k, v in res["calibration"].items()},
+        "calibration": {"urt_error_rms_ns": res["calibration"]["urt_error_rms_s"] * 1e9,
+                        "stated_sigma_rms_ns": res["calibration"]["stated_sigma_rms_s"] * 1e9},
         "overhead": overhead(res["scenario"]["link"]["interval_s"]),
         "urt_mode": res["urt_mode"],
         "trials": res["trials"],
@@ -61,7 +62,7 @@ def network_document(sc: SwarmScenario, *, seed: int, scheduler: str | None = "s
                "hops_end": int(t.hops[i, -1]), "to_true_end_ns": _ns(run.to_true_s[i, -1])}
         if np.isfinite(te).sum() >= 8:
             stats = time_error_statistics(te, rate, mask)
-            row["to_leader"] = {k.replace("_s", "_ns"): v * 1e9 for k, v in stats.items() if k.endswith("_s")}
+            row["to_leader"] = {k[:-2] + "_ns": v * 1e9 for k, v in stats.items() if k.endswith("_s")}
             row["mtie"] = {"tau_s": stats["mtie"]["tau_s"], "mtie_ns": [v * 1e9 for v in stats["mtie"]["mtie_s"]]}
             row["tdev"] = {"tau_s": stats["tdev"]["tau_s"], "tdev_ns": [v * 1e9 for v in stats["tdev"]["tdev_s"]]}
             row["mask"] = stats.get("mask")
