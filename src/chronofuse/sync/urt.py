@@ -10,8 +10,9 @@ whole mean of ``eps``, the true clock offset included: it is right only when the
 A fixed reply asymmetry is not observable from two-way timestamps alone (it trades one for one with
 the offset).
 
-``mode="calibrated"`` subtracts ``alpha t_fixed`` with ``t_fixed`` learnt by :func:`calibrate_urt`
-while both nodes know true time (e.g. GNSS-disciplined), and keeps it through a GNSS loss.
+``mode="calibrated"`` subtracts ``alpha t_fixed`` with ``t_fixed`` learnt by
+:func:`chronofuse.sync.calibration.calibrate_urt` while both nodes know true time (GNSS time comparisons),
+and keeps it through a GNSS loss.
 """
 
 from __future__ import annotations
@@ -19,24 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from chronofuse.sync.twoway import urt_sensitivity
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import check_choice, check_scalar
 
-__all__ = ["UrtCompensation", "calibrate_urt"]
-
-
-def calibrate_urt(offset_measured_s, reference_offset_s, velocity_m_s) -> np.ndarray:
-    """Supervised calibration of the fixed URT, s, per trial (uses the true offset: says so).
-
-    ``offset_measured_s``: velocity-compensated offsets (trials, n) taken while both nodes know true
-    time; ``reference_offset_s``: the offset their GNSS time gives (trials, n); ``velocity_m_s``: the
-    Doppler velocities. Returns ``mean((eps_meas - eps_ref) / alpha)`` over the window, shape (trials,).
-    """
-    meas = check_array(offset_measured_s, "offset_measured_s", ndim=2)
-    ref = check_array(reference_offset_s, "reference_offset_s", ndim=2)
-    vel = check_array(velocity_m_s, "velocity_m_s", ndim=2)
-    if not meas.shape == ref.shape == vel.shape:
-        raise ValueError(f"shapes {meas.shape}, {ref.shape}, {vel.shape} must agree")
-    return np.mean((meas - ref) / urt_sensitivity(vel), axis=1)
+__all__ = ["UrtCompensation"]
 
 
 class UrtCompensation:
