@@ -156,3 +156,15 @@ def test_a_kalman_servo_without_its_noise_refuses_to_run_until_fitted_and_names_
         KalmanServo().step(1e-9)
     with pytest.raises(ValueError, match="at least 30"):
         KalmanServo().fit(np.arange(20.0) * 1e-9)
+
+
+def test_a_loop_bandwidth_is_refused_for_a_servo_that_has_no_such_setting():
+    from chronofuse.experiments.gnssdo import GnssdoSetup, make_controller
+    from chronofuse.models.environment import receiver_environment
+
+    with pytest.raises(ValueError, match="--loop-bandwidth == 0.001: --controller 'kf' has no loop-bandwidth"):
+        GnssdoSetup(controller="kf", loop_bandwidth_hz=1e-3)
+    with pytest.raises(ValueError, match="natural_hz is not a setting of servos member 'gated'"):
+        make_controller("gated", OCXO, receiver_environment("open-sky"), 3, None, loop_bandwidth_hz=1e-3)
+    pi = make_controller("pi", OCXO, receiver_environment("open-sky"), 3, None, loop_bandwidth_hz=1e-3)
+    assert pi.ki == pytest.approx((2 * math.pi * 1e-3) ** 2)

@@ -61,9 +61,11 @@ from chronofuse.validation import check_scalar
 __all__ = ["effective_clock_noise", "KalmanServo", "KalmanServoConfig", "build_kalman", "kf_prior", "kf_post",
            "sample_kf", "AdaptiveKalmanServo", "GatedKalmanServo", "HuberKalmanServo"]
 
-#: The compiled backends' parameter header: n, dt, steer_s, r, and four slots for a variant's constants;
-#: then F (n*n), Q (n*n) and h (n). The state: x (n), P (n*n), then a variant's own.
-HEADER = 8
+#: The compiled backends' parameter header: n, dt, steer_s, r, where the scratch starts in the state, and
+#: four slots for a variant's constants; then F (n*n), Q (n*n) and h (n). The state: x (n), P (n*n), a
+#: variant's own, then scratch (the shifted state, the prior and the Kalman kernel's work space), so that
+#: a step allocates nothing.
+HEADER = 9
 
 
 def effective_clock_noise(h: PowerLaw, tau_match_s: float = 1000.0) -> tuple[float, float]:
@@ -81,45 +83,49 @@ def effective_clock_noise(h: PowerLaw, tau_match_s: float = 1000.0) -> tuple[flo
 # -- the compiled core every Kalman backend shares --------------------------------------------------------
 
 
+def scratch_size(n: int) -> int:
+    """Floats of scratch at the end of a Kalman backend's state row (module constants above)."""
+    return 2 * n + n * n + kk.work_size(n)
+
+
 @numba.njit(cache=True)
-def _parts(state, params):
+def kf_prior(offset_s, shift_s, applied, state, params):
+    """Predict one second: the phase state follows the step ``shift_s``, then ``x- = F x + B u`` with
+    ``B u = [dt applied, 0, ...]``, ``P- = F P F' + Q``, into the state's scratch; returns the innovation
+    ``e = z - h' x-`` (NaN without a sample) and ``h' P- h``."""
     n = int(params[0])
     nn = n * n
-    x = state[:n]
-    P = state[n:n + nn].reshape((n, n))
-    F = params[HEADER:HEADER + nn].reshape((n, n))
-    Q = params[HEADER + nn:HEADER + 2 * nn].reshape((n, n))
+    k = int(params[4])  # the scratch: shifted x (n), x- (n), P- (n*n), the kernel's work space
+    shifted, x_prior, P_prior = state[k:k + n], state[k + n:k + 2 * n], state[k + 2 * n:k + 2 * n + nn]
     h = params[HEADER + 2 * nn:HEADER + 2 * nn + n]
-    return x, P, F, Q, h
-
-
-@numba.njit(cache=True)
-def kf_prior(offset_s, shift_s, applied, state, params, x_prior, P_prior):
-    """Predict one second: the phase state follows the step ``shift_s``, then ``x- = F x + B u`` with
-    ``B u = [dt applied, 0, ...]``, ``P- = F P F' + Q``; writes ``x_prior``, ``P_prior`` and returns the
-    innovation ``e = z - h' x-`` (NaN without a sample) and ``h' P- h``."""
-    x, P, F, Q, h = _parts(state, params)
-    shifted = x.copy()
+    for a in range(n):
+        shifted[a] = state[a]
     shifted[0] = shifted[0] + shift_s
-    kk.predict(shifted, P, F, Q, x_prior, P_prior)
+    kk.predict_flat(shifted, state[n:n + nn], params[HEADER:HEADER + nn], params[HEADER + nn:HEADER + 2 * nn],
+                    x_prior, P_prior, state[k + 2 * n + nn:])
     x_prior[0] = x_prior[0] + params[1] * applied
     hx = 0.0
-    for a in range(h.shape[0]):
+    for a in range(n):
         hx += x_prior[a] * h[a]
-    return offset_s - hx, kk.innovation_variance(P_prior, h)
+    return offset_s - hx, kk.innovation_variance_flat(P_prior, h)
 
 
 @numba.njit(cache=True)
-def kf_post(offset_s, accept, r_k, e, x_prior, P_prior, state, params, out):
-    """Update with variance ``r_k`` when ``accept`` (else keep the prediction), store the posterior, write
-    the backend outputs and return the steering ``-(y + d dt / 2) - x / steer_s``."""
-    x, P, F, Q, h = _parts(state, params)
+def kf_post(offset_s, accept, r_k, e, state, params, out):
+    """Update the prior of :func:`kf_prior` with variance ``r_k`` when ``accept`` (else keep the prediction),
+    store the posterior, write the backend outputs and return the steering ``-(y + d dt / 2) - x / steer_s``."""
+    n = int(params[0])
+    nn = n * n
+    k = int(params[4])
+    x, P = state[:n], state[n:n + nn]
+    x_prior, P_prior = state[k + n:k + 2 * n], state[k + 2 * n:k + 2 * n + nn]
     if accept:
-        kk.update(x_prior, P_prior, offset_s, h, r_k, x, P)
+        kk.update_flat(x_prior, P_prior, offset_s, params[HEADER + 2 * nn:HEADER + 2 * nn + n], r_k, x, P,
+                       state[k + 2 * n + nn:])
     else:
-        for a in range(x.shape[0]):
+        for a in range(n):
             x[a] = x_prior[a]
-        kk.symmetrize(P_prior, P)
+        kk.symmetrize_flat(P_prior, P)
     dt = params[1]
     out[0] = x[0]
     out[1] = e if accept else math.nan
@@ -130,11 +136,8 @@ def kf_post(offset_s, accept, r_k, e, x_prior, P_prior, state, params, out):
 @numba.njit(SAMPLE, cache=True)
 def sample_kf(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
     """Backend kernel of the plain Kalman servo: every sample accepted with ``R / weight``."""
-    n = int(params[0])
-    x_prior = np.empty(n)
-    P_prior = np.empty((n, n))
-    e, _ = kf_prior(offset_s, shift_s, applied, state, params, x_prior, P_prior)
-    return kf_post(offset_s, not math.isnan(offset_s), params[3] / weight, e, x_prior, P_prior, state, params, out)
+    e, _ = kf_prior(offset_s, shift_s, applied, state, params)
+    return kf_post(offset_s, not math.isnan(offset_s), params[3] / weight, e, state, params, out)
 
 
 # -- the servo ----------------------------------------------------------------------------------------------
@@ -319,13 +322,14 @@ class KalmanServo(Servo):
     def _kernel_params(self):
         F, Q, H = self.model()
         n = F.shape[0]
-        head = (float(n), float(self.interval_s), float(self.steer_s), float(self.design()[1] ** 2))
+        head = (float(n), float(self.interval_s), float(self.steer_s), float(self.design()[1] ** 2),
+                float(n + n * n + self._variant_state()))
         return np.concatenate([np.array(head + self._variant_params()), F.ravel(), Q.ravel(), H[0]])
 
     def _kernel_initial(self, n_loops):
         P0 = self.prior_covariance()
         n = P0.shape[0]
-        state = np.zeros((n_loops, n + n * n + self._variant_state()))
+        state = np.zeros((n_loops, n + n * n + self._variant_state() + scratch_size(n)))
         state[:, n:n + n * n] = P0.ravel()
         return state
 

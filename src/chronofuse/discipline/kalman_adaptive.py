@@ -29,9 +29,7 @@ __all__ = ["AdaptiveKalmanServo", "AdaptiveKalmanServoConfig", "sample_wakf"]
 def sample_wakf(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
     """Backend kernel; params slots: sigma_th (s), lambda_min, lambda_max, window; state after x, P: the window."""
     n = int(params[0])
-    x_prior = np.empty(n)
-    P_prior = np.empty((n, n))
-    e, _ = kf_prior(offset_s, shift_s, applied, state, params, x_prior, P_prior)
+    e, _ = kf_prior(offset_s, shift_s, applied, state, params)
     w = int(params[HEADER - 1])
     window = state[n + n * n:n + n * n + w]
     for a in range(w - 1):
@@ -51,8 +49,7 @@ def sample_wakf(offset_s, local_ts_s, weight, shift_s, applied, state, params, o
     var = var / max(count - 1, 1)
     sigma_e = math.sqrt(var) if count >= 2 else 0.0
     lam = params[HEADER - 2] if sigma_e > params[HEADER - 4] else params[HEADER - 3]
-    return kf_post(offset_s, not math.isnan(offset_s), lam * (params[3] / weight), e, x_prior, P_prior, state,
-                   params, out)
+    return kf_post(offset_s, not math.isnan(offset_s), lam * (params[3] / weight), e, state, params, out)
 
 
 class AdaptiveKalmanServoConfig(KalmanServoConfig):
@@ -112,7 +109,8 @@ class AdaptiveKalmanServo(KalmanServo):
 
     def _kernel_initial(self, n_loops):
         state = super()._kernel_initial(n_loops)
-        state[:, state.shape[1] - int(self.window):] = np.nan
+        n = 3 + len(self.gauss_markov)
+        state[:, n + n * n:n + n * n + int(self.window)] = np.nan  # the window: no innovation yet
         return state
 
     def _weigh(self, state, e, s0, r, valid):

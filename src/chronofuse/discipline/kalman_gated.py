@@ -26,9 +26,7 @@ __all__ = ["GatedKalmanServo", "GatedKalmanServoConfig", "sample_gated"]
 def sample_gated(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
     """Backend kernel; params slots: gamma (the chi-square(1) gate), max_rejects; state after x, P: the rejections."""
     n = int(params[0])
-    x_prior = np.empty(n)
-    P_prior = np.empty((n, n))
-    e, s0 = kf_prior(offset_s, shift_s, applied, state, params, x_prior, P_prior)
+    e, s0 = kf_prior(offset_s, shift_s, applied, state, params)
     valid = not math.isnan(offset_s)
     r = params[3] / weight
     k = n + n * n
@@ -38,7 +36,7 @@ def sample_gated(offset_s, local_ts_s, weight, shift_s, applied, state, params, 
         state[k] += 1.0
     elif valid:
         state[k] = 0.0
-    return kf_post(offset_s, valid and not reject, r, e, x_prior, P_prior, state, params, out)
+    return kf_post(offset_s, valid and not reject, r, e, state, params, out)
 
 
 class GatedKalmanServoConfig(KalmanServoConfig):

@@ -24,15 +24,12 @@ __all__ = ["HuberKalmanServo", "HuberKalmanServoConfig", "sample_huber"]
 @numba.njit(SAMPLE, cache=True)
 def sample_huber(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
     """Backend kernel; params slot: the Huber constant c."""
-    n = int(params[0])
-    x_prior = np.empty(n)
-    P_prior = np.empty((n, n))
-    e, s0 = kf_prior(offset_s, shift_s, applied, state, params, x_prior, P_prior)
+    e, s0 = kf_prior(offset_s, shift_s, applied, state, params)
     valid = not math.isnan(offset_s)
     r = params[3] / weight
     rn = abs(e if valid else 0.0) / math.sqrt(s0 + r)
     wgt = min(1.0, params[HEADER - 4] / max(rn, 1e-300))
-    return kf_post(offset_s, valid, r / wgt, e, x_prior, P_prior, state, params, out)
+    return kf_post(offset_s, valid, r / wgt, e, state, params, out)
 
 
 class HuberKalmanServoConfig(KalmanServoConfig):

@@ -77,7 +77,7 @@ def build_pi(config: PiServoConfig, context) -> PiServo:
 
 
 class PiServo(Servo):
-    """PI servo; ``kp``, ``ki`` dimensionless per-sample gains (defaults: the seed's 0.5 and 0.1).
+    """PI servo; ``kp``, ``ki`` dimensionless per-sample gains (defaults: the GNSSDO paper's 0.5 and 0.1).
 
     :meth:`fit` learns nothing: the gains are the design (designing them from the noise is the designer's
     job, :meth:`from_bandwidth`)."""

@@ -108,6 +108,9 @@ class ServoRun(FrozenResult):
     servo_state: np.ndarray
 
 
+#: The states by value (indexing this tuple is cheaper than calling the enum in the streaming step).
+_STATES = tuple(ServoState)
+
 #: The dtypes of the seven outputs, in :data:`.servo_kernel.N_OUT` order.
 _OUT_DTYPES = (float, float, float, float, bool, bool, np.int8)
 
@@ -291,8 +294,8 @@ class Servo:
             step, params, policy, out = self._bound
             step(z if math.isfinite(z) else math.nan, t, float(weight), self._state["common"], self._state["kernel"],
                  params, policy, out)
-            return ServoOutput(float(out[0]), float(out[1]), float(out[2]), float(out[3]), out[4] != 0.0,
-                               out[5] != 0.0, ServoState(int(out[6])))
+            o = out.tolist()
+            return ServoOutput(o[0], o[1], o[2], o[3], o[4] != 0.0, o[5] != 0.0, _STATES[int(o[6])])
         self._state, out = self.update(self._state, np.array([z]), np.array([math.isfinite(z)]),
                                        weight=np.array([float(weight)]), local_ts_s=t)
         return ServoOutput(float(out[0][0]), float(out[1][0]), float(out[2][0]), float(out[3][0]), bool(out[4][0]),

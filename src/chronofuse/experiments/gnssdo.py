@@ -102,6 +102,9 @@ class GnssdoSetup:
             check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
             check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
+            if "natural_hz" not in SERVOS.entry(self.controller).config.model_fields:
+                raise ValueError(f"--loop-bandwidth == {self.loop_bandwidth_hz}: --controller {self.controller!r} has "
+                                 "no loop-bandwidth setting (pi has)")
         check_choice(self.fusion, "--fusion", ("fusion", "selection"))
         if self.integrity_pfa is not None:
             check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
@@ -154,7 +157,7 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
 
     Every servo gets the DAC and the 1 s interval; the registry's context also offers the oscillator's
     h-coefficients and the receivers' short-term noise, which the Kalman types design with. ``pi``: the
-    seed's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1); a servo without a
+    GNSSDO paper's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1); a servo without a
     loop-bandwidth setting refuses ``loop_bandwidth_hz`` by name.
     """
     _check_controller(name)

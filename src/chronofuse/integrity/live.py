@@ -25,7 +25,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Iterator
 
-from chronofuse.integrity.detector import HodDetector
 from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
 from chronofuse.validation import InputDataError
 
@@ -82,9 +81,13 @@ def stream_verdicts(
     hm2: float | None = None,
     sigma_rho_m: float | None = None,
     train_s: float | None = None,
+    detector: str = "chi-square",
 ) -> Iterator[EpochVerdict]:
-    """One verdict per epoch of the ``time,clock_bias`` text ``lines`` (module docstring), as they arrive."""
-    from chronofuse.integrity.modes import TRAINING_CONFIDENCE
+    """One verdict per epoch of the ``time,clock_bias`` text ``lines`` (module docstring), as they arrive.
+
+    ``detector``: a name of :data:`chronofuse.integrity.registry.DETECTORS`, as in
+    :func:`chronofuse.integrity.modes.detect_file`."""
+    from chronofuse.integrity.modes import TRAINING_CONFIDENCE, _detector_factory
 
     if train_s is None and None in (h0, hm2, sigma_rho_m):
         raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
@@ -92,11 +95,11 @@ def stream_verdicts(
     monitor: StreamingMonitor | None = None
     training: list[tuple[int, float]] = []
     t0 = last = None
-    params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
-                  confidence=TRAINING_CONFIDENCE if train_s is not None else None)
+    make = _detector_factory(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                             confidence=TRAINING_CONFIDENCE if train_s is not None else None)
 
     def start(interval_ns: int) -> StreamingMonitor:
-        det = HodDetector(interval_s=interval_ns / 1e9, **params)
+        det = make(interval_ns / 1e9)
         if train_s is None:
             return StreamingMonitor(det.fit())
         import numpy as np
@@ -106,7 +109,8 @@ def stream_verdicts(
         values = np.array([b for _, b in training])
         det.fit(repair_clock_steering(values).repaired_s)
         mon = StreamingMonitor(det)
-        for (t, b), left_out in zip(training, det.training_outliers_):
+        left_outs = getattr(det, "training_outliers_", np.zeros(len(training), dtype=bool))
+        for (t, b), left_out in zip(training, left_outs):
             mon.step(t, math.nan if left_out else b)  # training outliers are out of the window, as in the batch
         return mon
 

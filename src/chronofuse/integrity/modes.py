@@ -116,7 +116,7 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
         else:
             try:
                 detector.fit(training)
-                left_out = np.flatnonzero(detector.training_outliers_)
+                left_out = np.flatnonzero(getattr(detector, "training_outliers_", np.zeros(0, dtype=bool)))
                 if left_out.size:
                     # the epochs of an outlier (spike, step) in training: out of the fit and of the first windows
                     x = x.copy()
@@ -157,11 +157,12 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
     doc["interval_s"] = float(detector.interval_s)
     doc["noise"] = _noise(detector) if fitted else None
     doc["noise_change"] = None
-    if fitted and train_s is not None:
+    if fitted and train_s is not None and hasattr(detector, "r_"):
         df = np.full(n, np.nan)
         df[2:] = np.diff(x, 2) / detector.interval_s
         tested_df = np.where(states == "unavailable", np.nan, df)
-        ratio, p_value = noise_change(df[:n_train], tested_df[n_train:], detector.r_ / detector.inflation_)
+        ratio, p_value = noise_change(df[:n_train], tested_df[n_train:],
+                                      detector.r_ / getattr(detector, "inflation_", 1.0))
         doc["noise_change"] = {"ratio": ratio, "p_value": p_value}
         if p_value < NOISE_CHANGE_ALPHA:
             warnings.append(f"noise changed after training: the tested differences' mean square is {ratio:.3g} times "
@@ -173,9 +174,12 @@ def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: flo
     return doc
 
 
-def _noise(det: HodDetector) -> dict:
+def _noise(det) -> dict | None:
+    """The fitted noise model a detector reports (None for one that has none)."""
+    if not all(hasattr(det, name) for name in ("h0_", "hm2_", "sigma_rho_m_")):
+        return None
     return {"h0": float(det.h0_), "hm2": float(det.hm2_), "sigma_rho_m": float(det.sigma_rho_m_),
-            "inflation": float(det.inflation_)}
+            "inflation": float(getattr(det, "inflation_", 1.0))}
 
 
 def position_offsets_m(obs, nav, position_m: np.ndarray) -> np.ndarray:
@@ -304,6 +308,7 @@ def detect_file(
     nav: str | Path | None = None,
     station: str | None = None,
     max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S,
+    detector: str = "chi-square",
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -334,6 +339,10 @@ def detect_file(
     max_time_acc_s : float or None
         Largest receiver time accuracy estimate (s; UBX NAV-CLOCK tAcc) of an epoch to be tested; None: not
         used (:mod:`chronofuse.integrity.receiver_status`).
+    detector : str
+        A name of :data:`chronofuse.integrity.registry.DETECTORS` (plugins included) for detection mode;
+        ``window`` and ``confidence`` go to a detector that has them, ``h0``/``hm2``/``sigma_rho_m`` when
+        given. Identification mode and the all-stations table of a clock product run the chi-square test.
 
     Returns
     -------
@@ -353,12 +362,15 @@ def detect_file(
         check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     elif None in (h0, hm2, sigma_rho_m):
         raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
+    make = _detector_factory(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                             confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     kind = sniff_format(path)
     if kind == "rinex-nav":
         raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
     params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                   confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     if kind == "rinex-obs":
+        _only_chi_square(detector, "identification mode (a RINEX observation file)")
         if nav is None or position_m is None:
             raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
                                  "mode: nav and position_m)", str(path))
@@ -371,9 +383,10 @@ def detect_file(
 
         clocks = read_station_clocks(path)
         if station is None:
+            _only_chi_square(detector, "the table of every station of a clock product (give --station)")
             return clock_product_document(clocks, params, train_s)
         data = station_clock_bias(clocks, station)
-        doc = detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s)
+        doc = detection_document(data, make(data.interval_s), train_s)
         doc["station"] = station
         return doc
     if station is not None:
@@ -381,14 +394,46 @@ def detect_file(
     if max_time_acc_s is not None:
         check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
     data = read_clock_bias(path, rate_hz, column)
-    return detection_document(data, HodDetector(interval_s=data.interval_s, **params), train_s, max_time_acc_s)
+    return detection_document(data, make(data.interval_s), train_s, max_time_acc_s)
 
 
-def _document(mode: str, n_epochs: int, det: HodDetector, alarms: list[dict], n_skipped: int) -> dict:
+def _only_chi_square(detector: str, where: str) -> None:
+    if detector != "chi-square":
+        raise InputDataError(f"detector (--detector) {detector!r}: {where} runs the chi-square test only")
+
+
+def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidence):
+    """``make(interval_s)`` building the detector ``name`` of the registry for one clock bias (see
+    :func:`detect_file`); refuses a detector that needs another input, or a noise parameter it does not take."""
+    from chronofuse.integrity.registry import DETECTORS
+
+    entry = DETECTORS.entry(name)
+    needs = tuple(getattr(entry.target, "inputs", ()))
+    if needs:
+        raise InputDataError(f"detector (--detector) {name!r} needs the input(s) {list(needs)}; a clock-bias file "
+                             "gives one clock bias")
+    fields = entry.config.model_fields
+    settings = {"pfa": pfa}
+    for key, value in (("window", window), ("confidence", confidence)):
+        if key in fields and value is not None:
+            settings[key] = value
+    for key, value in (("h0", h0), ("hm2", hm2), ("sigma_rho_m", sigma_rho_m)):
+        if value is not None:
+            settings[key] = value  # refused by the registry, naming it, if the detector has no such setting
+    DETECTORS.config(name, **settings)  # check the settings before any file is read
+
+    def make(interval_s: float):
+        return DETECTORS.create(name, context={"interval_s": interval_s}, **settings)
+
+    return make
+
+
+def _document(mode: str, n_epochs: int, det, alarms: list[dict], n_skipped: int) -> dict:
+    threshold = getattr(det, "threshold_", None)
     return {
         "mode": mode,
         "n_epochs": int(n_epochs),
-        "threshold": float(chi2_thresholds(det.pfa, int(det.window))[-1]),
+        "threshold": float(chi2_thresholds(det.pfa, int(det.window))[-1] if threshold is None else threshold),
         "window": int(det.window),
         "pfa": float(det.pfa),
         "alarms": alarms,

@@ -82,9 +82,12 @@ class StreamingMonitor:
         self.tolerance_s = tolerance_s
         self.clear_sigma = clear_sigma
         n, ts = int(detector.window), float(detector.interval_s)
-        q1, q2, s2 = noise_intensities(detector.h0_, detector.hm2_, detector.sigma_rho_m_)
-        q1, q2, s2 = (v * getattr(detector, "inflation_", 1.0) for v in (q1, q2, s2))
-        self._sigma_freq = math.sqrt(2.0 * (2.0 * s2 + n * q1 * ts + n**3 * q2 * ts**3 / 3.0)) / (n * ts)
+        if all(hasattr(detector, name) for name in ("h0_", "hm2_", "sigma_rho_m_")):
+            q1, q2, s2 = noise_intensities(detector.h0_, detector.hm2_, detector.sigma_rho_m_)
+            q1, q2, s2 = (v * getattr(detector, "inflation_", 1.0) for v in (q1, q2, s2))
+            self._sigma_freq = math.sqrt(2.0 * (2.0 * s2 + n * q1 * ts + n**3 * q2 * ts**3 / 3.0)) / (n * ts)
+        else:  # a detector without a clock noise model: the latch clears on quiet epochs alone
+            self._sigma_freq = math.nan
         self.reset()
 
     def reset(self) -> None:

@@ -62,6 +62,11 @@ def tau_grid(kind: str, n_points: int, rate_hz: float, statistic: str = "oadev")
     check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
     check_scalar(n_points, "n_points", min_val=0, integer=True)
     spec = STATISTICS[statistic]
+    if spec.grid is not None:  # TheoH: two grids, one either side of its split
+        taus = spec.grid(kind, int(n_points), rate_hz)
+        if taus.size == 0:
+            raise ValueError(f"the record has {n_points} samples, too few for {statistic}")
+        return taus
     m = averaging_factors(int(spec.max_m(int(n_points))), kind)
     if spec.m_step > 1:
         m = m[m % spec.m_step == 0]
