@@ -1,5 +1,6 @@
 """URT: the paper mode's failure with a true offset, the calibration's error against its stated sigma; the
-paper's chain and doppler-kf on links drawn from the prior, manoeuvres included."""
+paper's chain and doppler-kf on links drawn from the prior, manoeuvres included; the residual networks' inputs do not
+carry the absolute offset."""
 
 import numpy as np
 import pytest
@@ -51,3 +52,23 @@ def test_doppler_kf_stays_at_the_bound_through_5_g_manoeuvres(manoeuvre, g):
     lo, hi = res["ratio_ci"]["doppler-kf"]
     assert lo < 1.1 and hi > 0.95 and res["ratio"]["doppler-kf"] < 1.12
     assert res["ratio"]["rtt-rvc-kf"] > 1.2  # the paper's chain misses the skew and light-time terms
+
+
+def test_shifting_the_true_offset_by_1_us_leaves_every_residual_network_input_unchanged():
+    from chronofuse.sync.chain import FEATURES
+
+    runs = {}
+    for mean in (0.0, 1e-6):
+        sc = LinkScenario(velocity_m_s=800.0, exchanges=600,
+                          prior=LinkPrior(offset_mean_s=mean, offset_sigma_s=1e-7, skew_mean=1e-7))
+        ex, draw = simulate_scenario(sc, 3, 5)
+        chain = make_algorithm("rtt-rvc-kf", knowledge_of(sc, calibrate_scenario(sc, draw, 6))).fit()
+        est, feats = chain.run_features(measurement_array(ex))
+        runs[mean] = ex.offset_s, est, feats
+    (off0, est0, f0), (off1, est1, f1) = runs[0.0], runs[1e-6]
+    np.testing.assert_allclose(off1 - off0, 1e-6, rtol=1e-9)
+    np.testing.assert_allclose(est1 - est0, 1e-6, rtol=1e-6)  # the paper's inputs (the estimate) move by 1000 ns
+    # ours move by at most 1e-4 of their order-one scale (the truth's own eps * eps_dot term, 1e-13 s)
+    late = slice(360, None)  # the network acts after the chain's warm-up
+    diff = np.abs(f1 - f0)[:, late].max(axis=(0, 1))
+    assert np.all(diff < 1e-3), dict(zip(FEATURES, diff))
