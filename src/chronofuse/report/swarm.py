@@ -49,7 +49,7 @@ def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *
     for name, levels in (seed_levels or {}).items():
         for label, level in levels:
             ax.axhline(level, linestyle=":", linewidth=1.8, color=colours.get(name, "grey"),
-                       label=f"paper: {name} {label} ns", zorder=4)
+                       label=f"paper: {name} {label} {level:g} ns", zorder=4)
     ax.set_yscale("log")
     ax.set_xlabel(f"{param} ({shown})")
     ax.set_ylabel("RMSE of the clock offset (ns)")
