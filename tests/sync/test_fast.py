@@ -9,7 +9,7 @@ from chronofuse.experiments.swarm import LinkScenario, calibrate_scenario, knowl
 from chronofuse.models.link import LinkModel
 from chronofuse.sync.base import SyncAlgorithm, measurement_array
 from chronofuse.sync.chain import RvcKfChain
-from chronofuse.sync.fast import FastSeedChain
+from chronofuse.sync.fast import FastRvcKfChain
 from chronofuse.sync.registry import make_algorithm
 
 
@@ -17,7 +17,7 @@ def _pair(light_time, net=None, steps=300):
     sc = LinkScenario(velocity_m_s=1500.0, exchanges=steps)
     config = make_algorithm("rtt-rvc-kf", knowledge_of(sc, None), light_time=light_time, urt_s=19e-9).config
     Z = measurement_array(simulate_scenario(sc, 3, 2)[0])
-    return RvcKfChain(config, net).fit(), FastSeedChain(config, net).fit(), Z
+    return RvcKfChain(config, net).fit(), FastRvcKfChain(config, net).fit(), Z
 
 
 @pytest.mark.parametrize("light_time", ["paper", "exact"])

@@ -119,7 +119,7 @@ def _plot(fig: str, summary, out: Path, trials: int, exchanges: int, snr_db: flo
             points.setdefault(alg, []).append((value, ns))
         else:
             levels.setdefault(alg, []).append((rel, ns))
-    return plot_sweep(summary, param, SWEEP_PARAMS[param], out / f"fig{fig}.png", seed_points=points, seed_levels=levels,
+    return plot_sweep(summary, param, SWEEP_PARAMS[param], out / f"fig{fig}.png", paper_points=points, paper_levels=levels,
                       title=f"paper's fig. {fig}: {trials} links x {exchanges} exchanges, SNR {snr_db:g} dB, offsets, "
                             "skews and reply delays drawn per link")
 

@@ -19,7 +19,7 @@ DISPLAY_UNITS = {"velocity": ("m/s", 1.0), "distance": ("km", 1e-3), "reply-dela
 
 
 def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *, title: str = "",
-               seed_points: dict | None = None, seed_levels: dict | None = None) -> Path:
+               paper_points: dict | None = None, paper_levels: dict | None = None) -> Path:
     """RMSE (ns, log axis) of each algorithm against the swept value with its 95 % interval as error bars,
     the bound as a thick dashed line on top, the paper's numbers at a value (``{algorithm: [(value_SI,
     rmse_ns)]}``) as open squares and its numbers over the whole sweep (``{algorithm: [(label, rmse_ns)]}``,
@@ -42,11 +42,11 @@ def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *
     bound = summary.groupby("value", sort=True)[bound_col].first()
     ax.plot(bound.index.to_numpy() * factor, bound.to_numpy(), color="black", linestyle="--", linewidth=2.2,
             label="Bayesian bound (same model)", zorder=5)
-    for name, points in (seed_points or {}).items():
+    for name, points in (paper_points or {}).items():
         xs, ys = zip(*points)
         ax.plot(np.asarray(xs) * factor, ys, linestyle="none", marker="s", markerfacecolor="none", markersize=10,
                 markeredgewidth=1.8, color=colours.get(name, "grey"), label=f"paper: {name}", zorder=6)
-    for name, levels in (seed_levels or {}).items():
+    for name, levels in (paper_levels or {}).items():
         for label, level in levels:
             ax.axhline(level, linestyle=":", linewidth=1.8, color=colours.get(name, "grey"),
                        label=f"paper: {name} {label} {level:g} ns", zorder=4)

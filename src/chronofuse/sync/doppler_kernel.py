@@ -55,6 +55,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
     ht = np.empty(n)
     xp = np.empty(n)
     Pp = np.empty((n, n))
+    work = np.empty(3 * n * n + 2 * n)  # the Kalman kernel's scratch (kalman_kernel.work_size(n))
     lz = np.empty(lag)
     lc = np.empty(lag)
     lr = np.empty(lag)
@@ -89,7 +90,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
             snr = Z[i, k, 4]
             alos = Z[i, k, 5]
             if k > 0:  # x- = Phi x, P- = Phi P Phi' + Q
-                predict(x, P, Phi, Q, x, P)
+                predict(x, P, Phi, Q, x, P, work)
             eps = x[0]
             z1 = (t_i - t_r + t_b) / 2.0
             known = -vel * (t_b - t_i) / (2.0 * C) + (t_i - eps) * alos / C
@@ -117,7 +118,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                 x[:] = x0
                 P[:, :] = P0
             if finite and not gated:  # K = P h / s, x += K y, P = (I - K h') P (I - K h')' + K r K'
-                update(x, P, z, h, r, x, P)
+                update(x, P, z, h, r, x, P, work)
             sigma = math.sqrt(P[0, 0] + (cs * 0.5) ** 2)
             ref_e = x[0] - ref[i, k] if has_ref else math.nan
             if mon_on:
@@ -126,7 +127,7 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                 if k >= lag:
                     # the lagging filter takes the measurement lag old, then predicts this exchange
                     if started:
-                        predict(xd, Pd, Phi, Q, xd, Pd)
+                        predict(xd, Pd, Phi, Q, xd, Pd, work)
                     started = True
                     hd[0] = 1.0
                     for a in range(1, n):
@@ -144,8 +145,8 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                         xd[:] = x0
                         Pd[:, :] = P0
                     if (not math.isnan(lz[0])) and not gd:
-                        update(xd, Pd, lz[0], hd, lr[0], xd, Pd)
-                    predict(xd, Pd, PhiL, QL, xp, Pp)  # x_pred = Phi^lag xd, P_pred = Phi^lag Pd Phi^lag' + Q_lag
+                        update(xd, Pd, lz[0], hd, lr[0], xd, Pd, work)
+                    predict(xd, Pd, PhiL, QL, xp, Pp, work)  # x_pred = Phi^lag xd, P_pred = Phi^lag Pd Phi^lag' + Q_lag
                     ht[0] = 1.0
                     for a in range(1, n):
                         ht[a] = cm

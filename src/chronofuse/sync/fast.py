@@ -1,6 +1,6 @@
 """A numba kernel for the paper's chain's streaming step, beside its readable numpy twin.
 
-:class:`FastSeedChain` (registered as ``rtt-rvc-kf-numba`` and, with its BP network, ``rtt-rvc-kf-bp-numba``)
+:class:`FastRvcKfChain` (registered as ``rtt-rvc-kf-numba`` and, with its BP network, ``rtt-rvc-kf-bp-numba``)
 is :class:`~chronofuse.sync.chain.RvcKfChain` in the calibrated URT mode (the configuration a node runs
 in real time), its per-exchange core fused into one numba kernel: RVC (the paper's eq. 9 or its exact
 form), URT compensation with the calibrated fixed part, the Kalman predict/update with ``H = [1 0 0]``
@@ -21,7 +21,7 @@ from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.estimation.kalman_kernel import predict, update
 from chronofuse.sync.chain import RvcKfChain
 
-__all__ = ["FastSeedChain"]
+__all__ = ["FastRvcKfChain"]
 
 
 @numba.njit(cache=True)
@@ -37,6 +37,7 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_
     F = np.eye(3)
     F[0, 1] = dt
     hrow = np.array([1.0, 0.0, 0.0])
+    work = np.empty(3 * 3 * 3 + 2 * 3)  # the Kalman kernel's scratch (kalman_kernel.work_size(3))
     for i in range(n):
         tp = tp_all[i] if tp_all.size > 1 else tp_all[0]
         if exact:
@@ -58,11 +59,11 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_
             # x- = F x, P- = F P F' + Q (the shared compiled kernel), then the control x-[2] = v_doppler
             xi = x_out[i]
             Pi = P_out[i]
-            predict(x[i], P[i], F, Q, xi, Pi)
+            predict(x[i], P[i], F, Q, xi, Pi, work)
             if not math.isnan(v[i]):
                 xi[2] = v[i]  # B u with u = v_doppler - v
             if not math.isnan(z):
-                update(xi, Pi, z, hrow, R, xi, Pi)  # H = [1 0 0], Joseph form
+                update(xi, Pi, z, hrow, R, xi, Pi, work)  # H = [1 0 0], Joseph form
         e = x_out[i, 0]
         if use_net and k >= warmup:
             feat[0] = (z - e) * 1e9
@@ -85,7 +86,7 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_
     return x_out, P_out, s0_out, v0_out, est
 
 
-class FastSeedChain(RvcKfChain):
+class FastRvcKfChain(RvcKfChain):
     """The paper's chain (URT calibrated, optional BP network) through one numba kernel.
 
     Same configuration as :class:`RvcKfChain`; ``residual_model`` must be a BP network (window 1).

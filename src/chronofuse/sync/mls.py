@@ -1,6 +1,6 @@
 """PTP-MLS: PTP offsets smoothed by moving least squares (the swarm paper's refs. [17-18]; no motion model).
 
-The seed names the method without details; the definition used here: after exchange ``k`` fit
+The paper names the method without details; the definition used here: after exchange ``k`` fit
 ``z_j = a + b (t_j - t_k)`` to the last ``W`` PTP offsets (the paper's eq. 1) by weighted least squares with
 the tricube weights of LOESS (Cleveland 1979), ``w_j = (1 - (age_j / W)^3)^3`` for ``age_j = k - j``
 in ``0 .. W-1``, and report ``a``, the fitted value at the current exchange (causal). ``W`` is 16..64

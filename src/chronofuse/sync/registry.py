@@ -45,7 +45,7 @@ from chronofuse.registry import Config, Entry, Registry
 from chronofuse.sync.base import NullSync, SyncAlgorithm
 from chronofuse.sync.chain import RvcKfChain, RvcKfConfig
 from chronofuse.sync.doppler import DopplerKf, DopplerKfConfig
-from chronofuse.sync.fast import FastSeedChain
+from chronofuse.sync.fast import FastRvcKfChain
 from chronofuse.sync.mls import PtpMls
 from chronofuse.sync.prior import LinkPrior
 from chronofuse.sync.ptp import PtpPiServo
@@ -149,7 +149,7 @@ def _builder(cls, defaults, network: str | None = None, *, takes_config: bool = 
             if dict(net.config.chain) != want:
                 raise ValueError(f"algorithm == {context.get('name')!r}: its network was trained behind chain "
                                  f"{net.config.chain}, this run is {want}")
-        return cls(full, residual_model=net) if cls in (RvcKfChain, FastSeedChain) else cls(full)
+        return cls(full, residual_model=net) if cls in (RvcKfChain, FastRvcKfChain) else cls(full)
 
     return build
 
@@ -167,8 +167,8 @@ for _name, _cls, _config, _defaults, _net, _takes, _summary in (
     ("rtt-rvc-kf", RvcKfChain, RvcKfConfig, _chain, None, True, "the paper's chain without its network"),
     ("rtt-rvc-kf-bp", RvcKfChain, RvcKfConfig, _chain, "bp", True, "the paper's chain with its BP network"),
     ("rtt-rvc-kf-lstm", RvcKfChain, RvcKfConfig, _chain, "lstm", True, "the paper's chain with an LSTM"),
-    ("rtt-rvc-kf-numba", FastSeedChain, RvcKfConfig, _chain, None, True, "rtt-rvc-kf in one numba kernel"),
-    ("rtt-rvc-kf-bp-numba", FastSeedChain, RvcKfConfig, _chain, "bp", True, "rtt-rvc-kf-bp in one numba kernel"),
+    ("rtt-rvc-kf-numba", FastRvcKfChain, RvcKfConfig, _chain, None, True, "rtt-rvc-kf in one numba kernel"),
+    ("rtt-rvc-kf-bp-numba", FastRvcKfChain, RvcKfConfig, _chain, "bp", True, "rtt-rvc-kf-bp in one numba kernel"),
     ("doppler-kf", DopplerKf, DopplerKfConfig, _doppler, None, True, "the complete-model filter"),
 ):
     SYNC.add(_name, Entry(_cls, _config, _summary, _builder(_cls, _defaults, _net, takes_config=_takes)))
