@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, NullFormatter
 
 __all__ = ["DISPLAY_UNITS", "plot_sweep", "write_sweep"]
 
@@ -51,6 +52,11 @@ def plot_sweep(summary: pd.DataFrame, param: str, unit: str, path: str | Path, *
             ax.axhline(level, linestyle=":", linewidth=1.8, color=colours.get(name, "grey"),
                        label=f"paper: {name} {label} {level:g} ns", zorder=4)
     ax.set_yscale("log")
+    # plain numbers in ns (0.3, 1, 10), not powers of ten; minor ticks labelled only on an axis under 1.5 decades
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    ax.yaxis.set_major_formatter(plain)
+    lo, hi = ax.get_ylim()
+    ax.yaxis.set_minor_formatter(plain if np.log10(hi / lo) < 1.5 else NullFormatter())
     ax.set_xlabel(f"{param} ({shown})")
     ax.set_ylabel("RMSE of the clock offset (ns)")
     ax.grid(True, which="both", alpha=0.3)
