@@ -1,4 +1,4 @@
-"""Link truth: exact light-time against closed forms and the seed's first-order model; noise tables."""
+"""Link truth: exact light-time against closed forms and the source paper's first-order model; noise tables."""
 
 import math
 
@@ -12,7 +12,7 @@ from chronofuse.models.link import (
     doppler_sigma_hz,
     light_time_s,
     node_clock_error_s,
-    seed_first_order_timestamps,
+    paper_first_order_timestamps,
     simulate_exchanges,
     toa_sigma_s,
 )
@@ -47,33 +47,33 @@ def test_co_moving_nodes_have_the_frame_term_two_d_v_over_c_squared_between_the_
     assert d * v / C**2 == pytest.approx(2.2e-9, rel=0.02)  # the "about 2 ns" of the issue
 
 
-def test_exact_timestamps_equal_the_seed_first_order_model_at_low_speed():
+def test_exact_timestamps_equal_the_paper_s_first_order_model_at_low_speed():
     ex = _noiseless(80e3, 1.0, offset_s=1e-6)
-    t_i, t_r = seed_first_order_timestamps(ex.range_m, 1.0, ex.offset_s, NOISELESS.reply_delay_s)
+    t_i, t_r = paper_first_order_timestamps(ex.range_m, 1.0, ex.offset_s, NOISELESS.reply_delay_s)
     assert np.max(np.abs(ex.t_i_s - t_i)) < 1e-12
     assert np.max(np.abs(ex.t_r_s - t_r)) < 1e-15
 
 
-def test_at_2000_m_s_the_seed_model_misses_the_uplink_term_s_v_over_c_squared():
+def test_at_2000_m_s_the_paper_s_model_misses_the_uplink_term_s_v_over_c_squared():
     v = 2000.0
     for distance in (80e3, 100e3):
         ex = _noiseless(distance, v)
-        t_i, t_r = seed_first_order_timestamps(ex.range_m, v, ex.offset_s, NOISELESS.reply_delay_s)
+        t_i, t_r = paper_first_order_timestamps(ex.range_m, v, ex.offset_s, NOISELESS.reply_delay_s)
         expected = ex.range_m * v / (C * (C - v))
         np.testing.assert_allclose(ex.t_i_s - t_i, expected, rtol=1e-9)
         np.testing.assert_allclose(ex.t_r_s, t_r, atol=1e-15)
-    # At 80 km the difference is 1.78 ns in T_i, hence 0.89 ns in the offset of seed eq. (1)/(9).
+    # At 80 km the difference is 1.78 ns in T_i, hence 0.89 ns in the offset of the source paper's eq. (1)/(9).
     ex = _noiseless(80e3, v)
-    assert (ex.t_i_s[0, 0] - seed_first_order_timestamps(80e3, v, 0.0, 4e-3)[0]) == pytest.approx(1.7803e-9, rel=1e-4)
+    assert (ex.t_i_s[0, 0] - paper_first_order_timestamps(80e3, v, 0.0, 4e-3)[0]) == pytest.approx(1.7803e-9, rel=1e-4)
 
 
-def test_the_offset_recovered_by_seed_eq_1_from_static_noiseless_exchanges_is_the_true_offset():
+def test_the_offset_recovered_by_the_paper_s_eq_1_from_static_noiseless_exchanges_is_the_true_offset():
     ex = _noiseless(80e3, 0.0, offset_s=3e-6)
     eps = (ex.t_i_s - ex.t_r_s + ex.t_b_s) / 2.0
     np.testing.assert_allclose(eps, ex.offset_s, atol=1e-16)
 
 
-def test_toa_noise_follows_the_seed_table_and_the_cramer_rao_form():
+def test_toa_noise_follows_the_paper_s_table_and_the_cramer_rao_form():
     assert toa_sigma_s(4.0) == pytest.approx(2.5e-9) and toa_sigma_s(20.0) == pytest.approx(0.45e-9)
     assert toa_sigma_s(11.0) == pytest.approx((1.25e-9 + 1.0e-9) / 2)
     assert toa_sigma_s(10.0, "crb") == pytest.approx(1.25e-9, rel=1e-3)

@@ -13,7 +13,7 @@ from chronofuse.sync.ptp import PtpOffset, PtpPiServo, pi_gains
 from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK, LinkKnowledge, make_algorithm
 from chronofuse.sync.regression import ChronyRegression, PtpLinreg, runs_test_passes
 from chronofuse.sync.rvc import RttRvc
-from chronofuse.sync.twoway import ptp_offset_s, rvc_offset_exact_s, rvc_offset_seed_s
+from chronofuse.sync.twoway import ptp_offset_s, rvc_offset_exact_s, rvc_offset_paper_s
 
 
 @pytest.mark.parametrize("name", [n for n in ALGORITHM_NAMES if n not in NEEDS_NETWORK])
@@ -104,11 +104,11 @@ def test_exact_rvc_recovers_the_offset_of_a_noiseless_moving_link_and_the_paper_
     ex = exchanges(velocity_m_s=v, trials=1, offset_s=2e-6)
     exact = rvc_offset_exact_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.radial_velocity_m_s)
     np.testing.assert_allclose(exact, ex.offset_s, atol=1e-17)
-    seed = rvc_offset_seed_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.radial_velocity_m_s)
-    np.testing.assert_allclose(seed - ex.offset_s, ex.range_m * v / (2 * C * C), rtol=2e-3)
+    eq9 = rvc_offset_paper_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.radial_velocity_m_s)
+    np.testing.assert_allclose(eq9 - ex.offset_s, ex.range_m * v / (2 * C * C), rtol=2e-3)
     with_doppler = rvc_offset_exact_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s)
     np.testing.assert_array_equal(RttRvc("exact").fit().run(measurement_array(ex)).offset_s, with_doppler)
-    paper = rvc_offset_seed_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s)
+    paper = rvc_offset_paper_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s)
     np.testing.assert_array_equal(RttRvc("paper").fit().run(measurement_array(ex)).offset_s, paper)
 
 

@@ -62,7 +62,7 @@ __all__ = [
     "doppler_sigma_hz",
     "light_time_s",
     "simulate_exchanges",
-    "seed_first_order_timestamps",
+    "paper_first_order_timestamps",
     "node_clock_error_s",
 ]
 
@@ -408,7 +408,7 @@ def simulate_exchanges(
     )
 
 
-def seed_first_order_timestamps(distance_m, radial_velocity_m_s, offset_s, reply_delay_s):
+def paper_first_order_timestamps(distance_m, radial_velocity_m_s, offset_s, reply_delay_s):
     """The paper's noiseless model (eqs. 6 and 8, no URT): ``T_i = eps + S1/c`` and
     ``T_r = T_B - eps + S1/c + v (T_B - eps)/c``. Returns ``(T_i, T_r)``, s."""
     s1 = np.asarray(distance_m, dtype=np.float64)

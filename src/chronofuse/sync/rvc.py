@@ -9,7 +9,7 @@ by ``alpha t_p`` (the paper's eq. 17).
 from __future__ import annotations
 
 from chronofuse.sync.base import SyncAlgorithm
-from chronofuse.sync.twoway import rvc_offset_exact_s, rvc_offset_seed_s
+from chronofuse.sync.twoway import rvc_offset_exact_s, rvc_offset_paper_s
 from chronofuse.validation import check_choice
 
 __all__ = ["RttRvc", "rvc_offset"]
@@ -17,7 +17,7 @@ __all__ = ["RttRvc", "rvc_offset"]
 
 def rvc_offset(sample, light_time: str):
     """The velocity-compensated offset of one exchange (trials,)."""
-    f = rvc_offset_seed_s if light_time == "paper" else rvc_offset_exact_s
+    f = rvc_offset_paper_s if light_time == "paper" else rvc_offset_exact_s
     return f(sample.t_i_s, sample.t_b_s, sample.t_r_s, sample.velocity_m_s)
 
 

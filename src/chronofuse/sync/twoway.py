@@ -11,7 +11,7 @@ import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 
-__all__ = ["ptp_offset_s", "ptp_delay_s", "rvc_offset_seed_s", "rvc_offset_exact_s", "urt_sensitivity"]
+__all__ = ["ptp_offset_s", "ptp_delay_s", "rvc_offset_paper_s", "rvc_offset_exact_s", "urt_sensitivity"]
 
 
 def ptp_offset_s(t_i_s, t_b_s, t_r_s):
@@ -24,7 +24,7 @@ def ptp_delay_s(t_i_s, t_b_s, t_r_s):
     return (np.asarray(t_i_s) + np.asarray(t_r_s) - np.asarray(t_b_s)) / 2.0
 
 
-def rvc_offset_seed_s(t_i_s, t_b_s, t_r_s, v_m_s):
+def rvc_offset_paper_s(t_i_s, t_b_s, t_r_s, v_m_s):
     """The paper's eq. (9): ``eps = (c (T_i - T_r + T_B) + v T_B) / (2c + v)`` (first-order light-time)."""
     t_i, t_b, t_r, v = (np.asarray(a) for a in (t_i_s, t_b_s, t_r_s, v_m_s))
     return (C * (t_i - t_r + t_b) + v * t_b) / (2.0 * C + v)
