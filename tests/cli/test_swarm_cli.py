@@ -85,3 +85,14 @@ def test_swarm_network_reports_each_node_s_state_uncertainty_and_time_error_stat
     assert row["mtie"]["tau_s"] and row["mask"]["name"] == "prtc-b"
     bad = runner.invoke(app, ["swarm", "network", "--cut-off", "x", "--duration", "10"])
     assert bad.exit_code == 2 and bad.stderr.startswith("error: --cut-off")
+
+
+def test_swarm_run_and_network_write_their_document_with_out(tmp_path):
+    for args in (["swarm", "run", "--algorithm", "rtt-rvc", "--trials", "2", "--exchanges", "100"],
+                 ["swarm", "network", "--duration", "60", "--nodes", "3"]):
+        out = tmp_path / args[1]
+        result = CliRunner().invoke(app, [*args, "--out", str(out), "--json", "--quiet"])
+        assert result.exit_code == 0, result.output
+        doc = json.loads(result.stdout)
+        assert doc["files"] == [str(out / "summary.json")]
+        assert json.loads((out / "summary.json").read_text()) == {k: v for k, v in doc.items() if k != "files"}

@@ -11,14 +11,13 @@ from typing import Optional
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.cli.swarm_options import (
     SCENARIO_KEYS,
     algorithm_names,
     build_scenario,
     load_models,
     model_files,
-    option_errors,
     quiet_dask,
     scenario_options,
     trial_progress,
@@ -52,6 +51,16 @@ def with_scenario(func):
     return command
 
 
+def _write_summary(out: Path, doc: dict) -> list[str]:
+    """``out``/summary.json holding ``doc`` (the --json document); returns the file written."""
+    from chronofuse.report.jsonio import dumps
+
+    with user_errors():
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").write_text(dumps(doc) + "\n")
+    return [str(out / "summary.json")]
+
+
 def _urt_mode(urt_mode: str) -> None:
     if urt_mode not in ("paper", "calibrated"):
         fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
@@ -70,10 +79,13 @@ def run(
     model: Path = typer.Option(None, "--model", help="BP model file for rtt-rvc-kf-bp (chronofuse swarm train)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for rtt-rvc-kf-lstm."),
     outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate two-node links and run the algorithms: RMSE and its ratio to the Bayesian bound (95 %
     intervals over trials), K*, overhead."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm import run_link
     from chronofuse.experiments.swarm_documents import link_report
 
@@ -92,10 +104,12 @@ def run(
                 fail(f"--outage == {outage!r}, must be K0:K1 (two exchange numbers)")
         if trials < 1:
             fail(f"--trials == {trials}, must be >= 1")
-        with option_errors(), progress_reporter("swarm run"):
+        with progress_reporter("swarm run"):
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
                            networks=networks, outage=window)
     doc = link_report(res)
+    if out is not None:
+        doc["files"] = _write_summary(out, doc)
     if json_out:
         print_json(doc)
         return
@@ -119,21 +133,23 @@ def sweep(
     scenario=None,
     param: str = typer.Option(..., "--param", help="velocity | distance | reply-delay | urt | snr."),
     values: str = typer.Option(..., "--values", help="Comma-separated values, SI units (m/s, m, s, s, dB)."),
-    algorithms: str = typer.Option("ptp-mls,rtt-rvc,rtt-rvc-kf,doppler-kf", "--algorithms",
-                                   help="Comma-separated algorithm names."),
+    algorithm: str = typer.Option("ptp-mls,rtt-rvc,rtt-rvc-kf,doppler-kf", "--algorithm",
+                                  help="Comma-separated algorithm names."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
     trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
     chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
-    scheduler: str = typer.Option(None, "--scheduler",
-                                  help="tcp://HOST:PORT of a Dask scheduler; 'serial' for this process; "
-                                       "default a LocalCluster of processes."),
+    scheduler: str = typer.Option("local", "--scheduler",
+                                  help="Where the trials run: 'local' (a Dask LocalCluster of processes), 'serial' "
+                                       "(this process) or tcp://HOST:PORT of a Dask scheduler."),
     out: Path = typer.Option(Path("swarm-sweep"), "--out", help="Folder for the table, summary and figure."),
     model: Path = typer.Option(None, "--model", help="BP model file for rtt-rvc-kf-bp."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for rtt-rvc-kf-lstm."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Sweep one parameter over values: a tidy table (CSV and Parquet), a summary with intervals and a figure."""
+    quiet_output(quiet)
     from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, scenario_at, summarize
     from chronofuse.report.swarm import plot_sweep, write_sweep
 
@@ -148,18 +164,18 @@ def sweep(
             fail("--values is empty, must give at least one number")
         _urt_mode(urt_mode)
         files = model_files(model, lstm_model)
-        names = algorithm_names(algorithms, files, option="--algorithms")
+        names = algorithm_names(algorithm, files)
         load_models(files, urt_mode)
         if trials < 1 or chunk_trials < 1:
             fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
-        with option_errors():
-            for v in value_list:
-                scenario_at(scenario, param, v)
+        for v in value_list:
+            scenario_at(scenario, param, v)
         start = time.perf_counter()
         quiet_dask()
-        with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
+        with trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
-                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
+                              chunk_trials=chunk_trials, urt_mode=urt_mode,
+                              scheduler=None if scheduler == "local" else scheduler, progress=advance,
                               model_files={k: str(v) for k, v in files.items()})
         summary = summarize(table)
         written = write_sweep(table, summary, out)
@@ -190,10 +206,12 @@ def train(
     device: str = typer.Option("cpu", "--device", help="cpu, cuda, or auto (the GPU when present)."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="The chain the networks serve: paper or calibrated."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Train the BP 9-32-1 residual network and the LSTM baseline on links drawn from the prior (1e5
     samples, v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure what
     each is worth on held-out links, with intervals."""
+    quiet_output(quiet)
     import json
 
     from chronofuse.experiments.swarm_training import train_networks
@@ -240,10 +258,13 @@ def network(
     scheduler: str = typer.Option("serial", "--scheduler",
                                   help="'serial', 'local' (a Dask LocalCluster) or tcp://HOST:PORT for the links."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """A swarm over two-way links: the leader elected on clock quality, each node's time, state and
     uncertainty, and its time error to the leader (RMS, percentiles, MTIE/TDEV against PRTC-B)."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm_documents import network_document
     from chronofuse.experiments.swarm_network import SwarmScenario
 
@@ -255,15 +276,16 @@ def network(
                 cuts = ((int(node), float(t0), float(t1)),)
             except ValueError:
                 fail(f"--cut-off == {cut_off!r}, must be NODE:FROM:TO")
-        with option_errors():
-            sc = SwarmScenario(nodes=nodes, duration_s=duration, interval_s=interval, area_m=area,
-                               radio_range_m=radio_range, neighbours=neighbours,
-                               leader_loss_at_s=None if leader_loss_at < 0 else leader_loss_at, cut_off=cuts,
-                               mean_up_s=mean_up, mean_down_s=mean_down, snr_db=snr, oscillator=oscillator,
-                               leader_oscillator=leader_oscillator, topology=topology)
+        sc = SwarmScenario(nodes=nodes, duration_s=duration, interval_s=interval, area_m=area,
+                           radio_range_m=radio_range, neighbours=neighbours,
+                           leader_loss_at_s=None if leader_loss_at < 0 else leader_loss_at, cut_off=cuts,
+                           mean_up_s=mean_up, mean_down_s=mean_down, snr_db=snr, oscillator=oscillator,
+                           leader_oscillator=leader_oscillator, topology=topology)
         quiet_dask()
-        with option_errors(), progress_reporter("swarm network"):
+        with progress_reporter("swarm network"):
             doc = network_document(sc, seed=seed, scheduler=None if scheduler == "local" else scheduler)
+    if out is not None:
+        doc["files"] = _write_summary(out, doc)
     if json_out:
         print_json(doc)
         return
@@ -288,7 +310,8 @@ def network(
 def reproduce_swarm_command(
     figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
     quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
-    out: Path = typer.Option(Path("docs/sync"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/swarm"), "--out",
+                             help="Report folder (created; docs/sync holds the published run)."),
     model: Path = typer.Option(None, "--model", help="BP model file (rtt-rvc-kf-bp curves)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file (figure 10)."),
     scheduler: str = typer.Option("serial", "--scheduler",
@@ -296,9 +319,11 @@ def reproduce_swarm_command(
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     replot: bool = typer.Option(False, "--replot", help="Redraw figures and report from --out's swarm.json only."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """The swarm paper's figures 6-10 with the Bayesian bound, intervals and the paper's numbers beside ours,
     the URT-change and network checks, written to --out."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm_reproduce import FIGURES, replot_swarm, reproduce_swarm
 
     if replot:
@@ -318,7 +343,7 @@ def reproduce_swarm_command(
         files = model_files(model, lstm_model)
         load_models(files, "calibrated")
         quiet_dask()
-        with option_errors(), progress_reporter("reproduce swarm") as say:
+        with progress_reporter("reproduce swarm") as say:
             doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
                                   model_files={k: str(v) for k, v in files.items()},
                                   scheduler=None if scheduler == "local" else scheduler, progress=say)

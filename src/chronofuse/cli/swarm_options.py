@@ -1,39 +1,20 @@
 """The options the ``chronofuse swarm`` commands share, and their checks: the link scenario the options
-describe (geometry, link, prior, calibration), the algorithms and network model files asked for, errors
-that name the option rather than the library parameter, and the progress bar over trials. Light to import:
+describe (geometry, link, prior, calibration), the algorithms and network model files asked for, and the
+progress bar over trials. Errors name the library's config fields, which the command line writes as these
+options (:mod:`chronofuse.cli.flags`). Light to import:
 the library modules are imported inside the functions, so ``chronofuse swarm --help`` stays fast.
 """
 
 from __future__ import annotations
 
-import re
 from contextlib import contextmanager
 
 import typer
 
 from chronofuse.cli.common import fail
 
-__all__ = ["algorithm_names", "build_scenario", "load_models", "model_files", "option_errors", "quiet_dask",
+__all__ = ["algorithm_names", "build_scenario", "load_models", "model_files", "quiet_dask",
            "scenario_options", "trial_progress"]
-
-# Library parameter names -> the options that set them, so a one-line error names the option.
-_OPTION_OF = {
-    "distance": "--distance", "distance_m": "--distance", "velocity": "--velocity", "velocity_m_s": "--velocity",
-    "reply_delay_s": "--reply-delay", "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr",
-    "toa_model": "--toa-model", "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials",
-    "offset_mean_s": "--offset-mean", "offset_sigma_s": "--offset-sigma", "skew_mean": "--skew-mean",
-    "skew_sigma": "--skew-sigma", "urt_sigma_s": "--urt-sigma", "range_spread_m": "--range-spread",
-    "duration_s": "--calibration-duration", "reference_sigma_s": "--reference-sigma",
-    "common_velocity_m_s": "--common-velocity", "cross_velocity_m_s": "--cross-velocity", "latitude_deg": "--latitude",
-    "bearing_deg": "--bearing", "manoeuvre": "--manoeuvre", "load_factor_g": "--load-factor",
-    "reply_jitter_s": "--reply-jitter", "nlos_probability": "--nlos", "loss_fraction": "--loss",
-    "loss_burst_mean": "--loss-burst", "clock_truth": "--clock-truth", "scheduler": "--scheduler",
-    "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator", "acceleration_m_s2": "--acceleration",
-    "interval_s": "--interval", "outage": "--outage", "nodes": "--nodes", "area_m": "--area",
-    "radio_range_m": "--radio-range", "neighbours": "--neighbours", "leader_loss_at_s": "--leader-loss-at",
-    "cut_off": "--cut-off", "topology": "--topology", "mean_up_s": "--mean-up", "mean_down_s": "--mean-down",
-}
-
 
 def quiet_dask() -> None:
     """Dask's shutdown chatter (worker-kill warnings) would break the one-line/stdout contract."""
@@ -43,27 +24,13 @@ def quiet_dask() -> None:
         logging.getLogger(name).setLevel(logging.ERROR)
 
 
-@contextmanager
-def option_errors():
-    """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
-    from chronofuse.validation import ChronofuseError
-
-    try:
-        yield
-    except (ValueError, ChronofuseError) as exc:
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        match = re.match(r"^(?:[^:]*: )?(\w+) ==", text)
-        if match and match.group(1) in _OPTION_OF:
-            text = _OPTION_OF[match.group(1)] + text[match.end(1):]
-        raise ValueError(text) from None
-
-
 def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_jitter, snr, toa_model, exchanges,
                    oscillator, interval, offset_mean=0.0, offset_sigma=1e-6, skew_mean=0.0, skew_sigma=1e-8,
                    urt_sigma=5e-9, range_spread=0.0, calibration_duration=600.0, reference_sigma=5e-9,
                    common_velocity=0.0, cross_velocity=0.0, latitude=None, bearing=90.0, manoeuvre="none",
                    load_factor=5.0, reply_jitter=0.0, nlos=0.0, loss=0.0, loss_burst=1.0, clock_truth="power-law"):
-    """The :class:`LinkScenario` the options describe (validated; errors name the options)."""
+    """The :class:`LinkScenario` the options describe (validated; errors name the config fields, the
+    calibration's as ``calibration_<field>``)."""
     from pydantic import ValidationError
 
     from chronofuse.experiments.swarm import LinkScenario
@@ -71,22 +38,24 @@ def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_ji
     from chronofuse.sync.calibration import CalibrationConfig
     from chronofuse.sync.prior import LinkPrior
 
-    with option_errors():
-        link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
-                         snr_db=snr, toa_model=toa_model, reply_jitter_s=reply_jitter, nlos_probability=nlos,
-                         loss_fraction=loss, loss_burst_mean=loss_burst)
-        try:
-            prior = LinkPrior(offset_mean_s=offset_mean, offset_sigma_s=offset_sigma, skew_mean=skew_mean,
-                              skew_sigma=skew_sigma, urt_sigma_s=urt_sigma, range_spread_m=range_spread)
-            calibration = CalibrationConfig(duration_s=calibration_duration, reference_sigma_s=reference_sigma)
-        except ValidationError as exc:
-            err = exc.errors()[0]
-            raise ValueError(f"{err['loc'][0]} == {err.get('input')!r}, {err['msg'].lower()}") from None
-        return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
-                            exchanges=exchanges, oscillator=oscillator, link=link, prior=prior, calibration=calibration,
-                            common_velocity_m_s=common_velocity, cross_velocity_m_s=cross_velocity,
-                            latitude_deg=latitude, bearing_deg=bearing, manoeuvre=manoeuvre, load_factor_g=load_factor,
-                            clock_truth=clock_truth)
+    from chronofuse.validation import InputError
+
+    link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
+                     snr_db=snr, toa_model=toa_model, reply_jitter_s=reply_jitter, nlos_probability=nlos,
+                     loss_fraction=loss, loss_burst_mean=loss_burst)
+    prior = LinkPrior(offset_mean_s=offset_mean, offset_sigma_s=offset_sigma, skew_mean=skew_mean,
+                      skew_sigma=skew_sigma, urt_sigma_s=urt_sigma, range_spread_m=range_spread)
+    try:
+        calibration = CalibrationConfig(duration_s=calibration_duration, reference_sigma_s=reference_sigma)
+    except ValidationError as exc:  # its fields' names (duration_s) mean other things elsewhere
+        err = exc.errors()[0]
+        field = f"calibration_{err['loc'][0]}"
+        raise InputError(f"{{{field}}} == {err.get('input')!r}: {err['msg'].lower()}", fields=(field,)) from None
+    return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
+                        exchanges=exchanges, oscillator=oscillator, link=link, prior=prior, calibration=calibration,
+                        common_velocity_m_s=common_velocity, cross_velocity_m_s=cross_velocity,
+                        latitude_deg=latitude, bearing_deg=bearing, manoeuvre=manoeuvre, load_factor_g=load_factor,
+                        clock_truth=clock_truth)
 
 
 #: The scenario options' names, as :func:`build_scenario` takes them.
@@ -138,7 +107,7 @@ def model_files(model, lstm_model) -> dict:
     return {kind: path for kind, path in (("bp", model), ("lstm", lstm_model)) if path is not None}
 
 
-def algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tuple:
+def algorithm_names(text: str, files: dict) -> tuple:
     """The algorithms asked for; 'all' takes those whose models were given."""
     from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK, check_name
 
@@ -146,14 +115,11 @@ def algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tupl
         return tuple(n for n in ALGORITHM_NAMES if NEEDS_NETWORK.get(n, "bp") in files or n not in NEEDS_NETWORK)
     names = tuple(a.strip() for a in text.split(","))
     for name in names:
-        try:
-            check_name(name)
-        except ValueError as exc:
-            fail(f"{option} {exc}")
+        check_name(name)  # an unknown or renamed name: an input error naming the field (--algorithm)
         kind = NEEDS_NETWORK.get(name)
         if kind is not None and kind not in files:
             flag = "--model" if kind == "bp" else "--lstm-model"
-            fail(f"{option} == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
+            fail(f"--algorithm == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
     return names
 
 

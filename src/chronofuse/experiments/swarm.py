@@ -30,7 +30,7 @@ from chronofuse.sync.metrics import convergence_epochs, per_trial_mse, ratio_int
 from chronofuse.sync.pcrb import exchange_bound
 from chronofuse.sync.prior import LinkPrior, PriorDraw
 from chronofuse.sync.registry import ALGORITHM_NAMES, LinkKnowledge, make_algorithm
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 __all__ = ["LinkScenario", "link_paths", "simulate_scenario", "calibrate_scenario", "knowledge_of", "run_link",
            "hold_last", "MANOEUVRES"]
@@ -227,7 +227,8 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
     if outage is not None:
         k0, k1 = (int(k) for k in outage)
         if not 1 <= k0 < k1 <= sc.exchanges:
-            raise ValueError(f"outage == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= exchanges ({sc.exchanges})")
+            raise InputError(f"{{outage}} == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= {{exchanges}} ({sc.exchanges})",
+                             fields=("outage", "exchanges"))
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
     base = root_seed(seed)
     ex, draw = simulate_scenario(sc, trials, child_seed(base, 0))

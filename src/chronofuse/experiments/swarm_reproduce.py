@@ -153,7 +153,7 @@ def _report(doc: dict) -> str:
     lines = [
         "# The swarm paper reproduced: two-way sync over moving radio links",
         "",
-        f"Written by `chronofuse reproduce swarm{' --quick' if doc['quick'] else ''}` ({doc['trials']} links x "
+        f"Written by `chronofuse reproduce swarm`{' (the quick run)' if doc['quick'] else ''} ({doc['trials']} links x "
         f"{doc['exchanges']} exchanges per point, seed {doc['seed']}; models: {models}). Every link draws its clock "
         "offset, skew and reply delay from the stated prior and is calibrated on its own (10 min of GNSS time "
         "comparisons, 5 ns per node); SNR 10 dB unless the paper gives one; the bound is the Bayesian bound of that "

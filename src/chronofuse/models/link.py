@@ -1,6 +1,4 @@
-"""Two-way radio link truth (the swarm paper: Chen, Han, Yang, Xiong and Cao, "High-precision clock
-synchronization algorithm for general aviation swarms", J. Data Acquisition and Processing 41(1), 2026,
-section 1 and Table 1).
+"""Two-way radio link truth (the swarm paper section 1 and Table 1).
 
 The exchange (paper Fig. 1), in node clocks, every ``interval_s`` (slot ``k`` starts at ``s_k = k
 interval_s`` on each node's own clock):
@@ -50,7 +48,7 @@ from chronofuse.models.link_noise import (
 )
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
 from chronofuse.seeding import child_rng, root_seed
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = [
     "SNR_TABLE_DB",
@@ -133,7 +131,8 @@ class LinkModel:
         check_scalar(self.interval_s, "interval_s", min_val=0.0, include_min=False)
         check_scalar(self.reply_delay_s, "reply_delay_s", min_val=0.0, include_min=False)
         if self.reply_delay_s >= self.interval_s:
-            raise ValueError(f"reply_delay_s == {self.reply_delay_s}, must be < interval_s ({self.interval_s})")
+            raise InputError(f"{{reply_delay_s}} == {self.reply_delay_s}, must be < {{interval_s}} ({self.interval_s})",
+                             fields=("reply_delay_s", "interval_s"))
         check_scalar(self.urt_fixed_s, "urt_fixed_s")
         check_scalar(self.urt_jitter_s, "urt_jitter_s", min_val=0.0)
         check_scalar(self.carrier_hz, "carrier_hz", min_val=0.0, include_min=False)
@@ -317,7 +316,7 @@ def simulate_exchanges(
 
     Raises
     ------
-    ValueError
+    InputError
         If B's reply slot comes before the request arrives (``reply_delay_s`` shorter than the
         propagation time plus the offset).
     """
@@ -363,10 +362,9 @@ def simulate_exchanges(
     t_i_true = t1_rel + tau_up + _interp_clock(xb, dt, t2)
     t_b = link.reply_delay_s + link.reply_jitter_s * noise[_KEY_REPLY]
     if np.any(t_i_true >= t_b):
-        raise ValueError(
-            f"reply_delay_s == {link.reply_delay_s}, must exceed the propagation time plus the offset "
-            f"(the request arrives {float(t_i_true.max()):.6g} s into B's slot)"
-        )
+        raise InputError(
+            f"{{reply_delay_s}} == {link.reply_delay_s}, must exceed the propagation time plus the offset "
+            f"(the request arrives {float(t_i_true.max()):.6g} s into B's slot)", fields=("reply_delay_s",))
     urt = link.urt_fixed_s + change + link.urt_jitter_s * noise[_KEY_URT]
     t3_rel = _clock_reading_time(xb, dt, slot, t_b + urt)
     t3 = slot + t3_rel

@@ -23,7 +23,7 @@ import math
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 __all__ = ["SNR_TABLE_DB", "TOA_SIGMA_TABLE_S", "DOPPLER_SIGMA_TABLE_HZ", "TOA_MODELS", "toa_sigma_s",
            "toa_sigma_array_s", "doppler_sigma_hz", "velocity_sigma_array_m_s", "snr_at_range_db",
@@ -42,10 +42,9 @@ TOA_MODELS = ("table", "crb", "none")
 def _in_table(snr_db: float, what: str) -> float:
     check_scalar(snr_db, "snr_db")
     if not SNR_TABLE_DB[0] <= snr_db <= SNR_TABLE_DB[-1]:
-        raise ValueError(
-            f"snr_db == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the paper's {what} "
-            "table (use the Cramér-Rao TOA model for other SNRs)"
-        )
+        raise InputError(
+            f"{{snr_db}} == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the paper's {what} "
+            "table (use the Cramér-Rao TOA model for other SNRs)", fields=("snr_db",))
     return float(snr_db)
 
 

@@ -51,6 +51,7 @@ from chronofuse.sync.prior import LinkPrior
 from chronofuse.sync.ptp import PtpPiServo
 from chronofuse.sync.regression import ChronyRegression, PtpLinreg
 from chronofuse.sync.rvc import RttRvc
+from chronofuse.validation import InputError
 
 __all__ = ["LinkKnowledge", "SYNC", "ALGORITHM_NAMES", "NEEDS_NETWORK", "RENAMED", "make_algorithm", "check_name"]
 
@@ -143,12 +144,12 @@ def _builder(cls, defaults, network: str | None = None, *, takes_config: bool = 
         if network is not None:
             net = (context.get("networks") or {}).get(network)
             if net is None:
-                raise ValueError(f"algorithm == {context.get('name')!r} needs a trained {network} network "
-                                 "(experiments.swarm_training.train_networks writes one)")
+                raise InputError(f"{{algorithm}} == {context.get('name')!r} needs a trained {network} network "
+                                 "(experiments.swarm_training.train_networks writes one)", fields=("algorithm",))
             want = {"light_time": full.light_time, "urt_mode": full.urt_mode}
             if dict(net.config.chain) != want:
-                raise ValueError(f"algorithm == {context.get('name')!r}: its network was trained behind chain "
-                                 f"{net.config.chain}, this run is {want}")
+                raise InputError(f"{{algorithm}} == {context.get('name')!r}: its network was trained behind chain "
+                                 f"{net.config.chain}, this run is {want}", fields=("algorithm",))
         return cls(full, residual_model=net) if cls in (RvcKfChain, FastRvcKfChain) else cls(full)
 
     return build
@@ -187,14 +188,14 @@ _GONE = {"ours-accel": "doppler-kf takes the Doppler velocity at every exchange,
 
 
 def check_name(name: str) -> str:
-    """``name`` if registered (a plugin's too); else ValueError, with the new name of a renamed algorithm."""
+    """``name`` if registered (a plugin's too); else InputError, with the new name of a renamed algorithm."""
     if name in SYNC:
         return name
     if name in RENAMED:
         new = RENAMED[name]
         hint = f"it is now called {new!r}" if new else f"it was removed: {_GONE[name]}"
-        raise ValueError(f"algorithm == {name!r}: {hint}")
-    raise ValueError(f"algorithm == {name!r}, must be one of {list(ALGORITHM_NAMES)}")
+        raise InputError(f"{{algorithm}} == {name!r}: {hint}", fields=("algorithm",))
+    raise InputError(f"{{algorithm}} == {name!r}, must be one of {list(SYNC.names())}", fields=("algorithm",))
 
 
 def make_algorithm(name: str, knowledge: LinkKnowledge | None = None, *, networks: dict | None = None,
