@@ -53,12 +53,22 @@ def test_an_old_algorithm_name_is_one_line_with_its_new_name():
     (["--offset-sigma", "-1"], "--offset-sigma"),
     (["--manoeuvre", "loop"], "--manoeuvre"),
     (["--nlos", "2"], "--nlos"),
+    (["--calibration-duration", "-1"], "--calibration-duration"),
+    (["--algorithm", "rtt-rvc-kf-numba", "--urt-mode", "paper"], "--urt-mode"),
+    (["--algorithm", "doppler-kf", "--manoeuvre", "turn", "--velocity", "0"], "--velocity"),
 ])
 def test_bad_input_is_one_line_naming_the_option_with_exit_code_2(args, option):
     result = runner.invoke(app, ["swarm", "run", *args, "--exchanges", "50", "--trials", "1"])
     assert result.exit_code == 2
     lines = [line for line in result.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and lines[0].startswith(f"error: {option}"), result.stderr
+
+
+def test_a_cut_off_of_a_node_that_does_not_exist_is_one_line_naming_the_option_with_exit_code_2():
+    result = runner.invoke(app, ["swarm", "network", "--nodes", "3", "--duration", "30", "--cut-off", "7:0:10"])
+    assert result.exit_code == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: --cut-off == ") and "--nodes" in lines[0], result.stderr
 
 
 def test_an_outage_reports_robustness_and_the_filters_recover():

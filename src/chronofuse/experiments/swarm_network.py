@@ -37,7 +37,7 @@ from chronofuse.sync.states import FAULT
 from chronofuse.sync.swarm.election import CLASS_GNSS, CLASS_HOLDOVER, OSCILLATOR_QUALITY, ClockQuality, leader_timeline
 from chronofuse.sync.swarm.graph import in_range, neighbour_links
 from chronofuse.sync.swarm.timekeeping import SwarmTime, compose_network_time
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = ["SwarmScenario", "SwarmRun", "swarm_truth", "link_tasks", "run_link_task", "run_swarm", "leader_clock_s",
            "link_availability", "follow_leader", "SwarmResult"]
@@ -84,7 +84,8 @@ class SwarmScenario:
             check_scalar(self.leader_loss_at_s, "leader_loss_at_s", min_val=0.0, max_val=self.duration_s)
         for item in self.cut_off:
             if len(item) != 3 or not 0 <= int(item[0]) < self.nodes:
-                raise ValueError(f"cut_off == {self.cut_off!r}, must be (node, from_s, to_s) triples of existing nodes")
+                raise InputError(f"{{cut_off}} == {self.cut_off!r}, must be (node, from_s, to_s) triples of existing "
+                                 f"nodes (0 to {self.nodes - 1} of {{nodes}})", fields=("cut_off", "nodes"))
 
     @property
     def steps(self) -> int:

@@ -194,7 +194,8 @@ def turn(position_m, velocity_m_s, *, load_factor_g: float, start_s: float, dura
     r0, v0 = _vec(position_m, "position_m")[0], _vec(velocity_m_s, "velocity_m_s")[0]
     speed = float(np.hypot(v0[0], v0[1]))
     if speed <= 0.0:
-        raise ValueError("velocity_m_s has no horizontal part, a level turn needs one")
+        raise InputError(f"{{velocity_m_s}} == {v0.tolist()} has no horizontal part, a level turn ({{manoeuvre}}) "
+                         "needs one", fields=("velocity_m_s", "manoeuvre"))
     accel = STANDARD_GRAVITY_M_S2 * np.sqrt(load_factor_g**2 - 1.0)
     n_seg = max(1, int(np.ceil(duration_s / segment_s)))
     starts = [0.0] if start_s > 0.0 else []

@@ -20,6 +20,7 @@ import numpy as np
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.estimation.kalman_kernel import predict, update
 from chronofuse.sync.chain import RvcKfChain
+from chronofuse.validation import InputError
 
 __all__ = ["FastRvcKfChain"]
 
@@ -97,7 +98,8 @@ class FastRvcKfChain(RvcKfChain):
     def _check_params(self):
         super()._check_params()
         if self.config.urt_mode != "calibrated":
-            raise ValueError(f"urt_mode == {self.config.urt_mode!r}, must be 'calibrated' for the numba chain")
+            raise InputError(f"{{urt_mode}} == {self.config.urt_mode!r}, must be 'calibrated' for the numba chain "
+                             f"({self.name})", fields=("urt_mode",))
         net = self.residual_model
         if net is not None and (net.config.kind != "bp" or not hasattr(net, "_w1")):
             raise ValueError("residual_model must be a trained BP network for the numba chain")
