@@ -1,0 +1,294 @@
+"""The field's own logs as clock series: one dispatcher from a log file to the records the commands analyse.
+
+A log reader (one module per format: :mod:`~chronofuse.io.linuxptp`, :mod:`~chronofuse.io.chrony`,
+:mod:`~chronofuse.io.rtklib_solution`, :mod:`~chronofuse.io.gpsd_json`, :mod:`~chronofuse.io.tsip`) gives
+a list of :class:`LogSeries`, one per clock the log holds (a linuxptp clock, a chrony source, a gpsd
+device, ...): time tags as integer ns on the log's own time scale,
+named columns in SI units, the kind of each column (phase in s, fractional frequency, or other), the 1-based
+file line of every sample, and the tool's own status per sample where it reports one.
+
+Two functions turn a series into what the commands read, and they are the only place that builds those
+records from a log: :func:`series_record` (a :class:`~chronofuse.io.records.ClockRecord` on a regular
+grid, for ``stability`` and the GNSSDO's ``--reference``) and :func:`series_clock_bias` (a
+:class:`~chronofuse.io.clockbias.ClockBiasInput`, for ``detect``). A tool's samples come on its own
+schedule (ptp4l once per sync interval, chrony at each clock update): each sample is placed on the grid
+of the median interval when it lies within a quarter interval of its slot, empty slots become gaps (NaN),
+and a sample further off is refused naming its line. A log whose interval changes (a new poll interval)
+is refused the same way; a rate given with ``rate_hz`` sets the grid instead of the median step.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from chronofuse.io.formats import LOG_FORMATS, sniff_format
+from chronofuse.io.grid import grid_slots, place_on_grid
+from chronofuse.timescale import NS_PER_S
+from chronofuse.validation import InputDataError, check_choice
+
+__all__ = ["LogSeries", "read_log", "log_series", "pick_series", "series_record", "series_clock_bias",
+           "log_record", "log_clock_bias", "summarize_log", "LOG_FORMATS"]
+
+#: A sample may sit this fraction of the interval off its grid slot (the tools stamp on a loaded host).
+SLOT_TOLERANCE = 0.25
+_KINDS = ("phase", "freq", "other")
+
+
+@dataclass(frozen=True)
+class LogSeries:
+    """One clock's samples from a field log.
+
+    Attributes
+    ----------
+    t_ns : ndarray of int64, shape (N,)
+        Time tag of each sample, integer ns on ``time_scale`` (strictly increasing).
+    columns : dict of str to ndarray of float64, shape (N,)
+        The values, SI units (names end in their unit: ``offset_s``, ``freq``, ``temperature_c``...).
+    kinds : dict of str to str
+        ``"phase"`` (s), ``"freq"`` (fractional frequency) or ``"other"``, for each column.
+    phase : str or None
+        The column ``stability`` and ``detect`` take by default (the tool's offset); ``freq`` likewise.
+    lines : ndarray of int64, shape (N,)
+        1-based file line (or packet number for binary logs) of each sample.
+    ok : ndarray of bool, shape (N,), or None
+        The tool's own status per sample (servo locked, fix, no alarm), None when it reports none.
+    clock : str
+        Which clock of the log (``ptp4l``, ``phc2sys CLOCK_REALTIME``, a chrony source, a gpsd device...).
+    time_scale : str
+        What ``t_ns`` counts: ``"monotonic"`` (linuxptp's CLOCK_MONOTONIC seconds), ``"unix-utc"``,
+        ``"gps"`` (ns since 1980-01-06) or ``"unix-system"`` (the host's system clock).
+    fmt : str
+        The format (:data:`~chronofuse.io.formats.LOG_FORMATS`).
+    source : str
+        The file.
+    notes : tuple of str
+        What the reader took from the file and how (units, conventions, lines it passed over).
+    events : tuple of (int, str)
+        Tool events with their line (servo state changes, port transitions, mode changes).
+    """
+
+    t_ns: np.ndarray
+    columns: dict
+    kinds: dict
+    phase: str | None
+    lines: np.ndarray
+    clock: str
+    time_scale: str
+    fmt: str
+    source: str
+    freq: str | None = None
+    ok: np.ndarray | None = None
+    notes: tuple = ()
+    events: tuple = field(default=())
+
+    @property
+    def n(self) -> int:
+        return int(self.t_ns.size)
+
+
+def log_series(t_ns, columns: dict, kinds: dict, lines, *, clock: str, time_scale: str, fmt: str, source: str,
+               phase: str | None = None, freq: str | None = None, ok=None, notes=(), events=()) -> LogSeries:
+    """Build a :class:`LogSeries` (every reader builds its output through this one function), checking that
+    the arrays agree in length and the time tags increase (a repeated or backward tag names its line)."""
+    t_ns = np.asarray(t_ns, dtype=np.int64)
+    lines = np.asarray(lines, dtype=np.int64)
+    cols = {name: np.asarray(v, dtype=np.float64) for name, v in columns.items()}
+    for name, v in cols.items():
+        if v.shape != t_ns.shape:
+            raise ValueError(f"column {name} has shape {v.shape}, the time tags {t_ns.shape}")
+        check_choice(kinds[name], f"kind of {name}", _KINDS)
+    if lines.shape != t_ns.shape:
+        raise ValueError(f"lines has shape {lines.shape}, the time tags {t_ns.shape}")
+    steps = np.diff(t_ns)
+    if (steps <= 0).any():
+        k = int(np.flatnonzero(steps <= 0)[0]) + 1
+        raise InputDataError(f"{clock}: time tag {t_ns[k] / NS_PER_S:.9f} s does not follow "
+                             f"{t_ns[k - 1] / NS_PER_S:.9f} s ({time_scale} scale)", source, int(lines[k]))
+    return LogSeries(t_ns=t_ns, columns=cols, kinds=dict(kinds), phase=phase, freq=freq, lines=lines, clock=clock,
+                     time_scale=time_scale, fmt=fmt, source=source,
+                     ok=None if ok is None else np.asarray(ok, dtype=bool), notes=tuple(notes), events=tuple(events))
+
+
+def _reader(fmt: str):
+    if fmt == "linuxptp":
+        from chronofuse.io.linuxptp import read_linuxptp as read
+    elif fmt == "chrony":
+        from chronofuse.io.chrony import read_chrony as read
+    elif fmt in ("rtklib-pos", "rtklib-stat"):
+        from chronofuse.io.rtklib_solution import read_rtklib as read
+    elif fmt == "gpsd-json":
+        from chronofuse.io.gpsd_json import read_gpsd_json as read
+    elif fmt == "tsip":
+        from chronofuse.io.tsip import read_tsip as read
+    else:
+        raise ValueError(f"fmt == {fmt!r}, must be one of {list(LOG_FORMATS)}")
+    return read
+
+
+def read_log(path: str | Path, fmt: str | None = None) -> list[LogSeries]:
+    """Every clock series of a field log (the format sniffed from its content unless ``fmt`` is given).
+
+    Raises :class:`InputDataError` naming the file for a file that is no field log, or one that holds
+    no sample at all.
+    """
+    path = Path(path)
+    fmt = fmt or sniff_format(path)
+    if fmt not in LOG_FORMATS:
+        raise InputDataError(f"not a field log this reader knows (sniffed as {fmt}); logs read: "
+                             f"{', '.join(LOG_FORMATS)}", str(path))
+    series = [s for s in _reader(fmt)(path) if s.n]
+    if not series:
+        raise InputDataError(f"a {fmt} log without a single clock sample", str(path))
+    return series
+
+
+def pick_series(series: list[LogSeries], clock: str | None, source: str) -> LogSeries:
+    """The series of ``clock`` (its full name, or a unique part of it); without ``clock`` the first, with a
+    warning naming the others when there are several."""
+    if clock is None:
+        if len(series) > 1:
+            warnings.warn(f"{source}: {len(series)} clocks in this log ({', '.join(s.clock for s in series)}): "
+                          f"the first, {series[0].clock!r}, is read (--clock picks another)", stacklevel=3)
+        return series[0]
+    exact = [s for s in series if s.clock == clock]
+    if exact:
+        return exact[0]
+    partial = [s for s in series if clock in s.clock]
+    if len(partial) == 1:
+        return partial[0]
+    names = ", ".join(repr(s.clock) for s in series)
+    raise InputDataError(f"--clock {clock!r} {'matches several' if partial else 'is none'} of this log's clocks: "
+                         f"{names}", source)
+
+
+def _column(s: LogSeries, column: str | None, kind: str | None) -> tuple[str, str]:
+    """(column name, kind): ``column`` if given, else the series' phase column (or its frequency one for
+    ``kind="freq"``)."""
+    if column is None:
+        column = s.freq if kind == "freq" else s.phase
+        if column is None:
+            raise InputDataError(f"{s.clock}: this log has no {'frequency' if kind == 'freq' else 'offset'} series "
+                                 f"(columns: {', '.join(s.columns)})", s.source)
+    if column not in s.columns:
+        raise InputDataError(f"--column {column!r}: not a column of {s.clock} (columns: {', '.join(s.columns)})",
+                             s.source)
+    have = s.kinds[column]
+    if have == "other" and kind is None:
+        raise InputDataError(f"column {column!r} is neither phase nor frequency: give --kind phase or --kind freq "
+                             "to analyse it anyway", s.source)
+    if kind is not None and have != "other" and kind != have:
+        raise InputDataError(f"column {column!r} is {have}, not {kind}", s.source)
+    return column, kind or have
+
+
+def _grid(s: LogSeries, rate_hz: float | None) -> tuple[np.ndarray, float, float, float]:
+    """(slots (N,), interval ns, jitter rms s, jitter max s) of the series' samples on a regular grid."""
+    if s.n < 2 and rate_hz is None:
+        raise InputDataError(f"{s.clock}: one sample and no --rate: the interval is unknown", s.source)
+    offsets = (s.t_ns - s.t_ns[0]).astype(np.float64)
+    if rate_hz is not None:
+        interval = NS_PER_S / rate_hz
+    else:
+        steps = np.diff(offsets)
+        interval = float(np.median(steps))
+        interval = _snap(interval, steps)
+    slots, bad = grid_slots(offsets, interval, SLOT_TOLERANCE)
+    if bad >= 0:
+        step = (s.t_ns[bad] - s.t_ns[bad - 1]) / NS_PER_S
+        raise InputDataError(f"{s.clock}: time step {step:.6g} s is not a whole number of {interval / NS_PER_S:.6g} s "
+                             f"intervals (tolerance {SLOT_TOLERANCE} of an interval; the interval changed? --rate "
+                             "sets it)", s.source, int(s.lines[bad]))
+    resid = offsets - slots * interval
+    resid -= resid.mean()
+    return slots, interval, float(np.sqrt(np.mean(resid**2))) / NS_PER_S, float(np.abs(resid).max()) / NS_PER_S
+
+
+def _snap(interval_ns: float, steps: np.ndarray) -> float:
+    """The median step, or the mean step over the steps near it (the tools' ms time tags make a 62.5 ms
+    interval show as 62 or 63 ms); rounded to 6 significant digits when that changes it by under 1e-4."""
+    near = steps[np.abs(steps - interval_ns) <= SLOT_TOLERANCE * interval_ns]
+    mean = float(near.mean()) if near.size else interval_ns
+    rounded = float(f"{mean:.6g}")
+    return rounded if abs(rounded - mean) < 1e-4 * mean else mean
+
+
+def series_record(s: LogSeries, kind: str | None = None, column: str | None = None, rate_hz: float | None = None):
+    """The :class:`~chronofuse.io.records.ClockRecord` of one series: ``column`` (default: its phase column, or
+    its frequency column for ``kind="freq"``) on the regular grid of the series' interval (``rate_hz`` sets
+    it), gaps as NaN; ``t_ns`` holds the grid epochs on the log's time scale. A sample the tool marks as not
+    locked/fixed stays in the record (it is the tool's measurement) and is counted in the notes."""
+    from chronofuse.io.records import ClockRecord
+
+    name, kind = _column(s, column, kind)
+    slots, interval, rms, peak = _grid(s, rate_hz)
+    values = place_on_grid(slots, s.columns[name])
+    n_gaps = int(np.isnan(values).sum())
+    if n_gaps == values.size:
+        raise InputDataError(f"{s.clock}: every {name} value is missing", s.source)
+    notes = list(s.notes)
+    if s.ok is not None and not s.ok.all():
+        notes.append(f"{int((~s.ok).sum())} of {s.n} samples are marked by the tool as not locked / no fix "
+                     f"(first at line {int(s.lines[np.flatnonzero(~s.ok)[0]])})")
+    t0 = int(s.t_ns[0])
+    t_ns = t0 + np.round(np.arange(values.size) * interval).astype(np.int64)
+    return ClockRecord(values=values, rate_hz=NS_PER_S / interval, kind=kind, t_ns=t_ns, source=s.source,
+                       n_gaps=n_gaps, column=f"{s.clock}: {name}", jitter_rms_s=rms, jitter_max_s=peak,
+                       notes=tuple(notes))
+
+
+def series_clock_bias(s: LogSeries, column: str | None = None, rate_hz: float | None = None):
+    """The :class:`~chronofuse.io.clockbias.ClockBiasInput` of one series (``detect``'s input): the phase column
+    (s) on the series' grid, ``t_s`` on the log's time scale, the tool's own status as ``receiver_ok`` (False
+    where the servo was not locked or the receiver had no fix; a gap says nothing bad)."""
+    from chronofuse.io.clockbias import ClockBiasInput
+
+    name, kind = _column(s, column, "phase" if column is None else None)
+    if kind != "phase":
+        raise InputDataError(f"column {name!r} is {kind}: detect reads a clock offset (phase, s)", s.source)
+    slots, interval, _, _ = _grid(s, rate_hz)
+    bias = place_on_grid(slots, s.columns[name])
+    ok = None
+    if s.ok is not None:
+        bad = place_on_grid(slots, (~s.ok).astype(np.float64))
+        ok = ~(bad == 1.0)
+    t_s = (s.t_ns[0] + np.round(np.arange(bias.size) * interval)) / NS_PER_S
+    return ClockBiasInput(bias_s=bias, t_s=t_s, n_skipped=int(np.isnan(bias).sum()), source=s.source,
+                          interval_s=interval / NS_PER_S, receiver_ok=ok)
+
+
+def log_record(path, *, kind: str | None = None, rate_hz: float | None = None, column: str | None = None,
+               clock: str | None = None, fmt: str | None = None):
+    """:func:`series_record` of the clock ``clock`` (the first without it) of the log at ``path``."""
+    s = pick_series(read_log(path, fmt), clock, str(path))
+    return series_record(s, kind=kind, column=column, rate_hz=rate_hz)
+
+
+def log_clock_bias(path, *, rate_hz: float | None = None, column: str | None = None, clock: str | None = None,
+                   fmt: str | None = None):
+    """:func:`series_clock_bias` of the clock ``clock`` (the first without it) of the log at ``path``."""
+    s = pick_series(read_log(path, fmt), clock, str(path))
+    return series_clock_bias(s, column=column, rate_hz=rate_hz)
+
+
+def summarize_log(series: list[LogSeries]) -> dict:
+    """What ``chronofuse inspect`` prints for a field log: per clock the samples, span, median interval, columns
+    with their kinds, samples the tool marked not ok, and the events."""
+    clocks = []
+    for s in series:
+        steps = np.diff(s.t_ns)
+        clocks.append({
+            "clock": s.clock, "samples": s.n, "time_scale": s.time_scale,
+            "start_s": int(s.t_ns[0]) / NS_PER_S, "end_s": int(s.t_ns[-1]) / NS_PER_S,
+            "span_s": (int(s.t_ns[-1]) - int(s.t_ns[0])) / NS_PER_S,
+            "interval_s": float(np.median(steps)) / NS_PER_S if steps.size else None,
+            "columns": {name: s.kinds[name] for name in s.columns},
+            "phase": s.phase, "freq": s.freq,
+            "not_ok": None if s.ok is None else int((~s.ok).sum()),
+            "first_line": int(s.lines[0]), "last_line": int(s.lines[-1]),
+            "events": [{"line": line, "event": text} for line, text in s.events],
+            "notes": list(s.notes)})
+    return {"file": series[0].source, "format": series[0].fmt, "clocks": clocks}
