@@ -95,9 +95,12 @@ def sniff_format(path: str | Path) -> str:
     if "RINEX VERSION / TYPE" in first or "CRINEX VERS" in first:
         kind = first[20:21].upper()
         return "rinex-nav" if kind in _RINEX_NAV_TYPES and "CRINEX" not in first else "rinex-obs"
+    log = sniff_log(head)
+    if log == "rtklib-stat":  # "$POS,...", "$CLK,..." lines would pass for NMEA sentences
+        return log
     if _looks_like_nmea(head):
         return "nmea"
-    return sniff_log(head) or "csv"
+    return log or "csv"
 
 
 def capture_format(path: str | Path) -> str | None:
