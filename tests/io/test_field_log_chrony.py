@@ -40,7 +40,17 @@ def test_the_last_tracking_row_is_what_chronyc_tracking_printed():
 def test_the_tracking_series_is_one_clock_whose_reference_changes_are_events():
     (s,) = read_log(DATA / "tracking.log.gz")
     assert [text for _, text in s.events] == ["reference 0.0.0.0", "reference GPS"]
-    assert list(s.ok[:2]) == [False, True]  # leap status "?" (not synchronised) before the first update
+    # chronyd's first row (no reference yet, leap status "?") measures nothing: not a sample
+    assert s.n == 48 and s.lines[0] == 5 and s.ok.all()
+    assert any("1 rows without a reference" in note for note in s.notes)
+
+
+def test_the_statistics_log_updates_at_irregular_intervals_and_is_refused_as_a_record_naming_the_line():
+    (s,) = read_log(DATA / "statistics.log.gz")
+    steps = np.diff(s.t_ns) / 1e9
+    assert steps.min() == 2 and steps.max() == 6  # chronyd updates a source when its samples say so
+    with pytest.raises(InputDataError, match=r"statistics\.log\.gz:\d+: GPS: time step"):
+        series_record(s)
 
 
 def test_the_last_statistics_row_is_what_chronyc_sourcestats_printed():

@@ -61,7 +61,8 @@ def register(app: typer.Typer) -> None:
 
 def stability(
     file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, "
-                                "a header block, units in the header, .gz ok."),
+                                "a header block, units in the header, .gz ok; or a field log: ptp4l/phc2sys/ts2phc, chrony, "
+                                "RTKLIB .stat, gpsd JSON, Trimble TSIP (--station picks its clock, --column its column)."),
     kind: str | None = typer.Option(None, "--kind", help="phase (seconds) or freq (fractional frequency); default: from "
                                     "the value column's unit or name, phase without either."),
     rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column or a "
@@ -71,7 +72,7 @@ def stability(
     mask: str | None = typer.Option(None, "--mask", help=f"ITU-T masks to check, comma list of: {', '.join(MASK_NAMES)}."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of every statistic, the masks and the verdict."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
-    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to analyse (default: the first)."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to analyse; a field log (ptp4l, phc2sys, chrony, ...): the clock (default: the first)."),
     nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For frequency in Hz: the nominal frequency."),
     ci: float = typer.Option(0.683, "--ci", help="Confidence factor of the intervals."),
     no_bias_correction: bool = typer.Option(False, "--no-bias-correction", help="Report total deviations without bias correction."),

@@ -389,11 +389,14 @@ def detect_file(
         doc = detection_document(data, make(data.interval_s), train_s)
         doc["station"] = station
         return doc
-    if station is not None:
-        raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
+    from chronofuse.io.formats import log_format
+
+    if station is not None and log_format(path) is None:
+        raise InputDataError("--station needs a RINEX clock product (.clk) or a field log with several clocks",
+                             str(path))
     if max_time_acc_s is not None:
         check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
-    data = read_clock_bias(path, rate_hz, column)
+    data = read_clock_bias(path, rate_hz, column, clock=station)
     return detection_document(data, make(data.interval_s), train_s, max_time_acc_s)
 
 

@@ -77,6 +77,7 @@ def read_chrony(path: str | Path) -> list[LogSeries]:
     kind = None
     series: dict[str, dict] = {}
     refs: list[tuple[int, str]] = []  # tracking: (line, reference) where the reference changes
+    unreferenced = 0
     with open_text(path) as fh:
         for lineno, raw in enumerate(fh, start=1):
             line = raw.strip()
@@ -100,6 +101,9 @@ def read_chrony(path: str | Path) -> list[LogSeries]:
             values = dict(zip((c for c, _ in layout), tokens[3:]))
             if kind == "tracking" and (not refs or refs[-1][1] != tokens[2]):
                 refs.append((lineno, tokens[2]))
+            if kind == "tracking" and tokens[2] == "0.0.0.0" and tokens[7] == "?":
+                unreferenced += 1  # chronyd's row before any source is selected: its zeros measure nothing
+                continue
             if kind == "refclocks" and values["poll"] == "-":
                 name += " filtered"
             s = series.setdefault(name, {"t": [], "lines": [], "cols": defaultdict(list), "ok": []})
@@ -127,6 +131,8 @@ def read_chrony(path: str | Path) -> list[LogSeries]:
         cols = {c: s["cols"][c] for c in kinds if len(s["cols"][c]) == len(s["t"])}
         notes = [f"chrony {kind}.log; offsets in s, local clock minus reference"
                  + ("; frequency in ppm read as fractional frequency" if kind == "tracking" else "")]
+        if unreferenced:
+            notes.append(f"{unreferenced} rows without a reference (0.0.0.0, not synchronised) are not samples")
         out.append(log_series(s["t"], cols, {c: kinds[c] for c in cols}, s["lines"], clock=name,
                               time_scale="unix-utc", fmt="chrony", source=source, phase="offset_s",
                               freq="freq" if "freq" in cols else None, ok=s["ok"], notes=notes,

@@ -36,7 +36,7 @@ import numpy as np
 import pyarrow as pa
 
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
-from chronofuse.io.formats import capture_format
+from chronofuse.io.formats import capture_format, log_format
 from chronofuse.io.record_columns import (
     ColumnChoice,
     check_frequency,
@@ -239,8 +239,10 @@ def read_record(
     station: str | None = None,
     zero_is_gap: bool = False,
 ) -> ClockRecord:
-    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), or a
-    receiver recording's clock (:func:`chronofuse.io.capture_series.capture_record`).
+    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), a
+    receiver recording's clock (:func:`chronofuse.io.capture_series.capture_record`), or a clock of a
+    field log (:func:`chronofuse.io.field_logs.log_record`: ptp4l/phc2sys/ts2phc, chrony, RTKLIB .stat, gpsd
+    JSON, Trimble TSIP; ``column`` then names one of its columns).
 
     Parameters
     ----------
@@ -262,7 +264,9 @@ def read_record(
     max_gap_fraction : float
         A record whose gaps exceed this fraction of its samples is rejected (too little data).
     station : str, optional
-        The station of a RINEX clock product (the first without it); refused for any other file.
+        The station of a RINEX clock product, or the clock of a field log (its name or a unique part of it:
+        ``ptp4l``, ``phc2sys``, a chrony source; :func:`chronofuse.io.field_logs.pick_series`); the first
+        without it; refused for any other file.
     zero_is_gap : bool
         Read a value of exactly 0 as a missing sample (Stable32's convention for gaps).
 
@@ -287,9 +291,13 @@ def read_record(
         from chronofuse.io.capture_series import capture_record  # the receiver parsers only when needed
 
         return capture_record(path, kind=kind or "phase", rate_hz=rate_hz, station=station)
+    if log_format(path) is not None:  # a field log (linuxptp, chrony, RTKLIB, gpsd, TSIP): one of its clocks
+        from chronofuse.io.field_logs import log_record
+
+        return log_record(path, kind=kind, rate_hz=rate_hz, column=column, clock=station)
     if station is not None:
-        raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
-                             str(path))
+        raise InputDataError("--station picks a station of a RINEX clock product (.clk) or a clock of a field log, "
+                             "not a column of a text record", str(path))
     layout = sniff(path)
     facts = header_facts(list(layout.comments) + list(layout.preamble))
     first_row = list(layout.rows[0])

@@ -1,0 +1,78 @@
+"""stability and detect read the field's logs: the ts2phc capture vse-sync-test rejects fails PRTC-A and
+alarms at its whole-second errors; the same capture cut before them passes and raises no alarm."""
+
+import gzip
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from chronofuse.cli.main import app
+
+LOGS = Path(__file__).parents[1] / "data" / "logs"
+REJECT = LOGS / "linuxptp" / "ts2phc-reject.log.gz"
+runner = CliRunner()
+
+
+def invoke(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    """The rejected capture's first 4640 lines: ts2phc locked, before its first silence and whole-second error."""
+    path = tmp_path_factory.mktemp("logs") / "ts2phc-clean.log"
+    lines = gzip.decompress(REJECT.read_bytes()).decode().splitlines(keepends=True)
+    path.write_text("".join(lines[:4640]))
+    return path
+
+
+def _mask(result) -> dict:
+    assert result.exit_code == 0, result.output
+    return json.loads(result.output)["masks"][0]
+
+
+def test_the_rejected_ts2phc_log_fails_prtc_a_on_its_one_second_time_error():
+    verdict = _mask(invoke("stability", REJECT, "--dev", "tdev", "--mask", "prtc-a", "--json"))
+    assert verdict["passed"] is False
+    assert verdict["time_error"]["max_abs_te"] == pytest.approx(1.0)
+
+
+def test_the_same_log_before_its_errors_passes_prtc_a(clean):
+    verdict = _mask(invoke("stability", clean, "--dev", "tdev", "--mask", "prtc-a", "--json"))
+    assert verdict["passed"] is True
+    assert verdict["time_error"]["max_abs_te"] <= 1e-9
+
+
+def test_detect_alarms_at_the_first_whole_second_error_and_not_before():
+    result = invoke("detect", REJECT, "--train", 600, "--json")
+    assert result.exit_code == 1, result.output  # detect's status for a record in alarm
+    doc = json.loads(result.output)
+    assert doc["state"] == "alarm"
+    first = doc["alarms"][0]["t"]
+    assert 852564.839 <= first <= 852567.839  # the error's own line, 4650, is stamped 852564.839
+    assert any(e["kind"] == "clock reset" and e["size_s"] == pytest.approx(-1.0) for e in doc["clock_events"])
+
+
+def test_detect_raises_no_alarm_on_the_log_before_its_errors(clean):
+    result = invoke("detect", clean, "--train", 600, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["state"] == "ok" and doc["n_alarms"] == 0
+
+
+def test_station_picks_a_clock_of_the_log_and_one_that_is_none_exits_2_naming_the_clocks():
+    short = LOGS / "linuxptp" / "ts2phc-short.log.gz"
+    ok = invoke("stability", short, "--station", "phc2sys", "--dev", "adev", "--json")
+    assert ok.exit_code == 0, ok.output
+    assert json.loads(ok.output)["n"] >= 204
+    bad = invoke("stability", short, "--station", "eth9", "--dev", "adev")
+    assert bad.exit_code == 2 and "phc2sys CLOCK_REALTIME phc" in bad.output
+
+
+def test_a_chrony_tracking_log_feeds_stability_as_frequency():
+    result = invoke("stability", LOGS / "chrony" / "tracking.log.gz", "--kind", "freq", "--dev", "adev", "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["kind"] == "freq" and doc["rate"] == pytest.approx(0.25, rel=0.01)  # 4 s updates, whole-second stamps
