@@ -76,3 +76,13 @@ def test_a_chrony_tracking_log_feeds_stability_as_frequency():
     assert result.exit_code == 0, result.output
     doc = json.loads(result.output)
     assert doc["kind"] == "freq" and doc["rate"] == pytest.approx(0.25, rel=0.01)  # 4 s updates, whole-second stamps
+
+
+def test_the_gnssdo_reference_reader_takes_a_ts2phc_log_and_refuses_one_with_gaps(clean):
+    from chronofuse.experiments.gnssdo import read_reference
+    from chronofuse.validation import InputDataError
+
+    phase = read_reference(clean)
+    assert phase.size == 4640 and abs(phase).max() <= 1e-9  # every one of the 4640 lines is a 1 s sample
+    with pytest.raises(InputDataError, match="gap in the reference record .43 missing samples"):
+        read_reference(REJECT)

@@ -42,6 +42,7 @@ from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.states import StateConfig, run_states
+from chronofuse.io.formats import log_format
 from chronofuse.io.records import read_record
 from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
@@ -323,7 +324,9 @@ def _data_line(path: Path, index: int) -> int:
 
 
 def read_reference(path: Path) -> np.ndarray:
-    """A real receiver's 1PPS phase against a reference clock (truth), 1 Hz, no gaps; seconds (N,).
+    """A real receiver's 1PPS phase against a reference clock (truth), 1 Hz, no gaps; seconds (N,). Any
+    record :func:`~chronofuse.io.records.read_record` reads, a field log's clock among them (a ts2phc or
+    phc2sys offset, a TSIP receiver's PPS offset).
 
     Refused, naming the file and line: another rate than 1 Hz (from a time column), and any gap.
     """
@@ -337,8 +340,10 @@ def read_reference(path: Path) -> np.ndarray:
                              "sampled at 1 Hz", str(path), _data_line(path, 1))
     if rec.n_gaps:
         first = int(np.flatnonzero(np.isnan(rec.values))[0])
+        # a field log's lines are not one sample each: its gap is named by sample (and time), not by line
+        line = None if log_format(path) else _data_line(path, first)
         raise InputDataError(f"gap in the reference record ({rec.n_gaps} missing samples, the first at sample "
-                             f"{first}); the loop needs one sample every second", str(path), _data_line(path, first))
+                             f"{first}); the loop needs one sample every second", str(path), line)
     if rec.values.size < 2 * SETTLE_S:
         raise InputDataError(f"{rec.values.size} samples, need at least {int(2 * SETTLE_S)}", str(path))
     return rec.values
