@@ -86,6 +86,8 @@ def stability(
     freq_mean: str = typer.Option("keep", "--freq-mean", help="Frequency input: keep the mean frequency in the "
                                   "integrated phase (TIE rms and MTIE see the offset) or remove it first (allantools' "
                                   "convention)."),
+    export_stable32: Path | None = typer.Option(None, "--export-stable32", help="Also write the record read (a field "
+                                                "log's clock too) as a Stable32 data file: one value per line, gaps as 0."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
     """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TheoBR, TheoH, TIE rms and MTIE, with confidence intervals."""
@@ -111,6 +113,10 @@ def stability(
                 record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz,
                                      station=station, zero_is_gap=zero_is_gap)
                 importing.join()
+            if export_stable32 is not None:
+                from chronofuse.io.stable32_export import write_stable32
+
+                write_stable32(export_stable32, record.values, record.rate_hz, record.kind, str(file))
             from chronofuse.analysis import stability as st
 
             is_freq = record.kind == "freq"
