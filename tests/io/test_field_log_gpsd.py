@@ -15,7 +15,7 @@ from chronofuse.validation import InputDataError
 
 LOGS = Path(__file__).parents[1] / "data" / "logs"
 WATCH = LOGS / "gpsd" / "gpsd-tsip-watch.json.gz"
-TSIP = LOGS / "tsip" / "trimble-ressmt360-dr.log.gz"
+TSIP = LOGS.parent / "receivers" / "gpsd" / "trimble-ressmt360-dr.log"
 GPS_EPOCH_UNIX_S = 315_964_800
 
 

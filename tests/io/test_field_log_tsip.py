@@ -1,6 +1,5 @@
 """Trimble TSIP timing packets from a real Resolution SMT 360 capture, checked against gpsd's own decoding of it."""
 
-import gzip
 import json
 import time
 from pathlib import Path
@@ -13,8 +12,8 @@ from chronofuse.io.formats import sniff_format
 from chronofuse.io.tsip import read_tsip, tsip_packets
 from chronofuse.timescale import NS_PER_S
 
-DATA = Path(__file__).parents[1] / "data" / "logs" / "tsip"
-LOG = DATA / "trimble-ressmt360-dr.log.gz"
+DATA = Path(__file__).parents[1] / "data" / "receivers" / "gpsd"  # gpsd's regression captures
+LOG = DATA / "trimble-ressmt360-dr.log"
 GPS_EPOCH_UNIX_S = 315_964_800
 LEAP_S = 18  # the capture's own leap second count (gpsd's TPV "leapseconds")
 
@@ -22,7 +21,7 @@ LEAP_S = 18  # the capture's own leap second count (gpsd's TPV "leapseconds")
 def _gpsd_timing_reports():
     """gpsd's TPV reports that carry the 0x8F-AC decode (temperature, clock offset), first per second."""
     out = {}
-    with gzip.open(DATA / "trimble-ressmt360-dr.log.chk.gz", "rt") as fh:
+    with open(DATA / "trimble-ressmt360-dr.log.chk") as fh:
         for line in fh:
             if not line.startswith("{"):  # the check file's own "#" header lines
                 continue
@@ -68,9 +67,7 @@ def test_stuffed_dle_bytes_are_unstuffed_and_a_frame_without_its_end_is_not_a_pa
 
 
 def test_a_truncated_timing_packet_is_noted_not_read(tmp_path):
-    head = LOG.read_bytes()
-    raw = gzip.decompress(head)
-    cut = raw.replace(b"\x10\x8f\xac", b"\x10\x8f\xac\x10\x03", 1)  # the first 0x8F-AC ends after its subcode
+    cut = LOG.read_bytes().replace(b"\x10\x8f\xac", b"\x10\x8f\xac\x10\x03", 1)  # the first 0x8F-AC ends after its subcode
     path = tmp_path / "cut.tsip"
     path.write_bytes(cut)
     (s,) = read_tsip(path)
