@@ -86,3 +86,23 @@ def test_the_gnssdo_reference_reader_takes_a_ts2phc_log_and_refuses_one_with_gap
     assert phase.size == 4640 and abs(phase).max() <= 1e-9  # every one of the 4640 lines is a 1 s sample
     with pytest.raises(InputDataError, match="gap in the reference record .43 missing samples"):
         read_reference(REJECT)
+
+
+def test_inspect_lists_a_logs_clocks_and_exports_the_one_asked_for(tmp_path):
+    short = LOGS / "linuxptp" / "ts2phc-short.log.gz"
+    out = tmp_path / "phc2sys.csv"
+    result = invoke("inspect", short, "--receiver", "phc2sys", "--export", out, "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.output)
+    assert doc["format"] == "linuxptp" and len(doc["clocks"]) == 3
+    assert doc["export"] == {"file": str(out), "clock": "phc2sys CLOCK_REALTIME phc [ptp4l.0.config]", "rows": 204}
+    rows = out.read_text().splitlines()
+    assert rows[0] == "t_ns,offset_s,freq,delay_s,ok,line" and rows[1].startswith("680988761000000,7")
+    human = runner.invoke(app, ["inspect", str(short)], env={"COLUMNS": "200"})
+    assert "phc2sys CLOCK_REALTIME phc [ptp4l.0.config]" in human.output  # a tag in a clock's name is printed, not taken for markup
+
+
+def test_inspect_reads_a_tsip_capture_without_timing_packets_as_a_recording():
+    result = invoke("inspect", LOGS.parent / "receivers" / "gpsd" / "trimble-lassen_iq.log", "--json")
+    assert result.exit_code == 0, result.output
+    assert "clocks" not in json.loads(result.output)
