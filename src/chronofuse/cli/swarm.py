@@ -117,6 +117,9 @@ def sweep(
     from chronofuse.report.swarm import plot_sweep, write_sweep
 
     with user_errors():
+        from chronofuse.extras import require
+
+        require("distributed", "swarm sweep")
         if param not in SWEEP_PARAMS:
             fail(f"--param == {param!r}, must be one of {list(SWEEP_PARAMS)}")
         try:
@@ -181,6 +184,9 @@ def train(
     from chronofuse.experiments.swarm import train_networks
 
     with user_errors():
+        from chronofuse.extras import require
+
+        require("torch", "swarm train")  # before the data set is built, not after
         if device not in ("cpu", "cuda", "auto"):
             fail(f"--device == {device!r}, must be cpu, cuda or auto")
         if urt_mode not in ("paper", "calibrated"):
