@@ -72,3 +72,35 @@ def test_a_truncated_timing_packet_is_noted_not_read(tmp_path):
     path.write_bytes(cut)
     (s,) = read_tsip(path)
     assert s.n == 26 and any("0x8F-AC of 1 bytes" in note for note in s.notes)
+
+
+def _frame(body: bytes) -> bytes:
+    """A TSIP frame of ``body`` (its first byte the packet id): DLE, the bytes with DLE doubled, DLE ETX."""
+    return b"\x10" + body.replace(b"\x10", b"\x10\x10") + b"\x10\x03"
+
+
+def _timing_pair(tow: int, disc_mode: int, dac_v: float, temp: float, holdover: int) -> bytes:
+    import struct
+
+    ab = struct.pack(">BBIHhBBBBBBH", 0x8F, 0xAB, tow, 2300, 18, 0x03, 0, 0, 0, 4, 2, 2024)
+    ac = struct.pack(">BBBBBIHHBBBBffIffdddff", 0x8F, 0xAC, 0, disc_mode, 100, holdover, 0, 0, 0, 0, 0, 0,
+                     12.5, -3.25, 0x10101010, dac_v, temp, 0.9, -1.3, 100.0, 0.0, 0.0)
+    return _frame(ab) + _frame(ac)
+
+
+def test_a_thunderbolt_holdover_is_decoded_with_its_dac_voltage_and_temperature(tmp_path):
+    # 0x8F-AC laid out as the Thunderbolt user guide (and gpsd's decoder) give it; the DAC value's 0x10 bytes
+    # are sent doubled, as TSIP stuffs them
+    path = tmp_path / "thunderbolt.tsip"
+    path.write_bytes(b"".join(_timing_pair(100 + k, 0 if k < 3 else 2, 1.25 + 0.01 * k, 40.0 + k, 0 if k < 3 else k)
+                              for k in range(6)))
+    assert sniff_format(path) == "tsip"
+    (s,) = read_tsip(path)
+    assert s.n == 6 and s.t_ns[0] == (2300 * 604800 + 100) * NS_PER_S
+    np.testing.assert_allclose(s.columns["dac_v"], 1.25 + 0.01 * np.arange(6), rtol=1e-6)
+    np.testing.assert_allclose(s.columns["temperature_c"], 40.0 + np.arange(6))
+    assert s.columns["dac_value"][0] == 0x10101010
+    assert s.columns["pps_offset_s"][0] == pytest.approx(12.5e-9) and s.columns["freq"][0] == pytest.approx(-3.25e-9)
+    assert s.ok.tolist() == [True, True, True, False, False, False]
+    assert [text for _, text in s.events] == ["disciplining mode normal", "disciplining mode auto holdover"]
+    assert s.columns["holdover_s"][-1] == 5
