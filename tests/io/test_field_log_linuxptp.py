@@ -77,8 +77,11 @@ def test_the_three_whole_second_errors_of_the_rejected_capture_are_found_at_thei
 def test_detect_reads_the_ts2phc_offset_on_its_one_second_grid():
     (s,) = read_log(REJECT)
     cb = series_clock_bias(s)
-    assert cb.interval_s == pytest.approx(1.0) and cb.bias_s.size >= s.n
-    assert np.nanmax(cb.bias_s) == 1.0 and cb.receiver_ok.all()
+    bias = cb.columns["clock_bias_s"]
+    assert cb.interval_ns == 1_000_000_000 and bias.size == s.n + 43 and cb.time_scale == "file"
+    assert np.nanmax(bias) == 1.0 and cb.valid.all() and cb.units["clock_bias_s"] == "s"
+    # each epoch knows its log line; the 43 filled-in seconds know none
+    assert cb.provenance.where(0).endswith("ts2phc-reject.log.gz:1") and (cb.provenance.position == -1).sum() == 43
 
 
 def test_a_journal_prefixed_line_and_a_summary_line_are_read(tmp_path):

@@ -9,8 +9,8 @@ file line of every sample, and the tool's own status per sample where it reports
 
 Two functions turn a series into what the commands read, and they are the only place that builds those
 records from a log: :func:`series_record` (a :class:`~chronofuse.io.records.ClockRecord` on a regular
-grid, for ``stability`` and the GNSSDO's ``--reference``) and :func:`series_clock_bias` (a
-:class:`~chronofuse.io.clockbias.ClockBiasInput`, for ``detect``). A tool's samples come on its own
+grid, for ``stability`` and the GNSSDO's ``--reference``) and :func:`series_clock_bias` (an
+:class:`~chronofuse.record.EpochRecord` of the clock bias, for ``detect``). A tool's samples come on its own
 schedule (ptp4l once per sync interval, chrony at each clock update): each sample is placed on the grid
 of the median interval when it lies within a quarter interval of its slot, empty slots become gaps (NaN),
 and a sample further off is refused naming its line. A log whose interval changes (a new poll interval)
@@ -241,23 +241,32 @@ def series_record(s: LogSeries, kind: str | None = None, column: str | None = No
 
 
 def series_clock_bias(s: LogSeries, column: str | None = None, rate_hz: float | None = None):
-    """The :class:`~chronofuse.io.clockbias.ClockBiasInput` of one series (``detect``'s input): the phase column
-    (s) on the series' grid, ``t_s`` on the log's time scale, the tool's own status as ``receiver_ok`` (False
-    where the servo was not locked or the receiver had no fix; a gap says nothing bad)."""
-    from chronofuse.io.clockbias import ClockBiasInput
+    """The :class:`~chronofuse.record.EpochRecord` of one series that ``detect`` reads: the phase column as
+    ``clock_bias_s`` (s) on the series' grid, ``t_ns`` the grid's epochs on the log's time scale (``gps`` for
+    GPS-time logs, ``file`` for the others), ``valid`` the tool's own status (False where the servo was not
+    locked or the receiver had no fix; a gap says nothing bad), provenance the log line (TSIP: the packet
+    index) of each sample, -1 in a gap."""
+    from chronofuse.record import EpochRecord
 
     name, kind = _column(s, column, "phase" if column is None else None)
     if kind != "phase":
         raise InputDataError(f"column {name!r} is {kind}: detect reads a clock offset (phase, s)", s.source)
-    slots, interval, _, _ = _grid(s, rate_hz)
+    slots, interval, rms, peak = _grid(s, rate_hz)
     bias = place_on_grid(slots, s.columns[name])
-    ok = None
+    valid = np.ones(bias.size, dtype=bool)
     if s.ok is not None:
-        bad = place_on_grid(slots, (~s.ok).astype(np.float64))
-        ok = ~(bad == 1.0)
-    t_s = (s.t_ns[0] + np.round(np.arange(bias.size) * interval)) / NS_PER_S
-    return ClockBiasInput(bias_s=bias, t_s=t_s, n_skipped=int(np.isnan(bias).sum()), source=s.source,
-                          interval_s=interval / NS_PER_S, receiver_ok=ok)
+        valid[slots] = s.ok
+    position = np.full(bias.size, -1, dtype=np.int64)
+    binary = s.fmt == "tsip"
+    position[slots] = s.lines - 1 if binary else s.lines
+    interval_ns = int(round(interval))
+    t_ns = s.t_ns[0] + np.round(np.arange(bias.size) * interval).astype(np.int64)
+    return EpochRecord.from_arrays(t_ns, {"clock_bias_s": bias}, {"clock_bias_s": "s"}, source=s.source,
+                                   valid=valid, interval_ns=interval_ns,
+                                   time_scale="gps" if s.time_scale == "gps" else "file", position=position,
+                                   position_unit="index" if binary else "line",
+                                   info={"n_gaps": int(np.isnan(bias).sum()), "jitter_rms_s": rms,
+                                         "jitter_max_s": peak, "clock": s.clock})
 
 
 def log_record(path, *, kind: str | None = None, rate_hz: float | None = None, column: str | None = None,

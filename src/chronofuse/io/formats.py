@@ -10,8 +10,8 @@ from pathlib import Path
 
 from chronofuse.validation import InputDataError
 
-__all__ = ["FORMATS", "CAPTURE_FORMATS", "LOG_FORMATS", "sniff_format", "capture_format", "log_format", "is_gzip",
-           "open_data", "open_text"]
+__all__ = ["FORMATS", "CAPTURE_FORMATS", "LOG_FORMATS", "sniff_format", "format_of_head", "capture_format",
+           "log_format", "is_gzip", "open_data", "open_text"]
 
 #: The field's own logs, read by :mod:`chronofuse.io.field_logs` (told apart by :func:`chronofuse.io.log_sniff.sniff_log`).
 LOG_FORMATS = ("linuxptp", "chrony", "rtklib-pos", "rtklib-stat", "gpsd-json", "tsip")
@@ -83,6 +83,12 @@ def sniff_format(path: str | Path) -> str:
         raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
     if not head:
         raise InputDataError("empty file", str(path))
+    return format_of_head(head)
+
+
+def format_of_head(head: bytes) -> str:
+    """One of :data:`FORMATS` for a stream whose first bytes (up to 4096, decompressed) are ``head``, by the
+    rules of :func:`sniff_format` (which reads them from a file)."""
     from chronofuse.io.log_sniff import is_tsip, sniff_log
 
     if is_tsip(head):  # binary TSIP may hold a UBX sync pair by chance: told first, by its DLE framing
