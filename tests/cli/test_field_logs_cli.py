@@ -106,3 +106,10 @@ def test_inspect_reads_a_tsip_capture_without_timing_packets_as_a_recording():
     result = invoke("inspect", LOGS.parent / "receivers" / "gpsd" / "trimble-lassen_iq.log", "--json")
     assert result.exit_code == 0, result.output
     assert "clocks" not in json.loads(result.output)
+
+
+def test_a_field_log_on_standard_input_is_refused_naming_the_file_route():
+    text = gzip.decompress((LOGS / "linuxptp" / "ptp411.log.gz").read_bytes()).decode()
+    result = runner.invoke(app, ["detect", "-", "--train", "30"], input=text)
+    assert result.exit_code == 2
+    assert "a linuxptp log is read from a file (detect FILE), not from a stream" in result.output
