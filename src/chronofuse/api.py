@@ -74,6 +74,8 @@ from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 from chronofuse.io.rinex_clock import read_station_clocks
 from chronofuse.io.stable32 import read_stable32_table
+from chronofuse.io.stable32_export import write_stable32
+from chronofuse.io.field_logs import LogSeries, read_log, series_clock_bias, series_record
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.models.imu import IMU_GRADES, ImuModel, SensorErrors, imu_grade, simulate_imu
 from chronofuse.io.inspect import Capture, read_bytes, read_capture, summarize
@@ -154,6 +156,11 @@ __all__ = [
     "read_clock_series",
     "read_clock_bias",
     "read_stable32_table",
+    "write_stable32",
+    "LogSeries",
+    "read_log",
+    "series_record",
+    "series_clock_bias",
     "read_gps_observations",
     "read_gps_navigation",
     "read_capture",
