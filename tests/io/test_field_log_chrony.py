@@ -92,3 +92,16 @@ def test_a_line_of_another_log_layout_in_a_tracking_log_names_its_line(tmp_path)
     path.write_text("\n".join(text) + "\n")
     with pytest.raises(InputDataError, match=r"tracking\.log:7: "):
         read_log(path)
+
+
+def test_a_tracking_log_without_the_columns_chrony_35_added_is_read_with_them_missing(tmp_path):
+    # a row that ends at "Rem. corr." (no root delay, root dispersion or max error): older chronyd wrote fewer
+    rows = [line for line in gzip.decompress((DATA / "tracking.log.gz").read_bytes()).decode().splitlines()
+            if line[:2] == "20" and " GPS " in line]
+    path = tmp_path / "tracking-old.log"
+    path.write_text("\n".join(" ".join(row.split()[:11]) for row in rows) + "\n")
+    assert sniff_format(path) == "chrony"
+    (s,) = read_log(path)
+    (full,) = read_log(DATA / "tracking.log.gz")
+    np.testing.assert_array_equal(s.columns["offset_s"], full.columns["offset_s"])
+    assert np.isnan(s.columns["max_error_s"]).all()

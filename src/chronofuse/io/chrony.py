@@ -62,7 +62,7 @@ def _utc_ns(date: str, time: str, source: str, lineno: int) -> int:
 
 def _kind_of_row(tokens: list[str]) -> str | None:
     n = len(tokens)
-    if n in (13, 14) and tokens[7] in ("N", "+", "-", "?"):
+    if 11 <= n <= 14 and tokens[7] in ("N", "+", "-", "?"):  # chrony 4 writes 14; older versions fewer
         return "tracking"
     if n == 9 and tokens[4] in ("N", "+", "-", "?"):
         return "refclocks"

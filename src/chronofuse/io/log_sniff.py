@@ -42,7 +42,7 @@ def _text_lines(head: bytes) -> list[str]:
 def _chrony_row(tokens: list[str]) -> bool:
     """A data row of one of chrony's logs (date, time, then that log's column pattern)."""
     n = len(tokens)
-    if n >= 13 and tokens[7] in ("N", "+", "-", "?"):  # tracking: ... Offset L Co ...
+    if 11 <= n <= 14 and tokens[7] in ("N", "+", "-", "?"):  # tracking: ... Offset L Co ...
         return True
     if n == 9 and tokens[4] in ("N", "+", "-", "?"):  # refclocks: Refid DP L P Raw Cooked Disp
         return True
