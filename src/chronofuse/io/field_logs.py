@@ -94,7 +94,10 @@ def log_series(t_ns, columns: dict, kinds: dict, lines, *, clock: str, time_scal
                phase: str | None = None, freq: str | None = None, ok=None, notes=(), events=()) -> LogSeries:
     """Build a :class:`LogSeries` (every reader builds its output through this one function), checking that
     the arrays agree in length and the time tags increase (a repeated or backward tag names its line)."""
-    t_ns = np.asarray(t_ns, dtype=np.int64)
+    try:
+        t_ns = np.asarray(t_ns, dtype=np.int64)
+    except OverflowError:
+        raise InputDataError(f"{clock}: a time tag beyond the range of int64 nanoseconds", source) from None
     lines = np.asarray(lines, dtype=np.int64)
     cols = {name: np.asarray(v, dtype=np.float64) for name, v in columns.items()}
     for name, v in cols.items():

@@ -102,8 +102,10 @@ def read_linuxptp(path: str | Path) -> list[LogSeries]:
             clock.t.append(_ns(t))
             clock.lines.append(lineno)
             clock.state.append(state)
-            for col, value in cols.items():
-                clock.cols[col].append(value)
+            for col in cols.keys() - clock.cols.keys():  # a column first seen now: NaN for the samples before
+                clock.cols[col] = [float("nan")] * (len(clock.t) - 1)
+            for col, values in clock.cols.items():  # one value per sample in every column (NaN where absent)
+                values.append(cols.get(col, float("nan")))
     out = []
     for key, c in clocks.items():
         names = list(c.cols)

@@ -83,7 +83,7 @@ def _read_stat(lines: list[str], source: str) -> LogSeries:
                         "isb3_s": float(f[7]) * 1e-9, "isb4_s": float(f[8]) * 1e-9}
             else:
                 vals = {"x_m": float(f[4]), "y_m": float(f[5]), "z_m": float(f[6])}
-        except (IndexError, ValueError):
+        except (IndexError, ValueError, OverflowError):
             raise InputDataError(f"not an RTKLIB {f[0]} line ({len(f)} fields)", source, lineno) from None
         row = rows.get(t_ns)
         if row is None:
@@ -140,7 +140,7 @@ def _read_pos(lines: list[str], source: str) -> LogSeries:
             else:
                 t_ns = _week_tow_ns(f[0], f[1])
             values = [float(x) for x in f[2:7]]
-        except (IndexError, ValueError):
+        except (IndexError, ValueError, OverflowError):
             raise InputDataError(f"not a row of this RTKLIB .pos layout ({len(f)} fields)", source, lineno) from None
         t.append(t_ns)
         line_nos.append(lineno)
