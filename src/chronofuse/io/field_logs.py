@@ -202,9 +202,11 @@ def _grid(s: LogSeries, rate_hz: float | None) -> tuple[np.ndarray, float, float
     slots, bad = grid_slots(offsets, interval, SLOT_TOLERANCE)
     if bad >= 0:
         step = (s.t_ns[bad] - s.t_ns[bad - 1]) / NS_PER_S
+        steps = np.diff(s.t_ns) / NS_PER_S
         raise InputDataError(f"{s.clock}: time step {step:.6g} s is not a whole number of {interval / NS_PER_S:.6g} s "
-                             f"intervals (tolerance {SLOT_TOLERANCE} of an interval; the interval changed? --rate "
-                             "sets it)", s.source, int(s.lines[bad]))
+                             f"intervals (tolerance {SLOT_TOLERANCE} of an interval); this log's steps range from "
+                             f"{steps.min():.6g} s to {steps.max():.6g} s: a record needs regular samples and a log is "
+                             "not resampled (--rate sets the interval when it changed)", s.source, int(s.lines[bad]))
     resid = offsets - slots * interval
     resid -= resid.mean()
     return slots, interval, float(np.sqrt(np.mean(resid**2))) / NS_PER_S, float(np.abs(resid).max()) / NS_PER_S

@@ -102,8 +102,9 @@ def read_linuxptp(path: str | Path) -> list[LogSeries]:
             clock.t.append(_ns(t))
             clock.lines.append(lineno)
             clock.state.append(state)
-            for col in cols.keys() - clock.cols.keys():  # a column first seen now: NaN for the samples before
-                clock.cols[col] = [float("nan")] * (len(clock.t) - 1)
+            for col in cols:  # a column first seen now: NaN for the samples before (in the line's order)
+                if col not in clock.cols:
+                    clock.cols[col] = [float("nan")] * (len(clock.t) - 1)
             for col, values in clock.cols.items():  # one value per sample in every column (NaN where absent)
                 values.append(cols.get(col, float("nan")))
     out = []
