@@ -98,8 +98,11 @@ def test_inspect_lists_a_logs_clocks_and_exports_the_one_asked_for(tmp_path):
     assert doc["export"] == {"file": str(out), "clock": "phc2sys CLOCK_REALTIME phc [ptp4l.0.config]", "rows": 204}
     rows = out.read_text().splitlines()
     assert rows[0] == "t_ns,offset_s,freq,delay_s,ok,line" and rows[1].startswith("680988761000000,7")
-    human = runner.invoke(app, ["inspect", str(short)], env={"COLUMNS": "200"})
-    assert "phc2sys CLOCK_REALTIME phc [ptp4l.0.config]" in human.output  # a tag in a clock's name is printed, not taken for markup
+    tagged = tmp_path / "tagged.log"
+    tagged.write_text("ptp4l[10.000]: [a] master offset 1 s2 freq 0 path delay 5\n"
+                      "ptp4l[11.000]: [a] master offset 2 s2 freq 0 path delay 5\n")
+    human = invoke("inspect", tagged)
+    assert human.exit_code == 0 and "ptp4l [a]" in human.output  # a tag in a clock's name is printed, not taken for markup
 
 
 def test_inspect_reads_a_tsip_capture_without_timing_packets_as_a_recording():
