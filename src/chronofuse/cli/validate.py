@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.experiments.validation import SEED
 
 
@@ -25,15 +25,17 @@ def validate(
     quick: bool = typer.Option(False, "--quick", help="Short simulations (a smoke run)."),
     seed: int = typer.Option(SEED, "--seed", help="Seed of the simulations."),
     json_out: bool = typer.Option(False, "--json", help="Print the checks and the numbers as one JSON document."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Our statistics on real records against Stable32's tables, the receiver model against the GPS
     record, each oscillator preset against theory: one PASS/FAIL line per check (exit 1 if any fails)."""
     from chronofuse.experiments.validation import run_validation
     from chronofuse.experiments.validation_checks import checks
 
+    quiet_output(quiet)
+    if data is not None and not (data / "stability").is_dir():
+        fail(f"{data}: no stability/ folder (give a folder holding stability/gps and stability/Cs5071A with --data)")
     with user_errors():
-        if data is not None and not (data / "stability").is_dir():
-            raise FileNotFoundError(f"--data {data}: no stability/ folder")
         start = time.perf_counter()
         with progress_reporter("validate") as say:
             numbers, paths = run_validation(data, out, quick=quick, seed=seed, progress=say)
