@@ -79,19 +79,19 @@ def test_a_chrony_tracking_log_feeds_stability_as_frequency():
 
 
 def test_the_gnssdo_reference_reader_takes_a_ts2phc_log_and_refuses_one_with_gaps(clean):
-    from chronofuse.experiments.gnssdo import read_reference
+    from chronofuse.io.pps_reference import read_pps_reference
     from chronofuse.validation import InputDataError
 
-    phase = read_reference(clean)
+    phase = read_pps_reference(clean)
     assert phase.size == 4640 and abs(phase).max() <= 1e-9  # every one of the 4640 lines is a 1 s sample
     with pytest.raises(InputDataError, match="gap in the reference record .43 missing samples"):
-        read_reference(REJECT)
+        read_pps_reference(REJECT)
 
 
 def test_inspect_lists_a_logs_clocks_and_exports_the_one_asked_for(tmp_path):
     short = LOGS / "linuxptp" / "ts2phc-short.log.gz"
     out = tmp_path / "phc2sys.csv"
-    result = invoke("inspect", short, "--receiver", "phc2sys", "--export", out, "--json")
+    result = invoke("inspect", short, "--station", "phc2sys", "--out", out, "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.output)
     assert doc["format"] == "linuxptp" and len(doc["clocks"]) == 3

@@ -20,100 +20,21 @@ is refused the same way; a rate given with ``rate_hz`` sets the grid instead of 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from chronofuse.io.formats import LOG_FORMATS, sniff_format
 from chronofuse.io.grid import grid_slots, place_on_grid
+from chronofuse.io.log_series import LogSeries, log_series
 from chronofuse.timescale import NS_PER_S
-from chronofuse.validation import InputDataError, check_choice
+from chronofuse.validation import InputDataError, InputError, InputWarning
 
 __all__ = ["LogSeries", "read_log", "log_series", "pick_series", "series_record", "series_clock_bias",
            "log_record", "log_clock_bias", "summarize_log", "LOG_FORMATS"]
 
 #: A sample may sit this fraction of the interval off its grid slot (the tools stamp on a loaded host).
 SLOT_TOLERANCE = 0.25
-_KINDS = ("phase", "freq", "other")
-
-
-@dataclass(frozen=True)
-class LogSeries:
-    """One clock's samples from a field log.
-
-    Attributes
-    ----------
-    t_ns : ndarray of int64, shape (N,)
-        Time tag of each sample, integer ns on ``time_scale`` (strictly increasing).
-    columns : dict of str to ndarray of float64, shape (N,)
-        The values, SI units (names end in their unit: ``offset_s``, ``freq``, ``temperature_c``...).
-    kinds : dict of str to str
-        ``"phase"`` (s), ``"freq"`` (fractional frequency) or ``"other"``, for each column.
-    phase : str or None
-        The column ``stability`` and ``detect`` take by default (the tool's offset); ``freq`` likewise.
-    lines : ndarray of int64, shape (N,)
-        1-based file line (or packet number for binary logs) of each sample.
-    ok : ndarray of bool, shape (N,), or None
-        The tool's own status per sample (servo locked, fix, no alarm), None when it reports none.
-    clock : str
-        Which clock of the log (``ptp4l``, ``phc2sys CLOCK_REALTIME``, a chrony source, a gpsd device...).
-    time_scale : str
-        What ``t_ns`` counts: ``"monotonic"`` (linuxptp's CLOCK_MONOTONIC seconds), ``"unix-utc"``,
-        ``"gps"`` (ns since 1980-01-06) or ``"unix-system"`` (the host's system clock).
-    fmt : str
-        The format (:data:`~chronofuse.io.formats.LOG_FORMATS`).
-    source : str
-        The file.
-    notes : tuple of str
-        What the reader took from the file and how (units, conventions, lines it passed over).
-    events : tuple of (int, str)
-        Tool events with their line (servo state changes, port transitions, mode changes).
-    """
-
-    t_ns: np.ndarray
-    columns: dict
-    kinds: dict
-    phase: str | None
-    lines: np.ndarray
-    clock: str
-    time_scale: str
-    fmt: str
-    source: str
-    freq: str | None = None
-    ok: np.ndarray | None = None
-    notes: tuple = ()
-    events: tuple = field(default=())
-
-    @property
-    def n(self) -> int:
-        return int(self.t_ns.size)
-
-
-def log_series(t_ns, columns: dict, kinds: dict, lines, *, clock: str, time_scale: str, fmt: str, source: str,
-               phase: str | None = None, freq: str | None = None, ok=None, notes=(), events=()) -> LogSeries:
-    """Build a :class:`LogSeries` (every reader builds its output through this one function), checking that
-    the arrays agree in length and the time tags increase (a repeated or backward tag names its line)."""
-    try:
-        t_ns = np.asarray(t_ns, dtype=np.int64)
-    except OverflowError:
-        raise InputDataError(f"{clock}: a time tag beyond the range of int64 nanoseconds", source) from None
-    lines = np.asarray(lines, dtype=np.int64)
-    cols = {name: np.asarray(v, dtype=np.float64) for name, v in columns.items()}
-    for name, v in cols.items():
-        if v.shape != t_ns.shape:
-            raise ValueError(f"column {name} has shape {v.shape}, the time tags {t_ns.shape}")
-        check_choice(kinds[name], f"kind of {name}", _KINDS)
-    if lines.shape != t_ns.shape:
-        raise ValueError(f"lines has shape {lines.shape}, the time tags {t_ns.shape}")
-    steps = np.diff(t_ns)
-    if (steps <= 0).any():
-        k = int(np.flatnonzero(steps <= 0)[0]) + 1
-        raise InputDataError(f"{clock}: time tag {t_ns[k] / NS_PER_S:.9f} s does not follow "
-                             f"{t_ns[k - 1] / NS_PER_S:.9f} s ({time_scale} scale)", source, int(lines[k]))
-    return LogSeries(t_ns=t_ns, columns=cols, kinds=dict(kinds), phase=phase, freq=freq, lines=lines, clock=clock,
-                     time_scale=time_scale, fmt=fmt, source=source,
-                     ok=None if ok is None else np.asarray(ok, dtype=bool), notes=tuple(notes), events=tuple(events))
 
 
 def _reader(fmt: str):
@@ -154,8 +75,9 @@ def pick_series(series: list[LogSeries], clock: str | None, source: str) -> LogS
     warning naming the others when there are several."""
     if clock is None:
         if len(series) > 1:
-            warnings.warn(f"{source}: {len(series)} clocks in this log ({', '.join(s.clock for s in series)}): "
-                          f"the first, {series[0].clock!r}, is read (--clock picks another)", stacklevel=3)
+            warnings.warn(InputWarning(f"{source}: {len(series)} clocks in this log "
+                                       f"({', '.join(s.clock for s in series)}): the first, {series[0].clock!r}, "
+                                       "is read ({clock} picks another)", fields=("clock",)), stacklevel=3)
         return series[0]
     exact = [s for s in series if s.clock == clock]
     if exact:
@@ -164,8 +86,8 @@ def pick_series(series: list[LogSeries], clock: str | None, source: str) -> LogS
     if len(partial) == 1:
         return partial[0]
     names = ", ".join(repr(s.clock) for s in series)
-    raise InputDataError(f"--clock {clock!r} {'matches several' if partial else 'is none'} of this log's clocks: "
-                         f"{names}", source)
+    raise InputError(f"{{clock}} {clock!r} {'matches several' if partial else 'is none'} of this log's clocks: "
+                     f"{names}", source, fields=("clock",))
 
 
 def _column(s: LogSeries, column: str | None, kind: str | None) -> tuple[str, str]:
@@ -177,12 +99,12 @@ def _column(s: LogSeries, column: str | None, kind: str | None) -> tuple[str, st
             raise InputDataError(f"{s.clock}: this log has no {'frequency' if kind == 'freq' else 'offset'} series "
                                  f"(columns: {', '.join(s.columns)})", s.source)
     if column not in s.columns:
-        raise InputDataError(f"--column {column!r}: not a column of {s.clock} (columns: {', '.join(s.columns)})",
-                             s.source)
+        raise InputError(f"{{column}} {column!r}: not a column of {s.clock} (columns: {', '.join(s.columns)})",
+                         s.source, fields=("column",))
     have = s.kinds[column]
     if have == "other" and kind is None:
-        raise InputDataError(f"column {column!r} is neither phase nor frequency: give --kind phase or --kind freq "
-                             "to analyse it anyway", s.source)
+        raise InputError(f"column {column!r} is neither phase nor frequency: give {{kind}} phase or {{kind}} freq "
+                         "to analyse it anyway", s.source, fields=("kind",))
     if kind is not None and have != "other" and kind != have:
         raise InputDataError(f"column {column!r} is {have}, not {kind}", s.source)
     return column, kind or have
@@ -191,7 +113,8 @@ def _column(s: LogSeries, column: str | None, kind: str | None) -> tuple[str, st
 def _grid(s: LogSeries, rate_hz: float | None) -> tuple[np.ndarray, float, float, float]:
     """(slots (N,), interval ns, jitter rms s, jitter max s) of the series' samples on a regular grid."""
     if s.n < 2 and rate_hz is None:
-        raise InputDataError(f"{s.clock}: one sample and no --rate: the interval is unknown", s.source)
+        raise InputError(f"{s.clock}: one sample and no {{rate_hz}}: the interval is unknown", s.source,
+                         fields=("rate_hz",))
     offsets = (s.t_ns - s.t_ns[0]).astype(np.float64)
     if rate_hz is not None:
         interval = NS_PER_S / rate_hz
@@ -206,7 +129,8 @@ def _grid(s: LogSeries, rate_hz: float | None) -> tuple[np.ndarray, float, float
         raise InputDataError(f"{s.clock}: time step {step:.6g} s is not a whole number of {interval / NS_PER_S:.6g} s "
                              f"intervals (tolerance {SLOT_TOLERANCE} of an interval); this log's steps range from "
                              f"{steps.min():.6g} s to {steps.max():.6g} s: a record needs regular samples and a log is "
-                             "not resampled (--rate sets the interval when it changed)", s.source, int(s.lines[bad]))
+                             "not resampled ({rate_hz} sets the interval when it changed)", s.source, int(s.lines[bad]),
+                             fields=("rate_hz",))
     resid = offsets - slots * interval
     resid -= resid.mean()
     return slots, interval, float(np.sqrt(np.mean(resid**2))) / NS_PER_S, float(np.abs(resid).max()) / NS_PER_S
@@ -226,7 +150,7 @@ def series_record(s: LogSeries, kind: str | None = None, column: str | None = No
     its frequency column for ``kind="freq"``) on the regular grid of the series' interval (``rate_hz`` sets
     it), gaps as NaN; ``t_ns`` holds the grid epochs on the log's time scale. A sample the tool marks as not
     locked/fixed stays in the record (it is the tool's measurement) and is counted in the notes."""
-    from chronofuse.io.records import ClockRecord
+    from chronofuse.io.clock_record import ClockRecord
 
     name, kind = _column(s, column, kind)
     slots, interval, rms, peak = _grid(s, rate_hz)

@@ -20,7 +20,7 @@ import json
 from collections import Counter, defaultdict
 from pathlib import Path
 
-from chronofuse.io.field_logs import LogSeries, log_series
+from chronofuse.io.log_series import LogSeries, log_series
 from chronofuse.io.formats import open_text
 from chronofuse.validation import InputDataError
 

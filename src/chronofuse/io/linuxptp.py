@@ -27,7 +27,7 @@ import re
 from collections import defaultdict
 from pathlib import Path
 
-from chronofuse.io.field_logs import LogSeries, log_series
+from chronofuse.io.log_series import LogSeries, log_series
 from chronofuse.io.formats import open_text
 
 __all__ = ["read_linuxptp", "SERVO_STATES"]

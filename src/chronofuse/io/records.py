@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from chronofuse.io.clock_record import ClockRecord
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
 from chronofuse.io.formats import capture_format, log_format
 from chronofuse.io.record_columns import (
@@ -60,52 +61,6 @@ KINDS = ("phase", "freq")
 _SLOT_TOLERANCE = 0.25
 # rate_hz and the time column agree when their intervals differ by less than this (relative).
 _RATE_AGREEMENT = 1e-3
-
-
-@dataclass(frozen=True)
-class ClockRecord:
-    """A phase (seconds) or fractional-frequency record sampled at ``rate_hz``.
-
-    Attributes
-    ----------
-    values : ndarray of shape (N,)
-        Phase in seconds or fractional frequency (dimensionless); NaN marks a gap.
-    rate_hz : float
-        Sample rate.
-    kind : {"phase", "freq"}
-    t_ns : ndarray of int64 of shape (N,) or None
-        Epoch of each grid slot in integer nanoseconds on the file's own time scale (UNIX, MJD, ...), when
-        the file had a time column.
-    source : str
-        Where the record came from (file path).
-    n_gaps : int
-        Number of missing samples (NaN values plus slots the time column skipped).
-    column : str
-        The name (or 1-based number) of the value column read.
-    jitter_rms_s, jitter_max_s : float
-        Rms and largest distance of the time tags from their grid slots (0 without a time column).
-    notes : tuple of str
-        What the reader took from the file rather than from the caller (the values' unit from a header
-        line, the sample interval from a header block, the lines of a header block it skipped).
-    """
-
-    values: np.ndarray
-    rate_hz: float
-    kind: str
-    t_ns: np.ndarray | None
-    source: str
-    n_gaps: int
-    column: str
-    jitter_rms_s: float = 0.0
-    jitter_max_s: float = 0.0
-    notes: tuple[str, ...] = ()
-
-    @property
-    def t_s(self) -> np.ndarray | None:
-        """Seconds since the first sample (a duration, float64), shape (N,), or None without a time column."""
-        if self.t_ns is None:
-            return None
-        return (self.t_ns - self.t_ns[0]) / NS_PER_S
 
 
 def _line_of(path: Path, layout: Layout, k: int) -> int:

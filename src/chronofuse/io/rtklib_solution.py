@@ -27,7 +27,7 @@ from __future__ import annotations
 import calendar
 from pathlib import Path
 
-from chronofuse.io.field_logs import LogSeries, log_series
+from chronofuse.io.log_series import LogSeries, log_series
 from chronofuse.io.formats import open_text
 from chronofuse.validation import InputDataError
 

@@ -31,7 +31,7 @@ from __future__ import annotations
 import struct
 from pathlib import Path
 
-from chronofuse.io.field_logs import LogSeries, log_series
+from chronofuse.io.log_series import LogSeries, log_series
 from chronofuse.io.formats import open_data
 
 __all__ = ["read_tsip", "tsip_packets", "DISCIPLINING_MODES", "DISCIPLINING_ACTIVITY"]
