@@ -69,6 +69,16 @@ def test_station_picks_a_clock_of_the_log_and_one_that_is_none_exits_2_naming_th
     assert json.loads(ok.output)["n"] >= 204
     bad = invoke("stability", short, "--station", "eth9", "--dev", "adev")
     assert bad.exit_code == 2 and "phc2sys CLOCK_REALTIME phc" in bad.output
+    assert "--station 'eth9' is none of this log's clocks" in " ".join(bad.output.split())  # the option, not {clock}
+    column = invoke("stability", short, "--column", "nope", "--dev", "adev")
+    assert column.exit_code == 2 and "--column 'nope': not a column of phc2sys" in " ".join(column.output.split())
+
+
+def test_a_log_of_several_clocks_read_without_station_warns_naming_the_option_that_picks_another():
+    result = invoke("stability", LOGS / "linuxptp" / "ts2phc-short.log.gz", "--dev", "adev")
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.output.split())
+    assert "3 clocks in this log" in text and "is read (--station picks another)" in text
 
 
 def test_a_chrony_tracking_log_feeds_stability_as_frequency():
