@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
 
 
 def detect(
-    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file or RINEX clock product (.clk); - : standard input (any of these but RINEX observations, read as it arrives)."),
+    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file, RINEX clock product (.clk), or a field log (ptp4l/phc2sys/ts2phc, chrony, RTKLIB .stat, gpsd JSON, Trimble TSIP); - : standard input (any of these but RINEX observations and field logs, read as it arrives)."),
     rate: float | None = typer.Option(None, "--rate", help="Sampling rate (Hz) of a file without a time column."),
     column: str | None = typer.Option(None, "--column", help="CSV clock-bias column (name)."),
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
@@ -40,7 +40,7 @@ def detect(
     pfa: float = typer.Option(1e-3, "--pfa", help="False-alarm probability per epoch."),
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
     nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode)."),
-    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table); a field log (ptp4l, chrony, ...): the clock to test (default: the first)."),
     max_tacc_ns: float = typer.Option(_DEFAULT_MAX_TACC_NS, "--max-tacc-ns", help="UBX: epochs whose receiver time accuracy (NAV-CLOCK tAcc) is over this many ns are not tested (unavailable); 0: not used."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),

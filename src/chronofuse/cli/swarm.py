@@ -154,6 +154,9 @@ def sweep(
     from chronofuse.report.swarm import plot_sweep, write_sweep
 
     with user_errors():
+        from chronofuse.extras import require
+
+        require("distributed", "swarm sweep")
         if param not in SWEEP_PARAMS:
             fail(f"--param == {param!r}, must be one of {list(SWEEP_PARAMS)}")
         try:
@@ -217,6 +220,9 @@ def train(
     from chronofuse.experiments.swarm_training import train_networks
 
     with user_errors():
+        from chronofuse.extras import require
+
+        require("torch", "swarm train")  # before the data set is built, not after
         if device not in ("cpu", "cuda", "auto"):
             fail(f"--device == {device!r}, must be cpu, cuda or auto")
         _urt_mode(urt_mode)

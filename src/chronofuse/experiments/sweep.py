@@ -107,7 +107,10 @@ def _load_networks(files: dict, urt_mode: str) -> dict:
 
 def _client(scheduler: str | None, n_tasks: int):
     """(client, cluster) for ``scheduler``; raises InputError naming an unreachable address."""
-    from distributed import Client, LocalCluster
+    from chronofuse.extras import require
+
+    distributed = require("distributed", "a parameter sweep on Dask")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     if scheduler is None:
         workers = max(1, min(os.cpu_count() or 1, n_tasks))

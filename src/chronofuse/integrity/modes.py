@@ -308,9 +308,12 @@ def detect_file(
         doc = detect_record(station_clock_bias(clocks, station), settings)
         doc["station"] = station
         return doc
-    if station is not None:
-        raise InputError("{station} needs a RINEX clock product (.clk)", str(path), fields=("station",))
-    return detect_record(read_clock_bias(path, rate_hz, column), settings)
+    from chronofuse.io.formats import log_format
+
+    if station is not None and log_format(path) is None:
+        raise InputError("{station} needs a RINEX clock product (.clk) or a field log with several clocks",
+                         str(path), fields=("station",))
+    return detect_record(read_clock_bias(path, rate_hz, column, clock=station), settings)
 
 
 def _only_chi_square(detector: str, where: str, fields: tuple[str, ...] = ()) -> None:

@@ -1,5 +1,6 @@
 """A real receiver's 1PPS phase record against a reference clock: the truth a disciplined oscillator is
-run against (``chronofuse gnssdo --reference``). One value column (or time and value), 1 Hz, no gaps."""
+run against (``chronofuse gnssdo --reference``). One value column (or time and value), or a field log's
+clock (a ts2phc or phc2sys offset, a TSIP receiver's PPS offset), 1 Hz, no gaps."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from chronofuse.io.formats import log_format
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputError
 
@@ -30,7 +32,8 @@ def _data_line(path: Path, index: int) -> int:
 
 
 def read_pps_reference(path: str | Path, *, min_samples: int = 2) -> np.ndarray:
-    """The 1PPS phase (s, shape (N,)) of the record at ``path``, sampled at 1 Hz without gaps.
+    """The 1PPS phase (s, shape (N,)) of the record at ``path``, sampled at 1 Hz without gaps: any record
+    :func:`~chronofuse.io.records.read_record` reads, a field log's first clock among them.
 
     Refused, naming the file and line: another rate than 1 Hz (from a time column), any gap, and fewer
     than ``min_samples`` samples.
@@ -45,8 +48,10 @@ def read_pps_reference(path: str | Path, *, min_samples: int = 2) -> np.ndarray:
                          "sampled at 1 Hz", str(path), _data_line(path, 1))
     if rec.n_gaps:
         first = int(np.flatnonzero(np.isnan(rec.values))[0])
+        # a field log's lines are not one sample each: its gap is named by sample (and time), not by line
+        line = None if log_format(path) else _data_line(path, first)
         raise InputError(f"gap in the reference record ({rec.n_gaps} missing samples, the first at sample "
-                         f"{first}); the loop needs one sample every second", str(path), _data_line(path, first))
+                         f"{first}); the loop needs one sample every second", str(path), line)
     if rec.values.size < min_samples:
         raise InputError(f"{rec.values.size} samples, need at least {min_samples}", str(path))
     return rec.values

@@ -29,7 +29,7 @@ import numpy as np
 import pyarrow as pa
 
 from chronofuse.io.columns import decimal_text_to_ns
-from chronofuse.io.formats import format_of_head
+from chronofuse.io.formats import LOG_FORMATS, format_of_head
 from chronofuse.io.record_columns import TIME_NAMES, time_ns_per_unit
 from chronofuse.io.units import column_unit
 from chronofuse.io.rinex_clock import is_rinex_clock, parse_ar_line
@@ -349,4 +349,6 @@ def open_stream(chunks: Iterable[bytes], source: str, *, column: str | None = No
     if kind in ("rinex-obs", "rinex-nav"):
         raise InputDataError(f"a {kind} stream holds no receiver clock bias: identification mode reads a RINEX "
                              "observation file with its navigation file", source)
+    if kind in LOG_FORMATS:  # its clocks are told apart over the whole log: read from a file
+        raise InputDataError(f"a {kind} log is read from a file (detect FILE), not from a stream", source)
     return TextLines(source, column=column, rate_hz=rate_hz), rest()

@@ -69,9 +69,9 @@ class ResidualConfig:
 
 
 def _torch():
-    import torch
+    from chronofuse.extras import require
 
-    return torch
+    return require("torch", "the residual networks (BP, LSTM)")
 
 
 def _build(config: ResidualConfig):
