@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-fast bench clean
+.PHONY: demo test test-fast bench clean debian-packages
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -15,7 +15,13 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/chronofuse run --out out/demo
 
-test: $(STAMP)
+# Debian packages the tests run (RTKLIB's rnx2rtkp as an independent positioning solution); CI runs as root.
+DEBIAN_PACKAGES := rtklib
+
+debian-packages:
+	@command -v rnx2rtkp >/dev/null || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(DEBIAN_PACKAGES))
+
+test: $(STAMP) debian-packages
 	$(BIN)/python -m pytest -n 2 --durations=15
 
 test-fast: $(STAMP)

@@ -47,3 +47,50 @@ def real_data() -> Path:
 def data_dir(real_data) -> Path:
     """The same folder as :func:`real_data`, under the name the older tests use."""
     return real_data
+
+
+#: The real IGS stations (24 h, 30 s, multi-GNSS RINEX 3 with same-day navigation and published coordinates):
+#: ``tests/data/rinex/igs`` and its ``stations.toml``; see that folder's README.md.
+IGS_DIR = REAL_DATA / "rinex" / "igs"
+
+
+def igs_station_catalogue():
+    """``{name: RealStation}`` of the shipped IGS stations (for module-level parametrisation)."""
+    from chronofuse.experiments.real_stations import load_stations
+
+    return load_stations(IGS_DIR)
+
+
+@pytest.fixture(scope="session")
+def igs_stations():
+    """The real IGS stations by name (:class:`chronofuse.experiments.real_stations.RealStation`): each has
+    ``obs_path``, ``nav_paths``, ``reference_m`` (published marker), ``reference_arp_m``, ``make``,
+    ``observations()`` and ``navigation()`` (read once per process)."""
+    return igs_station_catalogue()
+
+
+def _install_debian_package(program: str, package: str) -> str:
+    """The path of ``program``, installing Debian's ``package`` with apt-get when it is missing (CI runs as
+    root on a clean machine: a test never skips because a part is missing)."""
+    import fcntl
+    import shutil
+    import subprocess
+
+    found = shutil.which(program)
+    if found is None:
+        env = {"DEBIAN_FRONTEND": "noninteractive", "PATH": "/usr/sbin:/usr/bin:/sbin:/bin"}
+        with open("/tmp/chronofuse-apt.lock", "w") as lock:  # xdist workers install one at a time
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if shutil.which(program) is None:
+                subprocess.run(["apt-get", "update", "-qq"], check=False, env=env, capture_output=True)
+                subprocess.run(["apt-get", "install", "-y", "-qq", package], check=True, env=env, capture_output=True)
+        found = shutil.which(program)
+    if found is None:
+        raise RuntimeError(f"{program} is still missing after apt-get install {package}")
+    return found
+
+
+@pytest.fixture(scope="session")
+def rnx2rtkp():
+    """RTKLIB's rnx2rtkp (Debian package rtklib), installed if missing."""
+    return _install_debian_package("rnx2rtkp", "rtklib")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 
 import numpy as np
@@ -68,9 +70,20 @@ def test_the_reported_covariance_is_chi_square_consistent_with_the_errors():
 def test_too_few_satellites_give_nan_not_a_wrong_fix():
     sat, system, up, r = _geometry(3)
     rho = np.full((3, 54), np.nan)
-    rho[:, :4] = r[:, :4]  # four GPS only: no BDS satellite for the inter-system bias
+    rho[:, :3] = r[:, :3]  # three GPS only: one fewer than position and clock need
     fix = least_squares_position(sat, rho, np.ones_like(rho), system, RX)
-    assert np.isnan(fix.position_m).all() and (fix.n_used == 4).all()
+    assert np.isnan(fix.position_m).all() and (fix.n_used == 3).all()
+
+
+def test_a_system_without_satellites_leaves_its_bias_held_and_the_fix_exact():
+    sat, system, up, r = _geometry(3)
+    gps = np.flatnonzero(system == 0)[:4]
+    rho = np.full((3, 54), np.nan)
+    rho[:, gps] = r[:, gps]  # four GPS, no BDS: the inter-system bias is held at zero, not needed
+    fix = least_squares_position(sat, rho, np.ones_like(rho), system, RX)
+    good = np.isfinite(fix.position_m).all(-1)
+    assert good.any() and (fix.n_used == 4).all()
+    assert np.abs(fix.position_m[good] - RX).max() < 1e-3 and np.abs(fix.isb_m[good]).max() < 1e-6
 
 
 def test_a_canyon_hides_satellites_across_the_street_and_a_tunnel_hides_all():
@@ -79,11 +92,30 @@ def test_a_canyon_hides_satellites_across_the_street_and_a_tunnel_hides_all():
     t = np.arange(400.0)
     sats = model_satellites(("gps", "bds"), t)
     open_sky = simulate_pseudoranges(receiver, heading, t, sats, ENVIRONMENTS["open-sky"], seed=3)
-    canyon = simulate_pseudoranges(receiver, heading, t, sats, ENVIRONMENTS["urban-canyon"], seed=3)
+    direct_only = dataclasses.replace(ENVIRONMENTS["urban-canyon"], nlos_probability=0.0)
+    canyon = simulate_pseudoranges(receiver, heading, t, sats, direct_only, seed=3)
     tunnel = simulate_pseudoranges(receiver, heading, t, sats, ENVIRONMENTS["tunnel"], seed=3)
     seen = lambda obs: np.isfinite(obs.pseudorange_m).sum(-1)  # noqa: E731
     assert (seen(canyon) < seen(open_sky)).all()
     assert (seen(tunnel)[:, 300:360] == 0).all() and (seen(tunnel)[:, :300] == seen(open_sky)[:, :300]).all()
+
+
+def test_blocked_satellites_come_back_by_reflection_with_a_longer_path_only_in_the_canyon():
+    receiver = np.broadcast_to(RX, (4, 600, 3))
+    heading = np.zeros((4, 600))
+    t = np.arange(600.0)
+    sats = model_satellites(("gps",), t)
+    env = ENVIRONMENTS["urban-canyon"]
+    quiet = dataclasses.replace(env, nlos_probability=0.0)
+    with_nlos = simulate_pseudoranges(receiver, heading, t, sats, env, seed=4)
+    direct = simulate_pseudoranges(receiver, heading, t, sats, quiet, seed=4)
+    extra = np.isfinite(with_nlos.pseudorange_m) & ~np.isfinite(direct.pseudorange_m)
+    fraction = extra.sum() / (np.isfinite(with_nlos.pseudorange_m).sum())
+    assert 0.05 < fraction < 0.6  # a share of the blocked satellites, received by reflection
+    # same draws for the direct signals, so the reflected ones are recognisable by their excess path:
+    # geometric range plus errors of a few metres plus 2 (W / 2) cos(el) |sin(az - heading)| > 0
+    excess = with_nlos.pseudorange_m - np.linalg.norm(sats.position_m[None] - RX, axis=-1) - with_nlos.clock_m[..., None]
+    assert np.nanmedian(excess[extra]) > np.nanmedian(excess[np.isfinite(direct.pseudorange_m)]) + 5.0
 
 
 def test_simulated_open_sky_fixes_scatter_as_sigma_times_pdop_says():
@@ -95,8 +127,9 @@ def test_simulated_open_sky_fixes_scatter_as_sigma_times_pdop_says():
     err = np.linalg.norm(fix.position_m - RX, axis=-1)
     assert np.isfinite(err).all()
     assert np.abs(fix.isb_m[..., 0] - obs.isb_m[:, None, 0]).mean() < 3.0
-    # The residual atmosphere is common to an epoch's solution, so the 3-D rms sits near the
-    # predicted scale sqrt(trace cov) and well under 10 m.
+    # The reported sigma holds code noise and multipath only; the residual ionosphere and troposphere
+    # (time-correlated, not in sigma) add to it, so the 3-D rms sits above the predicted scale
+    # sqrt(trace cov), by the atmosphere's share, and well under 10 m.
     predicted = np.sqrt(np.trace(fix.cov_enu_m2, axis1=-2, axis2=-1))
-    assert 0.3 < np.sqrt(np.mean(err**2)) / np.sqrt(np.mean(predicted**2)) < 3.0
+    assert 1.0 < np.sqrt(np.mean(err**2)) / np.sqrt(np.mean(predicted**2)) < 6.0 and np.sqrt(np.mean(err**2)) < 10
     assert np.sqrt(np.mean(err**2)) < 10.0

@@ -27,9 +27,67 @@ def _table(summary: dict, title: str) -> Table:
     return table
 
 
+def _xyz(text: str) -> list[float]:
+    parts = text.replace(" ", "").split(",")
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        fail(f"--reference-position {text!r}: must be X,Y,Z (ECEF metres)")
+    return values
+
+
+def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start: float | None, end: float | None,
+          mask_deg: float, ionosphere: str, troposphere: str, out: Path | None, json_out: bool) -> None:
+    """``position --obs``: single-point fixes from real files."""
+    from chronofuse.experiments.real_positioning import position_from_files, write_positions_csv
+    from chronofuse.gnss.point_positioning import SppOptions
+    from chronofuse.gnss.systems import parse_systems
+
+    if not nav:
+        fail("--obs needs at least one --nav (the broadcast navigation files of the same day)")
+    reference_m = _xyz(reference) if reference is not None else None
+    if start is not None and end is not None and end < start:
+        fail(f"--end {end:g} is before --start {start:g}")
+    with user_errors():
+        letters = parse_systems(systems)
+        options = SppOptions(elevation_mask_deg=mask_deg, ionosphere=ionosphere, troposphere=troposphere)
+        fixes, summary = position_from_files(obs, nav, letters, options=options, start_s=start, end_s=end,
+                                             reference_m=reference_m)
+        files = []
+        if out is not None:
+            from chronofuse.report.jsonio import dumps
+
+            out.mkdir(parents=True, exist_ok=True)
+            rows = write_positions_csv(fixes, out / "positions.csv", reference_m)
+            (out / "summary.json").write_text(dumps(summary) + "\n")
+            files = [str(out / "positions.csv"), str(out / "summary.json")]
+            summary["csv_rows"] = rows
+    summary["files"] = files
+    if json_out:
+        print_json(summary)
+        return
+    con = human_console(False)
+    con.print(f"{obs}: {summary['receiver']}, {summary['fixes']:,} fixes of {summary['epochs']:,} epochs with "
+              f"{'+'.join(systems.split('+'))} ({', '.join(f'{k} {v}' for k, v in summary['codes'].items())}), "
+              f"{summary['mean_satellites']:.1f} satellites on average, {summary['excluded_measurements']} excluded")
+    if "statistics" in summary:
+        s = summary["statistics"]
+        con.print(f"  against the reference: horizontal 95 % {s['horizontal95_m']:.2f} m, vertical 95 % "
+                  f"{s['vertical95_m']:.2f} m, CEP50 {s['cep50_m']:.2f} m, CEP95 {s['cep95_m']:.2f} m")
+    elif "mean_position_m" in summary:
+        con.print("  mean position (ECEF m): " + ", ".join(f"{v:.3f}" for v in summary["mean_position_m"]))
+    if files:
+        con.print(f"  wrote {', '.join(files)}")
+
+
 def position(
+    obs: Path | None = typer.Option(None, "--obs", help="RINEX 2/3 observation file (plain, .gz, Hatanaka .crx/.crx.gz): "
+                                    "single-point fixes from it instead of a simulated drive."),
     scenario: str = typer.Option("urban-canyon", "--scenario", help=f"One of {sorted(ENVIRONMENTS)}."),
-    systems: str = typer.Option("gps+bds", "--systems", help=f"One of {sorted(SYSTEMS)}."),
+    systems: str = typer.Option("gps+bds", "--systems", help=f"Simulation: one of {sorted(SYSTEMS)}. With --obs: gps, gal, "
+                                "bds, qzss joined by + (e.g. gps+bds)."),
     ins: str = typer.Option("industrial", "--ins", help="IMU grade: none, consumer, industrial or tactical."),
     smooth: bool = typer.Option(False, "--smooth", help="Add the RTS-smoothed GNSS/INS solution."),
     duration: float = typer.Option(600.0, "--duration", help="Drive length in seconds (1 Hz GNSS)."),
@@ -37,14 +95,29 @@ def position(
     seed: int = typer.Option(0, "--seed", help="Seed of the run."),
     imu_rate: float = typer.Option(100.0, "--imu-rate", help="IMU rate in Hz (at least 10)."),
     speed: float = typer.Option(12.0, "--speed", help=f"Vehicle speed in m/s (at most {MAX_SPEED_M_PER_S:g})."),
-    nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file: GPS orbits from its broadcast "
-                                    "ephemeris (the drive starts at its first record) instead of the model."),
-    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json and PNG figures."),
+    nav: list[Path] | None = typer.Option(None, "--nav", help="RINEX navigation file (repeat for several). With --obs: "
+                                          "the ephemerides of the fixes. Without: GPS orbits of the simulated drive."),
+    reference: str | None = typer.Option(None, "--reference-position", help="With --obs: the receiver's known "
+                                         "position X,Y,Z (ECEF m); statistics against it."),
+    start: float | None = typer.Option(None, "--start", help="With --obs: first epoch, seconds from the file's first."),
+    end: float | None = typer.Option(None, "--end", help="With --obs: last epoch, seconds from the file's first."),
+    mask_deg: float = typer.Option(10.0, "--elevation-mask-deg", help="With --obs: elevation mask (deg)."),
+    ionosphere: str = typer.Option("klobuchar", "--ionosphere", help="With --obs: klobuchar or none."),
+    troposphere: str = typer.Option("saastamoinen", "--troposphere", help="With --obs: saastamoinen or none."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json and PNG figures (with --obs: "
+                                    "positions.csv and summary.json)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
-    """Simulate a drive and compare GNSS-only, GNSS/INS and (with --smooth) RTS-smoothed positions."""
+    """Single-point fixes from a RINEX file (--obs), or a simulated drive comparing GNSS-only, GNSS/INS and
+    (with --smooth) RTS-smoothed positions."""
     from chronofuse.experiments.positioning import PositioningConfig, run_positioning, write_report
 
+    if obs is not None:
+        _real(obs, list(nav or []), systems, reference, start, end, mask_deg, ionosphere, troposphere, out, json_out)
+        return
+    if nav is not None and len(nav) > 1:
+        fail("--nav: a simulated drive takes one navigation file (several are for --obs)")
+    nav = nav[0] if nav else None
     if imu_rate < 10.0:
         fail(f"--imu-rate == {imu_rate:g}, must be >= 10 Hz (a loosely coupled INS needs the motion sampled)")
     if not 0.0 < speed <= MAX_SPEED_M_PER_S:
@@ -72,7 +145,8 @@ def reproduce_positioning(
     out: Path = typer.Option(Path("docs/positioning"), "--out", help="Report folder (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
 ) -> None:
-    """Seed 000 section 6.3: GPS+BDS+INS with smoothing against the claimed CEP95 and vertical 95 %."""
+    """The source's positioning claims (GPS+BDS+INS with smoothing) on the calibrated error budget, with
+    intervals, beside ours and RTKLIB's fixes of the real stations."""
     from chronofuse.experiments.positioning_claims import reproduce_positioning_claims
 
     summary = run_reproduction("reproduce positioning", reproduce_positioning_claims, out, quick=quick,
@@ -80,8 +154,12 @@ def reproduce_positioning(
     if summary is None:
         return
     con = human_console(False)
-    table = Table("claim", "seed", "ours", "physical floor", "verdict", title="Seed 000 section 6.3, measured")
+    table = Table("claim", "source", "ours [95 % CI]", "floor [95 % CI]", "verdict",
+                  title="The source's positioning claims, measured")
+    ci = lambda v, lo_hi: f"{v:.2f} [{lo_hi[0]:.2f}, {lo_hi[1]:.2f}]"  # noqa: E731
     for row in summary["claims"]:
-        table.add_row(row["claim"], f"{row['seed']:g}", f"{row['ours']:.2f}", row["floor"], row["verdict"])
+        floor = row["floor"]
+        table.add_row(row["claim"], f"{row['seed']:g}", ci(row["ours"], row["ci95"]),
+                      "-" if floor is None else ci(floor["value"], floor["ci95"]), row["verdict"])
     con.print(table)
     con.print(f"report -> {out}/")

@@ -50,6 +50,8 @@ class PositioningConfig:
     imu_model: ImuModel | None = None
     #: A RINEX navigation file: GPS satellites from its broadcast ephemeris instead of the constellation model.
     nav: str | Path | None = None
+    #: A signal environment replacing the scenario's (e.g. a calibrated canyon).
+    environment: object | None = None
 
     def __post_init__(self):
         check_choice(self.scenario, "scenario", ENVIRONMENTS)
@@ -77,7 +79,8 @@ def solution_metrics(errors_ned_m: np.ndarray, gdop: np.ndarray, outage: np.ndar
 def _chunk(cfg: PositioningConfig, first: int, trials: int, nav) -> dict[str, np.ndarray]:
     imu = cfg.imu_model or imu_grade(cfg.ins if cfg.ins != "none" else "industrial")
     drive = simulate_drive(cfg.scenario, cfg.systems, imu, cfg.duration_s, trials, seed=cfg.seed,
-                           imu_rate_hz=cfg.imu_rate_hz, speed_m_per_s=cfg.speed_m_per_s, first_trial=first, nav=nav)
+                           imu_rate_hz=cfg.imu_rate_hz, speed_m_per_s=cfg.speed_m_per_s, first_trial=first, nav=nav,
+                           environment=cfg.environment)
     truth = np.broadcast_to(drive.truth.lat_lon_h[:, 1:], drive.fix_lat_lon_h.shape)
     out = {"gnss": ned_difference_m(drive.fix_lat_lon_h, truth), "gdop": drive.gdop,
            "truth_lat_lon_h": drive.truth.lat_lon_h[0, 1:]}

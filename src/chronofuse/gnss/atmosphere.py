@@ -16,6 +16,13 @@ def klobuchar_delay_s(alpha, beta, receiver_m, elevation_rad, azimuth_rad, gps_t
     """L1 ionospheric delay (s) of the broadcast Klobuchar model, IS-GPS-200 20.3.3.5.2.5 (angles in
     semicircles inside, as the standard writes them). Arrays broadcast; ``gps_tow_s`` GPS time of week."""
     lat, lon, _ = ecef_to_geodetic(receiver_m)
+    return klobuchar_delay_at_s(alpha, beta, lat, lon, elevation_rad, azimuth_rad, gps_tow_s)
+
+
+def klobuchar_delay_at_s(alpha, beta, lat_rad, lon_rad, elevation_rad, azimuth_rad, gps_tow_s) -> np.ndarray:
+    """:func:`klobuchar_delay_s` for receivers given by latitude and longitude (rad), arrays broadcast
+    (e.g. one receiver position per epoch, shape (epochs, 1), against (epochs, sats) angles)."""
+    lat, lon = np.asarray(lat_rad, dtype=np.float64), np.asarray(lon_rad, dtype=np.float64)
     el = elevation_rad / math.pi
     psi = 0.0137 / (el + 0.11) - 0.022
     phi_i = np.clip(lat / math.pi + psi * np.cos(azimuth_rad), -0.416, 0.416)
@@ -35,16 +42,23 @@ def saastamoinen_delay_m(receiver_m, elevation_rad, *, humidity: float = 0.7) ->
     (pressure ``1013.25 (1 - 2.2557e-5 h)^5.2568`` hPa, temperature ``15 - 6.5e-3 h`` degC), as RTKLIB;
     zero outside heights -100 m .. 10 km (no atmosphere model there)."""
     lat, _, h = ecef_to_geodetic(receiver_m)
-    if not -100.0 <= h <= 1e4:
-        return np.zeros(np.shape(elevation_rad))
-    h = max(h, 0.0)
+    return saastamoinen_delay_at_m(lat, h, elevation_rad, humidity=humidity)
+
+
+def saastamoinen_delay_at_m(lat_rad, height_m, elevation_rad, *, humidity: float = 0.7) -> np.ndarray:
+    """:func:`saastamoinen_delay_m` for receivers given by latitude (rad) and ellipsoidal height (m), arrays
+    broadcast against the elevations; zero where the height is outside -100 m .. 10 km."""
+    lat = np.asarray(lat_rad, dtype=np.float64)
+    h_raw = np.asarray(height_m, dtype=np.float64)
+    inside = (h_raw >= -100.0) & (h_raw <= 1e4)
+    h = np.clip(h_raw, 0.0, 1e4)
     pressure = 1013.25 * (1.0 - 2.2557e-5 * h) ** 5.2568
     temp_k = 15.0 - 6.5e-3 * h + 273.16
-    e = 6.108 * humidity * math.exp((17.15 * temp_k - 4684.0) / (temp_k - 38.45))
+    e = 6.108 * humidity * np.exp((17.15 * temp_k - 4684.0) / (temp_k - 38.45))
     cos_z = np.cos(math.pi / 2.0 - np.maximum(elevation_rad, 0.0))
-    dry = 0.0022768 * pressure / (1.0 - 0.00266 * math.cos(2.0 * lat) - 0.00028 * h / 1e3) / cos_z
+    dry = 0.0022768 * pressure / (1.0 - 0.00266 * np.cos(2.0 * lat) - 0.00028 * h / 1e3) / cos_z
     wet = 0.002277 * (1255.0 / temp_k + 0.05) * e / cos_z
-    return dry + wet
+    return np.where(inside, dry + wet, 0.0)
 
 
-__all__ = ["klobuchar_delay_s", "saastamoinen_delay_m"]
+__all__ = ["klobuchar_delay_s", "klobuchar_delay_at_s", "saastamoinen_delay_m", "saastamoinen_delay_at_m"]

@@ -16,6 +16,15 @@ light-time iteration ``tau = |R3(omega_e tau) r_sat(t_rx - tau) - r_rx| / c`` fo
 Either way the satellite position is rotated by ``omega_e tau`` (Earth rotation during transit, the Sagnac
 correction), so the range is computed in the ECEF frame of the receive time.
 
+Other systems. Galileo and BeiDou broadcast the same Keplerian elements (Galileo OS SIS ICD 5.1.1; BDS ICD
+B1I 5.2.4.12) with their own GM and Earth rate (:mod:`chronofuse.gnss.systems`), carried per record in
+``params`` (``gm_m3_per_s2``, ``omega_e_rad_per_s``; GPS values when absent). A BeiDou GEO (``geo`` = 1)
+is propagated in an inertial-like frame and turned to ECEF by ``R_Z(omega_e t_k) R_X(-5 deg)`` (BDS ICD B1I
+Table 5-11). ``group_delay_s`` (GPS TGD, Galileo BGD(E1, E5a), BeiDou TGD1) is what a single-frequency user
+of the code read removes. Times: every record's ``toe``/``toc`` are kept as GPS-time ns (BDT = GPST - 14 s),
+so ``t_k`` is the same in either scale; ``toe_s`` stays on the system's own week, as the right ascension
+``OMEGA0`` refers to it.
+
 The record type :class:`GpsNavigation` is defined here and built from files by ``chronofuse.io.rinex``, so
 the signal models never import the file readers.
 """
@@ -37,11 +46,12 @@ _KEPLER_ITERATIONS = 10
 _LIGHT_TIME_ITERATIONS = 6
 
 #: The broadcast parameters of one GPS LNAV record (IS-GPS-200 Table 20-III), SI units in the names, angles
-#: in rad; ``week`` the full GPS week of ``toe``, ``health`` the SV health word (0: healthy).
+#: in rad; ``week`` the full GPS week of ``toe``, ``health`` the SV health word (0: healthy), ``accuracy_m``
+#: the user range accuracy (URA) of the record.
 EPHEMERIS_FIELDS = (
     "af0_s", "af1_s_per_s", "af2_s_per_s2", "crs_m", "delta_n_rad_per_s", "m0_rad", "cuc_rad", "eccentricity",
     "cus_rad", "sqrt_a_sqrt_m", "toe_s", "cic_rad", "omega0_rad", "cis_rad", "i0_rad", "crc_m", "omega_rad",
-    "omega_dot_rad_per_s", "idot_rad_per_s", "week", "health", "tgd_s",
+    "omega_dot_rad_per_s", "idot_rad_per_s", "week", "health", "tgd_s", "accuracy_m",
 )  # fmt: skip
 
 
@@ -62,6 +72,20 @@ class GpsNavigation:
     klobuchar_alpha: np.ndarray | None
     klobuchar_beta: np.ndarray | None
     source: str = ""
+    #: ``toe`` of each record on GPS time (int64 ns); None: from ``week``/``toe_s`` (GPS records).
+    toe_gps_ns: np.ndarray | None = None
+    #: Records of systems not read (GLONASS, SBAS ...), counted.
+    n_skipped_records: int = 0
+
+    def toe_from_week(self) -> np.ndarray:
+        """``toe`` on GPS time (int64 ns) from ``week`` and ``toe_s`` (GPS and Galileo weeks)."""
+        return gps_ns_from_week_tow(self.params["week"].astype(np.int64), seconds_to_ns(self.params["toe_s"]))
+
+    @property
+    def systems(self) -> list[str]:
+        """System letters of the records, in the order G, E, C, J."""
+        present = {s[0] for s in self.satellites}
+        return [c for c in "GECJ" if c in present]
 
 
 @dataclass(frozen=True)
@@ -93,23 +117,35 @@ def _week_time(seconds: np.ndarray) -> np.ndarray:
     return seconds - SECONDS_PER_WEEK * np.round(seconds / SECONDS_PER_WEEK)
 
 
+_VALID_FROM_TOE = ("E", "C")
+_FUTURE_TOLERANCE_S = 900.0
+
+
 def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float = 4 * 3600.0) -> BroadcastEphemeris:
     """For each epoch (``gps_ns``, int64 (epochs,)) and satellite (names, (sats,)) the healthy record with
-    the nearest ``toe``; not valid when none is within ``max_age_s``."""
+    the nearest ``toe``; not valid when none is within ``max_age_s``. A GPS record's toe is the middle of its
+    4 h fit interval (IS-GPS-200 20.3.4.4); Galileo's and BeiDou's are at the start of their validity, so for
+    them a record whose toe is more than 15 min ahead of the epoch is used only when no other is in reach."""
     gps_ns = np.asarray(gps_ns, dtype=np.int64)
     epochs, sats = gps_ns.size, len(satellites)
     p = nav.params
-    toe_ns = gps_ns_from_week_tow(p["week"].astype(np.int64), seconds_to_ns(p["toe_s"]))
-    healthy = (p["health"] == 0) & np.isfinite(p["sqrt_a_sqrt_m"])
+    toe_ns = nav.toe_gps_ns if nav.toe_gps_ns is not None else nav.toe_from_week()
+    healthy = (p["health"] == 0) & np.isfinite(p["sqrt_a_sqrt_m"]) & (p["sqrt_a_sqrt_m"] > 0)
     index = np.full((epochs, sats), -1, dtype=np.int64)
     names = np.asarray(nav.satellites)
     for j, sat in enumerate(satellites):
         rows = np.flatnonzero((names == sat) & healthy)
         if rows.size == 0:
             continue
-        age_s = np.abs(gps_ns[:, None] - toe_ns[rows][None, :]) / NS_PER_S
+        signed_s = (gps_ns[:, None] - toe_ns[rows][None, :]) / NS_PER_S
+        age_s = np.abs(signed_s)
+        if str(sat)[:1] in _VALID_FROM_TOE:
+            # Galileo and BeiDou records are valid from their toe on: one more than 15 min ahead of the epoch
+            # is taken only when no other record is within reach (measured on the ESBC day: 2 h before its
+            # toe a Galileo record is 18 m off the precise orbit, against 0.9 m from its toe on)
+            age_s = np.where(signed_s < -_FUTURE_TOLERANCE_S, age_s + 2.0 * max_age_s, age_s)
         best = np.argmin(age_s, axis=1)
-        ok = age_s[np.arange(epochs), best] <= max_age_s
+        ok = np.abs(signed_s[np.arange(epochs), best]) <= max_age_s
         index[ok, j] = rows[best[ok]]
     valid = index >= 0
     safe = np.where(valid, index, 0)
@@ -122,11 +158,16 @@ def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float
     )
 
 
+def _constant(eph: BroadcastEphemeris, name: str, default: float):
+    value = eph.params.get(name)
+    return default if value is None else np.where(np.isfinite(value), value, default)
+
+
 def _eccentric_anomaly(eph: BroadcastEphemeris, tk_s: np.ndarray) -> np.ndarray:
     """``E_k`` from Kepler's equation ``M_k = E_k - e sin E_k`` (fixed-point iteration, converged to 1e-15)."""
     p = eph.params
     a = p["sqrt_a_sqrt_m"] ** 2
-    n = np.sqrt(GM_M3_PER_S2 / a**3) + p["delta_n_rad_per_s"]
+    n = np.sqrt(_constant(eph, "gm_m3_per_s2", GM_M3_PER_S2) / a**3) + p["delta_n_rad_per_s"]
     mk = p["m0_rad"] + n * tk_s
     ek = mk.copy()
     for _ in range(_KEPLER_ITERATIONS):
@@ -153,11 +194,22 @@ def satellite_position_ecef(eph: BroadcastEphemeris, gps_ns, offset_s=0.0) -> np
     i = p["i0_rad"] + p["idot_rad_per_s"] * tk + p["cis_rad"] * s2 + p["cic_rad"] * c2
     x_orb, y_orb = r * np.cos(u), r * np.sin(u)
     toe = p["toe_s"]
-    omega = p["omega0_rad"] + (p["omega_dot_rad_per_s"] - OMEGA_EARTH_RAD_PER_S) * tk - OMEGA_EARTH_RAD_PER_S * toe
+    we = _constant(eph, "omega_e_rad_per_s", OMEGA_EARTH_RAD_PER_S)
+    omega = p["omega0_rad"] + (p["omega_dot_rad_per_s"] - we) * tk - we * toe
     co, so, ci = np.cos(omega), np.sin(omega), np.cos(i)
-    return np.stack(
-        [x_orb * co - y_orb * ci * so, x_orb * so + y_orb * ci * co, y_orb * np.sin(i)], axis=-1
-    )
+    ecef = np.stack([x_orb * co - y_orb * ci * so, x_orb * so + y_orb * ci * co, y_orb * np.sin(i)], axis=-1)
+    geo = p.get("geo")
+    if geo is None or not np.any(geo == 1.0):
+        return ecef
+    # BeiDou GEO (BDS ICD B1I Table 5-11): node angle without the Earth rate in tk, then R_Z(we tk) R_X(-5 deg).
+    omega_g = p["omega0_rad"] + p["omega_dot_rad_per_s"] * tk - we * toe
+    cg, sg = np.cos(omega_g), np.sin(omega_g)
+    xg, yg, zg = x_orb * cg - y_orb * ci * sg, x_orb * sg + y_orb * ci * cg, y_orb * np.sin(i)
+    c5, s5 = np.cos(np.radians(-5.0)), np.sin(np.radians(-5.0))
+    y5, z5 = c5 * yg + s5 * zg, -s5 * yg + c5 * zg
+    cz, sz = np.cos(we * tk), np.sin(we * tk)
+    geo_ecef = np.stack([cz * xg + sz * y5, -sz * xg + cz * y5, z5], axis=-1)
+    return np.where((geo == 1.0)[..., None], geo_ecef, ecef)
 
 
 def satellite_clock_s(eph: BroadcastEphemeris, gps_ns, offset_s=0.0, *, l1_tgd: bool = True) -> np.ndarray:
@@ -171,9 +223,11 @@ def satellite_clock_s(eph: BroadcastEphemeris, gps_ns, offset_s=0.0, *, l1_tgd: 
     dt = _week_time((ref - eph.toc_gps_ns) / NS_PER_S + offset_s)
     tk = _week_time((ref - eph.toe_gps_ns) / NS_PER_S + offset_s)
     ek = _eccentric_anomaly(eph, tk)
-    rel = RELATIVISTIC_F_S_PER_SQRT_M * p["eccentricity"] * p["sqrt_a_sqrt_m"] * np.sin(ek)
+    f_rel = -2.0 * np.sqrt(_constant(eph, "gm_m3_per_s2", GM_M3_PER_S2)) / SPEED_OF_LIGHT_M_PER_S**2
+    rel = f_rel * p["eccentricity"] * p["sqrt_a_sqrt_m"] * np.sin(ek)
     clock = p["af0_s"] + p["af1_s_per_s"] * dt + p["af2_s_per_s2"] * dt**2 + rel
-    return clock - p["tgd_s"] if l1_tgd else clock
+    delay = p["group_delay_s"] if "group_delay_s" in p else p["tgd_s"]
+    return clock - delay if l1_tgd else clock
 
 
 def rotate_earth(position_m: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:

@@ -4,8 +4,9 @@ Gauss–Newton on ``rho_n = |r_sat,n - r| + c dt + b_s(n) + e_n`` for ``(x, y, z
 receiver clock plus one inter-system bias per system after the first (GPS-BDS time offset and receiver
 delays), design row ``G_n = (-(r_sat,n - r)^T / |r_sat,n - r|, 1, [s(n) == j])`` and weights
 ``w_n = 1 / sigma_n^2`` (Misra & Enge 2011, section 6.1; Groves 2013, 9.4.1). A satellite with a NaN
-pseudorange or zero weight takes no part. An epoch with fewer usable satellites than unknowns, or a system
-with none, gives NaN. Dilution of precision from ``(G^T G)^-1`` in the local east-north-up frame.
+pseudorange or zero weight takes no part. A system with no satellite at an epoch has its clock term
+held at zero by one constraint row (as RTKLIB's single-point solution does), so an epoch needs
+``3 + (systems present)`` satellites; with fewer it gives NaN. Dilution of precision from ``(G^T G)^-1`` in the local east-north-up frame.
 """
 
 from __future__ import annotations
@@ -68,15 +69,21 @@ def least_squares_position(satellite_m, pseudorange_m, sigma_m, system, x0_m, *,
     n_unknowns = 4 + (k - 1)
     w = 1.0 / np.asarray(sigma_m, dtype=np.float64) ** 2
     used = np.isfinite(rho) & np.isfinite(w) & (w > 0)
+    used &= np.isfinite(sat).all(-1)
     w = np.where(used, w, 0.0)
     rho0 = np.where(used, rho, 0.0)
+    # a satellite not used (NaN orbit, NaN range) must not reach the normal equations as 0 * NaN
+    sat = np.where(used[..., None], sat, np.array([3.0e7, 0.0, 0.0]))
     lead = rho.shape[:-1]
     x = np.zeros(lead + (n_unknowns,))
     x[..., :3] = np.broadcast_to(np.asarray(x0_m, dtype=np.float64), lead + (3,))
     onehot = (system[:, None] == np.arange(1, k)[None, :]).astype(np.float64)  # (S, k-1)
-    enough = (used.sum(-1) >= n_unknowns)
-    for j in range(1, k):
-        enough &= (used & (system == j)).any(-1)
+    present = np.stack([(used & (system == j)).any(-1) for j in range(k)], -1)  # (..., k)
+    enough = used.sum(-1) >= 3 + present.sum(-1)
+    # absent systems: their clock term (the clock for system 0, its bias for the others) held at zero
+    hold = np.zeros(lead + (n_unknowns, n_unknowns))
+    idx = np.arange(3, n_unknowns)
+    hold[..., idx, idx] = np.where(present, 0.0, 1.0)
     for _ in range(iterations):
         d = sat - x[..., None, :3]
         r = np.linalg.norm(d, axis=-1)
@@ -84,14 +91,15 @@ def least_squares_position(satellite_m, pseudorange_m, sigma_m, system, x0_m, *,
         predicted = r + x[..., 3:4] + (x[..., None, 4:] * onehot).sum(-1) if k > 1 else r + x[..., 3:4]
         resid = np.where(used, rho0 - predicted, 0.0)
         gw = g * w[..., None]
-        normal = np.swapaxes(gw, -1, -2) @ g + np.where(enough, 0.0, 1.0)[..., None, None] * np.eye(n_unknowns)
+        normal = (np.swapaxes(gw, -1, -2) @ g + hold
+                  + np.where(enough, 0.0, 1.0)[..., None, None] * np.eye(n_unknowns))
         rhs = np.einsum("...si,...s->...i", gw, resid)
         x = x + np.linalg.solve(normal, rhs[..., None])[..., 0]
     d = sat - x[..., None, :3]
     los = d / np.linalg.norm(d, axis=-1)[..., None]
     g = np.concatenate([-los, np.ones(los.shape[:-1] + (1,)), np.broadcast_to(onehot, los.shape[:-1] + (k - 1,))], -1)
     g_used = g * used[..., None]
-    eye = np.where(enough, 0.0, 1.0)[..., None, None] * np.eye(n_unknowns)
+    eye = hold + np.where(enough, 0.0, 1.0)[..., None, None] * np.eye(n_unknowns)
     unweighted = np.linalg.inv(np.swapaxes(g_used, -1, -2) @ g_used + eye)
     weighted = np.linalg.inv(np.swapaxes(g_used * w[..., None], -1, -2) @ g_used + eye)
     rot = _enu_rotation(np.where(enough[..., None], x[..., :3], np.asarray(x0_m, dtype=np.float64)))

@@ -72,6 +72,7 @@ _GEORINEX_NAV_NAMES = {
     "week": "GPSWeek",
     "health": "health",
     "tgd_s": "TGD",
+    "accuracy_m": "SVacc",
 }
 
 
@@ -178,14 +179,33 @@ def count_epoch_records(path) -> int:
 
 
 def read_gps_observations(path, *, codes=L1_PSEUDORANGE_CODES) -> GpsObservations:
-    """Read the GPS L1 pseudoranges of a RINEX 2 or 3 observation file (the first code of ``codes`` present).
+    """Read the GPS L1 pseudoranges of a RINEX 2 or 3 observation file (the first code of ``codes`` present),
+    plain, gzip or Hatanaka-compressed (restored to a temporary plain file first). A pseudorange written as
+    0.000 is missing (RINEX 3.05 section 5.7), as a blank one is.
 
     Raises :class:`InputDataError` naming the file when georinex cannot read it, it has no epoch, or no
     GPS pseudorange of the codes asked for.
     """
+    import dataclasses
+    import tempfile
+
+    from chronofuse.io.rinex_text import first_line, rinex_bytes
+
     path = Path(path)
     if not path.is_file():
         raise InputDataError("no such file", str(path))
+    with open(path, "rb") as f:
+        magic = f.read(2)
+    if magic in (b"\x1f\x8b", b"\x1f\x9d") or "CRINEX VERS" in first_line(path):
+        with tempfile.TemporaryDirectory() as tmp:
+            plain = Path(tmp) / (path.name.split(".")[0] + ".obs")
+            plain.write_bytes(rinex_bytes(path))
+            obs = _read_gps_observations(plain, codes)
+        return dataclasses.replace(obs, source=str(path))
+    return _read_gps_observations(path, codes)
+
+
+def _read_gps_observations(path: Path, codes) -> GpsObservations:
     try:
         obs, problems = _load(path, use={"G"})
         cut = 0
@@ -203,6 +223,7 @@ def read_gps_observations(path, *, codes=L1_PSEUDORANGE_CODES) -> GpsObservation
     if code is None:
         raise InputDataError(f"no L1 pseudorange ({', '.join(codes)}) among {sorted(obs.data_vars)}", str(path))
     rho = obs[code].transpose("time", "sv").values.astype(np.float64)
+    rho[rho == 0.0] = np.nan  # 0.000 is the format's "not observed"
     keep = np.isfinite(rho).any(axis=0)
     sats = [str(s) for s, k in zip(obs.sv.values, keep) if k]
     position = obs.attrs.get("position")
@@ -219,10 +240,15 @@ def read_gps_observations(path, *, codes=L1_PSEUDORANGE_CODES) -> GpsObservation
         n_unreadable_epochs=max(declared - obs.sizes["time"], cut),
         problems=problems,
         source=str(path),
-        other_codes_m={c: obs[c].transpose("time", "sv").values.astype(np.float64)[:, keep]
+        other_codes_m={c: _missing_zero(obs[c].transpose("time", "sv").values.astype(np.float64)[:, keep])
                        for c in CODE_OBSERVABLES if c != code and c in obs.data_vars
                        and np.isfinite(obs[c].values).any()},
     )
+
+
+def _missing_zero(values: np.ndarray) -> np.ndarray:
+    values[values == 0.0] = np.nan
+    return values
 
 
 _SYSTEM_NAMES = {"G": "GPS", "R": "GLONASS", "E": "Galileo", "C": "BeiDou", "J": "QZSS", "S": "SBAS", "I": "NavIC"}

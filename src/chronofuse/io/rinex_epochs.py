@@ -1,8 +1,9 @@
 """RINEX observation and clock files as per-epoch receiver reports (:class:`chronofuse.epochs.ReceiverEpochs`).
 
-* Observation files (RINEX 2.x/3.x, read with georinex): one epoch per observation epoch, on GPS time
-  (``TIME OF FIRST OBS`` scale GPS, as RINEX 2.11 section 5.2 makes the default); ``n_sats`` counts the
-  satellites with a pseudorange that epoch; the receiver reports no solution in RINEX, so ``fix_mode``
+* Observation files (RINEX 2.x/3.x, plain, gzip or Hatanaka, read by
+  :func:`chronofuse.io.rinex_obs.read_any_observations`): one epoch per observation epoch, on GPS time
+  (``TIME OF FIRST OBS`` scale GPS, as RINEX 2.11 section 5.2 makes the default; BDT is converted);
+  ``n_sats`` counts the satellites with a pseudorange that epoch (blank and 0.000 are missing); the receiver reports no solution in RINEX, so ``fix_mode``
   is 0 (unknown) and the DOPs are absent; ``leap_s`` is the header's ``LEAP SECONDS`` when given, else
   the leap-second table.
 * Clock files (RINEX clock 2.x/3.x, IGS/CODE products): ``AR`` records give each station receiver's
@@ -14,13 +15,12 @@
 
 from __future__ import annotations
 
-import logging
-import warnings
 from pathlib import Path
 
 import numpy as np
 
 from chronofuse.epochs import ReceiverEpochs
+from chronofuse.io import rinex_text  # noqa: F401  (its exit hook releases the compress extension)
 from chronofuse.io.formats import open_data, open_text
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s
 from chronofuse.validation import InputDataError
@@ -30,10 +30,14 @@ __all__ = ["rinex_kind", "read_rinex_observation_epochs", "read_rinex_clock_epoc
 
 def rinex_kind(path) -> tuple[str, str] | None:
     """(version, kind) from a RINEX header's first line (kind: ``obs``, ``nav`` or ``clock``), or None
-    when the file is no RINEX file."""
+    when the file is no RINEX file. A Hatanaka (Compact RINEX) file is an observation file: its first line
+    ``CRINEX VERS / TYPE`` is followed by the RINEX header."""
     try:
         with open_data(path) as f:  # gzip told by content
             head = f.readline(200).decode("ascii", "replace")
+            if "CRINEX VERS" in head:
+                f.readline(200)
+                head = f.readline(200).decode("ascii", "replace")
     except (OSError, EOFError):
         return None
     if "RINEX VERSION / TYPE" not in head:
@@ -59,27 +63,16 @@ def _header_leap(path: Path) -> int | None:
 
 def read_rinex_observation_epochs(path) -> ReceiverEpochs:
     """The epochs of a RINEX observation file (see the module docstring). Raises
-    :class:`InputDataError` naming the file when georinex cannot read it or it has no epoch."""
-    import georinex
+    :class:`InputDataError` naming the file when it cannot be read or has no epoch."""
+    from chronofuse.io.rinex_obs import read_any_observations
 
     path = Path(path)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        logging.disable(logging.CRITICAL)
-        try:
-            obs = georinex.load(path)
-        except Exception as err:  # georinex raises many types on malformed files
-            raise InputDataError(f"georinex cannot read it ({type(err).__name__}: {err})", str(path)) from err
-        finally:
-            logging.disable(logging.NOTSET)
-    if obs is None or "time" not in obs.dims or obs.sizes["time"] == 0:
-        raise InputDataError("no observation epoch", str(path))
-    gps_ns = datetime64_to_gps_ns(obs["time"].values)
-    pseudo = [v for v in obs.data_vars if str(v)[:1] in ("C", "P")]
-    if pseudo:
-        seen = np.zeros((obs.sizes["time"], obs.sizes.get("sv", 0)), dtype=bool)
-        for v in pseudo:
-            seen |= np.isfinite(obs[v].values)
+    obs = read_any_observations(path, observables=("C",))
+    gps_ns = obs.gps_ns
+    if obs.values:
+        seen = np.zeros((gps_ns.size, len(obs.satellites)), dtype=bool)
+        for v in obs.values.values():
+            seen |= np.isfinite(v)
         n_sats = seen.sum(axis=1)
     else:
         n_sats = np.full(gps_ns.size, -1)
@@ -87,7 +80,7 @@ def read_rinex_observation_epochs(path) -> ReceiverEpochs:
     gps_ns, n_sats = gps_ns[order], n_sats[order]
     keep = np.concatenate(([True], np.diff(gps_ns) > 0))
     gps_ns, n_sats = gps_ns[keep], n_sats[keep]
-    leap = _header_leap(path)
+    leap = obs.header.leap_s
     leap_s = np.full(gps_ns.size, leap, dtype=np.int64) if leap is not None else gps_minus_utc_s(gps_ns)
     fields = ReceiverEpochs.absent(gps_ns, 1, 1, leap_s=leap_s[None, None, :])
     fields["n_sats"] = n_sats.astype(np.int16)[None, None, :]

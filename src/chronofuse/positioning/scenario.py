@@ -62,7 +62,9 @@ class DriveData:
     ``truth`` at the GNSS epochs (:class:`NavigationTruth` sampled every ``gnss_interval_s``, the first row the
     start); IMU blocks ``gyro_rad_per_s``, ``accel_m_per_s2`` (trials, epochs, samples, 3) measured between
     epochs; GNSS ``fix_lat_lon_h`` (trials, epochs, 3), NaN without a fix, its ``fix_cov_ned_m2`` (trials,
-    epochs, 3, 3) and ``gdop`` (trials, epochs); ``imu_rate_hz``."""
+    epochs, 3, 3) and ``gdop`` (trials, epochs); ``imu_rate_hz``; the pseudoranges the fixes came from,
+    for tight coupling: ``pseudorange_m`` and ``sigma_m`` (trials, epochs, S), ``satellite_m`` (epochs, S, 3)
+    ECEF and ``system`` (S,)."""
 
     truth: NavigationTruth
     gyro_rad_per_s: np.ndarray
@@ -71,18 +73,23 @@ class DriveData:
     fix_cov_ned_m2: np.ndarray
     gdop: np.ndarray
     imu_rate_hz: float
+    pseudorange_m: np.ndarray | None = None
+    sigma_m: np.ndarray | None = None
+    satellite_m: np.ndarray | None = None
+    system: np.ndarray | None = None
 
 
 def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s: float, trials: int, *, seed=0,
                    imu_rate_hz: float = 100.0, speed_m_per_s: float = 12.0, first_trial: int = 0,
-                   nav: GpsNavigation | None = None) -> DriveData:
+                   nav: GpsNavigation | None = None, environment=None) -> DriveData:
     """Simulate ``trials`` drives of ``duration_s`` in ``scenario`` (a key of
     :data:`chronofuse.gnss.simulate.ENVIRONMENTS`) with ``systems`` ("gps" or "gps+bds") and the IMU ``imu`` (a
     grade name or an :class:`~chronofuse.models.imu.ImuModel`).
 
     Trial ``i`` draws from ``child_seed(seed, first_trial + i, ...)``, so a run split into chunks of trials gives
     the same numbers as one run. With ``nav`` (a real GPS broadcast ephemeris) the GPS satellites are where it
-    puts them, the drive starting at the file's first clock reference time; it must then hold every system
+    puts them, the drive starting at the file's first clock reference time; ``environment`` (a
+    :class:`~chronofuse.gnss.simulate.SignalEnvironment`) replaces the scenario's signal environment; it must then hold every system
     asked for (it is refused, naming the file, for "gps+bds": our navigation reader takes GPS records only).
     """
     check_choice(scenario, "scenario", ENVIRONMENTS)
@@ -120,9 +127,13 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
     fixes = np.empty((trials, epochs, 3))
     cov = np.empty((trials, epochs, 3, 3))
     gdop = np.empty((trials, epochs))
+    rho = np.empty((trials, epochs, satellites.position_m.shape[1]))
+    sigma = np.empty_like(rho)
     for i in range(trials):
-        obs = simulate_pseudoranges(receiver[None], heading[None], t, satellites, ENVIRONMENTS[scenario],
+        env = ENVIRONMENTS[scenario] if environment is None else environment
+        obs = simulate_pseudoranges(receiver[None], heading[None], t, satellites, env,
                                     seed=child_seed(base, first_trial + i, 1))
+        rho[i], sigma[i] = obs.pseudorange_m[0], obs.sigma_m[0]
         fix = least_squares_position(obs.satellite_m, obs.pseudorange_m[0], obs.sigma_m[0], obs.system,
                                      receiver[0] + 1e3)
         lat, lon, h = pymap3d.ecef2geodetic(fix.position_m[:, 0], fix.position_m[:, 1], fix.position_m[:, 2], deg=False)
@@ -134,4 +145,5 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
                             rate_hz=1.0)
     return DriveData(truth=truth, gyro_rad_per_s=gyro, accel_m_per_s2=accel, fix_lat_lon_h=fixes,
                      fix_cov_ned_m2=np.where(np.isfinite(cov), cov, np.eye(3)), gdop=gdop,
-                     imu_rate_hz=float(imu_rate_hz))
+                     imu_rate_hz=float(imu_rate_hz), pseudorange_m=rho, sigma_m=sigma,
+                     satellite_m=satellites.position_m, system=satellites.system)
