@@ -7,7 +7,10 @@ document the command prints with ``--json``:
   bias (:func:`chronofuse.io.clockbias.read_clock_bias`): **detection** mode, one
   :class:`~chronofuse.integrity.detector.HodDetector` over the record, after the receiver's millisecond
   clock resets are repaired and reported as clock events (:mod:`chronofuse.integrity.clock_events`);
-* a RINEX observation file with a navigation file and the static antenna's ECEF position gives
+* a RINEX 3 observation file (plain, gzip or Hatanaka) with its navigation files and the static antenna's
+  ECEF position: **identification** mode on every code of every system, satellites named by exclusion, the
+  receiver clock tested beside them (:mod:`chronofuse.integrity.station_mode`);
+* a RINEX 2 observation file with a navigation file and the static antenna's ECEF position gives
   per-satellite clock biases: **identification** mode
   (:func:`chronofuse.integrity.identification.identify`: the common receiver clock removed, each channel's
   noise fitted on its own first ``train_s`` seconds; an alarm names its satellite).
@@ -191,6 +194,37 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     return doc
 
 
+def _rinex_version(path) -> float:
+    """The RINEX version of an observation file from its first line (a Hatanaka file's CRINEX 3 holds RINEX 3,
+    CRINEX 1 RINEX 2); 0 when unreadable."""
+    from chronofuse.io.rinex_text import first_line
+
+    line = first_line(path)
+    try:
+        version = float(line[:9])
+    except ValueError:
+        return 0.0
+    return (3.0 if version >= 3 else 2.0) if "CRINEX" in line else version
+
+
+def _station_mode(observations, nav, position_m, *, train_s, window, pfa, test, codes, elevation_mask_deg) -> dict:
+    """A RINEX 3 file: every code of every system through the station's identification
+    (:func:`chronofuse.integrity.station_mode.station_document`); ``nav`` one path or several joined by commas."""
+    from chronofuse.integrity.station_mode import station_document
+    from chronofuse.io.rinex_nav import merge_navigation, read_navigation
+    from chronofuse.io.station_channels import station_channels
+
+    if train_s is None:
+        raise InputDataError("a RINEX 3 station needs a training stretch (--train SECONDS): each code's noise is "
+                             "fitted on it", observations.source)
+    paths = [p for p in str(nav).split(",") if p]
+    navigation = merge_navigation([read_navigation(p) for p in paths])
+    position = parse_position(position_m)
+    channels = station_channels(observations, navigation, position, codes=codes, elevation_mask_deg=elevation_mask_deg)
+    return station_document(None, None, position, channels=channels, train_s=train_s, window=window, pfa=pfa,
+                            test=test)
+
+
 def _forward_fill(values: np.ndarray) -> np.ndarray:
     idx = np.where(np.isfinite(values), np.arange(values.size), 0)
     idx = np.maximum.accumulate(idx)
@@ -212,6 +246,9 @@ def detect_file(
     nav: str | Path | None = None,
     station: str | None = None,
     max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S,
+    test: str = "chi-square",
+    codes=None,
+    elevation_mask_deg: float = 10.0,
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -243,6 +280,14 @@ def detect_file(
         Largest receiver time accuracy estimate (s; UBX NAV-CLOCK tAcc) of an epoch to be tested; None: not
         used (:mod:`chronofuse.integrity.receiver_status`).
 
+    test : str
+        RINEX 3 observations: the window test of every channel, ``"chi-square"`` or ``"glr"``
+        (:mod:`chronofuse.integrity.window_tests`).
+    codes : sequence of str, optional
+        RINEX 3 observations: the codes tested (``"G C1C"``); default every code most satellites carry.
+    elevation_mask_deg : float
+        RINEX 3 observations: channels below this elevation are not used.
+
     Returns
     -------
     dict
@@ -268,6 +313,11 @@ def detect_file(
         if nav is None or position_m is None:
             raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
                                  "mode: nav and position_m)", str(path))
+        if _rinex_version(path) >= 3:
+            from chronofuse.io.rinex_obs import read_any_observations
+
+            return _station_mode(read_any_observations(path), nav, position_m, train_s=train_s, window=window,
+                                 pfa=pfa, test=test, codes=codes, elevation_mask_deg=elevation_mask_deg)
         params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                       confidence=TRAINING_CONFIDENCE if train_s is not None else None)
         return identification_document(path, nav, position_m, HodDetector(interval_s=1.0, **params), train_s)

@@ -144,6 +144,8 @@ class _State:
     arc_m: np.ndarray
     recent: np.ndarray  # (C, 2n) last residuals (s), newest last
     named: dict = field(default_factory=dict)
+    prev_bias: np.ndarray | None = None  # (C,) last epoch's biases, for the receiver clock
+    rx_clock: float = math.nan
 
 
 class StationIdentification:
@@ -280,7 +282,7 @@ class StationIdentification:
             if training or not candidates.any():
                 break
             sat = self._strongest(candidates, p)
-            if not self._can_exclude(sat, excluded, valid):
+            if not self._can_exclude(sat, excluded, valid, tested):
                 unidentified = True
                 break
             excluded.add(sat)
@@ -315,8 +317,9 @@ class StationIdentification:
         restart_arc = valid & (arc_age == 0)
         arc_ss = np.where(restart_arc, np.where(np.isfinite(innov), innov**2, 0.0), arc_ss)
         arc_m = np.where(restart_arc, np.isfinite(innov).astype(np.int64), arc_m)
+        rx = self._receiver_clock(bias, valid, np.isin(self._sat_of, [self.satellites.index(s) for s in named]))
         self._state = _State(resid, np.where(restarted, np.nan, st.r1), window, dof,
-                             arc_age, gap, arc_ss, arc_m, recent, named)
+                             arc_age, gap, arc_ss, arc_m, recent, named, np.where(valid, bias, np.nan), rx)
         self._k += 1
         sats_tested = {self.satellites[i] for i in np.unique(self._sat_of[tested])} - set(named)
         if training:
@@ -331,8 +334,22 @@ class StationIdentification:
         return {"channel_statistic": stat, "channel_p": p, "channel_dof": dof, "channel_tested": tested,
                 "channel_excluded": np.isin(self._sat_of, [self.satellites.index(s) for s in named]),
                 "n_tests": m, "alpha": alpha, "named": ",".join(sorted(named)), "identification_events": "; ".join(events),
-                "unidentified": unidentified, "receiver_clock_s": common, "n_satellites_tested": len(sats_tested),
+                "unidentified": unidentified, "receiver_clock_s": rx, "n_satellites_tested": len(sats_tested),
                 "identification_state": state, "min_p_alpha": ratio}
+
+    def _receiver_clock(self, bias: np.ndarray, valid: np.ndarray, excluded: np.ndarray) -> float:
+        """The receiver clock every channel shares: ``c(k) = c(k-1) + median (b(k) - b(k-1))`` over the
+        channels of every code seen at both epochs and not named (the inter-code biases cancel in the
+        increments, and the median over all codes is quieter than one code's); NaN at an epoch without any
+        such channel, after which it restarts at the median of the biases (its difference chain broken)."""
+        st = self._state
+        prev = st.prev_bias if st.prev_bias is not None else np.full(bias.size, np.nan)
+        both = valid & np.isfinite(prev) & ~excluded
+        if math.isfinite(st.rx_clock) and both.any():
+            return st.rx_clock + float(np.median(bias[both] - prev[both]))
+        if math.isfinite(st.rx_clock) or not (valid & ~excluded).any():
+            return math.nan
+        return float(np.median(bias[valid & ~excluded]))
 
     def _with_arc(self, p_station: np.ndarray, stat: np.ndarray, dof: np.ndarray) -> np.ndarray:
         """``max(p_station, p_arc)`` (module docstring, step 3)."""
@@ -358,10 +375,14 @@ class StationIdentification:
         rows = np.flatnonzero(candidates)
         return self.channels[rows[np.argmin(p[rows])]][0]
 
-    def _can_exclude(self, sat: str, excluded: set, valid: np.ndarray) -> bool:
-        """Whether every code of ``sat`` keeps more than :data:`MIN_CLOCK_CHANNELS` satellites in its clock."""
+    def _can_exclude(self, sat: str, excluded: set, valid: np.ndarray, tested: np.ndarray) -> bool:
+        """Whether every code in which ``sat`` is tested at this epoch keeps more than
+        :data:`MIN_CLOCK_CHANNELS` satellites in its clock. A code where it is not tested (no noise model, too
+        few satellites for a clock, its arc still training) does not decide: losing a member there changes no
+        verdict."""
         s = self.satellites.index(sat)
-        for g in np.unique(self._groups[self._sat_of == s]):
+        mine = (self._sat_of == s) & tested
+        for g in np.unique(self._groups[mine]):
             rows = (self._groups == g) & valid
             left = {self._sat_of[i] for i in np.flatnonzero(rows)} - {self.satellites.index(x) for x in excluded} - {s}
             if len(left) < MIN_CLOCK_CHANNELS + 1:

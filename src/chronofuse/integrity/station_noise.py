@@ -39,7 +39,7 @@ The model (:class:`CodeNoise`), fitted per code on a training stretch (:func:`fi
 
 ``p_value(T, k, el)`` is then ``F.sf(T / (k scale), k, nu)`` for a window of ``k`` differences (the ``k``
 leading rows of the whitener). A satellite arc that rises later is tested with this same model from its first
-full window on (:mod:`chronofuse.integrity.station_arcs` adds the arc's own check).
+full window on (:mod:`chronofuse.integrity.station_identify` adds the arc's own check).
 
 Units: ``d`` in metres (the second difference of the residual times the speed of light, not divided by the
 interval); ``r_m2`` in m^2.

@@ -84,6 +84,21 @@ class StationChannels:
 
         return dataclasses.replace(self, bias_s=np.asarray(bias_s, dtype=np.float64))
 
+    def epochs(self, start: int, stop: int) -> StationChannels:
+        """Grid epochs ``start:stop`` only, without what was read (``observations``/``navigation`` None: no
+        single-point fix of a stretch)."""
+        import dataclasses
+
+        sl = slice(int(start), int(stop))
+        return dataclasses.replace(self, t_ns=self.t_ns[sl], bias_s=self.bias_s[:, sl],
+                                   elevation_deg=self.elevation_deg[:, sl], slots=np.zeros(0, dtype=np.int64),
+                                   observations=None, navigation=None,
+                                   n_skipped_epochs=int((~np.isfinite(self.bias_s[:, sl]).any(axis=0)).sum()))
+
+    def rows_of(self, satellite: str) -> np.ndarray:
+        """The channel rows of ``satellite``."""
+        return np.array([i for i, (s, _) in enumerate(self.channels) if s == satellite], dtype=np.intp)
+
 
 def station_codes(obs, nav, codes=None, systems=None) -> list[str]:
     """The codes used (module docstring): ``"<system> <observable>"`` labels, in G E C J order."""
