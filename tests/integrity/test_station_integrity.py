@@ -59,13 +59,31 @@ def test_every_station_reads_several_codes_of_several_systems_from_its_hatanaka_
         assert np.all(np.abs(finite - np.median(finite)) < 0.01), name
 
 
+def _common_jumps(ch, epochs, window=20):
+    """The receiver-clock raises confirmed by a second method: within the window before each, an epoch where
+    every channel's raw second difference (m) jumps alike (median over 2 m, spread under 0.3 m)."""
+    d2 = 299792458.0 * np.diff(ch.bias_s, 2, axis=1)
+    confirmed = []
+    for k in epochs:
+        cols = d2[:, max(k - window - 2, 0):k - 1]
+        med = np.nanmedian(cols, axis=0)
+        spread = np.nanmedian(np.abs(cols - med), axis=0)
+        confirmed.append(bool(np.any((np.abs(med) > 2.0) & (spread < 0.3))))
+    return confirmed
+
+
 @pytest.mark.parametrize("name", STATIONS)
 def test_a_clean_day_alarms_at_most_twice_the_station_pfa(name, channels_of):
-    c = clean_day(channels_of(name), IdentificationSettings(pfa=1e-3, reserved=0.1))
-    lo, hi = c["interval"]
+    ch = channels_of(name)
+    c = clean_day(ch, IdentificationSettings(pfa=1e-3, reserved=0.1))
     assert c["tested"] > 1500, c
-    # the binomial interval of the station's rate reaches below twice nominal, and the count itself is under it
-    assert c["rate"] <= 2 * 1e-3 and lo <= 2e-3, c
+    # a receiver-clock raise must be a real clock jump: every channel moves alike (AJAC's Leica GR50 jumps by
+    # 13-17 ns six times in the afternoon); those are events, not false alarms
+    assert all(_common_jumps(ch, c["clock_raise_epochs"])), c
+    k = c["satellite_raises"]
+    lo, hi = clopper_pearson(k, c["tested"])
+    # the station's rate without the confirmed clock events is at most twice nominal, its 95 % interval with it
+    assert k / c["tested"] <= 2e-3 and lo <= 2e-3, c
 
 
 def test_a_day_at_a_high_pfa_alarms_and_not_far_above_it(channels_of):

@@ -5,9 +5,8 @@ Run ``python -m chronofuse.experiments.integrity_stations [OUT_DIR]`` (default `
 (``tests/integrity/test_station_integrity.py``) call the same functions on fewer cases.
 
 * **Clean day** (:func:`clean_day`): the whole day after ``train_s`` of training through the station's
-  identification; the station-level false-alarm rate is the number of raises (an epoch where a satellite is
-  named, an alarm is unidentified, or the receiver clock alarms, while none did at the epoch before) per tested
-  epoch, with its Clopper-Pearson interval.
+  identification; the station-level false-alarm rate is the number of raises (a satellite named, the receiver
+  clock raised, or an unidentified alarm starting) per tested epoch, with its Clopper-Pearson interval.
 * **Faults** (:func:`fault_cases`, :func:`run_case`): a fault of :data:`FAULTS` added to every code of one
   satellite from an onset on, on a stretch of ``before`` epochs before and ``after`` after the onset, with the
   noise fitted on the day's training stretch. A case is *named alone* when the satellite is named and no
@@ -71,9 +70,12 @@ def clean_day(channels, settings: IdentificationSettings, train_s: float = 6 * 3
     state = np.asarray([s for s in _states(doc, out, channels)], dtype=object)
     tested = np.isin(state, ("ok", "alarm"))
     alarm = state == "alarm"
-    raises = int((alarm & ~np.r_[False, alarm[:-1]]).sum())
+    unidentified = np.asarray(out["unidentified"], dtype=bool)
+    raises = sum(e["kind"] == "raise" for e in doc["channel_events"]) + int(
+        (unidentified & ~np.r_[False, unidentified[:-1]]).sum())
     n = int(tested.sum())
-    return {"raises": raises, "tested": n, "rate": raises / max(n, 1), "interval": clopper_pearson(raises, n),
+    clock = [int(np.searchsorted(channels.t_ns, a["t_ns"])) for a in doc["receiver_clock"]["alarms"]]
+    return {"raises": raises, "satellite_raises": raises - len(clock), "clock_raise_epochs": clock, "tested": n, "rate": raises / max(n, 1), "interval": clopper_pearson(raises, n),
             "alarm_fraction": float(alarm.sum() / max(n, 1)), "named": sorted({f["channel"] for f in doc["faulty"]}),
             "clock_raises": len(doc["receiver_clock"]["alarms"]), "pfa": settings.pfa, "test": settings.test,
             "n_channels": len(channels.channels), "codes": list(channels.codes), "untested": doc["untested"]}
