@@ -24,13 +24,22 @@ def _args(name: str, *extra):
 
 @pytest.mark.parametrize("test", ["chi-square", "glr"])
 def test_a_clean_rinex3_station_is_ok_with_every_code_tested(test):
-    result = runner.invoke(app, ["detect", *_args("BOR1", "--train", 21600, "--codes", "G C1C,G C2W", "--test", test,
+    result = runner.invoke(app, ["detect", *_args("NYA1", "--train", 21600, "--codes", "G C1C,G C2W", "--test", test,
                                                   "--json")])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     assert doc["state"] == "ok" and doc["test"] == test
     assert doc["codes"] == ["G C1C", "G C2W"] and doc["faulty"] == []
     assert doc["receiver_clock"]["state"] == "ok" and doc["position_offset_m"] < 10.0
+
+
+def test_a_real_satellite_fault_is_named_on_the_command_line():
+    """BOR1's G08 on 2024-02-04: from about 21 h its channels leave the others by hundreds of sigma (window
+    statistics up to 2e4); named alone, exit 1."""
+    result = runner.invoke(app, ["detect", *_args("BOR1", "--train", 21600, "--codes", "G C1C,G C2W", "--json")])
+    assert result.exit_code == 1, result.output
+    doc = json.loads(result.stdout)
+    assert [f["channel"] for f in doc["faulty"]] == ["G08"] and doc["receiver_clock"]["state"] == "ok"
     assert doc["n_tested"] > 0.9 * (doc["n_epochs"] - doc["n_training"])
 
 

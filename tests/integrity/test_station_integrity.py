@@ -132,11 +132,12 @@ def test_a_ramp_on_one_satellite_leaves_the_known_position_check_passing(igs_sta
     "position off" (unavailable); with the fault in the pseudoranges themselves."""
     import dataclasses
 
-    st = igs_stations["BOR1"]
+    st = igs_stations["NYA1"]  # its clean day names no satellite
     obs = st.observations()
-    sat = "G05"
-    j = obs.satellites.index(sat)
     onset = 1500
+    clean = station_channels(obs, st.navigation(), st.reference_arp_m)
+    sat = clean.channels[int(np.nanargmax(clean.elevation_deg[:, onset]))][0]  # the highest at the onset
+    j = obs.satellites.index(sat)
     fault_m = 299792458.0 * fault_bias_s("ramp 1 ns/s", obs.gps_ns, int(obs.gps_ns[onset]))
     values = {k: v.copy() for k, v in obs.values.items()}
     for v in values.values():
@@ -145,12 +146,12 @@ def test_a_ramp_on_one_satellite_leaves_the_known_position_check_passing(igs_sta
     ch = station_channels(faulty, st.navigation(), st.reference_arp_m)
     doc, _ = station_integrity(None, None, st.reference_arp_m, channels=ch, train_s=TRAIN_EPOCHS * 30.0)
     assert doc["state"] == "alarm", doc["unavailable_reasons"]
-    assert doc["faulty"][0]["channel"] == sat and doc["faulty"][0]["t_ns"] >= obs.gps_ns[onset]
+    assert [f["channel"] for f in doc["faulty"]] == [sat] and doc["faulty"][0]["t_ns"] >= obs.gps_ns[onset]
     assert doc["position_offset_m"] < 100.0
     # negative verdict: a position 500 m off is "unavailable", not ok
     off = np.asarray(st.reference_arp_m) + np.array([500.0, 0.0, 0.0])
-    clean = station_channels(obs, st.navigation(), off)
-    bad, _ = station_integrity(None, None, off, channels=clean, train_s=TRAIN_EPOCHS * 30.0)
+    wrong = station_channels(obs, st.navigation(), off)
+    bad, _ = station_integrity(None, None, off, channels=wrong, train_s=TRAIN_EPOCHS * 30.0)
     assert bad["state"] == "unavailable"
     assert any("from the data's own single-point fix" in r for r in bad["unavailable_reasons"])
 

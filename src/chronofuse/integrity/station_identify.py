@@ -30,7 +30,8 @@ Per epoch ``k`` (:class:`StationIdentification`, a stage of :mod:`chronofuse.est
    epoch, and every channel is tested again at this epoch: a fault stops moving the others' clocks the moment
    it is named, so it does not spread. There is no cap on how many are named; a satellite is named only while
    at least :data:`MIN_CLOCK_CHANNELS` + 1 satellites of its codes remain in the clocks (else the alarm stays
-   ``unidentified``: no consistent subset is left to name it against).
+   ``unidentified``: no consistent subset is left to name it against). A code is tested at an epoch only while
+   it holds at least :data:`MIN_CLOCK_CHANNELS` + 2 satellites not named, so that one can always be left out.
 6. **Latch.** A named satellite stays named until its channels have been consistent (every tested ``p >=
    alpha``) for ``clear_after`` tested epochs and each channel's residual, averaged over a window, is back
    within ``clear_sigma`` standard deviations of its value over the window before it was named; or until it
@@ -274,7 +275,7 @@ class StationIdentification:
         while True:
             resid, restarted, d, window, dof, stat, p_station, innov, epochs, common, excl = self._pass(bias, el, excluded)
             p = self._with_arc(p_station, stat, dof)
-            tested = trained & (dof > 0) & np.isfinite(p) & (not training)
+            tested = trained & (dof > 0) & np.isfinite(p) & (not training) & self._enough(valid, excl)
             m = int(tested.sum())
             alpha = cfg.pfa * (1.0 - cfg.reserved) / max(m, 1)
             alarm = tested & (p < alpha)
@@ -288,8 +289,9 @@ class StationIdentification:
             excluded.add(sat)
             rows = np.flatnonzero(self._sat_of == self.satellites.index(sat))
             before = st.recent[rows, n:]
-            named[sat] = _Named(self._k, np.nanmean(np.where(np.isfinite(before), before, np.nan), axis=1)
-                                if np.isfinite(before).any() else np.full(rows.size, np.nan))
+            seen = np.isfinite(before).sum(axis=1)
+            level = np.where(seen > 0, np.nansum(before, axis=1) / np.maximum(seen, 1), np.nan)
+            named[sat] = _Named(self._k, level)
             worst = rows[np.argmin(np.where(alarm[rows], p[rows], np.inf))]
             events.append(f"raise {sat}: {self.channels[worst][1]} p {p[worst]:.2g} < alpha {alpha:.2g}")
         # latch: clear named satellites consistent again (or set)
@@ -336,6 +338,14 @@ class StationIdentification:
                 "n_tests": m, "alpha": alpha, "named": ",".join(sorted(named)), "identification_events": "; ".join(events),
                 "unidentified": unidentified, "receiver_clock_s": rx, "n_satellites_tested": len(sats_tested),
                 "identification_state": state, "min_p_alpha": ratio}
+
+    def _enough(self, valid: np.ndarray, excl: np.ndarray) -> np.ndarray:
+        """Per channel: whether its code has at least :data:`MIN_CLOCK_CHANNELS` + 2 satellites observed and
+        not named at this epoch, so that a faulty one can be left out against a clock of the others (a code
+        with fewer is not tested: an alarm there could not be attributed)."""
+        inside = valid & ~excl
+        counts = np.bincount(self._groups[inside], minlength=len(self.codes))
+        return counts[self._groups] >= MIN_CLOCK_CHANNELS + 2
 
     def _receiver_clock(self, bias: np.ndarray, valid: np.ndarray, excluded: np.ndarray) -> float:
         """The receiver clock every channel shares: ``c(k) = c(k-1) + median (b(k) - b(k-1))`` over the
