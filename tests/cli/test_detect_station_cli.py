@@ -39,7 +39,7 @@ def test_a_real_satellite_fault_is_named_on_the_command_line():
     result = runner.invoke(app, ["detect", *_args("BOR1", "--train", 21600, "--codes", "G C1C,G C2W", "--json")])
     assert result.exit_code == 1, result.output
     doc = json.loads(result.stdout)
-    assert [f["channel"] for f in doc["faulty"]] == ["G08"] and doc["receiver_clock"]["state"] == "ok"
+    assert {f["channel"] for f in doc["faulty"]} == {"G08"} and doc["receiver_clock"]["state"] == "ok"
     assert doc["n_tested"] > 0.9 * (doc["n_epochs"] - doc["n_training"])
 
 
