@@ -3,10 +3,12 @@
 Each row times ``chronofuse.api.<statistic>(x_s, rate_hz, tau_s)`` (the engine: gap handling, kernel,
 noise identification, bias correction, EDF and the confidence interval) against the allantools function
 of the same name on the same record and the same averaging times. Cases: ADEV, OADEV, MDEV, TDEV, HDEV,
-OHDEV, TOTDEV and TIE rms at N = 1e5 and 1e6 phase points, octave grid; MTIE at 1e5 on the octave grid
-and at 1e6 on m <= 1024 (allantools' window scan is O(N m) per tau, minutes beyond that; ours on the full
-octave grid at 1e6 is the row after). Target: ratio >= 1 (allantools' time / ours). ``quick`` uses 2e4
-and 1e5 points.
+OHDEV, TOTDEV and TIE rms at N = 1e4, 1e5, 1e6 and 1e7 phase points, octave grid; MTIE at 1e4 and 1e5
+on the octave grid and above on m <= 1024 (allantools' window scan is O(N m) per tau, minutes beyond
+that; ours on the full octave grid is the row after). The total family and Theo1 are compared at
+N = 2000 in ``bench_total.py`` (allantools takes minutes at 1e4); TheoBR and TheoH have no allantools
+counterpart. Target: ratio >= 1 (allantools' time / ours). ``quick`` uses 1e4 and 1e5 points;
+``--sizes 1e4,1e7`` picks sizes.
 
 Timing: the calls alternate (ours, allantools, ours, ...) so that load from other processes hits both,
 and each side's best round is kept. Data: a seeded random walk plus white phase noise.
@@ -89,15 +91,21 @@ def compare(name: str, x: np.ndarray, tau_s: np.ndarray, repeats: int, label: st
                "ratio >= 1", base_s >= ours_s, f"public api.{name} {with_ci}; max rel diff vs allantools {worst:.1e}")
 
 
-def run(quick: bool = False) -> list[dict]:
+# allantools' TIE rms at 1e7 points takes about 15 s a call: one round there.
+SLOW_AT_1E7 = {"tie_rms"}
+
+
+def run(quick: bool = False, sizes: tuple[int, ...] | None = None) -> list[dict]:
     """Time every case; one row per case (keys as in benchmarks/run.py)."""
-    sizes = (20_000, 100_000) if quick else (100_000, 1_000_000)
-    repeats = 3 if quick else 5
+    if sizes is None:
+        sizes = (10_000, 100_000) if quick else (10_000, 100_000, 1_000_000, 10_000_000)
     rows = []
     for n_points in sizes:
+        repeats = 3 if quick else (5 if n_points <= 1_000_000 else 2)
         x = phase_record(n_points)
         for name in STATISTICS:
-            rows.append(compare(name, x, tau_grid("octave", n_points, 1.0, name), repeats, "octave"))
+            reps = 1 if (n_points >= 10_000_000 and name in SLOW_AT_1E7) else repeats
+            rows.append(compare(name, x, tau_grid("octave", n_points, 1.0, name), reps, "octave"))
         taus = tau_grid("octave", n_points, 1.0, "mtie")
         if n_points > 100_000:
             taus = taus[taus <= 1024]
@@ -112,7 +120,10 @@ def run(quick: bool = False) -> list[dict]:
 
 
 if __name__ == "__main__":
-    for r in run(quick="--quick" in sys.argv[1:]):
+    given = None
+    if "--sizes" in sys.argv[1:]:
+        given = tuple(int(float(v)) for v in sys.argv[sys.argv.index("--sizes") + 1].split(","))
+    for r in run(quick="--quick" in sys.argv[1:], sizes=given):
         ratio = "-" if r["ratio"] is None else f"{r['ratio']:.1f}x"
         base = "-" if r["baseline_s"] is None else f"{r['baseline_s']:.4f} s"
         print(f"{r['name']:<44} ours {r['ours_s']:.4f} s  {r['baseline'] or '-':<18} {base:>10}  ratio {ratio:>7}"

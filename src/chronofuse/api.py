@@ -22,6 +22,8 @@ from chronofuse.analysis.stability import (
     phase_to_frequency,
     tdev,
     theo1,
+    theobr,
+    theoh,
     tie_rms,
     totdev,
     ttotdev,
@@ -39,11 +41,15 @@ from chronofuse.discipline.counter import MultiPhaseCounter
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.fusion import InverseVarianceFusion
 from chronofuse.discipline.holdover import clairvoyant_holdover_error, holdover_error
-from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, HuberKalmanServo, KalmanServo
+from chronofuse.discipline.kalman import KalmanServo
+from chronofuse.discipline.kalman_adaptive import AdaptiveKalmanServo
+from chronofuse.discipline.kalman_gated import GatedKalmanServo
+from chronofuse.discipline.kalman_huber import HuberKalmanServo
 from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.pi import PiServo
 from chronofuse.discipline.qualification import Qualification, usable_epochs
-from chronofuse.discipline.servo import NullServo, Servo
+from chronofuse.discipline.null import NullServo
+from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.smoothing import smooth_run
 from chronofuse.discipline.states import State, StateConfig, StateMachine
 from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo
@@ -184,6 +190,8 @@ __all__ = [
     "htotdev",
     "ttotdev",
     "theo1",
+    "theobr",
+    "theoh",
     "tie_rms",
     "mtie",
     "frequency_to_phase",

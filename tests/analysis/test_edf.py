@@ -271,4 +271,4 @@ def test_greenhall_basic_sum_in_numba_equals_its_numpy_twin(monkeypatch):
     monkeypatch.setattr(edf_module, "basic_sums", lambda J, M, S, F, a, d, w: edf_module._basic_sum(J, M, S, F, a, d))
     for (n, d, ov, mod, a, m), value in ours.items():
         twin = greenhall_edf(a, d, m, n, overlapping=ov, modified=mod)
-        assert value == pytest.approx(twin, rel=1e-13, nan_ok=True), (n, d, ov, mod, a, m)
+        assert value == pytest.approx(twin, rel=5e-13, nan_ok=True), (n, d, ov, mod, a, m)  # |t|**p by multiplication

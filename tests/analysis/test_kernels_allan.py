@@ -115,10 +115,10 @@ def test_raw_deviation_equals_nist_sp1065_1000_point_test_values(statistic, nbs1
     np.testing.assert_array_less(np.abs(dev - published), unit)
 
 
-def brute_force_variance_sum(x: np.ndarray, m: int, statistic: str) -> tuple[float, int]:
+def brute_force_variance_sum(x: np.ndarray, m: int, statistic: str, rule: str = "span") -> tuple[float, int]:
     """Sum of squared terms and their count by direct enumeration of SP 1065's definitions, skipping any
-    term whose span (first to last sample it covers) holds a NaN sample (a readable loop, independent of
-    the kernels' vectorized forms)."""
+    term whose span (first to last sample it covers) holds a NaN sample (``rule="span"``) or one of whose
+    own samples is NaN (``rule="samples"``): a readable loop, independent of the kernels' vectorized forms."""
     weights = {"adev": [1, -2, 1], "oadev": [1, -2, 1], "hdev": [-1, 3, -3, 1], "ohdev": [-1, 3, -3, 1]}
     total, count = 0.0, 0
     if statistic in ("mdev", "tdev"):
@@ -131,21 +131,24 @@ def brute_force_variance_sum(x: np.ndarray, m: int, statistic: str) -> tuple[flo
     stride = m if statistic in ("adev", "hdev") else 1
     for i in range(0, x.size - (len(w) - 1) * m, stride):
         term = sum(wk * x[i + k * m] for k, wk in enumerate(w))
-        if not np.isnan(x[i : i + (len(w) - 1) * m + 1]).any():
+        own = [x[i + k * m] for k in range(len(w))]
+        gap = np.isnan(own).any() if rule == "samples" else np.isnan(x[i : i + (len(w) - 1) * m + 1]).any()
+        if not gap:
             total, count = total + term**2, count + 1
     return total, count
 
 
+@pytest.mark.parametrize("rule", ["samples", "span"])
 @pytest.mark.parametrize("statistic", STATISTICS)
-def test_terms_spanning_a_missing_sample_are_skipped_as_by_direct_enumeration(statistic):
+def test_terms_a_missing_sample_removes_are_those_of_the_rule_as_by_direct_enumeration(statistic, rule):
     rng = np.random.default_rng(20240601)
     x = np.cumsum(rng.standard_normal(240)) * 1e-9 + rng.standard_normal(240) * 1e-9
     x[[17, 100, 101, 180]] = np.nan
     m = np.array([1, 2, 3, 5, 8, 13])
-    dev, n = getattr(ka, f"{statistic}_raw")(x, m, 0.5)
+    dev, n = getattr(ka, f"{statistic}_raw")(x, m, 0.5, gap_rule=rule)
     scale = 6.0 if statistic in ("hdev", "ohdev") else 2.0
     for j, mj in enumerate(m):
-        total, count = brute_force_variance_sum(x, int(mj), statistic)
+        total, count = brute_force_variance_sum(x, int(mj), statistic, rule)
         tau_s = mj * 0.5
         if statistic in ("mdev", "tdev"):
             expected = np.sqrt(total / (2.0 * mj**2 * tau_s**2 * count))
@@ -240,6 +243,9 @@ def test_the_fused_numba_difference_sums_equal_the_blockwise_numpy_twin(order):
                 s_fused, n_fused = kd.difference_sum_of_squares_fused(x, m, order, step)
                 if gaps:
                     s_fused, n_fused = kd.difference_sum_of_squares_span(x, kd.nan_prefix(x), m, order, step)
+                    s_own, n_own = kd.difference_sum_of_squares(x, m, order, step, rule="samples")
+                    s_fast, n_fast = kd.difference_sum_of_squares_samples(x, m, order, step)
+                    assert n_own == n_fast >= n_num and s_fast == pytest.approx(s_own, rel=1e-12)
                 assert n_fused == n_num and s_fused == pytest.approx(s_num, rel=1e-12)
 
 

@@ -126,13 +126,16 @@ def test_tie_rms_gap_longer_than_the_lag_pools_the_two_records_either_side():
     np.testing.assert_allclose(dev**2 * n, dev_a**2 * n_a + dev_b**2 * n_b, rtol=1e-12)
 
 
-def test_tie_rms_skips_differences_spanning_a_missing_sample_as_by_direct_enumeration():
+@pytest.mark.parametrize("rule", ["samples", "span"])
+def test_tie_rms_skips_the_differences_its_gap_rule_names_as_by_direct_enumeration(rule):
     rng = np.random.default_rng(9)
     x = rng.standard_normal(120)
     x[[10, 60]] = np.nan
     for mj in (1, 5, 30):
-        diffs = [x[i + mj] - x[i] for i in range(x.size - mj) if not np.isnan(x[i : i + mj + 1]).any()]
-        dev, n = kt.tie_rms_raw(x, np.array([mj]), 1.0)
+        def missing(i):
+            return np.isnan(x[[i, i + mj]]).any() if rule == "samples" else np.isnan(x[i : i + mj + 1]).any()
+        diffs = [x[i + mj] - x[i] for i in range(x.size - mj) if not missing(i)]
+        dev, n = kt.tie_rms_raw(x, np.array([mj]), 1.0, gap_rule=rule)
         assert n[0] == len(diffs) < x.size - mj
         assert dev[0] == pytest.approx(np.sqrt(np.mean(np.square(diffs))), rel=1e-13)
 

@@ -51,7 +51,11 @@ def test_frequency_records_with_a_mask_and_a_plot(data_dir, tmp_path):
     ("text", "args", "expected"),
     [
         ("", ("--rate", 1), "bad.txt: no data lines"),
-        ("abc\ndef\n", ("--rate", 1), "bad.txt:2: cannot read 'def' as a number"),
+        ("abc\ndef\n", ("--rate", 1), "bad.txt: no data lines (empty file, or only comments and text lines)"),
+        ("1e-9\n2e-9\nabc\n", ("--rate", 1), "bad.txt:3: cannot read 'abc' as a number"),
+        ("t,y_ppb\n0,1\n1,2\n2,3\n", ("--kind", "phase"), "bad.txt:1: column 'y_ppb' is in ppb"),
+        ("t,f_Hz\n0,1\n1,2\n2,3\n", (), "bad.txt:1: column 'f_Hz' is in Hz: give the nominal frequency"),
+        ("01/02/2020 10:00:00,1e-9\n01/02/2020 10:00:01,2e-9\n", (), "bad.txt:1: '01/02/2020 10:00:00': day and month"),
         ("0 1e-9\n1 nan\n2 nan\n3 nan\n4 nan\n5 nan\n6 1e-9\n", ("--rate", 1), "bad.txt:2: 5 of 7 samples are missing"),
         ("0 1e-9\n2 2e-9\n1 3e-9\n", ("--rate", 0.5), "bad.txt:3: time is not increasing"),
         ("0 1e-9\n1 2e-9\n2.5 3e-9\n", (), "bad.txt:3: time step 1.5 s is not a whole number of 1 s"),
@@ -200,3 +204,46 @@ def test_an_in_process_run_leaves_garbage_collection_on_and_freezes_nothing(data
     result = invoke("stability", data_dir / "stability/phasedat/PHASE.DAT", "--rate", 1, "--dev", "oadev", "--json")
     assert result.exit_code == 0, result.output
     assert gc.isenabled() and gc.get_freeze_count() == frozen
+
+
+def test_the_headline_command_draws_every_statistic_with_its_mask_and_lists_every_failing_tau(data_dir, tmp_path):
+    """``--dev oadev,mtie --mask prtc-a --plot`` drew OADEV only and listed 4 failing taus of 7; now both
+    panels are drawn (the figure is two panels wide) and the verdict names every failing tau."""
+    path = data_dir / "stability/gps/gps_1pps_phase_data.txt.gz"
+    png = tmp_path / "gps.png"
+    result = invoke("stability", path, "--rate", 1, "--dev", "oadev,mtie,tdev", "--mask", "prtc-a,prtc-b", "--plot", png,
+                    "--json")
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert [m["clock"] for m in doc["masks"]] == ["prtc-a", "prtc-b"]
+    failing = doc["masks"][1]["mtie"]["failing_tau"]
+    assert len(failing) > 4 and f"tau {', '.join(f'{t:g}' for t in failing)} s" in doc["masks"][1]["summary"]
+    from PIL import Image
+
+    with Image.open(png) as image:
+        width, height = image.size
+    assert width > 1.6 * height  # two panels side by side
+
+
+def test_te_offset_arbitrary_leaves_the_counters_constant_out_of_the_verdict(data_dir):
+    path = data_dir / "stability/Cs5071A/5071A_phase.txt.gz"
+    measured = json.loads(invoke("stability", path, "--rate", 1, "--dev", "mtie", "--mask", "prtc-a", "--json").stdout)
+    free = json.loads(invoke("stability", path, "--rate", 1, "--dev", "mtie", "--mask", "prtc-a", "--te-offset",
+                             "arbitrary", "--json").stdout)
+    assert measured["mask"]["passed"] is False and "cTE +801.9 ns" in measured["mask"]["summary"]
+    assert free["mask"]["passed"] is True and free["mask"]["time_error"] is None
+
+
+def test_frequency_input_reports_its_gap_rule_and_mean_convention(tmp_path):
+    path = tmp_path / "y.txt"
+    rng = np.random.default_rng(4)
+    y = rng.standard_normal(3000) * 1e-11 + 5e-10
+    y[[10, 2000]] = np.nan
+    path.write_text("".join(f"{v!r}\n" for v in y.tolist()))
+    keep = json.loads(invoke("stability", path, "--kind", "freq", "--rate", 1, "--dev", "mtie,oadev", "--json").stdout)
+    remove = json.loads(invoke("stability", path, "--kind", "freq", "--rate", 1, "--dev", "mtie,oadev", "--freq-mean",
+                               "remove", "--json").stdout)
+    assert keep["gap_rule"] == "span" and keep["deviations"]["oadev"]["gap_rule"] == "span"
+    assert keep["frequency_mean"] == "keep" and remove["frequency_mean"] == "remove"
+    assert keep["deviations"]["oadev"]["dev"] == pytest.approx(remove["deviations"]["oadev"]["dev"], rel=1e-9)
+    assert keep["deviations"]["mtie"]["dev"][-1] > 10 * remove["deviations"]["mtie"]["dev"][-1]

@@ -210,3 +210,31 @@ def test_the_whole_gnssdo_chain_second_by_second_equals_its_batch_run(integrity)
     assert compare_streaming_to_batch(pipe, frame, rtol=1e-9, atol=1e-15, names=names) == []
     if integrity:
         assert np.asarray(pipe.run(frame)["integrity_alarm"]).any()  # the chain's integrity did something
+
+
+@pytest.mark.parametrize("name", ["cusum", "single-epoch"])
+def test_another_detector_runs_in_the_same_pipeline_and_streams_as_it_runs(name):
+    from chronofuse.integrity.baselines import CusumDetector, SingleEpochDetector
+
+    def make(interval_s, s):
+        model = dict(h0=s.h0, hm2=s.hm2, sigma_rho_m=s.sigma_rho_m)
+        if name == "cusum":
+            return CusumDetector(interval_s=interval_s, window=s.window, pfa=s.pfa, **model)
+        return SingleEpochDetector(interval_s=interval_s, pfa=s.pfa, **model)
+
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=800, trials=1, seed=9).measured_s[0]
+    x = inject(x, Anomaly("step", 500.0, offset_s=1e-7), 1.0)
+    x[300:] += 1e-3  # a millisecond reset: repaired before the detector, whichever it is
+    t = np.arange(800, dtype=np.int64) * 10**9
+    record = EpochRecord.from_arrays(t, {"clock_bias_s": x}, {"clock_bias_s": "s"}, source="sim", interval_ns=10**9)
+    s = DetectionSettings(h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m, detector=make)
+    batch = watch_record(record, s)
+    watch = ClockWatch(s)
+    for part in record.chunks(37):
+        watch.push(part)
+    watch.close()
+    for column in _COLUMNS:
+        assert _same(watch.result().result[column], batch.result[column]), column
+    over = np.flatnonzero(np.asarray(batch.result["over"]))
+    assert type(batch.detector).__name__.lower().startswith(name.split("-")[0])
+    assert any(500 <= k <= 502 for k in over) and np.count_nonzero(batch.result["clock_reset_s"]) == 1

@@ -107,7 +107,8 @@ def test_cs5071a_mask_limits_and_verdicts_are_the_library_ones(quick_run, data_d
         plotted = numbers["cs5071a"][metric]
         np.testing.assert_allclose(plotted["ours"]["dev"], dev.dev, rtol=1e-12)
         assert_close_printed(plotted["ours"]["dev"], table["dev"], name=metric)
-        for clock, masks in MASKS.items():
+        for clock in ("prtc-a", "prtc-b", "g811"):  # the primary reference clocks the figures draw
+            masks = MASKS[clock]
             result = masks.check(dev)
             entry = plotted["masks"][clock]
             assert entry["passed"] == result.passed

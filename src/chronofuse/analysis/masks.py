@@ -1,53 +1,69 @@
-"""ITU-T wander masks for primary reference clocks: MTIE and TDEV limits, and max |TE|, with pass/fail.
+"""ITU-T wander masks and time-error limits, with pass/fail verdicts that keep cTE and dTE apart.
 
-Sources (limits as piecewise functions of the observation interval ``tau``; every breakpoint below
-names its table):
+The limits are data (:mod:`chronofuse.analysis.mask_tables`, every row naming the recommendation's
+table it transcribes); this module builds :data:`MASKS` from them and checks records against them:
 
-- ITU-T G.8272/Y.1367 (11/2018), "Timing characteristics of primary reference time clocks":
-  Table 1 (PRTC-A MTIE), Table 2 (PRTC-B MTIE), Table 3 (PRTC-A TDEV), Table 4 (PRTC-B TDEV);
-  clause 6.1: time error of the PRTC-A within 100 ns, PRTC-B within 40 ns, of the applicable primary
-  time standard (max |TE|).
-- ITU-T G.811 (09/1997) with Amendment 1 (04/2016), "Timing characteristics of primary reference
-  clocks": Table 1 (PRC MTIE), Table 2 (PRC TDEV). G.811 has no time-error limit.
+- ``MASKS[clock].check(deviation)`` checks one MTIE or TDEV curve (:class:`MaskResult`, per-tau margins);
+- ``MASKS[clock].check(x_s, rate_hz, offset="measured")`` checks a time-error record against everything
+  the clock class specifies (:class:`ClockVerdict`): MTIE and TDEV of the dynamic time error (after the
+  0.1 Hz low-pass where the recommendation says so), max |TE|, cTE, max |TE_L| and dTE_H peak to peak.
+  ``offset="arbitrary"`` says the record's constant offset is not a time error (a counter started
+  anywhere against a reference that is not the time scale, like the Cs 5071A against an H-maser): the
+  limits that see the constant (max |TE|, cTE, max |TE_L|) are then not evaluated, and the verdict says
+  so. With ``"measured"`` they are, and the verdict splits max |TE| into cTE and dTE
+  (:func:`chronofuse.analysis.time_error.split_time_error`) so a failure from the offset is told apart
+  from one from wander.
 
-``MASKS[clock].check(deviation)`` checks one MTIE or TDEV curve (:class:`MaskResult`, per-tau margins);
-``MASKS[clock].check(x_s, rate_hz)`` checks a time-error record for MTIE, TDEV and max |TE| at once
-(:class:`ClockVerdict`).
-
-The masks start at ``tau > 0.1 s`` (all four tables); an observation interval at or below 0.1 s is not
-covered and is reported as not evaluated (NaN limit, excluded from the verdict). The last segment of
-each table is open-ended here (the recommendations' TDEV tables stop at 1e4 s or 1e5 s observation
-intervals; beyond them the last limit is applied).
+A mask row holds for ``tau_lo < tau <= tau_hi`` unless its table writes the ends otherwise; an
+observation interval no row covers is not evaluated (NaN limit) and is left out of the verdict. A value
+equal to the limit passes (with a 1e-12 relative tolerance for float rounding).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from chronofuse.analysis import time_error as te_mod
+from chronofuse.analysis.mask_results import REL_TOL as _REL_TOL
+from chronofuse.analysis.mask_results import ClockVerdict, LimitResult, MaskResult, TimeErrorResult
+from chronofuse.analysis.mask_results import limit_result as _limit
+from chronofuse.analysis.mask_tables import NOT_TRANSCRIBED, TABLES
 from chronofuse.analysis.stability import mtie, tau_grid, tdev
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.validation import check_array, check_choice, check_scalar
 
-__all__ = ["MaskSegment", "Mask", "MaskResult", "ClockMasks", "ClockVerdict", "TimeErrorResult", "MASKS"]
+__all__ = ["MaskSegment", "Mask", "MaskResult", "ClockMasks", "ClockVerdict", "TimeErrorResult", "LimitResult",
+           "MASKS", "OFFSETS", "NOT_TRANSCRIBED"]
 
 METRICS = ("mtie", "tdev")
-_REL_TOL = 1e-12
+#: How a record's constant offset is to be read: as time error, or as an arbitrary constant.
+OFFSETS = ("measured", "arbitrary")
+_NS = 1e-9
+# The tables' "m" (the measurement's sample interval) when none is known: 1 s, the 1 PPS case of their notes.
+_DEFAULT_INTERVAL_S = 1.0
 
 
 @dataclass(frozen=True)
 class MaskSegment:
-    """One row of a mask table: ``limit_s = offset_s + slope * tau_s`` for ``tau_lo_s < tau_s <= tau_hi_s``.
+    """One row of a mask table: ``limit_s = offset_s + slope * tau_s + sum(c * tau_s**p for c, p in terms)``.
 
-    ``tau_hi_s`` may be ``inf`` (open-ended last row). ``source`` names the recommendation's table.
+    Holds for ``tau_lo_s < tau_s <= tau_hi_s`` (``lo_closed``/``hi_closed`` change the ends as the table
+    writes them). ``tau_hi_s`` may be ``inf`` (open-ended last row). ``lo_is_interval``: the lower end is the
+    table's ``m``, the record's sample interval (``tau_lo_s`` is then its value when none is known).
+    ``source`` names the recommendation's table.
     """
 
     tau_lo_s: float
     tau_hi_s: float
-    offset_s: float
-    slope: float
-    source: str
+    offset_s: float = 0.0
+    slope: float = 0.0
+    source: str = ""
+    terms: tuple[tuple[float, float], ...] = ()
+    lo_closed: bool = False
+    hi_closed: bool = True
+    lo_is_interval: bool = False
 
     def __post_init__(self):
         check_scalar(self.tau_lo_s, "tau_lo_s", min_val=0)
@@ -55,56 +71,28 @@ class MaskSegment:
             raise ValueError(f"tau_hi_s == {self.tau_hi_s}, must be > tau_lo_s == {self.tau_lo_s}")
         check_scalar(self.offset_s, "offset_s")
         check_scalar(self.slope, "slope")
+        for c, p in self.terms:
+            check_scalar(c, "terms coefficient")
+            check_scalar(p, "terms power")
 
+    def covers(self, tau: np.ndarray, interval_s: float | None = None) -> np.ndarray:
+        """Which ``tau`` (k,) this row holds for."""
+        lo = (interval_s if interval_s is not None else self.tau_lo_s) if self.lo_is_interval else self.tau_lo_s
+        above = tau >= lo if self.lo_closed else tau > lo
+        below = tau <= self.tau_hi_s if self.hi_closed else tau < self.tau_hi_s
+        return above & below
 
-@dataclass(frozen=True)
-class MaskResult:
-    """Outcome of checking a measured curve against a mask; arrays of shape (k,).
-
-    ``margin_s = limit_s - value_s`` (positive: inside the mask); ``evaluated`` is false where the mask
-    does not cover ``tau_s`` or the value is NaN; ``passed_each`` is true where evaluated and
-    ``value_s <= limit_s``; ``passed`` is true when every evaluated point passes and at least one was
-    evaluated.
-    """
-
-    mask: str
-    metric: str
-    tau_s: np.ndarray
-    value_s: np.ndarray
-    limit_s: np.ndarray
-    margin_s: np.ndarray
-    evaluated: np.ndarray
-    passed_each: np.ndarray
-    passed: bool
-
-    @property
-    def worst_margin_s(self) -> float:
-        """Smallest margin over the evaluated points (negative: the worst violation); NaN if none."""
-        m = self.margin_s[self.evaluated]
-        return float(m.min()) if m.size else float("nan")
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict (NaN -> None)."""
-        return {
-            "mask": self.mask,
-            "metric": self.metric,
-            "tau": _clean(self.tau_s),
-            "value": _clean(self.value_s),
-            "limit": _clean(self.limit_s),
-            "margin": _clean(self.margin_s),
-            "evaluated": self.evaluated.tolist(),
-            "passed_each": self.passed_each.tolist(),
-            "passed": self.passed,
-        }
-
-
-def _clean(a: np.ndarray) -> list:
-    return [None if not np.isfinite(v) else float(v) for v in np.asarray(a, dtype=float)]
+    def value_s(self, tau: np.ndarray) -> np.ndarray:
+        """The row's formula at ``tau`` (k,), seconds."""
+        out = self.offset_s + self.slope * tau
+        for c, p in self.terms:
+            out = out + c * tau**p
+        return out
 
 
 @dataclass(frozen=True)
 class Mask:
-    """A wander mask: MTIE or TDEV limit (seconds) as a piecewise-linear function of ``tau_s``."""
+    """A wander mask: MTIE or TDEV limit (seconds) as a piecewise function of ``tau_s``."""
 
     name: str
     metric: str
@@ -119,22 +107,25 @@ class Mask:
                 raise ValueError(
                     f"mask {self.name!r}: segment ending at {a.tau_hi_s} s is followed by one at {b.tau_lo_s} s"
                 )
+            if a.hi_closed and b.lo_closed:
+                raise ValueError(f"mask {self.name!r}: two segments both hold tau = {a.tau_hi_s} s")
 
     @property
     def tau_min_s(self) -> float:
-        """Observation intervals must exceed this to be covered."""
+        """Observation intervals must exceed this to be covered (the sample interval for rows from ``m``)."""
         return self.segments[0].tau_lo_s
 
-    def limit_s(self, tau_s) -> np.ndarray:
-        """Mask limit in seconds at each ``tau_s`` (k,); NaN where ``tau_s <= tau_min_s``."""
+    def limit_s(self, tau_s, interval_s: float | None = None) -> np.ndarray:
+        """Mask limit in seconds at each ``tau_s`` (k,); NaN where no row covers it. ``interval_s``: the
+        record's sample interval, the lower end of rows written from the tables' ``m``."""
         tau = check_array(np.atleast_1d(np.asarray(tau_s, dtype=float)), "tau_s")
         out = np.full(tau.shape, np.nan)
         for seg in self.segments:
-            inside = (tau > seg.tau_lo_s) & (tau <= seg.tau_hi_s)
-            out[inside] = seg.offset_s + seg.slope * tau[inside]
+            inside = seg.covers(tau, interval_s)
+            out[inside] = seg.value_s(tau[inside])
         return out
 
-    def check(self, deviation_or_values, value_s=None) -> MaskResult:
+    def check(self, deviation_or_values, value_s=None, *, interval_s: float | None = None) -> MaskResult:
         """Check a measured curve against this mask.
 
         Parameters
@@ -144,6 +135,8 @@ class Mask:
             intervals ``tau_s`` (k,) when ``value_s`` is given.
         value_s : array-like of shape (k,), optional
             The MTIE or TDEV values in seconds, with ``tau_s`` given first.
+        interval_s : float, optional
+            The record's sample interval (the tables' ``m``).
         """
         if isinstance(deviation_or_values, Deviation):
             dev = deviation_or_values
@@ -159,93 +152,120 @@ class Mask:
             values = check_array(value_s, "value_s", allow_nan=True)
             if values.shape != tau.shape:
                 raise ValueError(f"value_s has shape {values.shape}, must match tau_s {tau.shape}")
-        limit = self.limit_s(tau)
+        limit = self.limit_s(tau, interval_s)
         evaluated = np.isfinite(limit) & np.isfinite(values)
         margin = limit - values
         # A value equal to the limit passes; the tolerance absorbs float rounding of the table's
         # arithmetic (0.03 ns/s * 1000 s is not exactly 30 ns in binary).
         passed_each = evaluated & (values <= limit * (1.0 + _REL_TOL))
         passed = bool(evaluated.any() and np.all(passed_each[evaluated]))
-        return MaskResult(self.name, self.metric, tau, values, limit, margin, evaluated, passed_each, passed)
-
-
-@dataclass(frozen=True)
-class TimeErrorResult:
-    """Max |TE| check: ``max_abs_te_s`` over the non-NaN samples against ``limit_s``."""
-
-    clock: str
-    max_abs_te_s: float
-    limit_s: float
-    margin_s: float
-    passed: bool
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict."""
-        return {
-            "clock": self.clock,
-            "max_abs_te": self.max_abs_te_s,
-            "limit": self.limit_s,
-            "margin": self.margin_s,
-            "passed": self.passed,
-        }
-
-
-@dataclass(frozen=True)
-class ClockVerdict:
-    """A phase record checked against one clock class: MTIE, TDEV and (if defined) max |TE|."""
-
-    clock: str
-    mtie: MaskResult
-    tdev: MaskResult
-    time_error: TimeErrorResult | None
-    passed: bool
-
-    def to_dict(self) -> dict:
-        """JSON-ready dict."""
-        return {
-            "clock": self.clock,
-            "mtie": self.mtie.to_dict(),
-            "tdev": self.tdev.to_dict(),
-            "time_error": None if self.time_error is None else self.time_error.to_dict(),
-            "passed": self.passed,
-        }
+        sources = tuple(dict.fromkeys(seg.source for seg in self.segments))
+        return MaskResult(self.name, self.metric, tau, values, limit, margin, evaluated, passed_each, passed, sources)
 
 
 @dataclass(frozen=True)
 class ClockMasks:
-    """The limits of one clock class: MTIE and TDEV masks, and max |TE| (None if it has none)."""
+    """What one recommendation specifies for one clock class or reference point.
+
+    ``mtie``/``tdev``: the wander masks (None where none is specified); ``max_abs_te_s``: max |TE|
+    unfiltered (None if none); ``cte_s``: the |cTE| limit; ``max_abs_te_l_s``: max |TE_L| after the 0.1 Hz
+    low-pass; ``dte_h_pp_s``: dTE_H peak to peak after the 0.1 Hz high-pass; ``filtered``: the MTIE/TDEV
+    masks are of dTE_L. ``sources`` names the table of each scalar limit.
+    """
 
     name: str
-    mtie: Mask
-    tdev: Mask
+    mtie: Mask | None
+    tdev: Mask | None
     max_abs_te_s: float | None
     reference: str
+    title: str = ""
+    filtered: bool = False
+    cte_s: float | None = None
+    max_abs_te_l_s: float | None = None
+    dte_h_pp_s: float | None = None
+    sources: dict = field(default_factory=dict)
+    not_specified: str = ""
 
-    def limit_s(self, metric: str, tau_s) -> np.ndarray:
-        """Limit in seconds of the ``metric`` (``"mtie"`` or ``"tdev"``) mask at ``tau_s`` (k,)."""
+    def mask(self, metric: str) -> Mask:
+        """The ``metric`` (``"mtie"`` or ``"tdev"``) mask; a ValueError naming the clock if it has none."""
         check_choice(metric, "metric", METRICS)
-        return getattr(self, metric).limit_s(tau_s)
+        found = getattr(self, metric)
+        if found is None:
+            raise ValueError(f"clock == {self.name!r} has no {metric.upper()} mask ({self.not_specified or self.reference})")
+        return found
 
-    def check(self, deviation_or_phase, rate_hz: float | None = None) -> MaskResult | ClockVerdict:
+    def limit_s(self, metric: str, tau_s, interval_s: float | None = None) -> np.ndarray:
+        """Limit in seconds of the ``metric`` mask at ``tau_s`` (k,); NaN where uncovered or absent."""
+        check_choice(metric, "metric", METRICS)
+        found = getattr(self, metric)
+        if found is None:
+            return np.full(np.atleast_1d(np.asarray(tau_s, dtype=float)).shape, np.nan)
+        return found.limit_s(tau_s, interval_s)
+
+    def check(self, deviation_or_phase, rate_hz: float | None = None, *, offset: str = "measured"
+              ) -> MaskResult | ClockVerdict:
         """Check against this clock class.
 
         ``check(deviation)``: an MTIE or TDEV :class:`Deviation` against the matching mask, returns a
-        :class:`MaskResult`. ``check(x_s, rate_hz)``: a time-error (phase) record ``x_s`` (N,) in seconds
-        (NaN: missing) at ``rate_hz``: its MTIE and TDEV on the octave grid and its max |TE|, returns a
-        :class:`ClockVerdict` that passes when all three pass.
+        :class:`MaskResult`. ``check(x_s, rate_hz, offset=...)``: a time-error (phase) record ``x_s`` (N,)
+        in seconds (NaN: missing) at ``rate_hz``, against every limit of the class, returns a
+        :class:`ClockVerdict` (module docstring).
         """
         if isinstance(deviation_or_phase, Deviation):
             check_choice(deviation_or_phase.statistic, "deviation.statistic", METRICS)
-            mask = self.mtie if deviation_or_phase.statistic == "mtie" else self.tdev
-            return mask.check(deviation_or_phase)
+            return self.mask(deviation_or_phase.statistic).check(deviation_or_phase)
         if rate_hz is None:
             raise ValueError("rate_hz is None, must be given with a phase record x_s (or pass a Deviation)")
+        check_choice(offset, "offset", OFFSETS)
         x = check_array(deviation_or_phase, "x_s", allow_nan=True)
-        res_mtie = self.mtie.check(mtie(x, rate_hz, tau_grid("octave", x.size, rate_hz, "mtie")))
-        res_tdev = self.tdev.check(tdev(x, rate_hz, tau_grid("octave", x.size, rate_hz, "tdev")))
-        te = self.check_time_error(x) if self.max_abs_te_s is not None else None
-        passed = res_mtie.passed and res_tdev.passed and (te is None or te.passed)
-        return ClockVerdict(self.name, res_mtie, res_tdev, te, bool(passed))
+        check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
+        interval = 1.0 / rate_hz
+        split = te_mod.split_time_error(x, rate_hz)
+        notes: list[str] = []
+        limits: list[LimitResult] = []
+        dte = x - split.cte_s
+        filter_ok = interval <= te_mod.MAX_FILTER_INTERVAL_S
+        if self.filtered and not filter_ok:
+            notes.append(f"the 0.1 Hz measurement filter needs samples {te_mod.MAX_FILTER_INTERVAL_S:g} s apart or "
+                         f"closer (these are {interval:g} s): dTE_L MTIE/TDEV, max |TE_L| and dTE_H")
+        te_l = te_mod.low_pass(x, rate_hz) if self.filtered and filter_ok else None
+        wander = (te_l - split.cte_s) if te_l is not None else dte
+        res_mtie = res_tdev = None
+        if not self.filtered or filter_ok:
+            if self.mtie is not None:
+                res_mtie = self.mtie.check(mtie(wander, rate_hz, tau_grid("octave", x.size, rate_hz, "mtie")),
+                                           interval_s=interval)
+            if self.tdev is not None:
+                res_tdev = self.tdev.check(tdev(wander, rate_hz, tau_grid("octave", x.size, rate_hz, "tdev")),
+                                           interval_s=interval)
+            if te_l is not None and self.dte_h_pp_s is not None:
+                high = x - te_l
+                limits.append(_limit("dte_h_pp", float(np.nanmax(high) - np.nanmin(high)), self.dte_h_pp_s,
+                                     self.sources.get("dte_h_pp", self.reference)))
+        absolute = offset == "measured"
+        res_te = None
+        if self.max_abs_te_s is not None:
+            if absolute:
+                res_te = self.check_time_error(x)
+            else:
+                notes.append("max |TE|: the record's constant offset is arbitrary (offset='arbitrary')")
+        if self.cte_s is not None:
+            if absolute:
+                limits.insert(0, _limit("cte", abs(split.cte_worst_s), self.cte_s, self.sources.get("cte", self.reference)))
+            else:
+                notes.append("cTE: the record's constant offset is arbitrary")
+        if self.max_abs_te_l_s is not None and te_l is not None:
+            if absolute:
+                limits.append(_limit("max_abs_te_l", float(np.nanmax(np.abs(te_l))), self.max_abs_te_l_s,
+                                     self.sources.get("max_abs_te_l", self.reference)))
+            else:
+                notes.append("max |TE_L|: the record's constant offset is arbitrary")
+        parts = [r.passed for r in (res_mtie, res_tdev) if r is not None]
+        parts += [res_te.passed] if res_te is not None else []
+        parts += [lim.passed for lim in limits]
+        passed = bool(parts) and all(parts)
+        return ClockVerdict(self.name, res_mtie, res_tdev, res_te, passed, split, tuple(limits), tuple(notes),
+                            offset, self.filtered)
 
     def check_time_error(self, te_s) -> TimeErrorResult:
         """Check a time-error record ``te_s`` (N,) in seconds (NaN: missing) against max |TE|."""
@@ -259,73 +279,36 @@ class ClockMasks:
         return TimeErrorResult(self.name, peak, self.max_abs_te_s, margin, bool(peak <= self.max_abs_te_s))
 
 
-_US = 1e-6
-_NS = 1e-9
-_INF = float("inf")
+_ENDS = {"(]": (False, True), "[]": (True, True), "()": (False, False), "[)": (True, False)}
 
-# G.8272 Table 1 (PRTC-A MTIE): 0.275e-3 tau + 0.025 us for 0.1 < tau <= 273 s; 0.100 us for tau > 273 s.
-_PRTC_A_MTIE = Mask(
-    "prtc-a",
-    "mtie",
-    (
-        MaskSegment(0.1, 273.0, 0.025 * _US, 0.275e-3 * _US, "ITU-T G.8272 Table 1"),
-        MaskSegment(273.0, _INF, 0.100 * _US, 0.0, "ITU-T G.8272 Table 1"),
-    ),
-)
-# G.8272 Table 2 (PRTC-B MTIE): 0.275e-3 tau + 0.025 us for 0.1 < tau <= 54.5 s; 0.040 us for tau > 54.5 s.
-_PRTC_B_MTIE = Mask(
-    "prtc-b",
-    "mtie",
-    (
-        MaskSegment(0.1, 54.5, 0.025 * _US, 0.275e-3 * _US, "ITU-T G.8272 Table 2"),
-        MaskSegment(54.5, _INF, 0.040 * _US, 0.0, "ITU-T G.8272 Table 2"),
-    ),
-)
-# G.8272 Table 3 (PRTC-A TDEV): 3 ns for 0.1 < tau <= 100 s; 0.03 tau ns for 100 < tau <= 1000 s;
-# 30 ns for 1000 < tau <= 10000 s.
-_PRTC_A_TDEV = Mask(
-    "prtc-a",
-    "tdev",
-    (
-        MaskSegment(0.1, 100.0, 3.0 * _NS, 0.0, "ITU-T G.8272 Table 3"),
-        MaskSegment(100.0, 1000.0, 0.0, 0.03 * _NS, "ITU-T G.8272 Table 3"),
-        MaskSegment(1000.0, _INF, 30.0 * _NS, 0.0, "ITU-T G.8272 Table 3"),
-    ),
-)
-# G.8272 Table 4 (PRTC-B TDEV): 1 ns for 0.1 < tau <= 100 s; 0.01 tau ns for 100 < tau <= 500 s;
-# 5 ns for tau > 500 s.
-_PRTC_B_TDEV = Mask(
-    "prtc-b",
-    "tdev",
-    (
-        MaskSegment(0.1, 100.0, 1.0 * _NS, 0.0, "ITU-T G.8272 Table 4"),
-        MaskSegment(100.0, 500.0, 0.0, 0.01 * _NS, "ITU-T G.8272 Table 4"),
-        MaskSegment(500.0, _INF, 5.0 * _NS, 0.0, "ITU-T G.8272 Table 4"),
-    ),
-)
-# G.811 Table 1 (PRC MTIE): 0.275e-3 tau + 0.025 us for 0.1 < tau <= 1000 s; 1e-5 tau + 0.29 us for tau > 1000 s.
-_G811_MTIE = Mask(
-    "g811",
-    "mtie",
-    (
-        MaskSegment(0.1, 1000.0, 0.025 * _US, 0.275e-3 * _US, "ITU-T G.811 Table 1"),
-        MaskSegment(1000.0, _INF, 0.29 * _US, 1e-5 * _US, "ITU-T G.811 Table 1"),
-    ),
-)
-# G.811 Table 2 (PRC TDEV): 3 ns for 0.1 < tau <= 100 s; 0.03 tau ns for 100 < tau <= 1000 s;
-# 30 ns for 1000 < tau <= 10000 s.
-_G811_TDEV = Mask(
-    "g811",
-    "tdev",
-    (
-        MaskSegment(0.1, 100.0, 3.0 * _NS, 0.0, "ITU-T G.811 Table 2"),
-        MaskSegment(100.0, 1000.0, 0.0, 0.03 * _NS, "ITU-T G.811 Table 2"),
-        MaskSegment(1000.0, _INF, 30.0 * _NS, 0.0, "ITU-T G.811 Table 2"),
-    ),
-)
 
-MASKS: dict[str, ClockMasks] = {
-    "prtc-a": ClockMasks("prtc-a", _PRTC_A_MTIE, _PRTC_A_TDEV, 100.0 * _NS, "ITU-T G.8272 (11/2018) clause 6.1"),
-    "prtc-b": ClockMasks("prtc-b", _PRTC_B_MTIE, _PRTC_B_TDEV, 40.0 * _NS, "ITU-T G.8272 (11/2018) clause 6.1"),
-    "g811": ClockMasks("g811", _G811_MTIE, _G811_TDEV, None, "ITU-T G.811 (1997) Amd. 1 (2016)"),
-}
+def _segment(row: tuple) -> MaskSegment:
+    lo, hi, limit, source = row[:4]
+    lo_closed, hi_closed = _ENDS[row[4] if len(row) > 4 else "(]"]
+    interval = lo == "m"
+    terms = tuple((c * _NS, p) for c, p in limit)
+    return MaskSegment(_DEFAULT_INTERVAL_S if interval else float(lo), float(hi), 0.0, 0.0, source, terms,
+                       lo_closed, hi_closed, interval)
+
+
+def _scalar(entry: dict, key: str) -> tuple[float | None, str | None]:
+    if key not in entry:
+        return None, None
+    value_ns, source = entry[key]
+    return value_ns * _NS, source
+
+
+def _build(name: str, entry: dict) -> ClockMasks:
+    masks = {metric: (Mask(name, metric, tuple(_segment(r) for r in entry[metric])) if metric in entry else None)
+             for metric in METRICS}
+    te, _ = _scalar(entry, "max_abs_te_ns")
+    cte, cte_src = _scalar(entry, "cte_ns")
+    te_l, te_l_src = _scalar(entry, "max_abs_te_l_ns")
+    dte_h, dte_h_src = _scalar(entry, "dte_h_pp_ns")
+    sources = {k: v for k, v in (("cte", cte_src), ("max_abs_te_l", te_l_src), ("dte_h_pp", dte_h_src)) if v}
+    return ClockMasks(name, masks["mtie"], masks["tdev"], te, entry["reference"], entry.get("title", name),
+                      bool(entry.get("filtered", False)), cte, te_l, dte_h, sources, entry.get("not_specified", ""))
+
+
+#: Every clock class and network limit, by name (the CLI's ``--mask`` choices).
+MASKS: dict[str, ClockMasks] = {name: _build(name, entry) for name, entry in TABLES.items()}

@@ -36,7 +36,7 @@ def detect(
     hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
     sigma_rho: float | None = typer.Option(None, "--sigma-rho", help="Mean pseudorange noise (m)."),
     train: float | None = typer.Option(None, "--train", help="Estimate missing noise parameters from the first SECONDS."),
-    window: int = typer.Option(20, "--window", help="Window length n (epochs)."),
+    window: int | None = typer.Option(None, "--window", help="Window length n (epochs; default 20) of a windowed detector."),
     pfa: float = typer.Option(1e-3, "--pfa", help="False-alarm probability per epoch."),
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
     nav: str | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode); with RINEX 3 observations several may be joined by commas."),
@@ -49,6 +49,7 @@ def detect(
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it is decided (FILE may be - for stdin, a pipe or a FIFO)."),
+    detector: str = typer.Option("chi-square", "--detector", help="Detector: chi-square (default), single-epoch, cusum, or one a plugin registers (group chronofuse.detectors)."),
 ) -> None:
     """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
 
@@ -59,7 +60,7 @@ def detect(
 
     if rate is not None and (rate <= 0 or not math.isfinite(rate)):
         fail(f"--rate {rate:g}: must be a positive number of Hz")
-    if window < 1:
+    if window is not None and window < 1:
         fail(f"--window {window}: must be >= 1")
     if not 0.0 < pfa < 1.0:
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
@@ -72,6 +73,13 @@ def detect(
     if not (max_tacc_ns >= 0 and math.isfinite(max_tacc_ns)):
         fail(f"--max-tacc-ns {max_tacc_ns:g}: must be >= 0 ns (0: not used)")
     from chronofuse.integrity.modes import detect_file, read_noise_file
+    from chronofuse.integrity.registry import DETECTORS
+
+    if detector not in DETECTORS:
+        fail(f"--detector {detector!r}: must be one of {', '.join(DETECTORS.names())}")
+    if window is not None and "window" not in DETECTORS.entry(detector).config.model_fields:
+        fail(f"--window {window}: detector {detector!r} has no window")
+    window = 20 if window is None else window
 
     if noise is not None:
         with user_errors():
@@ -83,13 +91,13 @@ def detect(
         fail("give the noise model (--h0, --hm2 and --sigma-rho) or a training stretch (--train SECONDS)")
     max_tacc_s = max_tacc_ns / 1e9 if max_tacc_ns > 0 else None
     if json_lines or str(file) == "-":
-        _stream(file, follow, json_lines, json_out, rate_hz=rate, column=column, station=station,
+        _stream(file, follow, json_lines, json_out, rate_hz=rate, column=column, station=station, detector=detector,
                 settings=dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                               max_time_acc_s=max_tacc_s))
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                           window=window, pfa=pfa, position_m=position, nav=nav, station=station,
-                          max_time_acc_s=max_tacc_s, test=test,
+                          max_time_acc_s=max_tacc_s, detector=detector, test=test,
                           codes=[c.strip() for c in codes.split(",") if c.strip()] if codes else None,
                           elevation_mask_deg=elevation_mask)
     if json_out:
@@ -100,7 +108,7 @@ def detect(
 
 
 def _stream(file: Path, follow: float | None, json_lines: bool, json_out: bool, *, rate_hz, column, station,
-            settings: dict) -> None:
+            detector: str, settings: dict) -> None:
     """``-`` or ``--json-lines``: the stream read as it arrives through the detection pipeline's live driver
     (:class:`chronofuse.integrity.live.StreamDetection`); with ``--json-lines`` one JSON line per epoch,
     flushed as it is decided; at the end the document ``detect FILE`` gives for the same data (printed unless
@@ -110,7 +118,7 @@ def _stream(file: Path, follow: float | None, json_lines: bool, json_out: bool, 
 
     from chronofuse.cli.common import print_json, user_errors
     from chronofuse.integrity.live import StreamDetection, follow_lines
-    from chronofuse.integrity.watch import DetectionSettings
+    from chronofuse.integrity.modes import detection_settings
     from chronofuse.io.record_streams import read_chunks
 
     name = "<stdin>" if str(file) == "-" else str(file)
@@ -124,7 +132,7 @@ def _stream(file: Path, follow: float | None, json_lines: bool, json_out: bool, 
 
                 text = io.TextIOWrapper(source, encoding="utf-8", errors="replace")
                 chunks = (line.encode() for line in follow_lines(text, idle_s=follow))
-            run = StreamDetection(chunks, DetectionSettings(**settings), source=name, rate_hz=rate_hz, column=column,
+            run = StreamDetection(chunks, detection_settings(detector, **settings), source=name, rate_hz=rate_hz, column=column,
                                   station=station)
             for key, verdict in run:
                 if json_lines:

@@ -17,7 +17,8 @@ def register(app: typer.Typer) -> None:
 def gnssdo(
     scenario: str = typer.Option("open-sky", "--scenario", help="open-sky, urban-canyon, outage, jumps or spoofing."),
     controller: str = typer.Option("gated", "--controller",
-                                   help="pi, kf, wakf, gated or huber (default: gated, picked by measurement)."),
+                                   help="Servo: null, pi, kf, wakf, gated, huber, or one a plugin registers (group "
+                                        "chronofuse.servos); default gated, picked by measurement."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),
     duration: int = typer.Option(86_400, "--duration", help="Run length in seconds (>= 3600)."),
     trials: int = typer.Option(1, "--trials", help="Monte Carlo trials (vectorized)."),

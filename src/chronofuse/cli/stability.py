@@ -22,12 +22,13 @@ from chronofuse.cli.loading import loading
 from chronofuse.io.records import read_record
 from chronofuse.validation import InputDataError
 
-_UNITS_S = {"tdev", "ttotdev", "tie_rms", "mtie"}
 #: The engine's statistics (``chronofuse.analysis.stability.STATISTICS``) and ITU-T masks
 #: (``chronofuse.analysis.masks.MASKS``), named here for the options' help without importing them.
 STATISTIC_NAMES = ("adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev", "mtotdev", "ttotdev", "htotdev",
-                   "theo1", "tie_rms", "mtie")
-MASK_NAMES = ("prtc-a", "prtc-b", "g811")
+                   "theo1", "theobr", "theoh", "tie_rms", "mtie")
+MASK_NAMES = ("prtc-a", "prtc-b", "g811", "eprtc", "t-bc-a", "t-bc-b", "t-bc-c", "t-bc-d", "t-bc-a-vartemp",
+              "t-bc-b-vartemp", "t-bc-c-vartemp", "g8271.1-c", "g8271.1-c-enhanced", "g8271.1-c-access",
+              "g8262-opt1", "g8262-opt1-temp", "g8262-opt2")
 _ENGINE_MODULES = ("chronofuse.analysis.stability", "chronofuse.analysis.stability.taus")
 
 
@@ -59,66 +60,92 @@ def register(app: typer.Typer) -> None:
 
 
 def stability(
-    file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, .gz ok."),
-    kind: str = typer.Option("phase", "--kind", help="phase (seconds) or freq (fractional frequency)."),
-    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column; "
-                                      "overrides a time column that disagrees, with a warning)."),
+    file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, "
+                                "a header block, units in the header, .gz ok."),
+    kind: str | None = typer.Option(None, "--kind", help="phase (seconds) or freq (fractional frequency); default: from "
+                                    "the value column's unit or name, phase without either."),
+    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column or a "
+                                      "stated interval; overrides a time column that disagrees, with a warning)."),
     dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(STATISTIC_NAMES)}."),
     taus: str = typer.Option("octave", "--taus", help="octave, decade, all, or comma-separated seconds."),
-    mask: str | None = typer.Option(None, "--mask", help=f"ITU-T mask to check: {', '.join(MASK_NAMES)}."),
-    plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of the deviations."),
+    mask: str | None = typer.Option(None, "--mask", help=f"ITU-T masks to check, comma list of: {', '.join(MASK_NAMES)}."),
+    plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of every statistic, the masks and the verdict."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
     station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to analyse (default: the first)."),
-    nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For absolute frequency in Hz: the nominal frequency."),
+    nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For frequency in Hz: the nominal frequency."),
     ci: float = typer.Option(0.683, "--ci", help="Confidence factor of the intervals."),
     no_bias_correction: bool = typer.Option(False, "--no-bias-correction", help="Report total deviations without bias correction."),
+    zero_is_gap: bool = typer.Option(False, "--zero-is-gap", help="Read a value of 0 as a missing sample (Stable32's convention)."),
+    gap_rule: str | None = typer.Option(None, "--gap-rule", help="samples (skip a term only when its own samples are "
+                                        "missing; default for phase) or span (when any sample it spans is; default and "
+                                        "the right rule for frequency input)."),
+    te_offset: str = typer.Option("measured", "--te-offset", help="measured (the record's constant offset is time "
+                                  "error: max |TE| and cTE are checked) or arbitrary (a counter's offset against a "
+                                  "reference that is not the time scale: they are not)."),
+    freq_mean: str = typer.Option("keep", "--freq-mean", help="Frequency input: keep the mean frequency in the "
+                                  "integrated phase (TIE rms and MTIE see the offset) or remove it first (allantools' "
+                                  "convention)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
 ) -> None:
-    """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TIE rms and MTIE, with confidence intervals."""
+    """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TheoBR, TheoH, TIE rms and MTIE, with confidence intervals."""
     names = [d.strip().lower() for d in dev.split(",") if d.strip()]
     unknown = [d for d in names if d not in STATISTIC_NAMES]
     if unknown or not names:
         fail(f"--dev {dev!r}: unknown statistic {unknown}; choose from {', '.join(STATISTIC_NAMES)}")
-    if mask is not None and mask not in MASK_NAMES:
-        fail(f"--mask {mask!r}: choose from {', '.join(MASK_NAMES)}")
+    mask_names = [m.strip().lower() for m in (mask or "").split(",") if m.strip()]
+    bad_masks = [m for m in mask_names if m not in MASK_NAMES]
+    if bad_masks or (mask is not None and not mask_names):
+        fail(f"--mask {mask!r}: unknown mask {bad_masks}; choose from {', '.join(MASK_NAMES)}")
+    for option, value, choices in (("--kind", kind, ("phase", "freq")), ("--gap-rule", gap_rule, ("samples", "span")),
+                                   ("--te-offset", te_offset, ("measured", "arbitrary")),
+                                   ("--freq-mean", freq_mean, ("keep", "remove"))):
+        if value is not None and value not in choices:
+            fail(f"{option} {value!r}: choose from {', '.join(choices)}")
     with user_errors(), collected_warnings() as notes:
         with progress_reporter("stability") as say:
             say("reading")
             with loading():  # the engine loads while the file is read
                 importing = _load_meanwhile(
-                    _ENGINE_MODULES + (("chronofuse.analysis.masks",) if mask is not None else ()), names)
+                    _ENGINE_MODULES + (("chronofuse.analysis.masks",) if mask_names else ()), names)
                 record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz,
-                                     station=station)
+                                     station=station, zero_is_gap=zero_is_gap)
                 importing.join()
             from chronofuse.analysis import stability as st
 
-            x = record.values if kind == "phase" else st.frequency_to_phase(record.values, record.rate_hz)
-            results = _compute_all(file, names, x, record.rate_hz, taus, ci, not no_bias_correction, say)
-            verdict = None
-            if mask is not None:
+            is_freq = record.kind == "freq"
+            x = st.frequency_to_phase(record.values, record.rate_hz, freq_mean) if is_freq else record.values
+            rule = gap_rule or ("span" if is_freq else "samples")
+            results = _compute_all(file, names, x, record.rate_hz, taus, ci, not no_bias_correction, rule, say)
+            verdicts = []
+            if mask_names:
                 from chronofuse.analysis.masks import MASKS
 
-                say(f"mask {mask}")
-                verdict = MASKS[mask].check(x, record.rate_hz)
+                for name in mask_names:
+                    say(f"mask {name}")
+                    verdicts.append(MASKS[name].check(x, record.rate_hz, offset=te_offset))
         if plot is not None:
-            from chronofuse.report.figures import plot_deviations  # matplotlib only when a plot is asked for
+            from chronofuse.analysis.masks import MASKS
+            from chronofuse.report.figures import save_figure  # matplotlib only when a plot is asked for
+            from chronofuse.report.stability_figure import stability_figure
 
-            dimensionless = {k: v for k, v in results.items() if k not in _UNITS_S}
-            seconds = {k: v for k, v in results.items() if k in _UNITS_S}
             plot.parent.mkdir(parents=True, exist_ok=True)
-            chosen = dimensionless or seconds
-            plot_deviations(chosen, plot, ylabel="deviation" if dimensionless else "seconds",
-                            title=f"{file.name} ({record.values.size:,} points, {record.rate_hz:g} Hz)")
+            figure = stability_figure(results, verdicts=verdicts, masks=[MASKS[m] for m in mask_names],
+                                      title=f"{file.name} ({record.values.size:,} points, {record.rate_hz:g} Hz)")
+            save_figure(figure, plot)
     doc = {
         "file": str(file),
         "n": int(record.values.size),
         "rate": record.rate_hz,
-        "kind": kind,
+        "kind": record.kind,
         "gaps": record.n_gaps,
+        "gap_rule": rule,
+        "frequency_mean": freq_mean if is_freq else None,
         "jitter_rms_s": record.jitter_rms_s,
         "jitter_max_s": record.jitter_max_s,
+        "notes": list(record.notes),
         "deviations": {name: res.to_dict() for name, res in results.items()},
-        "mask": verdict.to_dict() if verdict is not None else None,
+        "mask": verdicts[0].to_dict() if verdicts else None,
+        "masks": [v.to_dict() for v in verdicts],
         "plot": str(plot) if plot is not None else None,
         "warnings": notes,
     }
@@ -130,8 +157,10 @@ def stability(
     con = human_console(False)
     timing = (f"; time tags off the grid by {record.jitter_rms_s:.3g} s rms, {record.jitter_max_s:.3g} s at most"
               if record.t_ns is not None else "")
-    con.print(f"[bold]{file}[/bold]: {record.values.size:,} {kind} points at {record.rate_hz:g} Hz, "
-              f"{record.n_gaps} missing{timing}")
+    con.print(f"[bold]{file}[/bold]: {record.values.size:,} {record.kind} points at {record.rate_hz:g} Hz, "
+              f"{record.n_gaps} missing{timing}" + (f" (gap rule: {rule})" if record.n_gaps else ""))
+    for note in record.notes:
+        con.print(f"note: {note}", markup=False)
     for note in notes:
         con.print(f"warning: {note}", markup=False)
     for name, res in results.items():
@@ -140,8 +169,9 @@ def stability(
             table.add_row(f"{res.tau_s[k]:g}", str(res.n[k]), _alpha_label(res, k), _fmt(res.lo[k]), _fmt(res.dev[k]),
                           _fmt(res.hi[k]))
         con.print(table)
-    if verdict is not None:
-        con.print(f"mask {mask}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} ({verdict_details(verdict)})")
+    for verdict in verdicts:
+        con.print(f"mask {verdict.clock}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} "
+                  f"({verdict_details(verdict)})")
     if plot is not None:
         con.print(f"plot -> {plot}")
 
@@ -149,15 +179,16 @@ def stability(
 #: Statistics whose kernels are numba-parallel (``prange``): they already use every core, and numba's
 #: fallback threading layer (workqueue, where OpenMP and TBB are absent) must not be entered from two
 #: threads at once, so they run one after another in the calling thread.
-_PARALLEL_KERNELS = {"mtotdev", "ttotdev", "htotdev", "theo1"}
+_PARALLEL_KERNELS = {"mtotdev", "ttotdev", "htotdev", "theo1", "theobr", "theoh"}
 
 
-def _compute_all(file: Path, names: list[str], x, rate_hz: float, taus: str, ci: float, bias: bool, say) -> dict:
+def _compute_all(file: Path, names: list[str], x, rate_hz: float, taus: str, ci: float, bias: bool, rule: str,
+                 say) -> dict:
     """Every statistic of ``names``, {name: result} in the order asked. The others than
     :data:`_PARALLEL_KERNELS` run on threads side by side: their kernels release the GIL (numba ``nogil``),
     so e.g. OADEV's sums and MTIE's sparse table share the cores; each statistic is a pure function of
     ``x``, so the results are the same as one after another (tested)."""
-    args = (x, rate_hz, taus, ci, bias, say)
+    args = (x, rate_hz, taus, ci, bias, rule, say)
     side_by_side = [n for n in names if n not in _PARALLEL_KERNELS]
     results = {}
     if len(side_by_side) > 1 and (os.cpu_count() or 1) > 1:
@@ -170,16 +201,18 @@ def _compute_all(file: Path, names: list[str], x, rate_hz: float, taus: str, ci:
     return {name: results[name] for name in names}
 
 
-def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bias: bool, say):
+def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bias: bool, rule: str, say):
     """One statistic on the octave/decade/all grid or the listed taus; a record too short for it is an
-    error naming the file."""
+    error naming the file. ``rule`` is the gap rule of the statistics that have a choice."""
     from chronofuse.analysis import stability as st
     from chronofuse.analysis.stability.taus import parse_taus
 
     say(name)
     try:
         tau_s = parse_taus(taus, x.size, rate_hz, name)
-        return st.compute(name, x, rate_hz, tau_s, ci=ci, bias_correction=bias)
+        spec = st.STATISTICS[name]
+        return st.compute(name, x, rate_hz, tau_s, ci=ci, bias_correction=bias,
+                          gap_rule=rule if rule in spec.gap_rules else None)
     except ValueError as exc:
         if "taus ==" in str(exc):
             raise
@@ -187,16 +220,8 @@ def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bia
 
 
 def verdict_details(verdict) -> str:
-    """One line saying which of MTIE, TDEV and max |TE| failed, and where."""
-    parts = []
-    for res in (verdict.mtie, verdict.tdev):
-        bad = res.evaluated & ~res.passed_each
-        where = f" at tau {', '.join(f'{t:g}' for t in res.tau_s[bad][:4])} s" if bad.any() else ""
-        parts.append(f"{res.metric.upper()} {'pass' if res.passed else 'fail'}{where}")
-    if verdict.time_error is not None:
-        te = verdict.time_error
-        parts.append(f"max |TE| {te.max_abs_te_s * 1e9:.1f} ns {'<=' if te.passed else '>'} {te.limit_s * 1e9:.0f} ns")
-    return "; ".join(parts)
+    """One line saying which limits failed, at every failing tau, and the cTE/dTE split."""
+    return verdict.summary()
 
 
 def _alpha_label(res, k: int) -> str:

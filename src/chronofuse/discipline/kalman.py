@@ -1,4 +1,4 @@
-"""Kalman-filter servos on [phase, fractional frequency, drift] (SPEC 3.5), on the ``estimation/`` core.
+"""The Kalman servo on [phase, fractional frequency, drift], on the ``estimation/`` Kalman core.
 
 Model (Van Dierendonck, McGraw and Brown, 16th PTTI 1984; Brown and Hwang 4th ed. sec. 9.3), with the
 correction ``u`` applied over the previous second (held by the DAC) entering as a known input::
@@ -18,35 +18,54 @@ optimality yardstick. After the update the servo steers (a standard GPSDO law)::
 cancelling the estimated frequency and pulling the phase in with time constant ``steer_s``. Without a
 usable sample the update is skipped: holdover keeps the last frequency and the estimated drift.
 
-Robust variants, each a hook on the measurement variance before the update (innovation ``e = z - H s-``,
-its variance ``S = H P- H' + R``):
+Robust variants, each its own module, are a hook on the measurement variance before the update
+(innovation ``e = z - H s-``, its variance ``S = H P- H' + R``): :mod:`.kalman_adaptive` (the source
+paper's weighted adaptive KF), :mod:`.kalman_gated` (chi-square innovation gate), :mod:`.kalman_huber`
+(Huber-weighted update). Each one's compiled backend is :func:`kf_prior`, its hook, then :func:`kf_post`.
 
-* :class:`AdaptiveKalmanServo`, the seed's weighted adaptive KF (section 5.2, eqs. (4-5)-(4-6)):
-  ``sigma_e`` = standard deviation of the innovations over a sliding window; ``R_k = lambda R`` with
-  ``lambda = lambda_max`` if ``sigma_e > sigma_th`` else ``lambda_min``; optional AR(1) drift
-  (eq. (4-4): ``d_k = alpha d_{k-1} + w``, ``Phi[2, 2] = alpha``).
-* :class:`GatedKalmanServo`: skip the update when ``e^2 / S`` exceeds the chi-square(1) quantile at
-  ``gate_pfa`` (accept again after ``max_rejects`` consecutive rejections: a persistent step is real).
-* :class:`HuberKalmanServo`: Huber's weight ``w = min(1, c / |e / sqrt(S)|)`` applied as ``R / w``
-  (one iteratively-reweighted step, Z. M. Durovic and B. D. Kovacevic, IEEE TAC 44(6), 1999).
+Learning (:meth:`KalmanServo.fit`). A Kalman servo given no ``h`` or no ``measurement_sigma_s`` learns
+them from a recorded stretch: the free oscillator's offsets (a locked stretch turned open loop by
+:func:`~chronofuse.discipline.servo.open_loop_offset_s`) are second-differenced, which removes phase and
+frequency, and the white-FM ``h0``, random-walk-FM ``h-2`` and white measurement noise are fitted to the
+differences' spectrum by Whittle's likelihood with a tapered periodogram
+(:func:`chronofuse.integrity.noise_model.fit_noise_whittle` with ``taper=True``: without the taper the
+measurement noise leaks into the lowest frequencies and a weak ``h-2`` comes out many times too large;
+the model is the clock-bias detector's ``r(0..2)`` of the second difference); epochs of an outlying
+difference are left out first. Given values are held fixed. The fitted ``h_`` has no flicker term (the
+three-parameter model has none; flicker is seen as a mix of the two).
+
+Numbers: per loop the compiled backend and the numpy core (:meth:`KalmanServo._control` on
+:mod:`chronofuse.estimation.kalman`) do the same arithmetic in the same order
+(:mod:`chronofuse.estimation.kalman_kernel` is the compiled core); tests compare them.
 """
 
 from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
-from scipy import stats
+from pydantic import Field
 
+from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kernels import MODES
 from chronofuse.discipline.servo import Servo
+from chronofuse.discipline.servo_kernel import SAMPLE
+from chronofuse.estimation import kalman_kernel as kk
 from chronofuse.estimation.kalman import predict, update
 from chronofuse.models.clock import clock_process_noise, clock_transition
 from chronofuse.models.oscillator import PowerLaw
+from chronofuse.registry import Config
 from chronofuse.validation import check_scalar
 
-__all__ = ["effective_clock_noise", "KalmanServo", "AdaptiveKalmanServo", "GatedKalmanServo", "HuberKalmanServo"]
+__all__ = ["effective_clock_noise", "KalmanServo", "KalmanServoConfig", "build_kalman", "kf_prior", "kf_post",
+           "sample_kf", "AdaptiveKalmanServo", "GatedKalmanServo", "HuberKalmanServo"]
+
+#: The compiled backends' parameter header: n, dt, steer_s, r, where the scratch starts in the state, and
+#: four slots for a variant's constants; then F (n*n), Q (n*n) and h (n). The state: x (n), P (n*n), a
+#: variant's own, then scratch (the shifted state, the prior and the Kalman kernel's work space), so that
+#: a step allocates nothing.
+HEADER = 9
 
 
 def effective_clock_noise(h: PowerLaw, tau_match_s: float = 1000.0) -> tuple[float, float]:
@@ -61,28 +80,133 @@ def effective_clock_noise(h: PowerLaw, tau_match_s: float = 1000.0) -> tuple[flo
             h.hm2 + 3.0 * ln2 * h.hm1 / (2.0 * math.pi**2 * tau_match_s))
 
 
+# -- the compiled core every Kalman backend shares --------------------------------------------------------
+
+
+def scratch_size(n: int) -> int:
+    """Floats of scratch at the end of a Kalman backend's state row (module constants above)."""
+    return 2 * n + n * n + kk.work_size(n)
+
+
+@numba.njit(cache=True)
+def kf_prior(offset_s, shift_s, applied, state, params):
+    """Predict one second: the phase state follows the step ``shift_s``, then ``x- = F x + B u`` with
+    ``B u = [dt applied, 0, ...]``, ``P- = F P F' + Q``, into the state's scratch; returns the innovation
+    ``e = z - h' x-`` (NaN without a sample) and ``h' P- h``."""
+    n = int(params[0])
+    nn = n * n
+    k = int(params[4])  # the scratch: shifted x (n), x- (n), P- (n*n), the kernel's work space
+    shifted, x_prior, P_prior = state[k:k + n], state[k + n:k + 2 * n], state[k + 2 * n:k + 2 * n + nn]
+    h = params[HEADER + 2 * nn:HEADER + 2 * nn + n]
+    for a in range(n):
+        shifted[a] = state[a]
+    shifted[0] = shifted[0] + shift_s
+    kk.predict_flat(shifted, state[n:n + nn], params[HEADER:HEADER + nn], params[HEADER + nn:HEADER + 2 * nn],
+                    x_prior, P_prior, state[k + 2 * n + nn:])
+    x_prior[0] = x_prior[0] + params[1] * applied
+    hx = 0.0
+    for a in range(n):
+        hx += x_prior[a] * h[a]
+    return offset_s - hx, kk.innovation_variance_flat(P_prior, h)
+
+
+@numba.njit(cache=True)
+def kf_post(offset_s, accept, r_k, e, state, params, out):
+    """Update the prior of :func:`kf_prior` with variance ``r_k`` when ``accept`` (else keep the prediction),
+    store the posterior, write the backend outputs and return the steering ``-(y + d dt / 2) - x / steer_s``."""
+    n = int(params[0])
+    nn = n * n
+    k = int(params[4])
+    x, P = state[:n], state[n:n + nn]
+    x_prior, P_prior = state[k + n:k + 2 * n], state[k + 2 * n:k + 2 * n + nn]
+    if accept:
+        kk.update_flat(x_prior, P_prior, offset_s, params[HEADER + 2 * nn:HEADER + 2 * nn + n], r_k, x, P,
+                       state[k + 2 * n + nn:])
+    else:
+        for a in range(n):
+            x[a] = x_prior[a]
+        kk.symmetrize_flat(P_prior, P)
+    dt = params[1]
+    out[0] = x[0]
+    out[1] = e if accept else math.nan
+    out[2] = 1.0 if accept else 0.0
+    return -(x[1] + 0.5 * dt * x[2]) - x[0] / params[2]
+
+
+@numba.njit(SAMPLE, cache=True)
+def sample_kf(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
+    """Backend kernel of the plain Kalman servo: every sample accepted with ``R / weight``."""
+    e, _ = kf_prior(offset_s, shift_s, applied, state, params)
+    return kf_post(offset_s, not math.isnan(offset_s), params[3] / weight, e, state, params, out)
+
+
+# -- the servo ----------------------------------------------------------------------------------------------
+
+
+class KalmanServoConfig(Config):
+    """Settings of the Kalman servo. ``h`` and ``measurement_sigma_s`` left None come from the caller's
+    design (the registry's context: the oscillator's ``h``, the receivers' ``measurement_sigma_s``) or,
+    without one, are learnt by :meth:`KalmanServo.fit`."""
+
+    h: PowerLaw | None = Field(None, description="oscillator noise: h2 (s^3), h1 (s^2), h0 (s), hm1 (dimensionless), "
+                                                 "hm2 (1/s); None: the design's, or learnt (PowerLaw)")
+    measurement_sigma_s: float | None = Field(None, gt=0.0, description="white measurement noise sqrt(R) (s)")
+    drift_psd_per_s3: float = Field(1e-40, ge=0.0, description="spectral density of the random-walk drift (1/s^3)")
+    gauss_markov: tuple[tuple[float, float], ...] = Field(
+        (), description="correlated measurement errors modelled as states, each (sigma_s, tau_s) (s, s)")
+    steer_s: float = Field(300.0, gt=0.0, description="phase steering time constant (s)")
+    tau_match_s: float = Field(1000.0, gt=0.0, description="where flicker FM is folded into white and random-walk FM (s)")
+    sigma_phase0_s: float = Field(1e-7, ge=0.0, description="prior standard deviation of the phase after the jam sync (s)")
+    sigma_freq0: float = Field(1e-8, ge=0.0, description="prior standard deviation of the frequency (dimensionless)")
+    sigma_drift0_per_s: float = Field(1e-14, ge=0.0, description="prior standard deviation of the drift (1/s)")
+    drift_ar1: float = Field(1.0, gt=0.0, le=1.0, description="AR(1) coefficient of the drift, 1: random walk "
+                                                              "(dimensionless)")
+    step_threshold_s: float | None = Field(1e-6, ge=0.0,
+                                           description="jam-sync threshold after a gap; None: never step (s)")
+
+
+def build_kalman(cls):
+    """The registry's builder for a Kalman servo class: settings, plus the design's ``h`` and
+    ``measurement_sigma_s`` from the context where the settings leave them None."""
+
+    def build(config, context):
+        settings = config.settings()
+        h = settings.pop("h")
+        sigma = settings.pop("measurement_sigma_s")
+        h = context.get("h") if h is None else h
+        sigma = context.get("measurement_sigma_s") if sigma is None else sigma
+        return cls(h, sigma, interval_s=context.get("interval_s", 1.0), dac=context.get("dac"), **settings)
+
+    return build
+
+
 class KalmanServo(Servo):
     """Kalman servo on [phase, frequency, drift] (+ optional Gauss-Markov measurement states).
 
     Parameters
     ----------
-    h : PowerLaw — the oscillator's noise (its design value; flicker folded at ``tau_match_s``).
-    measurement_sigma_s : float — white measurement noise ``sqrt(R)`` (s), > 0.
+    h : PowerLaw or None — the oscillator's noise (its design value; flicker folded at ``tau_match_s``);
+        None: learnt by :meth:`fit`.
+    measurement_sigma_s : float or None — white measurement noise ``sqrt(R)`` (s), > 0; None: learnt.
     drift_psd_per_s3 : spectral density of the random-walk drift (1/s^3), >= 0.
     gauss_markov : tuple of ``(sigma_s, tau_s)`` — correlated measurement errors modelled as states.
     steer_s : phase steering time constant (s), > 0.
     tau_match_s : where flicker FM is folded (s): near the loop's crossover, where it matters (default 1000 s).
     sigma_phase0_s, sigma_freq0, sigma_drift0_per_s : prior standard deviations (after the jam sync).
     drift_ar1 : AR(1) coefficient of the drift (1 = random walk), in (0, 1].
+
+    Learnt by :meth:`fit` (module docstring): ``h_`` and ``measurement_sigma_s_`` (the given values when
+    given), ``n_fit_differences_``.
     """
 
     name = "kf"
+    kernel = sample_kf
 
-    def __init__(self, h: PowerLaw, measurement_sigma_s: float, *, drift_psd_per_s3: float = 1e-40,
-                 gauss_markov: tuple = (), steer_s: float = 300.0, tau_match_s: float = 1000.0,
-                 sigma_phase0_s: float = 1e-7, sigma_freq0: float = 1e-8, sigma_drift0_per_s: float = 1e-14,
-                 drift_ar1: float = 1.0, interval_s: float = 1.0, dac: Dac | None = None,
-                 step_threshold_s: float | None = 1e-6, fast: bool = True):
+    def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *,
+                 drift_psd_per_s3: float = 1e-40, gauss_markov: tuple = (), steer_s: float = 300.0,
+                 tau_match_s: float = 1000.0, sigma_phase0_s: float = 1e-7, sigma_freq0: float = 1e-8,
+                 sigma_drift0_per_s: float = 1e-14, drift_ar1: float = 1.0, interval_s: float = 1.0,
+                 dac: Dac | None = None, step_threshold_s: float | None = 1e-6, fast: bool = True):
         super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s, fast=fast)
         self.h = h
         self.measurement_sigma_s = measurement_sigma_s
@@ -95,25 +219,66 @@ class KalmanServo(Servo):
         self.sigma_drift0_per_s = sigma_drift0_per_s
         self.drift_ar1 = drift_ar1
 
+    # -- the design: given, or learnt ------------------------------------------------------------------------
+
+    def design(self) -> tuple[PowerLaw, float]:
+        """``(h, measurement_sigma_s)`` in use: what :meth:`fit` learnt, else the given values."""
+        h = getattr(self, "h_", None) or self.h
+        sigma = getattr(self, "measurement_sigma_s_", None) or self.measurement_sigma_s
+        if h is None or sigma is None:
+            missing = [n for n, v in (("h", h), ("measurement_sigma_s", sigma)) if v is None]
+            raise ValueError(f"{', '.join(missing)} not given: fit() the servo on a recorded stretch of offsets "
+                             "to learn it")
+        return h, sigma
+
+    def _learn(self, z_open, interval_s):
+        from chronofuse.estimation.process import second_difference_series
+        from chronofuse.integrity.noise_model import contiguous_runs, fit_noise, empirical_autocorrelation
+        from chronofuse.integrity.noise_model import fit_noise_whittle, training_outliers
+
+        if self.h is not None and self.measurement_sigma_s is not None:
+            self.h_, self.measurement_sigma_s_ = self.h, self.measurement_sigma_s
+            self.n_fit_differences_ = 0
+            return
+        known = {}
+        if self.h is not None:
+            known["h0"], known["hm2"] = effective_clock_noise(self.h, self.tau_match_s)
+        if self.measurement_sigma_s is not None:
+            known["sigma_rho_m"] = self.measurement_sigma_s * SPEED_OF_LIGHT_M_PER_S
+        x = np.where(training_outliers(z_open), np.nan, z_open)
+        df = second_difference_series(x, interval_s)
+        if np.isfinite(df).sum() < 30:
+            raise ValueError(f"offset_s gives {int(np.isfinite(df).sum())} valid second differences; fitting the "
+                             "noise needs at least 30")
+        if contiguous_runs(df, 8):
+            h0, hm2, sigma_rho_m = fit_noise_whittle(df, interval_s, taper=True, **known)
+        else:
+            h0, hm2, sigma_rho_m = fit_noise(empirical_autocorrelation(df), interval_s, **known)
+        self.h_ = self.h if self.h is not None else PowerLaw(h0=h0, hm2=hm2)
+        self.measurement_sigma_s_ = (self.measurement_sigma_s if self.measurement_sigma_s is not None
+                                     else sigma_rho_m / SPEED_OF_LIGHT_M_PER_S)
+        self.n_fit_differences_ = int(np.isfinite(df).sum())
+
     # -- the model ---------------------------------------------------------------------------------------
 
     def _check(self) -> None:
         super()._check()
-        if not isinstance(self.h, PowerLaw):
-            raise TypeError(f"h == {self.h!r}, must be a PowerLaw")
-        check_scalar(self.measurement_sigma_s, "measurement_sigma_s", min_val=0.0, include_min=False)
+        h, sigma = self.design()
+        if not isinstance(h, PowerLaw):
+            raise TypeError(f"h == {h!r}, must be a PowerLaw")
+        check_scalar(sigma, "measurement_sigma_s", min_val=0.0, include_min=False)
         check_scalar(self.steer_s, "steer_s", min_val=0.0, include_min=False)
         check_scalar(self.drift_ar1, "drift_ar1", min_val=0.0, max_val=1.0, include_min=False)
         for name in ("sigma_phase0_s", "sigma_freq0", "sigma_drift0_per_s"):
             check_scalar(getattr(self, name), name, min_val=0.0)
-        for sigma, tau in self.gauss_markov:
-            check_scalar(sigma, "gauss_markov sigma_s", min_val=0.0)
+        for sigma_gm, tau in self.gauss_markov:
+            check_scalar(sigma_gm, "gauss_markov sigma_s", min_val=0.0)
             check_scalar(tau, "gauss_markov tau_s", min_val=0.0, include_min=False)
 
     def model(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(F, Q, H)`` of the (augmented) state over one interval."""
         dt = float(self.interval_s)
-        h0, hm2 = effective_clock_noise(self.h, self.tau_match_s)
+        h0, hm2 = effective_clock_noise(self.design()[0], self.tau_match_s)
         n = 3 + len(self.gauss_markov)
         F = np.zeros((n, n))
         Q = np.zeros((n, n))
@@ -129,32 +294,52 @@ class KalmanServo(Servo):
             H[0, 3 + i] = -1.0
         return F, Q, H
 
-    def _initial(self, n_loops):
-        F, Q, H = self.model()
-        n = F.shape[0]
+    def prior_covariance(self) -> np.ndarray:
+        """``P0`` (n, n): the prior after the jam sync (phase, frequency, drift, then the Gauss-Markov states)."""
+        n = 3 + len(self.gauss_markov)
         P0 = np.zeros((n, n))
         P0[0, 0], P0[1, 1], P0[2, 2] = self.sigma_phase0_s**2, self.sigma_freq0**2, self.sigma_drift0_per_s**2
         for i, (sigma, _) in enumerate(self.gauss_markov):
             P0[3 + i, 3 + i] = sigma**2
-        return {"x": np.zeros((n_loops, n)), "P": np.broadcast_to(P0, (n_loops, n, n)).copy(),
-                "model": (F, Q, H, self.measurement_sigma_s**2)}
+        return P0
 
-    def _kernel_model(self, state):
-        F, Q, H, r = state["model"]
-        return (F, Q, np.ascontiguousarray(H[0]), float(r), MODES[self.name], float(self.interval_s),
-                float(self.steer_s), self._step_thr()) + self._robust_params()
+    def _initial(self, n_loops):
+        F, Q, H = self.model()
+        n = F.shape[0]
+        return {"x": np.zeros((n_loops, n)), "P": np.broadcast_to(self.prior_covariance(), (n_loops, n, n)).copy(),
+                "model": (F, Q, H, self.design()[1] ** 2)}
 
-    def _robust_params(self) -> tuple:
-        """(wakf_th, lam_min, lam_max, gamma, max_rejects, huber_c, kp, ki) for the kernel."""
-        return (0.0, 1.0, 1.0, 0.0, 0, 1.0, 0.0, 0.0)
+    # -- the compiled backend's constants -------------------------------------------------------------------
 
-    # -- the robust hook (plain KF: the nominal R, every sample accepted) --------------------------------
+    def _variant_params(self) -> tuple[float, float, float, float]:
+        """The four variant slots of the parameter header (unused by the plain KF)."""
+        return (0.0, 0.0, 0.0, 0.0)
+
+    def _variant_state(self) -> int:
+        """Floats of a variant's own state after x and P."""
+        return 0
+
+    def _kernel_params(self):
+        F, Q, H = self.model()
+        n = F.shape[0]
+        head = (float(n), float(self.interval_s), float(self.steer_s), float(self.design()[1] ** 2),
+                float(n + n * n + self._variant_state()))
+        return np.concatenate([np.array(head + self._variant_params()), F.ravel(), Q.ravel(), H[0]])
+
+    def _kernel_initial(self, n_loops):
+        P0 = self.prior_covariance()
+        n = P0.shape[0]
+        state = np.zeros((n_loops, n + n * n + self._variant_state() + scratch_size(n)))
+        state[:, n:n + n * n] = P0.ravel()
+        return state
+
+    # -- the numpy core (the robust hook: plain KF, the nominal R, every sample accepted) ----------------------
 
     def _weigh(self, state, e, s0, r, valid):
         """``(R_k (N,), accept (N,), extra state)`` from innovation ``e``, ``s0 = H P- H'`` and nominal ``r``."""
         return np.full(e.shape, r), valid, {}
 
-    def _control(self, state, z, valid, shift):
+    def _control(self, state, z, valid, shift, weight):
         F, Q, H, r = state["model"]
         dt = float(self.interval_s)
         x = state["x"].copy()
@@ -162,12 +347,9 @@ class KalmanServo(Servo):
         prior = predict(x, state["P"], F, Q)
         x_prior = prior.x.copy()
         x_prior[:, 0] += dt * state["u"]  # B u, the correction applied over the last second
-        # A loop's first sample jam-syncs the 1PPS: its phase starts there (zero); no prior phase existed.
-        if self.step_threshold_s is not None:
-            x_prior[:, 0] = np.where(valid & ~state["started"], z, x_prior[:, 0])
         e = z - x_prior @ H[0]
         s0 = np.einsum("i,nij,j->n", H[0], prior.P, H[0])
-        r_k, accept, extra = self._weigh(state, np.where(valid, e, np.nan), s0, r, valid)
+        r_k, accept, extra = self._weigh(state, np.where(valid, e, np.nan), s0, r / weight, valid)
         zz = np.where(accept, z, np.nan)[:, None]
         post = update(x_prior, prior.P, zz, H, r_k[:, None, None])
         xs = post.x
@@ -175,111 +357,3 @@ class KalmanServo(Servo):
         new = {"x": xs, "P": post.P, "model": state["model"], **extra}
         innovation = np.where(accept, e, np.nan)
         return new, y_cmd, xs[:, 0].copy(), innovation, accept
-
-
-class AdaptiveKalmanServo(KalmanServo):
-    """The seed's weighted adaptive KF (section 5.2): ``R_k = lambda R`` from the windowed innovation spread.
-
-    Extra parameters: ``window`` (innovations, >= 2), ``sigma_th_s`` (threshold on their standard
-    deviation, s; default ``threshold_factor * measurement_sigma_s``), ``lambda_min`` and ``lambda_max``
-    (>= lambda_min > 0). ``drift_ar1`` < 1 gives the seed's AR(1) drift.
-    """
-
-    name = "wakf"
-
-    def __init__(self, h: PowerLaw, measurement_sigma_s: float, *, window: int = 10, sigma_th_s: float | None = None,
-                 threshold_factor: float = 2.0, lambda_min: float = 1.0, lambda_max: float = 10.0, **kw):
-        super().__init__(h, measurement_sigma_s, **kw)
-        self.window = window
-        self.sigma_th_s = sigma_th_s
-        self.threshold_factor = threshold_factor
-        self.lambda_min = lambda_min
-        self.lambda_max = lambda_max
-
-    def _check(self) -> None:
-        super()._check()
-        check_scalar(self.window, "window", min_val=2, integer=True)
-        check_scalar(self.lambda_min, "lambda_min", min_val=0.0, include_min=False)
-        check_scalar(self.lambda_max, "lambda_max", min_val=self.lambda_min)
-        check_scalar(self.threshold_factor, "threshold_factor", min_val=0.0, include_min=False)
-        if self.sigma_th_s is not None:
-            check_scalar(self.sigma_th_s, "sigma_th_s", min_val=0.0, include_min=False)
-
-    def _initial(self, n_loops):
-        state = super()._initial(n_loops)
-        state["window"] = np.full((n_loops, int(self.window)), np.nan)
-        return state
-
-    def _threshold_s(self) -> float:
-        return self.sigma_th_s if self.sigma_th_s is not None else self.threshold_factor * self.measurement_sigma_s
-
-    def _robust_params(self):
-        return (float(self._threshold_s()), float(self.lambda_min), float(self.lambda_max), 0.0, 0, 1.0, 0.0, 0.0)
-
-    def _weigh(self, state, e, s0, r, valid):
-        buf = np.concatenate([state["window"][:, 1:], e[:, None]], axis=1)  # NaN where no sample
-        count = np.isfinite(buf).sum(axis=1)
-        filled = np.where(np.isfinite(buf), buf, 0.0)
-        mean = filled.sum(axis=1) / np.maximum(count, 1)
-        var = (np.where(np.isfinite(buf), buf - mean[:, None], 0.0) ** 2).sum(axis=1) / np.maximum(count - 1, 1)
-        sigma_e = np.where(count >= 2, np.sqrt(var), 0.0)
-        th = self._threshold_s()
-        lam = np.where(sigma_e > th, self.lambda_max, self.lambda_min)
-        return lam * r, valid, {"window": buf}
-
-
-class GatedKalmanServo(KalmanServo):
-    """KF with chi-square innovation gating: reject ``e^2 / S > chi2_1.isf(gate_pfa)``; accept again after
-    ``max_rejects`` consecutive rejections."""
-
-    name = "gated"
-
-    def __init__(self, h: PowerLaw, measurement_sigma_s: float, *, gate_pfa: float = 1e-3, max_rejects: int = 30, **kw):
-        super().__init__(h, measurement_sigma_s, **kw)
-        self.gate_pfa = gate_pfa
-        self.max_rejects = max_rejects
-
-    def _check(self) -> None:
-        super()._check()
-        check_scalar(self.gate_pfa, "gate_pfa", min_val=0.0, max_val=1.0, include_min=False, include_max=False)
-        check_scalar(self.max_rejects, "max_rejects", min_val=1, integer=True)
-
-    def _initial(self, n_loops):
-        state = super()._initial(n_loops)
-        state["rejects"] = np.zeros(n_loops, dtype=np.int64)
-        state["gamma"] = float(stats.chi2.isf(self.gate_pfa, 1))
-        return state
-
-    def _robust_params(self):
-        return (0.0, 1.0, 1.0, float(stats.chi2.isf(self.gate_pfa, 1)), int(self.max_rejects), 1.0, 0.0, 0.0)
-
-    def _weigh(self, state, e, s0, r, valid):
-        gamma = state["gamma"]
-        with np.errstate(invalid="ignore"):
-            outlier = valid & (e * e / (s0 + r) > gamma)
-        give_in = state["rejects"] >= self.max_rejects
-        reject = outlier & ~give_in
-        rejects = np.where(reject, state["rejects"] + 1, np.where(valid, 0, state["rejects"]))
-        return np.full(e.shape, r), valid & ~reject, {"rejects": rejects, "gamma": gamma}
-
-
-class HuberKalmanServo(KalmanServo):
-    """KF with a Huber-weighted update: ``R / min(1, c / |e / sqrt(S)|)``, ``c = huber_c`` (default 1.345)."""
-
-    name = "huber"
-
-    def __init__(self, h: PowerLaw, measurement_sigma_s: float, *, huber_c: float = 1.345, **kw):
-        super().__init__(h, measurement_sigma_s, **kw)
-        self.huber_c = huber_c
-
-    def _check(self) -> None:
-        super()._check()
-        check_scalar(self.huber_c, "huber_c", min_val=0.0, include_min=False)
-
-    def _robust_params(self):
-        return (0.0, 1.0, 1.0, 0.0, 0, float(self.huber_c), 0.0, 0.0)
-
-    def _weigh(self, state, e, s0, r, valid):
-        r_norm = np.abs(np.where(valid, e, 0.0)) / np.sqrt(s0 + r)
-        weight = np.minimum(1.0, self.huber_c / np.maximum(r_norm, 1e-300))
-        return r / weight, valid, {}

@@ -11,8 +11,8 @@ servo sees ``z_k = x_k - e_k`` (``e_k``: the reference 1PPS error, NaN when unus
 a time-interval counter reads it (quantized by the multi-phase counter, :mod:`.counter`). All trials
 advance together (vectorized over the first axis); the servo's own functional core does the work, so
 a loop run equals a streaming servo fed the same offsets (tested). With ``servo.fast`` (and no
-counter) the whole loop runs in the compiled :func:`~.kernels.close_loop_kernel`, the same arithmetic
-per loop as the servo's numpy core (tested against it).
+counter) the whole loop runs in the compiled :func:`~.servo_kernel.close_loop_kernel` with the servo's
+own backend kernel, the same arithmetic per loop as the servo's numpy core (tested against it).
 
 ``x_k`` is the time error of the regenerated 1PPS against true time (s): what the GPSDO delivers.
 """
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.discipline.counter import MultiPhaseCounter
-from chronofuse.discipline.kernels import close_loop_kernel
+from chronofuse.discipline.servo_kernel import close_loop_kernel
 from chronofuse.discipline.servo import Servo, freeze
 from chronofuse.validation import check_array
 
@@ -37,7 +37,7 @@ class LoopRun:
 
     ``phase_s``: disciplined 1PPS time error ``x_k``; ``offset_s``: what the servo measured (NaN when
     no usable reference); ``freq_adj``, ``phase_step_s``, ``offset_estimate_s``, ``innovation_s``,
-    ``used``, ``near_rail``: the servo's outputs (see :class:`~.servo.ServoRun`).
+    ``used``, ``near_rail``, ``servo_state``: the servo's outputs (see :class:`~.servo.ServoRun`).
     """
 
     phase_s: np.ndarray
@@ -49,6 +49,7 @@ class LoopRun:
     used: np.ndarray
     near_rail: np.ndarray
     interval_s: float
+    servo_state: np.ndarray | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -74,14 +75,15 @@ def close_loop(servo: Servo, free_phase_s, reference_error_s, *, counter: MultiP
     rng = np.random.default_rng(seed) if counter is not None else None
 
     state = servo.initial_state(trials)
-    if servo.fast and counter is None:
-        ref = np.ascontiguousarray(ref)
-        phase, offset, outs = close_loop_kernel(free, ref, *servo._kernel_arrays(state), *servo._kernel_params(state))
+    if servo._compiled() and counter is None:
+        phase, offset, outs = close_loop_kernel(type(servo).kernel, np.ascontiguousarray(free), np.ascontiguousarray(ref),
+                                                state["common"], state["kernel"], servo._kernel_params(),
+                                                servo._policy())
         return LoopRun(phase, offset, outs[0], outs[1], outs[2], outs[3], outs[4] != 0.0, outs[5] != 0.0,
-                       interval_s=dt)
+                       interval_s=dt, servo_state=outs[6].astype(np.int8))
     phase = np.empty((trials, steps))
     offset = np.empty((trials, steps))
-    outs = [np.empty((trials, steps), dtype=d) for d in (float, float, float, float, bool, bool)]
+    outs = [np.empty((trials, steps), dtype=d) for d in (float, float, float, float, bool, bool, np.int8)]
     c = np.zeros(trials)
     for k in range(steps):
         x = free[:, k] + c
@@ -92,8 +94,8 @@ def close_loop(servo: Servo, free_phase_s, reference_error_s, *, counter: MultiP
             # The counter measures a positive interval: offset it by one second and subtract again.
             z = np.where(valid, counter.measure_interval_s(1.0 + np.where(valid, z, 0.0), rng.random(trials)) - 1.0, z)
         offset[:, k] = z
-        state, out = servo.update(state, z, valid)
+        state, out = servo.update(state, z, valid, local_ts_s=k * dt)
         for dst, src in zip(outs, out):
             dst[:, k] = src
         c = c + out[1] + dt * out[0]
-    return LoopRun(phase, offset, *outs, interval_s=dt)
+    return LoopRun(phase, offset, *outs[:6], interval_s=dt, servo_state=outs[6])

@@ -1,4 +1,4 @@
-"""PI servo on the phase offset (SPEC 3.5; seed 000 eq. (4-3); linuxptp ``pi.c``).
+"""PI servo on the phase offset (the source paper's eq. (4-3); linuxptp ``pi.c``).
 
 Per second (``dt`` = interval), with measured offset ``z_k`` (s) and the integral ``I`` (a fractional
 frequency)::
@@ -23,22 +23,67 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
+from pydantic import Field
 
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.servo import Servo
+from chronofuse.discipline.servo_kernel import SAMPLE
+from chronofuse.registry import Config
 from chronofuse.validation import check_scalar
 
-__all__ = ["PiServo", "SEED_KP", "SEED_KI"]
+__all__ = ["PiServo", "PiServoConfig", "build_pi", "sample_pi", "SEED_KP", "SEED_KI"]
 
 SEED_KP = 0.5
 SEED_KI = 0.1
 
 
+@numba.njit(SAMPLE, cache=True)
+def sample_pi(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
+    """Backend kernel (:data:`~chronofuse.discipline.servo_kernel.SAMPLE`); ``state = [I]``, ``params = [kp, ki, dt]``."""
+    kp, ki, dt = params[0], params[1], params[2]
+    if math.isnan(offset_s):
+        y = -(0.0 + state[0])
+        out[2] = 0.0
+    else:
+        state[0] = state[0] + ki * offset_s / dt
+        y = -(kp * offset_s / dt + state[0])
+        out[2] = 1.0
+    out[0] = offset_s
+    out[1] = offset_s
+    return y
+
+
+class PiServoConfig(Config):
+    """Settings of the PI servo; ``natural_hz`` (when given) designs ``kp``, ``ki`` from a loop bandwidth."""
+
+    kp: float = Field(SEED_KP, ge=0.0, lt=2.0, description="proportional gain per sample (dimensionless)")
+    ki: float = Field(SEED_KI, gt=0.0, description="integral gain per sample (dimensionless)")
+    natural_hz: float | None = Field(None, gt=0.0, le=0.5,
+                                     description="design kp, ki for this natural frequency instead (Hz)")
+    damping: float = Field(1.0, gt=0.0, description="damping of the designed loop (dimensionless)")
+    step_threshold_s: float | None = Field(1e-6, ge=0.0,
+                                           description="jam-sync threshold after a gap; None: never step (s)")
+
+
+def build_pi(config: PiServoConfig, context) -> PiServo:
+    """The registry's builder: gains from ``natural_hz`` and ``damping`` when given, else ``kp``, ``ki``."""
+    common = dict(interval_s=context.get("interval_s", 1.0), dac=context.get("dac"),
+                  step_threshold_s=config.step_threshold_s)
+    if config.natural_hz is not None:
+        return PiServo.from_bandwidth(config.natural_hz, config.damping, **common)
+    return PiServo(config.kp, config.ki, **common)
+
+
 class PiServo(Servo):
-    """PI servo; ``kp``, ``ki`` dimensionless per-sample gains (defaults: the seed's 0.5 and 0.1)."""
+    """PI servo; ``kp``, ``ki`` dimensionless per-sample gains (defaults: the GNSSDO paper's 0.5 and 0.1).
+
+    :meth:`fit` learns nothing: the gains are the design (designing them from the noise is the designer's
+    job, :meth:`from_bandwidth`)."""
 
     name = "pi"
+    kernel = sample_pi
 
     def __init__(self, kp: float = SEED_KP, ki: float = SEED_KI, *, interval_s: float = 1.0,
                  dac: Dac | None = None, step_threshold_s: float | None = 1e-6, fast: bool = True):
@@ -65,17 +110,18 @@ class PiServo(Servo):
         check_scalar(self.kp, "kp", min_val=0.0, max_val=2.0, include_max=False)
         check_scalar(self.ki, "ki", min_val=0.0, include_min=False)
 
-    def _kernel_model(self, state):
-        one = np.zeros((1, 1))
-        return (one, one, np.zeros(1), 1.0, 4, float(self.interval_s), 1.0, self._step_thr(),
-                0.0, 1.0, 1.0, 0.0, 0, 1.0, float(self.kp), float(self.ki))
-
     def _initial(self, n):
         return {"integral": np.zeros(n)}
 
-    def _control(self, state, z, valid, shift):
+    def _control(self, state, z, valid, shift, weight):
         dt = self.interval_s
         integral = np.where(valid, state["integral"] + self.ki * z / dt, state["integral"])
         y = -(np.where(valid, self.kp * z / dt, 0.0) + integral)
         est = np.where(valid, z, np.nan)
         return {"integral": integral}, y, est, est.copy(), valid.copy()
+
+    def _kernel_initial(self, n):
+        return np.zeros((n, 1))
+
+    def _kernel_params(self):
+        return np.array([float(self.kp), float(self.ki), float(self.interval_s)])

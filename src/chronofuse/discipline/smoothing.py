@@ -52,7 +52,7 @@ def smooth_run(loop: LoopRun, model: KalmanServo) -> SmoothedRun:
     if not isinstance(model, KalmanServo):
         raise TypeError(f"model == {model!r}, must be a KalmanServo (its model is the one smoothed with)")
     F, Q, H = model.model()
-    P0 = model.initial_state(1)["P"][0]
+    P0 = model.prior_covariance()
     c = control_phase_s(loop)
     z_free = loop.offset_s - c
     # Each trial's first offset is taken out as a known constant (the filter starts there, as the jam
@@ -60,7 +60,7 @@ def smooth_run(loop: LoopRun, model: KalmanServo) -> SmoothedRun:
     first = np.argmax(np.isfinite(z_free), axis=1)
     z0 = z_free[np.arange(z_free.shape[0]), first]
     z0 = np.where(np.isfinite(z0), z0, 0.0)[:, None]
-    kf = KalmanFilter(F, Q, H, np.array([[model.measurement_sigma_s**2]]), np.zeros(F.shape[0]), P0).fit()
+    kf = KalmanFilter(F, Q, H, np.array([[model.design()[1] ** 2]]), np.zeros(F.shape[0]), P0).fit()
     filtered = kf.run((z_free - z0)[:, :, None])
     smoothed = rts_smooth(filtered, F)
     return SmoothedRun(filtered.x[:, :, 0] + c + z0, smoothed.x[:, :, 0] + c + z0, np.sqrt(smoothed.P[:, :, 0, 0]))

@@ -14,6 +14,10 @@ filterpy)::
 
 A trial whose measurement holds a NaN is not updated (``x+ = x-``, ``P+ = P-``, ``K = 0``); its ``y``
 and ``d2`` are NaN and ``S`` is still the predicted innovation covariance.
+
+This is the readable, batched twin of the compiled one-state kernel :mod:`chronofuse.estimation.kalman_kernel`
+(the same equations; tests/estimation/test_kalman_kernel.py compares them): code that runs one filter per
+trial in a sequential numba loop calls the kernel, code that moves all trials together calls these.
 """
 
 from __future__ import annotations

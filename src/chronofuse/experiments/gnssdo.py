@@ -36,9 +36,9 @@ import chronofuse.analysis.stability as st
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, HuberKalmanServo, KalmanServo
-from chronofuse.discipline.pi import PiServo
+from chronofuse.discipline.kalman import KalmanServo
 from chronofuse.discipline.qualification import Qualification
+from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.stages import LoopStage, StateStage
 from chronofuse.discipline.states import StateConfig, StateRun
@@ -58,6 +58,8 @@ __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "mak
 Progress = Callable[[str], None]
 
 SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing")
+#: The built-in controllers the reproductions compare (any name of the servo registry,
+#: :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen).
 CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
 #: Picked by measurement: the lowest mean ratio to the clairvoyant time-error rms over open sky, urban
 #: canyon and jump outliers in ``chronofuse reproduce gnssdo`` (docs/gnssdo/README.md shows the table).
@@ -91,7 +93,7 @@ class GnssdoSetup:
 
     def __post_init__(self):
         check_choice(self.scenario, "--scenario", SCENARIOS)
-        check_choice(self.controller, "--controller", CONTROLLERS)
+        _check_controller(self.controller)
         check_scalar(self.receivers, "--receivers", min_val=1, integer=True)
         check_scalar(self.duration_s, "--duration", min_val=2 * SETTLE_S, integer=True)
         check_scalar(self.trials, "--trials", min_val=1, integer=True)
@@ -101,6 +103,9 @@ class GnssdoSetup:
             check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
             check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
+            if "natural_hz" not in SERVOS.entry(self.controller).config.model_fields:
+                raise ValueError(f"--loop-bandwidth == {self.loop_bandwidth_hz}: --controller {self.controller!r} has "
+                                 "no loop-bandwidth setting (pi has)")
         check_choice(self.fusion, "--fusion", ("fusion", "selection"))
         if self.integrity_pfa is not None:
             check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
@@ -108,6 +113,11 @@ class GnssdoSetup:
         if self.outage_start_s is not None:
             check_scalar(self.outage_start_s, "outage_start_s", min_val=0.0, max_val=self.duration_s)
             check_scalar(self.outage_s, "outage_s", min_val=0.0, max_val=self.duration_s - self.outage_start_s)
+
+
+def _check_controller(name: str) -> None:
+    if name not in SERVOS:
+        raise ValueError(f"--controller == {name!r}, must be one of {list(SERVOS.names())}")
 
 
 def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
@@ -143,19 +153,19 @@ def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float 
 
 def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None,
                     loop_bandwidth_hz: float | None = None, measurement_sigma_s: float | None = None) -> Servo:
-    """The controller ``name`` as a designer would set it up from data sheets (not from the truth).
+    """The controller ``name`` (any servo of :data:`~chronofuse.discipline.registry.SERVOS`) as a designer
+    would set it up from data sheets (not from the truth).
 
-    ``pi``: the seed's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1);
-    Kalman types: the oscillator's h-coefficients and the short-term noise of the receivers.
+    Every servo gets the DAC and the 1 s interval; the registry's context also offers the oscillator's
+    h-coefficients and the receivers' short-term noise, which the Kalman types design with. ``pi``: the
+    GNSSDO paper's preset (Kp 0.5, Ki 0.1), or designed from ``loop_bandwidth_hz`` (damping 1); a servo without a
+    loop-bandwidth setting refuses ``loop_bandwidth_hz`` by name.
     """
-    check_choice(name, "--controller", CONTROLLERS)
-    if name == "pi":
-        if loop_bandwidth_hz is not None:
-            return PiServo.from_bandwidth(loop_bandwidth_hz, 1.0, dac=dac)
-        return PiServo(dac=dac)
-    cls = {"kf": KalmanServo, "wakf": AdaptiveKalmanServo, "gated": GatedKalmanServo, "huber": HuberKalmanServo}[name]
+    _check_controller(name)
     sigma = _design_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
-    return cls(osc.h, sigma, dac=dac)
+    settings = {} if loop_bandwidth_hz is None else {"natural_hz": loop_bandwidth_hz}
+    context = {"interval_s": 1.0, "dac": dac, "h": osc.h, "measurement_sigma_s": sigma}
+    return SERVOS.create(name, context=context, **settings)
 
 
 def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None) -> KalmanServo:
@@ -343,7 +353,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
     first four hours by :func:`equivalent_white_sigma_s` (what a user with a reference would do once).
     """
-    check_choice(controller, "--controller", CONTROLLERS)
+    _check_controller(controller)
     e = read_reference(path)
     e = e - np.mean(e)
     steps = e.size

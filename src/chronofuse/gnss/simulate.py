@@ -48,78 +48,18 @@ from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.gnss.constellation import constellation, satellite_positions_ecef
 from chronofuse.gnss.ephemeris import GpsNavigation, satellite_position_ecef, select_ephemeris
 from chronofuse.models.clock import two_state_clock_phase_s
+from chronofuse.models.environment import SignalEnvironment, signal_environments
 from chronofuse.models.noise import gauss_markov
 from chronofuse.seeding import child_rng, root_seed
 from chronofuse.timescale import seconds_to_ns
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputDataError
 
 __all__ = ["SignalEnvironment", "ENVIRONMENTS", "RangeObservations", "Satellites", "model_satellites",
            "broadcast_satellites", "simulate_pseudoranges"]
 
 
-@dataclass(frozen=True)
-class SignalEnvironment:
-    """Where the receiver is: obstruction, multipath and outages, and the receiver's own errors."""
-
-    name: str
-    elevation_mask_deg: float = 10.0
-    building_height_m: float = 0.0
-    street_width_m: float = 20.0
-    multipath_floor_m: float = 0.13
-    multipath_low_m: float = 0.53
-    multipath_tau_s: float = 20.0
-    outages_s: tuple[tuple[float, float], ...] = ()
-    sigma_zenith_m: float = 0.3
-    iono_residual_fraction: float = 0.0
-    iono_zenith_m: float = 0.55
-    iono_tau_s: float = 1800.0
-    tropo_zenith_m: float = 0.05
-    tropo_tau_s: float = 3600.0
-    nlos_probability: float = 0.0
-    nlos_tau_s: float = 10.0
-    isb_sigma_m: float = 10.0
-    clock_h0: float = 2e-19
-    clock_hm2: float = 6e-22
-    #: Klobuchar coefficients of the simulated day (alpha s/semicircle^n, beta s/semicircle^n): the broadcast
-    #: GPS values of 2024-02-04 (BRDC00CNE_R_20240350000_01D_GN, near the solar maximum) unless a
-    #: navigation file gives its own.
-    klobuchar_alpha: tuple[float, ...] = (2.0489e-08, 1.4901e-08, -1.1921e-07, -5.9605e-08)
-    klobuchar_beta: tuple[float, ...] = (1.2288e05, 0.0, -2.6214e05, 1.9661e05)
-
-    def __post_init__(self):
-        for name in ("elevation_mask_deg", "building_height_m", "multipath_floor_m", "multipath_low_m",
-                     "sigma_zenith_m", "iono_residual_fraction", "iono_zenith_m", "tropo_zenith_m", "isb_sigma_m", "clock_h0",
-                     "clock_hm2"):
-            check_scalar(getattr(self, name), name, min_val=0.0)
-        check_scalar(self.nlos_probability, "nlos_probability", min_val=0.0, max_val=1.0)
-        for name in ("street_width_m", "multipath_tau_s", "iono_tau_s", "tropo_tau_s", "nlos_tau_s"):
-            check_scalar(getattr(self, name), name, min_val=0.0, include_min=False)
-
-    def multipath_sigma_m(self, elevation_rad):
-        """1-sigma of the multipath error at an elevation (rad): ``floor + low exp(-el / 10 deg)``."""
-        return self.multipath_floor_m + self.multipath_low_m * np.exp(-np.degrees(elevation_rad) / 10.0)
-        for start, end in self.outages_s:
-            if not end > start:
-                raise ValueError(f"outage ({start}, {end}) must end after it starts")
-
-
-ENVIRONMENTS: dict[str, SignalEnvironment] = {
-    "open-sky": SignalEnvironment("open-sky"),
-    # Street canyon: 15 m buildings on a 30 m street (mask 45 deg across the street), multipath six times
-    # open sky's (1-sigma 0.8 m at zenith, 4 m near the horizon) with a short correlation time (a moving
-    # vehicle), and half of the blocked satellites received by reflection.
-    "urban-canyon": SignalEnvironment("urban-canyon", building_height_m=15.0, street_width_m=30.0,
-                                      multipath_floor_m=0.78, multipath_low_m=3.18, multipath_tau_s=5.0,
-                                      nlos_probability=0.5),
-    # The source document's test environment: the urban-canyon budget with the building height that the
-    # positioning reproduction calibrates to the source's one stated number (GPS-only CEP95 4.2 m); 8 m is
-    # near it for 10 drives of 1200 s (3.95 m; 8.2 m gives 4.29 m, 9 m 8.22 m: a satellite pair is cut).
-    "paper-canyon": SignalEnvironment("paper-canyon", building_height_m=8.0, street_width_m=30.0,
-                                      multipath_floor_m=0.78, multipath_low_m=3.18, multipath_tau_s=5.0,
-                                      nlos_probability=0.5),
-    # Open road with tunnels: 60 s without any satellite every 10 minutes, from 300 s on.
-    "tunnel": SignalEnvironment("tunnel", outages_s=tuple((300.0 + 600.0 * j, 360.0 + 600.0 * j) for j in range(24))),
-}
+#: The pseudorange views of the one environment registry (:mod:`chronofuse.models.environment`), by name.
+ENVIRONMENTS: dict[str, SignalEnvironment] = signal_environments()
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ class SingleEpochDetector:
     """Alarm when one difference exceeds ``z sqrt(r(0))``; noise parameters as :class:`HodDetector`."""
 
     inputs: ClassVar[tuple[str, ...]] = ()
+    window: ClassVar[int] = 1  # one difference per test
 
     def __init__(self, *, interval_s: float, pfa: float = 1e-3, h0=None, hm2=None, sigma_rho_m=None):
         self.interval_s = interval_s
@@ -62,6 +63,7 @@ class SingleEpochDetector:
         model = HodDetector(interval_s=self.interval_s, window=1, pfa=self.pfa, h0=self.h0, hm2=self.hm2,
                             sigma_rho_m=self.sigma_rho_m).fit(clock_bias_s)
         self.h0_, self.hm2_, self.sigma_rho_m_ = model.h0_, model.hm2_, model.sigma_rho_m_
+        self.r_, self.inflation_, self.training_outliers_ = model.r_, model.inflation_, model.training_outliers_
         self.sigma_df_ = float(math.sqrt(model.r_[0]))
         self.threshold_ = float(stats.norm.isf(self.pfa / 2.0))
         self.reset()
@@ -173,6 +175,8 @@ class CusumDetector:
         self.model_ = HodDetector(interval_s=self.interval_s, window=self.window, pfa=self.pfa, h0=self.h0,
                                   hm2=self.hm2, sigma_rho_m=self.sigma_rho_m).fit(clock_bias_s)
         self.h0_, self.hm2_, self.sigma_rho_m_ = self.model_.h0_, self.model_.hm2_, self.model_.sigma_rho_m_
+        self.r_, self.inflation_ = self.model_.r_, self.model_.inflation_
+        self.training_outliers_ = self.model_.training_outliers_
         steps = max(int(self.calibration_steps), min(int(400 / self.pfa), _MAX_CALIBRATION_STEPS))
         self.threshold_ = _calibrated_threshold((self.h0_, self.hm2_, self.sigma_rho_m_), float(self.interval_s),
                                                 int(self.window), float(self.drift), float(self.pfa), steps,

@@ -103,11 +103,11 @@ def detection_document(watched, settings, *, n_skipped: int, time_scale: str) ->
     doc["time_scale"] = time_scale
     doc["noise"] = _noise(watched.detector) if watched.fitted else None
     doc["noise_change"] = None
-    if watched.fitted and settings.trains:
+    if watched.fitted and settings.trains and hasattr(watched.detector, "r_"):  # a detector with a noise model
         df = np.full(n, np.nan)
         df[2:] = np.diff(x, 2) / watched.interval_s
         ratio, p_value = noise_change(df[:n_train], np.where(tested, df, np.nan)[n_train:],
-                                      watched.detector.r_ / watched.detector.inflation_)
+                                      watched.detector.r_ / getattr(watched.detector, "inflation_", 1.0))
         doc["noise_change"] = {"ratio": ratio, "p_value": p_value}
         if p_value < NOISE_CHANGE_ALPHA:
             warnings.append(f"noise changed after training: the tested differences' mean square is {ratio:.3g} times "

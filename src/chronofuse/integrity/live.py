@@ -173,9 +173,14 @@ def stream_verdicts(
     hm2: float | None = None,
     sigma_rho_m: float | None = None,
     train_s: float | None = None,
+    detector: str = "chi-square",
 ) -> Iterator[EpochVerdict]:
-    """One verdict per epoch of ``time,clock_bias`` text ``lines`` as they arrive (:class:`StreamDetection`)."""
-    settings = DetectionSettings(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m, train_s=train_s)
+    """One verdict per epoch of ``time,clock_bias`` text ``lines`` as they arrive (:class:`StreamDetection`);
+    ``detector`` a name of :data:`chronofuse.integrity.registry.DETECTORS`."""
+    from chronofuse.integrity.modes import detection_settings
+
+    settings = detection_settings(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                                  train_s=train_s)
     chunks = (line.encode() + (b"" if line.endswith("\n") else b"\n") for line in lines)
     for _, verdict in StreamDetection(chunks, settings, source="<stream>", rate_hz=rate_hz, column=column):
         yield verdict

@@ -88,6 +88,18 @@ def detect_record(record, settings: DetectionSettings) -> dict:
     return detection_document(watched, settings, n_skipped=n_skipped(record), time_scale=record.time_scale)
 
 
+def detection_settings(detector: str = "chi-square", **fields) -> DetectionSettings:
+    """The :class:`DetectionSettings` of ``fields`` watching with the detector ``detector`` of
+    :data:`chronofuse.integrity.registry.DETECTORS` (the HOD chi-square test by default). Its settings are
+    checked here, before any data is read (an unknown or inapplicable one is refused by name)."""
+    if detector == "chi-square":
+        return DetectionSettings(**fields)
+    make = _detector_factory(detector, window=fields.get("window", 20), pfa=fields.get("pfa", 1e-3),
+                             h0=fields.get("h0"), hm2=fields.get("hm2"), sigma_rho_m=fields.get("sigma_rho_m"),
+                             confidence=TRAINING_CONFIDENCE if fields.get("train_s") is not None else None)
+    return DetectionSettings(**fields, detector=lambda interval_s, _settings: make(interval_s))
+
+
 def position_offsets_m(obs, nav, position_m: np.ndarray) -> np.ndarray:
     """Per epoch of ``obs`` (:class:`chronofuse.io.rinex.GpsObservations`), the median over the epochs so far
     (causal) of the distance (m) between the data's own single-point fix
@@ -246,6 +258,7 @@ def detect_file(
     nav: str | Path | None = None,
     station: str | None = None,
     max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S,
+    detector: str = "chi-square",
     test: str = "chi-square",
     codes=None,
     elevation_mask_deg: float = 10.0,
@@ -279,6 +292,10 @@ def detect_file(
     max_time_acc_s : float or None
         Largest receiver time accuracy estimate (s; UBX NAV-CLOCK tAcc) of an epoch to be tested; None: not
         used (:mod:`chronofuse.integrity.receiver_status`).
+    detector : str
+        A name of :data:`chronofuse.integrity.registry.DETECTORS` (plugins included) for detection mode;
+        ``window`` and ``confidence`` go to a detector that has them, ``h0``/``hm2``/``sigma_rho_m`` when
+        given. Identification mode and the all-stations table of a clock product run the chi-square test.
 
     test : str
         RINEX 3 observations: the window test of every channel, ``"chi-square"`` or ``"glr"``
@@ -310,6 +327,7 @@ def detect_file(
     if kind == "rinex-nav":
         raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
     if kind == "rinex-obs":
+        _only_chi_square(detector, "identification mode (a RINEX observation file)")
         if nav is None or position_m is None:
             raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
                                  "mode: nav and position_m)", str(path))
@@ -325,13 +343,14 @@ def detect_file(
         raise InputDataError("--nav/--position need a RINEX observation file (identification mode)", str(path))
     if max_time_acc_s is not None:
         check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
-    settings = DetectionSettings(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m, train_s=train_s,
-                                 max_time_acc_s=max_time_acc_s)
+    settings = detection_settings(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                                  train_s=train_s, max_time_acc_s=max_time_acc_s)
     if kind == "rinex-clock":
         from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
 
         clocks = read_station_clocks(path)
         if station is None:
+            _only_chi_square(detector, "the table of every station of a clock product (give --station)")
             return clock_product_document(clocks, settings)
         doc = detect_record(station_clock_bias(clocks, station), settings)
         doc["station"] = station
@@ -339,3 +358,34 @@ def detect_file(
     if station is not None:
         raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
     return detect_record(read_clock_bias(path, rate_hz, column), settings)
+
+
+def _only_chi_square(detector: str, where: str) -> None:
+    if detector != "chi-square":
+        raise InputDataError(f"detector (--detector) {detector!r}: {where} runs the chi-square test only")
+
+
+def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidence):
+    """``make(interval_s)`` building the detector ``name`` of the registry for one clock bias (see
+    :func:`detect_file`); refuses a detector that needs another input, or a noise parameter it does not take."""
+    from chronofuse.integrity.registry import DETECTORS
+
+    entry = DETECTORS.entry(name)
+    needs = tuple(getattr(entry.target, "inputs", ()))
+    if needs:
+        raise InputDataError(f"detector (--detector) {name!r} needs the input(s) {list(needs)}; a clock-bias file "
+                             "gives one clock bias")
+    fields = entry.config.model_fields
+    settings = {"pfa": pfa}
+    for key, value in (("window", window), ("confidence", confidence)):
+        if key in fields and value is not None:
+            settings[key] = value
+    for key, value in (("h0", h0), ("hm2", hm2), ("sigma_rho_m", sigma_rho_m)):
+        if value is not None:
+            settings[key] = value  # refused by the registry, naming it, if the detector has no such setting
+    DETECTORS.config(name, **settings)  # check the settings before any file is read
+
+    def make(interval_s: float):
+        return DETECTORS.create(name, context={"interval_s": interval_s}, **settings)
+
+    return make

@@ -145,9 +145,9 @@ class DetectorStage:
         x = float(epoch["repaired_bias_s"])
         if self._outliers and int(epoch["t_ns"]) in self._outliers:
             x = math.nan
-        out = self.detector.step(x)
-        return {"detector_input_s": x, "statistic": float(out.statistic), "threshold": float(out.threshold),
-                "dof": int(out.dof), "over": bool(out.alarm)}
+        out = self.detector.step(x)  # a StepOutput: float statistic and threshold, int dof, bool alarm
+        return {"detector_input_s": x, "statistic": out.statistic, "threshold": out.threshold, "dof": out.dof,
+                "over": out.alarm}
 
     def run(self, frame) -> dict:
         x = np.asarray(frame["repaired_bias_s"], dtype=np.float64)
@@ -157,7 +157,7 @@ class DetectorStage:
                 "dof": np.asarray(res.dof), "over": np.asarray(res.alarm)}
 
 
-def frequency_sigma(detector) -> float:
+def frequency_sigma(detector, window: int | None = None) -> float:
     """Standard deviation (s/s) of the difference of two window means of the first difference under the
     detector's noise model: ``sqrt(2 (2 s2 + n q1 t_s + n^3 q2 t_s^3 / 3)) / (n t_s)`` (white phase, white FM
     and random-walk FM over one window, two independent windows; :mod:`chronofuse.integrity.streaming`);
@@ -167,32 +167,35 @@ def frequency_sigma(detector) -> float:
     except AttributeError:
         return math.nan
     q1, q2, s2 = (v * getattr(detector, "inflation_", 1.0) for v in (q1, q2, s2))
-    n, ts = int(detector.window), float(detector.interval_s)
+    n, ts = int(window if window is not None else detector.window), float(detector.interval_s)
     return math.sqrt(2.0 * (2.0 * s2 + n * q1 * ts + n**3 * q2 * ts**3 / 3.0)) / (n * ts)
 
 
 class Latch:
     """Raised alarms that stay raised while the anomaly lasts (module docstring, step 4).
 
-    ``detector``: the detector the latch follows (its window, interval and fitted noise model set the
-    frequency test); ``clear_after`` quiet tested epochs (default: one window) and ``clear_sigma``.
+    ``detector``: the detector the latch follows (its interval and fitted noise model set the frequency
+    test); ``window``: the frequency test's window (default: the detector's, else 20 epochs); ``clear_after``
+    quiet tested epochs (default: one window) and ``clear_sigma``.
     """
 
     needs: ClassVar[tuple[str, ...]] = ("over", "dof", "statistic", "threshold", "detector_input_s", "training")
     gives: ClassVar[tuple[str, ...]] = ("state", "latch_event")
 
-    def __init__(self, detector, *, clear_after: int | None = None, clear_sigma: float = 5.0):
+    def __init__(self, detector, *, window: int | None = None, clear_after: int | None = None,
+                 clear_sigma: float = 5.0):
         self.detector = detector
+        self.window = window
         self.clear_after = clear_after
         self.clear_sigma = clear_sigma
         self.reset()
 
     @property
     def _n(self) -> int:
-        return int(self.detector.window)
+        return int(self.window if self.window is not None else getattr(self.detector, "window", 20))
 
     def fit(self, frame=None) -> Latch:
-        self.sigma_freq_ = frequency_sigma(self.detector)
+        self.sigma_freq_ = frequency_sigma(self.detector, self._n)
         self.reset()
         return self
 
@@ -235,12 +238,12 @@ class Latch:
         k = self._pos
         ring[k] = float(epoch["detector_input_s"])
         self._pos = (k + 1) % size
-        ts = float(self.detector.interval_s)
-        mid, old = ring[(k - n) % size], ring[(k - 2 * n) % size]
-        freq_now = (ring[k] - mid) / (n * ts)
-        freq_before = (mid - old) / (n * ts)
-        state, event = self._advance(self._state, bool(epoch["over"]), int(epoch["dof"]), float(epoch["statistic"]),
-                                     float(epoch["threshold"]), bool(epoch["training"]), freq_now, freq_before)
+        span = n * float(self.detector.interval_s)
+        mid, old = ring[k - n], ring[k - 2 * n]  # negative indices wrap the ring
+        freq_now = (ring[k] - mid) / span
+        freq_before = (mid - old) / span
+        state, event = self._advance(self._state, epoch["over"], epoch["dof"], epoch["statistic"], epoch["threshold"],
+                                     epoch["training"], freq_now, freq_before)
         return {"state": state, "latch_event": event}
 
     def run(self, frame) -> dict:

@@ -104,6 +104,7 @@ class StreamingMonitor:
         latch.sigma_freq_ = frequency_sigma(detector)
         self.pipeline = Pipeline([("status", StatusGate(None)), ("repair", ClockRepair(tolerance_s)),
                                   ("detector", stage), ("latch", latch)])
+        self._stages = [s for _, s in self.pipeline.stages]
         self.reset()
 
     def reset(self) -> None:
@@ -113,7 +114,9 @@ class StreamingMonitor:
     def step(self, t_ns: int, clock_bias_s: float, *, receiver_ok: bool = True) -> EpochVerdict:
         """One epoch: its time (int ns), clock bias (s; NaN/None = missing) and receiver status."""
         x = math.nan if clock_bias_s is None else float(clock_bias_s)
-        v = self.pipeline.step({"t_ns": t_ns, "clock_bias_s": x, "valid": receiver_ok, "training": False}).values
+        v = {"t_ns": t_ns, "clock_bias_s": x, "valid": receiver_ok, "training": False}
+        for stage in self._stages:  # the pipeline's step, without wrapping each epoch's columns
+            v.update(stage.step(v))
         status, reset, event = v["status"], v["clock_reset_s"], v["latch_event"]
         events = epoch_events(status, reset, event, False, False) if (status or reset or event) else ()
         return EpochVerdict(int(t_ns), v["statistic"], v["threshold"], v["over"], v["state"], events)

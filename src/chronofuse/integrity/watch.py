@@ -36,7 +36,7 @@ from chronofuse.integrity.streaming import EpochVerdict, epoch_events
 from chronofuse.validation import check_scalar
 
 __all__ = ["DetectionSettings", "TRAINING_CONFIDENCE", "Watched", "ClockWatch", "detection_pipeline",
-           "watch_record", "verdicts"]
+           "watch_record"]
 
 #: With a training stretch, the detectors keep P_fa at or below nominal in this share of trainings (the
 #: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`).
@@ -111,7 +111,8 @@ def detection_pipeline(settings: DetectionSettings, interval_s: float) -> Pipeli
         ("status", StatusGate(settings.max_time_acc_s)),
         ("repair", ClockRepair(settings.reset_tolerance_s)),
         ("detector", DetectorStage(detector)),
-        ("latch", Latch(detector, clear_after=settings.clear_after, clear_sigma=settings.clear_sigma)),
+        ("latch", Latch(detector, window=settings.window, clear_after=settings.clear_after,
+                        clear_sigma=settings.clear_sigma)),
     ])
 
 
@@ -292,20 +293,3 @@ def _verdict(values: dict, phase: str) -> EpochVerdict:
                         bool(values["over"]) and not bool(values["training"]), str(values["state"]),
                         epoch_events(values["status"], float(values["clock_reset_s"]), values["latch_event"],
                                      bool(values["training"]), phase == "failed"))
-
-
-def verdicts(watched: Watched) -> list[EpochVerdict]:
-    """Every epoch of a watched clock as the verdicts the live driver gives (training epochs as reported
-    while they arrive: statistic NaN, ``unavailable``)."""
-    r = watched.result
-    out = []
-    for k in range(watched.training.size):
-        training = bool(watched.training[k])
-        phase = "testing" if watched.fitted else ("training" if training else "failed")
-        values = {name: r[name][k] for name in ("t_ns", "status", "clock_reset_s", "latch_event", "state", "over",
-                                                  "statistic", "threshold")}
-        values["training"] = training
-        if training:
-            values.update(statistic=math.nan, threshold=math.nan, over=False, state="unavailable", latch_event="")
-        out.append(_verdict(values, phase))
-    return out

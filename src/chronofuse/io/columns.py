@@ -7,7 +7,13 @@ The layouts met in practice, each covered by a test in ``tests/io/test_records.p
 - a ``#`` or ``;`` comment block first (Keysight 53230A counter logs as in the GPS and Cs5071A records:
   ``#`` lines, CRLF line ends, ``+2.764966E-07`` style numbers; TimeLab exports: ``;`` lines);
 - a header line of names, possibly behind a UTF-8 byte-order mark (spreadsheet CSV exports);
-- ``;`` or tab between columns with decimal commas (European spreadsheet exports: ``0;1,475``).
+- a header block before it: lines of text that are not data (an instrument's export, 53230A/BenchVue,
+  TimeMonitor and Stable32 ``.dat`` files with text header lines): kept as the layout's ``preamble``; the
+  last of them is the header when it names as many columns as the data has;
+- ``;`` or tab between columns with decimal commas (European spreadsheet exports: ``0;1,475``), and quoted
+  fields with decimal commas between commas (``"0,5","1,25"``);
+- date-time stamps in a column (ISO 8601, ``dd.mm.yyyy hh:mm:ss``), or a date and a clock time in two
+  white-space separated fields, which are read as one time column (``pair``).
 
 The file is *sniffed* (compression from its first bytes, then the first 64 KiB of text, decoded as
 ``utf-8-sig`` so a BOM never turns the first sample into a header) and then read in one pass by
@@ -25,6 +31,7 @@ columns are unambiguous and read.
 from __future__ import annotations
 
 import bz2
+import csv
 import gzip
 import io
 import lzma
@@ -38,13 +45,13 @@ import pyarrow as pa
 import pyarrow.compute as pc
 import pyarrow.csv as pcsv
 
+from chronofuse.io.column_text import decimal_text_to_ns, float_values, stream_numeric_times
+from chronofuse.io.timestamps import is_clock, is_date, is_date_time
 from chronofuse.validation import InputDataError
 
 __all__ = ["Layout", "sniff", "read_columns", "decimal_text_to_ns", "data_lines"]
 
 _SNIFF_BYTES = 1 << 16
-# Fraction digits kept exactly: 10**17 * 27 (days: ns_per_unit / 10**17 = 27/31250) still fits an int64.
-_FRACTION_DIGITS = 17
 _COMMENT = ("#", ";")
 _NULLS = ["nan", "NaN", "NAN", "-nan", "+nan", "-NaN", "+NaN"]
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
@@ -76,7 +83,17 @@ class Layout:
     first_data_line : int
         1-based line number of the first data line.
     width : int
-        Values per data line.
+        Fields per data line (a date and a clock time in two fields count as two).
+    preamble : tuple of (int, str)
+        The text lines before the data (header block, header line included), with their line numbers.
+    comments : tuple of (int, str)
+        The ``#``/``;`` comment lines before the data.
+    pair : int or None
+        Index of a date field followed by a clock-time field: the two are one time column.
+    quoted : bool
+        Fields are quoted (``"0,5","1,25"``).
+    rows : tuple of list of str
+        The fields of the first data lines (up to 200) that the sniff read.
     """
 
     compression: str | None
@@ -86,6 +103,11 @@ class Layout:
     header_line: int
     first_data_line: int
     width: int
+    preamble: tuple = ()
+    comments: tuple = ()
+    pair: int | None = None
+    quoted: bool = False
+    rows: tuple = ()
 
 
 def _compression(path: Path) -> str | None:
@@ -120,13 +142,38 @@ def _is_number(token: str) -> bool:
 
 
 def _strip_comment(line: str) -> str:
-    return line.split("#", 1)[0].strip() if not line.lstrip().startswith(";") else ""
+    """``line`` without a ``;`` comment line or a ``#`` comment (a ``#`` inside quotes is text: "Reading #")."""
+    if line.lstrip().startswith(";"):
+        return ""
+    if '"' in line and "#" in line:
+        inside = False
+        for i, ch in enumerate(line):
+            if ch == '"':
+                inside = not inside
+            elif ch == "#" and not inside:
+                return line[:i].strip()
+        return line.strip()
+    return line.split("#", 1)[0].strip()
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:
+    """The fields of ``line``; quotes (``"0,5"``) are respected and removed."""
     if delimiter in (None, " "):
-        return line.split()
+        return [t.strip('"') for t in line.split()]
+    if '"' in line:
+        return [t.strip() for t in next(csv.reader([line], delimiter=delimiter))]
     return [t.strip() for t in line.split(delimiter)]
+
+
+def _is_value(token: str) -> bool:
+    return _is_number(token) or bool(_DECIMAL_COMMA.match(token))
+
+
+def _is_data(line: str) -> bool:
+    """A line of numbers (possibly with date-time fields and quotes): every field reads, one is a number."""
+    tokens = [t for t in re.split(r"[,;\s]+", line.replace('"', "")) if t]
+    values = [t for t in tokens if _is_value(t)]
+    return bool(values) and all(_is_value(t) or is_date_time(t) or is_date(t) or is_clock(t) for t in tokens)
 
 
 def _guess_delimiter(lines: list[str]) -> str | None:
@@ -135,7 +182,8 @@ def _guess_delimiter(lines: list[str]) -> str | None:
     if any(";" in ln for ln in lines):
         return ";"
     spaced = [ln.split() for ln in lines]
-    if any(len(t) > 1 for t in spaced) and all(_is_number(x) or _DECIMAL_COMMA.match(x) for t in spaced for x in t):
+    if any(len(t) > 1 for t in spaced) and all(_is_value(x) or is_date_time(x) or is_date(x) or is_clock(x)
+                                               for t in spaced for x in t):
         return " "
     if any("," in ln for ln in lines):
         return ","
@@ -155,46 +203,65 @@ def sniff(path: Path) -> Layout:
     lines = text.splitlines()
     if len(raw) > _SNIFF_BYTES and len(lines) > 1:
         lines = lines[:-1]  # the last line may be cut
-    header, header_line, first, data = None, 0, 0, []
+    first, data, preamble, comments = 0, [], [], []
     for lineno, raw_line in enumerate(lines, start=1):
+        if not first and raw_line.strip().startswith(_COMMENT):
+            comments.append((lineno, raw_line.strip()))
+            continue
         line = _strip_comment(raw_line)
         if not line:
             continue
-        if not first and header is None:
-            loose = re.split(r"[,;\s]+", line)
-            if not all(_is_number(t) or _DECIMAL_COMMA.match(t) for t in loose if t):
-                header, header_line = line, lineno
-                continue
         if not first:
+            if not _is_data(line):
+                preamble.append((lineno, line))
+                continue
             first = lineno
         data.append((lineno, line))
         if len(data) >= 200:
             break
     if not data:
-        raise InputDataError("no data lines (empty file, or only comments and a header)", str(path))
-    delimiter = _guess_delimiter([ln for _, ln in data])
+        what = "only comments and text lines" if preamble else "only comments and a header"
+        raise InputDataError(f"no data lines (empty file, or {what})", str(path))
+    delimiter = _guess_delimiter([ln.replace('"', "") for _, ln in data])
+    quoted = any('"' in ln for _, ln in data)
     tokens = [(lineno, _split(ln, delimiter)) for lineno, ln in data]
-    decimal_comma = delimiter in (";", "\t", " ") and any(_DECIMAL_COMMA.match(t) for _, row in tokens for t in row)
-    names = None
-    if header is not None:
-        names = [t for t in (_split(header, delimiter) if delimiter else [header.strip()]) if t]
-    if delimiter == "," and names is None:
-        _refuse_ambiguous_comma(path, tokens)
+    decimal_comma = (delimiter in (";", "\t", " ") or (delimiter == "," and quoted)) and any(
+        _DECIMAL_COMMA.match(t) for _, row in tokens for t in row)
     width = len(tokens[0][1])
-    if names is not None and len(names) != width and delimiter == ",":
-        raise InputDataError(
-            f"header has {len(names)} names but the first data line has {width} comma-separated values "
-            f"({data[0][1]!r}): if the numbers use a decimal comma, separate the columns with ';' or a tab",
-            str(path), data[0][0])
+    pair = None
+    if delimiter == " ":
+        row = tokens[0][1]
+        pair = next((i for i in range(width - 1) if is_date(row[i]) and is_clock(row[i + 1])), None)
+    logical = width - (pair is not None)
+    names, header_line = None, 0
+    if preamble:
+        candidate_line, candidate = preamble[-1]
+        fields = [t for t in (_split(candidate, delimiter) if delimiter else [candidate.strip()]) if t]
+        if delimiter == "," and len(preamble) == 1 and len(fields) != width and not quoted:
+            raise InputDataError(
+                f"header has {len(fields)} names but the first data line has {width} comma-separated values "
+                f"({data[0][1]!r}): if the numbers use a decimal comma, separate the columns with ';' or a tab",
+                str(path), data[0][0])
+        if pair is not None and len(fields) == width:
+            fields = fields[:pair] + [f"{fields[pair]} {fields[pair + 1]}"] + fields[pair + 2:]
+        # A one-column file has no column count to vouch for a header: only a lone text line is one.
+        if len(fields) == logical and (logical > 1 or len(preamble) == 1):
+            names, header_line = fields, candidate_line
+    if delimiter == "," and names is None and not quoted and len(preamble) == 0:
+        _refuse_ambiguous_comma(path, tokens)
     for t in tokens[0][1]:
-        if not (_is_number(t) or (decimal_comma and _is_number(t.replace(",", ".")))):
+        if not (_is_number(t) or (decimal_comma and _is_number(t.replace(",", "."))) or is_date_time(t)
+                or (pair is not None and (is_date(t) or is_clock(t)))):
             raise InputDataError(f"cannot read {t!r} as a number", str(path), data[0][0])
-    return Layout(compression, delimiter, decimal_comma, names, header_line, first, width)
+    return Layout(compression, delimiter, decimal_comma, names, header_line, first, width, tuple(preamble),
+                  tuple(comments), pair, quoted, tuple(row for _, row in tokens))
 
 
 def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> None:
     """A comma file without a header whose fields read better as decimal commas is refused."""
     widths = {len(row) for _, row in tokens}
+    if not all(_is_number(t) for _, row in tokens for t in row):
+        return  # a date-time field: the commas separate columns
     lineno, row = tokens[0]
     example = ",".join(row)
     message = (f"{example!r} looks like a number with a decimal comma, not two columns: write decimal points, "
@@ -233,7 +300,8 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
     """The chosen columns via pyarrow (simple delimiters) or pandas' C parser (space runs, comments);
     None when the text needs the line-by-line reader."""
     names = [f"c{i}" for i in range(layout.width)]
-    types = {f"c{i}": (pa.string() if i == time_col else pa.float64()) for i in columns}
+    text_cols = _text_columns(layout, time_col)
+    types = {f"c{i}": (pa.string() if i in text_cols else pa.float64()) for i in columns}
     skip = layout.first_data_line - 1
     decimal = "," if layout.decimal_comma else "."
     if layout.delimiter != " ":
@@ -258,7 +326,7 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
         with open_binary(path, layout.compression) as fh:
             frame = pd.read_csv(
                 fh, sep=r"\s+", header=None, skiprows=skip, comment="#",
-                dtype={i: (str if i == time_col else "float64") for i in range(layout.width)},
+                dtype={i: (str if i in text_cols else "float64") for i in range(layout.width)},
                 decimal=decimal, engine="c", na_values=_NULLS, keep_default_na=False, skip_blank_lines=True,
                 encoding="utf-8-sig",
             )
@@ -273,36 +341,39 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
     return pa.Table.from_pandas(frame, preserve_index=False)
 
 
-def _float_values(column: pa.ChunkedArray) -> np.ndarray:
-    """A float64 column as one writable numpy array (N,), nulls as NaN.
+def _text_columns(layout: Layout, time_col: int | None) -> set[int]:
+    """The fields read as text: the time column, and the clock-time field after a date (``pair``)."""
+    if time_col is None:
+        return set()
+    return {time_col, time_col + 1} if layout.pair == time_col else {time_col}
 
-    Each chunk's values are viewed in place (``np.frombuffer``, no copy) and the views joined by one
-    ``np.concatenate``: a single copy, in a single call. Copying chunk by chunk into the result took
-    the GIL back for each chunk (221 of them at 1e7 values), and while the stability engine loads on
-    another thread each of those waited for it (the read took 0.9-1.3 s that way, against 0.5 s alone);
-    pyarrow's ``combine_chunks`` followed by a copy to make the result writable copies twice (3.5 s of
-    a 7 s read at 1e8 values). pyarrow's own ``to_numpy`` of a chunked column goes through its pandas
-    conversion, which imports pandas (about 0.4 s of start-up) and copies twice.
+
+def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | None,
+                 time_ns_per_unit: int | Fraction | None = None):
+    """``(values (N,) float64, time (N,) or None, fast: bool)``; the time is a pyarrow string array, or
+    integer ns (int64) when ``time_ns_per_unit`` (whole ns per unit of a numeric time column) is given and
+    pyarrow takes the layout (:func:`_stream_numeric_times`).
+
+    ``value_col`` and ``time_col`` are field indices; a time column at ``layout.pair`` is the date field
+    and the clock-time field after it, joined by a space. Raises :class:`InputDataError` naming the line
+    for a ragged line or text where a number belongs.
     """
-    if column.null_count:
-        column = pc.fill_null(column, np.nan)
-    views = [np.frombuffer(chunk.buffers()[1], dtype=np.float64, count=len(chunk), offset=chunk.offset * 8)
-             for chunk in column.chunks if len(chunk)]
-    if not views:
-        return np.empty(0, dtype=np.float64)
-    return np.concatenate(views) if len(views) > 1 else views[0].copy()
-
-
-def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | None):
-    """``(values (N,) float64, time text (N,) as a pyarrow string array or None, fast: bool)``.
-
-    Raises :class:`InputDataError` naming the line for a ragged line or text where a number belongs.
-    """
-    columns = [value_col] + ([time_col] if time_col is not None else [])
+    if (time_col is not None and time_ns_per_unit is not None and layout.pair is None and layout.delimiter != " "
+            and Fraction(time_ns_per_unit).denominator == 1):
+        streamed = stream_numeric_times(path, layout, value_col, time_col, int(time_ns_per_unit), open_binary, _NULLS)
+        if streamed is not None:
+            return streamed[0], streamed[1], True
+    text_cols = sorted(_text_columns(layout, time_col))
+    columns = [value_col] + text_cols
     table = _fast_table(path, layout, columns, time_col)
     if table is not None and table.num_rows > 0:
-        values = _float_values(table.column(f"c{value_col}"))
-        times = None if time_col is None else table.column(f"c{time_col}").combine_chunks()
+        values = float_values(table.column(f"c{value_col}"))
+        times = None
+        if time_col is not None:
+            times = table.column(f"c{time_col}").combine_chunks()
+            if len(text_cols) == 2:
+                clock = table.column(f"c{time_col + 1}").combine_chunks()
+                times = pc.binary_join_element_wise(times.cast(pa.string()), clock.cast(pa.string()), " ")
         del table
         pa.default_memory_pool().release_unused()  # the parsed text's pages back to the system, not kept for reuse
         return values, times, True
@@ -314,50 +385,15 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
             text = tokens[value_col].replace(",", ".") if layout.decimal_comma else tokens[value_col]
             values_l.append(float(text))
             if time_col is not None:
-                float(tokens[time_col])
-                times_l.append(tokens[time_col])
+                stamp = " ".join(tokens[i] for i in text_cols)
+                if not (is_date_time(stamp) or len(text_cols) == 2):
+                    float(stamp)
+                times_l.append(stamp)
         except ValueError:
-            bad = next(t for t in tokens if not _is_number(t.replace(",", ".") if layout.decimal_comma else t))
+            bad = next((t for t in tokens if not _is_number(t.replace(",", ".") if layout.decimal_comma else t)
+                        and not is_date_time(t)), tokens[value_col])
             raise InputDataError(f"cannot read {bad!r} as a number", str(path), lineno) from None
     times = None if time_col is None else pa.array(times_l, type=pa.string())
     return np.array(values_l, dtype=np.float64), times, False
 
 
-def decimal_text_to_ns(text: pa.Array, ns_per_unit: int | Fraction) -> tuple[np.ndarray, int]:
-    """Exact integer nanoseconds of decimal numbers written as text, shape (N,).
-
-    Integer and fraction parts are converted separately (no float64 on the way: at today's MJD a float64
-    of seconds steps by ~1 us, of days by ~0.6 us), the fraction to 17 digits and rounded to the ns:
-    ``ns = int_part * ns_per_unit + round(frac_17_digits * ns_per_unit / 10**17)``, exact for up to 17
-    fraction digits (beyond them, under 1e-3 ns even for days). Numbers with an
-    exponent (``1.7e9``) are converted through :class:`fractions.Fraction`, also exactly. Returns
-    ``(ns, bad)`` where ``bad`` is the index of the first text that is not a decimal number (-1 if none).
-    """
-    ratio = Fraction(ns_per_unit) / 10**_FRACTION_DIGITS
-    s = pc.utf8_trim_whitespace(pc.cast(text, pa.string()))
-    plain = pc.match_substring_regex(s, r"^[+-]?(\d+\.?\d*|\.\d+)$")
-    if not pc.all(plain).as_py():
-        ok = plain.to_numpy(zero_copy_only=False)
-        out = np.zeros(len(s), dtype=np.int64)
-        for k in np.flatnonzero(~ok):
-            try:
-                value = Fraction(s[k].as_py()) * Fraction(ns_per_unit)
-            except (ValueError, ZeroDivisionError):
-                return out, int(k)
-            out[k] = round(value)
-        if ok.any():
-            out[ok] = decimal_text_to_ns(pc.filter(s, plain), ns_per_unit)[0]
-        return out, -1
-    negative = pc.starts_with(s, "-").to_numpy(zero_copy_only=False)
-    s = pc.replace_substring_regex(s, r"^[+-]", "")
-    s = pc.if_else(pc.match_substring(s, "."), s, pc.binary_join_element_wise(s, "", "."))
-    parts = pc.split_pattern(s, ".", max_splits=1)
-    whole = pc.list_element(parts, 0)
-    whole = pc.if_else(pc.equal(whole, ""), "0", whole)
-    frac = pc.utf8_slice_codeunits(pc.utf8_rpad(pc.list_element(parts, 1), _FRACTION_DIGITS, "0"), 0,
-                                   _FRACTION_DIGITS)
-    whole_i = pc.cast(whole, pa.int64()).to_numpy()
-    frac_i = pc.cast(frac, pa.int64()).to_numpy()
-    p, q = ratio.numerator, ratio.denominator
-    ns = whole_i * int(Fraction(ns_per_unit)) + (frac_i * p + q // 2) // q
-    return np.where(negative, -ns, ns), -1

@@ -30,7 +30,8 @@ import pyarrow as pa
 
 from chronofuse.io.columns import decimal_text_to_ns
 from chronofuse.io.formats import format_of_head
-from chronofuse.io.records import _TIME_NAMES, _time_ns_per_unit, _unit_scale
+from chronofuse.io.record_columns import TIME_NAMES, time_ns_per_unit
+from chronofuse.io.units import column_unit
 from chronofuse.io.rinex_clock import is_rinex_clock, parse_ar_line
 from chronofuse.io.sources_decode import StreamDecoder
 from chronofuse.record import EpochRecord
@@ -130,11 +131,12 @@ class ClockProductReceivers:
     """A RINEX clock product's stations as receivers for the monitor: :class:`ClockProductLines` chunks with
     every receiver field (a clock product reports only the bias: no fix report, ``fix_mode`` 0 and NaN DOPs,
     as :func:`chronofuse.io.rinex_epochs.read_rinex_clock_epochs` gives them; the leap count of the header's
-    ``LEAP SECONDS``, else the table). ``decode``/``finish`` give ``[(station, record)]``."""
+    leap records as its version defines them (:func:`chronofuse.io.rinex_epochs.header_leap`), else the table). ``decode``/``finish`` give ``[(station, record)]``."""
 
     def __init__(self, source: str):
         self.lines = ClockProductLines(source)
         self._leap: int | None = None
+        self._header = ""
 
     def _receivers(self, parts: list) -> list:
         from chronofuse.epochs import ReceiverEpochs
@@ -152,14 +154,11 @@ class ClockProductReceivers:
 
     def decode(self, data: bytes) -> list:
         if self.lines.in_header and self._leap is None:
-            for line in data.decode("ascii", errors="replace").splitlines():
-                if "LEAP SECONDS" in line[60:]:
-                    try:
-                        self._leap = int(line[:6])
-                    except ValueError:
-                        pass
-                if "END OF HEADER" in line:
-                    break
+            from chronofuse.io.rinex_epochs import header_leap
+
+            self._header += data.decode("ascii", errors="replace")
+            if "END OF HEADER" in self._header:  # the leap records read as the file's version defines them
+                self._leap = header_leap(self._header.splitlines())
         return self._receivers(self.lines.feed(data))
 
     def finish(self) -> list:
@@ -206,7 +205,7 @@ class TextLines(_Lines):
         lowered = [n.lower() for n in names]
         time_idx = None
         if width >= 2:
-            time_idx = next((i for i, n in enumerate(lowered) if n in _TIME_NAMES or n.startswith(("t_", "mjd"))), 0)
+            time_idx = next((i for i, n in enumerate(lowered) if n in TIME_NAMES or n.startswith(("t_", "mjd"))), 0)
         if self.column is not None:
             if self.column in names:
                 value_idx = names.index(self.column)
@@ -230,8 +229,10 @@ class TextLines(_Lines):
             time_idx = None
         if time_idx is None and self.rate_hz is None:
             raise InputDataError("one-column stream: give the sample rate (--rate HZ)", self.source, number)
-        scale = _unit_scale(names[value_idx]) if header is not None else 1.0
-        unit_ns = _time_ns_per_unit(names[time_idx]) if (header is not None and time_idx is not None) else 1_000_000_000
+        unit = column_unit(names[value_idx]) if header is not None else None
+        scale = unit.scale if unit is not None and unit.quantity == "time" else 1.0
+        per_unit = time_ns_per_unit(names[time_idx]) if (header is not None and time_idx is not None) else None
+        unit_ns = 1_000_000_000 if per_unit is None else per_unit
         return time_idx, value_idx, scale, unit_ns, width
 
     def feed(self, data: bytes, final: bool = False) -> list:

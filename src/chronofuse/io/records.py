@@ -29,12 +29,25 @@ from __future__ import annotations
 import re
 import warnings
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
 from chronofuse.io.formats import capture_format
+from chronofuse.io.record_columns import (
+    ColumnChoice,
+    check_frequency,
+    check_phase_steps,
+    choose_columns,
+    record_notes,
+    time_ns_per_unit,
+    to_si,
+)
+from chronofuse.io.timestamps import date_time_to_ns, infer_time_unit, is_date_time
+from chronofuse.io.units import header_facts
 from chronofuse.record import EpochRecord
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
 from chronofuse.validation import InputDataError, check_choice, check_scalar
@@ -43,14 +56,10 @@ __all__ = ["ClockRecord", "read_record", "capture_record", "epoch_record", "KIND
 
 KINDS = ("phase", "freq")
 
-_UNIT_SCALE = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12}
-_TIME_NAMES = {"t", "time", "mjd", "epoch", "t_s", "time_s", "unix", "timestamp"}
 # A sample further than this fraction of the interval from its grid slot is not on a regular grid.
 _SLOT_TOLERANCE = 0.25
 # --rate and the time column agree when their intervals differ by less than this (relative).
 _RATE_AGREEMENT = 1e-3
-# Fractional frequency beyond this magnitude is implausible for a clock (warned, or refused when narrow).
-_PLAUSIBLE_Y = 1e-3
 
 
 @dataclass(frozen=True)
@@ -75,6 +84,9 @@ class ClockRecord:
         The name (or 1-based number) of the value column read.
     jitter_rms_s, jitter_max_s : float
         Rms and largest distance of the time tags from their grid slots (0 without a time column).
+    notes : tuple of str
+        What the reader took from the file rather than from the caller (the values' unit from a header
+        line, the sample interval from a header block, the lines of a header block it skipped).
     """
 
     values: np.ndarray
@@ -86,6 +98,7 @@ class ClockRecord:
     column: str
     jitter_rms_s: float = 0.0
     jitter_max_s: float = 0.0
+    notes: tuple[str, ...] = ()
 
     @property
     def t_s(self) -> np.ndarray | None:
@@ -93,55 +106,6 @@ class ClockRecord:
         if self.t_ns is None:
             return None
         return (self.t_ns - self.t_ns[0]) / NS_PER_S
-
-
-def _unit_scale(name: str) -> float:
-    match = re.search(r"_([a-z]+)$", name.lower())
-    if match and match.group(1) in _UNIT_SCALE:
-        return _UNIT_SCALE[match.group(1)]
-    return 1.0
-
-
-def _time_ns_per_unit(name: str) -> int:
-    """Nanoseconds per unit of a time column named ``name`` (``mjd``: days; ``_ms``, ``_us``, ``_ns``)."""
-    lowered = name.lower()
-    if lowered == "mjd" or lowered.startswith("mjd_"):
-        return SECONDS_PER_DAY * NS_PER_S
-    match = re.search(r"_([a-z]+)$", lowered)
-    return {"ms": 1_000_000, "us": 1_000, "ns": 1}.get(match.group(1) if match else "", NS_PER_S)
-
-
-def _pick_columns(layout: Layout, path: Path, column: str | None) -> tuple[int | None, int, str]:
-    """Choose (time index or None, value index, value name)."""
-    width, header = layout.width, layout.header
-    names = header if header is not None else [str(i + 1) for i in range(width)]
-    if header is not None and len(header) != width:
-        raise InputDataError(
-            f"header has {len(header)} names but the first data line has {width} values", str(path),
-            layout.first_data_line
-        )
-    time_idx = None
-    if width >= 2:
-        lowered = [n.lower() for n in names]
-        time_idx = next((i for i, n in enumerate(lowered) if n in _TIME_NAMES or n.startswith(("t_", "mjd"))), 0)
-    if column is not None:
-        if column in names:
-            value_idx = names.index(column)
-        elif column.isdigit() and 1 <= int(column) <= width:
-            value_idx = int(column) - 1
-        else:
-            raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{width})", str(path),
-                                 layout.header_line or layout.first_data_line)
-    elif width == 1:
-        value_idx = 0
-    elif width == 2:
-        value_idx = 1 - time_idx
-    else:
-        raise InputDataError(f"{width} columns {names}: choose the value column with --column", str(path),
-                             layout.first_data_line)
-    if value_idx == time_idx:
-        time_idx = None
-    return time_idx, value_idx, names[value_idx]
 
 
 def _line_of(path: Path, layout: Layout, k: int) -> int:
@@ -176,87 +140,105 @@ class _Grid:
     jitter_max_s: float
 
 
-def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
-    """Place integer-ns time tags (N,) on a regular grid; None when ``rate_hz`` overrides the time column.
-
-    Each step is a whole number of intervals (within ``_SLOT_TOLERANCE``): the slots are the running sum
-    of those numbers, so timing jitter never accumulates along the record; the interval is then the
-    least-squares slope of offset against slot, snapped to a round value when that changes no slot.
-    """
+def _median_step(t_ns: np.ndarray, path: Path, layout: Layout) -> float:
+    """The lower median of the steps of ``t_ns`` (N,); a step that does not advance is an error naming its line."""
     steps = np.diff(t_ns)
     if (steps <= 0).any():
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise InputDataError(
             f"time is not increasing ({t_ns[k - 1] / NS_PER_S:.9g} s then {t_ns[k] / NS_PER_S:.9g} s on the file's "
             "scale)", str(path), _line_of(path, layout, k))
-    first_guess = float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])  # lower median
+    return float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])
+
+
+def _overridden(first_guess: float, rate_hz: float | None, path: Path) -> float | None:
+    """The interval (ns) to use: the median step, or ``--rate``'s; None when ``--rate`` overrides the column."""
+    if rate_hz is None:
+        return first_guess
+    given = 1e9 / rate_hz
+    if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
+        warnings.warn(
+            f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
+            f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=4)
+        return None
+    return given
+
+
+def _bad_step(t_ns: np.ndarray, k: int, guess: float, path: Path, layout: Layout) -> InputDataError:
+    step = t_ns[k] - t_ns[k - 1]
+    return InputDataError(
+        f"time step {step / 1e9:.9g} s is not a whole number of {guess / 1e9:.9g} s sample intervals "
+        f"(the median step; tolerance {_SLOT_TOLERANCE} of an interval)", str(path), _line_of(path, layout, k))
+
+
+def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
+    """Place integer-ns time tags (N,) on a regular grid; None when ``rate_hz`` overrides the time column.
+
+    Each step is a whole number of intervals (within ``_SLOT_TOLERANCE``): the slots are the running sum
+    of those numbers, so timing jitter never accumulates along the record; the interval is then the
+    least-squares slope of offset against slot, snapped to a round value when that changes no slot. The
+    passes over the tags are numba loops (:mod:`chronofuse.io.kernels_time`); :func:`_time_grid_numpy` is
+    their twin.
+    """
+    from chronofuse.io.kernels_time import centred_slope, grid_pass, residual_pass
+
+    guess = _overridden(_median_step(t_ns, path, layout), rate_hz, path)
+    if guess is None:
+        return None
+    slots = np.empty(t_ns.size, dtype=np.int64)
+    bad, sums = grid_pass(t_ns, guess, _SLOT_TOLERANCE, slots)
+    if bad >= 0:
+        raise _bad_step(t_ns, bad, guess, path, layout)
     if rate_hz is not None:
-        given = 1e9 / rate_hz
-        if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
-            warnings.warn(
-                f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
-                f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=3)
-            return None
-        first_guess = given
-    ratio = steps / first_guess
+        interval = guess
+    else:
+        interval = centred_slope(t_ns, slots, sums[0] / t_ns.size, sums[1] / t_ns.size)
+        interval = _snapped(interval, int(slots[-1]))
+    start, rms, peak = residual_pass(t_ns, slots, interval)
+    return _Grid(slots, interval, start, rms / 1e9, peak / 1e9)
+
+
+def _snapped(interval: float, last_slot: int) -> float:
+    for candidate in _snap(interval):
+        if abs(candidate - interval) * last_slot < 0.01 * interval:
+            return candidate
+    return interval
+
+
+def _time_grid_numpy(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layout) -> _Grid | None:
+    """The readable twin of :func:`_time_grid` (whole-array numpy; several arrays of N on the way)."""
+    guess = _overridden(_median_step(t_ns, path, layout), rate_hz, path)
+    if guess is None:
+        return None
+    steps = np.diff(t_ns)
+    ratio = steps / guess
     counts = np.rint(ratio).astype(np.int64)
     bad = np.flatnonzero((np.abs(ratio - counts) > _SLOT_TOLERANCE) | (counts < 1))
     if bad.size:
-        k = int(bad[0])
-        raise InputDataError(
-            f"time step {steps[k] / 1e9:.9g} s is not a whole number of {first_guess / 1e9:.9g} s sample intervals "
-            f"(the median step; tolerance {_SLOT_TOLERANCE} of an interval)", str(path), _line_of(path, layout, k + 1))
+        raise _bad_step(t_ns, int(bad[0]) + 1, guess, path, layout)
     slots = np.concatenate(([0], np.cumsum(counts)))
     offsets = (t_ns - t_ns[0]).astype(np.float64)
     if rate_hz is not None:
-        interval = first_guess
+        interval = guess
     else:  # least-squares line offset = start + interval * slot
         sc = slots - slots.mean()
-        interval = float(np.dot(sc, offsets - offsets.mean()) / np.dot(sc, sc))
-        for candidate in _snap(interval):
-            if abs(candidate - interval) * slots[-1] < 0.01 * interval:
-                interval = candidate
-                break
+        interval = _snapped(float(np.dot(sc, offsets - offsets.mean()) / np.dot(sc, sc)), int(slots[-1]))
     resid = offsets - slots * interval
     start = float(np.mean(resid))  # the grid's phase against the first time tag
     resid -= start
     return _Grid(slots, interval, start, float(np.sqrt(np.mean(resid**2))) / 1e9, float(np.abs(resid).max()) / 1e9)
 
 
-def _check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) -> np.ndarray:
-    """Fractional frequency from the values (absolute frequency with ``nominal_hz``), see module docstring."""
-    if nominal_hz is not None:
-        check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
-        return values / nominal_hz - 1.0
-    finite = values[np.isfinite(values)]
-    if finite.size == 0:
-        return values
-    largest = float(np.max(np.abs(finite)))
-    if largest <= _PLAUSIBLE_Y:
-        return values
-    mean = float(np.mean(finite))
-    spread = float(np.std(finite))
-    one_sign = bool(np.all(finite > 0) or np.all(finite < 0))
-    if one_sign and abs(mean) > _PLAUSIBLE_Y and spread < _PLAUSIBLE_Y * abs(mean):
-        raise InputDataError(
-            f"frequency values of mean {mean:.9g} with a relative spread of {spread / abs(mean):.1e} look like an "
-            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency (--nominal-hz)",
-            str(path))
-    warnings.warn(
-        f"{path}: fractional frequency up to {largest:.3g} in magnitude is implausible for a clock (|y| > "
-        f"{_PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give --nominal-hz)", stacklevel=3)
-    return values
-
-
 def read_record(
     path: str | Path,
     *,
-    kind: str = "phase",
+    kind: str | None = None,
     rate_hz: float | None = None,
     column: str | None = None,
     nominal_hz: float | None = None,
     max_gap_fraction: float = 0.5,
     station: str | None = None,
+    zero_is_gap: bool = False,
 ) -> ClockRecord:
     """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), or a
     receiver recording's clock (:func:`capture_record`).
@@ -265,30 +247,37 @@ def read_record(
     ----------
     path : str or Path
         The file.
-    kind : {"phase", "freq"}
-        What the values are: phase in seconds (after the column's unit scale) or fractional frequency.
+    kind : {"phase", "freq"}, optional
+        What the values are: phase (seconds after the column's unit) or fractional frequency. By default
+        from the value column's unit or name (:mod:`chronofuse.io.record_columns`), phase without either;
+        a kind that contradicts the unit is refused.
     rate_hz : float, optional
-        Sample rate. Required for one-column files; with a time column it sets the grid interval, and
-        overrides the time column (with a warning) where the two disagree.
+        Sample rate. Required for one-column files unless a header line states the sample interval; with a
+        time column it sets the grid interval, and overrides the time column (with a warning) where the two
+        disagree.
     column : str, optional
         Name (from the header) or 1-based number of the value column.
     nominal_hz : float, optional
-        For ``kind="freq"`` files holding absolute frequency in Hz (a counter's readings): the nominal
-        frequency, so that ``y = f / nominal_hz - 1``.
+        For frequency in Hz: the nominal frequency, so that ``y = f / nominal_hz - 1`` (a counter's readings)
+        or ``y = df / nominal_hz`` (a column of frequency offsets in Hz, told by values far from nominal).
     max_gap_fraction : float
         A record whose gaps exceed this fraction of its samples is rejected (too little data).
     station : str, optional
         The station of a RINEX clock product (the first without it); refused for any other file.
+    zero_is_gap : bool
+        Read a value of exactly 0 as a missing sample (Stable32's convention for gaps).
 
     Raises
     ------
     InputDataError
-        Empty file, an archive, text where numbers are expected, an ambiguous decimal comma, a ragged line,
-        non-monotonic time, a time tag off the regular grid, absolute frequency without ``nominal_hz``, or
-        a record made mostly of gaps: each names the file and, where there is one, the line.
+        Empty file, an archive, text where numbers are expected, an ambiguous decimal comma or date, a ragged
+        line, non-monotonic time, a time tag off the regular grid, a unit that contradicts ``kind``, frequency
+        in Hz without ``nominal_hz``, or a record made mostly of gaps: each names the file and, where there is
+        one, the line.
     """
     path = Path(path)
-    check_choice(kind, "kind", KINDS)
+    if kind is not None:
+        check_choice(kind, "kind", KINDS)
     if rate_hz is not None:
         check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
     if not path.exists():
@@ -296,61 +285,86 @@ def read_record(
     if path.is_dir():
         raise InputDataError("is a directory, not a data file", str(path))
     if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
-        return capture_record(path, kind=kind, rate_hz=rate_hz, station=station)
+        return capture_record(path, kind=kind or "phase", rate_hz=rate_hz, station=station)
     if station is not None:
         raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
                              str(path))
     layout = sniff(path)
-    time_idx, value_idx, name = _pick_columns(layout, path, column)
+    facts = header_facts(list(layout.comments) + list(layout.preamble))
+    first_row = list(layout.rows[0])
+    choice = choose_columns(layout, path, column, kind, facts, first_row, is_date_time)
+    notes = record_notes(layout, choice, facts)
+    stamped = choice.time_field is not None and (layout.pair == choice.time_field
+                                                 or is_date_time(first_row[choice.time_field]))
+    per_unit = None
+    if choice.time_field is not None and not stamped:
+        per_unit = _numeric_time_unit(path, layout, choice)
     try:
-        values, time_text, _ = read_columns(path, layout, value_idx, time_idx)
+        values, time_data, _ = read_columns(path, layout, choice.value_field, choice.time_field, per_unit)
     except (OSError, EOFError) as exc:
         raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
     if values.size == 0:
         raise InputDataError("no data lines (empty file, or only comments and a header)", str(path))
     if np.isinf(values).any():
         raise InputDataError("infinite value", str(path), _line_of(path, layout, int(np.flatnonzero(np.isinf(values))[0])))
-    scale = 1.0 if layout.header is None else _unit_scale(name)
-    if scale != 1.0:
-        values = values * scale
+    if zero_is_gap:
+        values = np.where(values == 0.0, np.nan, values)
+    values = to_si(values, choice, nominal_hz, path, layout)
 
     t_ns, grid = None, None
     jitter = (0.0, 0.0)
     sample_of_slot = None  # sample index at each slot (-1: a slot the time column skipped)
-    if time_text is not None:
-        t_name = layout.header[time_idx] if layout.header is not None else "t"
-        t_raw, bad = decimal_text_to_ns(time_text, _time_ns_per_unit(t_name))
-        if bad >= 0:
-            raise InputDataError(f"cannot read {time_text[bad].as_py()!r} as a time", str(path),
-                                 _line_of(path, layout, bad))
+    if time_data is not None:
+        if isinstance(time_data, np.ndarray):
+            t_raw = time_data
+        elif stamped:
+            t_raw = date_time_to_ns(time_data, str(path), lambda k: _line_of(path, layout, k))
+        else:
+            t_raw = _time_tags(time_data, choice, per_unit, path, layout)
+        del time_data
         if t_raw.size >= 2:
             grid = _time_grid(t_raw, rate_hz, path, layout)
         if grid is not None:
+            from chronofuse.io.kernels_time import grid_epochs
+
             rate_hz = 1e9 / grid.interval_ns
-            placed = np.full(int(grid.slots[-1]) + 1, np.nan)
-            placed[grid.slots] = values
-            sample_of_slot = np.full(placed.size, -1, dtype=np.int64)
-            sample_of_slot[grid.slots] = np.arange(values.size)
-            values = placed
-            t_ns = t_raw[0] + np.rint(grid.start_ns + np.arange(values.size) * grid.interval_ns).astype(np.int64)
+            size = int(grid.slots[-1]) + 1
+            if size == values.size:  # no slot skipped: the values are already in place
+                sample_of_slot = None
+            else:
+                placed = np.full(size, np.nan)
+                placed[grid.slots] = values
+                values = placed
+                sample_of_slot = grid.slots
+            t_ns = grid_epochs(np.int64(t_raw[0]), grid.start_ns, grid.interval_ns, values.size)
             jitter = (grid.jitter_rms_s, grid.jitter_max_s)
         elif rate_hz is not None and t_raw.size >= 2:
             t_ns = t_raw[0] + np.rint(np.arange(values.size) * (1e9 / rate_hz)).astype(np.int64)
         else:
             t_ns = t_raw
+    elif facts.interval_s is not None:
+        stated = 1.0 / facts.interval_s
+        if rate_hz is None:
+            rate_hz = stated
+            notes.append(f"sample interval {facts.interval_s:g} s from header line {facts.interval_line}")
+        elif abs(rate_hz / stated - 1.0) > _RATE_AGREEMENT:
+            warnings.warn(f"{path}: --rate {rate_hz:g} Hz where header line {facts.interval_line} states a sample "
+                          f"interval of {facts.interval_s:g} s ({stated:g} Hz); --rate used", stacklevel=2)
     if rate_hz is None:
         raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
 
-    if kind == "freq":
-        values = _check_frequency(values, path, nominal_hz)
+    if choice.kind == "freq" and (choice.unit is None or choice.unit.quantity != "hertz"):
+        values = check_frequency(values, path, nominal_hz)
+    elif choice.kind == "phase":
+        check_phase_steps(values, rate_hz, path, choice)
 
     n_gaps = int(np.isnan(values).sum())
     if n_gaps == values.size:
         raise InputDataError("every value is missing (NaN)", str(path), layout.first_data_line)
     if n_gaps > max_gap_fraction * values.size:
         start, length = _longest_nan_run(values)
-        if sample_of_slot is not None:
-            k = sample_of_slot[start] if sample_of_slot[start] >= 0 else sample_of_slot[max(start - 1, 0)]
+        if sample_of_slot is not None:  # the slots of the samples: the last sample at or before the run
+            k = int(np.searchsorted(sample_of_slot, start, side="right")) - 1
         else:
             k = start
         raise InputDataError(
@@ -362,14 +376,41 @@ def read_record(
     return ClockRecord(
         values=values,
         rate_hz=float(rate_hz),
-        kind=kind,
+        kind=choice.kind,
         t_ns=t_ns,
         source=str(path),
         n_gaps=n_gaps,
-        column=name,
+        column=choice.value_name,
         jitter_rms_s=jitter[0],
         jitter_max_s=jitter[1],
+        notes=tuple(notes),
     )
+
+
+def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice) -> int | Fraction:
+    """ns per unit of a numeric time column: from its name, else from the magnitude of its first 10 001
+    values (:func:`chronofuse.io.timestamps.infer_time_unit`, which warns), else seconds."""
+    per_unit = time_ns_per_unit(choice.time_name) if choice.time_name else None
+    if per_unit is not None:
+        return per_unit
+    head = [row[choice.time_field] for row in layout.rows if len(row) > choice.time_field]  # the sniffed lines
+    try:
+        inferred = infer_time_unit(pa.array(head, type=pa.string()), choice.time_name, str(path))
+    except (pa.ArrowInvalid, ValueError):
+        inferred = None  # text that is no number: the exact conversion names it
+    return inferred if inferred is not None else NS_PER_S
+
+
+def _time_tags(text, choice: ColumnChoice, per_unit, path: Path, layout: Layout) -> np.ndarray:
+    """Integer ns of a numeric time column read as text (the layouts the streaming reader does not take)."""
+    try:
+        t_raw, bad = decimal_text_to_ns(text, per_unit)
+    except OverflowError as exc:
+        raise InputDataError(f"time column {choice.time_name or '1'!r}: {exc}; name its unit (e.g. t_ms, t_ns)",
+                             str(path), layout.first_data_line) from None
+    if bad >= 0:
+        raise InputDataError(f"cannot read {text[bad].as_py()!r} as a time", str(path), _line_of(path, layout, bad))
+    return t_raw
 
 
 def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None = None,
@@ -416,9 +457,16 @@ def epoch_record(record: ClockRecord, column: str | None = None) -> EpochRecord:
                                          "jitter_max_s": record.jitter_max_s})
 
 
+_TIME_UNIT_SUFFIX = re.compile(r"_(s|ms|us|ns|ps)$")
+
+
 def _si_name(name: str, kind: str) -> str:
-    stem = re.sub(r"_([a-z]+)$", "", name.lower()) if _unit_scale(name) != 1.0 or name.lower().endswith("_s") else name
-    return f"{stem}_s" if kind == "phase" else stem
+    """A column name with its unit suffix made SI: ``clock_bias_ns`` -> ``clock_bias_s``, ``phase`` ->
+    ``phase_s``; a frequency column keeps its name (its values are already fractional frequency)."""
+    lowered = name.lower()
+    if kind == "phase":
+        return _TIME_UNIT_SUFFIX.sub("", lowered) + "_s"
+    return lowered
 
 
 def column_names(path: str | Path) -> list[str] | None:

@@ -146,4 +146,5 @@ def station_clock_bias(clocks: StationClocks, station: str, interval_ns: int | N
 CLOCK_TOLERANCE = 1e-6
 
 
-__all__ = ["StationClocks", "is_rinex_clock", "read_station_clocks", "station_clock_bias", "station_record", "parse_ar_line", "CLOCK_TOLERANCE"]
+__all__ = ["StationClocks", "is_rinex_clock", "read_station_clocks", "station_clock_bias", "station_record",
+           "parse_ar_line", "CLOCK_TOLERANCE"]

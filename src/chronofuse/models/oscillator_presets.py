@@ -5,15 +5,23 @@ temperature coefficient, EFC pull and DAC) into :class:`~chronofuse.models.oscil
 instances. ADEV at 1 s is split into white and flicker FM with ``sigma^2(1 s) = h0/2 + 2 ln2 hm1``
 (NIST SP 1065 Table 3); phase noise ``L(f)`` becomes ``h2``/``h1`` through ``S_y = f^2 S_phi / nu0^2``,
 ``S_phi = 2 10^(L/10)``. Each preset's comment names its source and which numbers are assumed.
+
+The presets are the members of the family's registry :data:`OSCILLATORS` (:mod:`chronofuse.registry`):
+``OSCILLATORS.create("ocxo", drift_per_s=2e-15)`` is the preset with those fields replaced (validated
+by :class:`OscillatorConfig`, each field with its unit); a plugin adds a preset through an entry point in
+the group ``chronofuse.oscillators`` whose object is :func:`oscillator_entry` of an ``OscillatorModel``.
 """
 
 from __future__ import annotations
 
 import math
 
-from chronofuse.models.oscillator import OscillatorModel, PowerLaw
+from pydantic import Field
 
-__all__ = ["PRESETS", "PRESET_ADEV_1S", "preset"]
+from chronofuse.models.oscillator import OscillatorModel, PowerLaw
+from chronofuse.registry import Config, Entry, Registry
+
+__all__ = ["PRESETS", "PRESET_ADEV_1S", "preset", "OSCILLATORS", "OscillatorConfig", "oscillator_entry"]
 
 SECONDS_PER_DAY = 86400.0
 SECONDS_PER_MONTH = 30.4375 * SECONDS_PER_DAY
@@ -148,9 +156,35 @@ PRESETS: dict[str, OscillatorModel] = {
 }
 
 
+class OscillatorConfig(Config):
+    """Fields of a preset that a caller may replace (None: the preset's own value)."""
+
+    nominal_hz: float | None = Field(None, gt=0.0, description="nominal output frequency (Hz)")
+    h: PowerLaw | None = Field(None, description="noise: h2 (s^3), h1 (s^2), h0 (s), hm1 (dimensionless), hm2 (1/s) "
+                                                 "(PowerLaw)")
+    drift_per_s: float | None = Field(None, description="linear frequency drift, aging (1/s)")
+    temp_coeff_per_K: float | None = Field(None, description="fractional frequency per kelvin (1/K)")
+    efc_gain_per_V: float | None = Field(None, description="fractional frequency per EFC volt (1/V)")
+    dac_bits: int | None = Field(None, ge=1, le=32, description="resolution of the EFC DAC (bits)")
+    dac_range_V: float | None = Field(None, gt=0.0, description="span of the EFC DAC (V)")
+    temp_ref_K: float | None = Field(None, gt=0.0, description="temperature of zero temperature offset (K)")
+
+
+def oscillator_entry(model: OscillatorModel) -> Entry:
+    """The registry entry of a preset: ``create`` replaces the fields given."""
+    if not isinstance(model, OscillatorModel):
+        raise TypeError(f"model == {model!r}, must be an OscillatorModel")
+    return Entry(model, OscillatorConfig, model.source)
+
+
+OSCILLATORS = Registry("oscillators", builtins=lambda: {name: oscillator_entry(m) for name, m in PRESETS.items()})
+
+
 def preset(name: str) -> OscillatorModel:
-    """The preset oscillator called ``name`` (one of ``PRESETS``); ``dataclasses.replace`` to override."""
-    try:
+    """The preset oscillator called ``name`` (one of ``PRESETS``, or a plugin's); ``dataclasses.replace`` to
+    override, or ``OSCILLATORS.create(name, **fields)``."""
+    if isinstance(name, str) and name in PRESETS:
         return PRESETS[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"name == {name!r}, must be one of {sorted(PRESETS)}") from None
+    if isinstance(name, str) and name in OSCILLATORS:
+        return OSCILLATORS.create(name)
+    raise ValueError(f"name == {name!r}, must be one of {sorted(OSCILLATORS.names())}")

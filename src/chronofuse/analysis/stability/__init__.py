@@ -26,6 +26,8 @@ __all__ = [
     "htotdev",
     "ttotdev",
     "theo1",
+    "theobr",
+    "theoh",
     "tie_rms",
     "mtie",
     "compute",
@@ -49,6 +51,8 @@ _DESCRIPTIONS = {
     "ttotdev": "time total deviation tau/sqrt(3) MTOTDEV in seconds, NIST SP 1065 eq. (29)",
     "htotdev": "Hadamard total deviation, NIST SP 1065 eqs. (30)-(31), bias-corrected as Stable32",
     "theo1": "Theo1 deviation at tau = 0.75 m tau0 (m even), NIST SP 1065 (Theo1)",
+    "theobr": "bias-removed Theo1 at tau = 0.75 m tau0 (m even), NIST SP 1065 (TheoBR); Howe, Metrologia 2006",
+    "theoh": "hybrid: overlapping ADEV below 10 % of the record, TheoBR above, NIST SP 1065 (TheoH)",
     "tie_rms": "rms time interval error in seconds, ITU-T G.810",
     "mtie": "maximum time interval error in seconds, ITU-T G.810 (no confidence interval)",
 }
@@ -57,15 +61,17 @@ _DESCRIPTIONS = {
 def _wrapper(name: str):
     """The public function for one statistic: ``compute(name, ...)`` with its own name and docstring."""
 
-    def statistic(x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True) -> Deviation:
-        return compute(name, x_s, rate_hz, tau_s, ci=ci, bias_correction=bias_correction)
+    def statistic(x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True,
+                  gap_rule: str | None = None) -> Deviation:
+        return compute(name, x_s, rate_hz, tau_s, ci=ci, bias_correction=bias_correction, gap_rule=gap_rule)
 
     statistic.__name__ = statistic.__qualname__ = name
     statistic.__doc__ = (
         f"{_DESCRIPTIONS[name][0].upper()}{_DESCRIPTIONS[name][1:]}.\n\n"
         "Parameters: ``x_s`` phase in seconds, shape (N,), NaN for missing samples; ``rate_hz`` sample\n"
         "rate (> 0); ``tau_s`` averaging times in seconds, shape (k,) (``tau_grid`` builds octave/decade\n"
-        "grids); ``ci`` confidence of the interval; ``bias_correction`` as Stable32.\n"
+        "grids); ``ci`` confidence of the interval; ``bias_correction`` as Stable32; ``gap_rule`` which\n"
+        "terms a missing sample removes (see :func:`compute`).\n"
         "Returns a :class:`Deviation` of shape (k,) (see :func:`compute`)."
     )
     return statistic
@@ -82,5 +88,7 @@ mtotdev = _wrapper("mtotdev")
 htotdev = _wrapper("htotdev")
 ttotdev = _wrapper("ttotdev")
 theo1 = _wrapper("theo1")
+theobr = _wrapper("theobr")
+theoh = _wrapper("theoh")
 tie_rms = _wrapper("tie_rms")
 mtie = _wrapper("mtie")

@@ -9,8 +9,11 @@ Every kernel has the stability-engine signature ``name_raw(x, m, tau0_s) -> (dev
 
 All are O(N) per averaging factor: the Allan and Hadamard variances are means of squared binomial
 differences of the phase taken at lag ``m``; the modified variance sums ``m`` consecutive second
-differences, which is a difference of two cumulative sums. A term whose span (first to last sample it
-covers) holds a NaN sample is skipped and ``n`` counts only the valid terms. Kernels never modify ``x``.
+differences, which is a difference of two cumulative sums. With missing (NaN) samples a term is skipped
+by ``gap_rule`` (:data:`~chronofuse.analysis.stability.kernels_differences.SKIP_RULES`): ``"samples"``
+(the default: only when one of its own samples is missing) or ``"span"`` (when any sample it spans is);
+``n`` counts only the terms kept. An MDEV term reads every sample of ``x[j .. j+3m-1]``, so for MDEV and
+TDEV the two rules are the same. Kernels never modify ``x``.
 
 The Allan and Hadamard sums of squared lagged differences come from
 :mod:`~chronofuse.analysis.stability.kernels_differences`. The MDEV sum runs here in numba loops over
@@ -32,8 +35,10 @@ from chronofuse.analysis.stability.kernels_differences import (
     REASSOC,
     SECOND,
     THIRD,
+    SKIP_RULES,
     check_kernel_inputs,
     difference_sum_of_squares_fused,
+    difference_sum_of_squares_samples,
     difference_sum_of_squares_span,
     difference_sums_fused,
     lagged_difference,
@@ -55,6 +60,7 @@ __all__ = [
     "max_m_hdev",
     "max_m_ohdev",
     "allan_variance_gap_free",
+    "check_gap_rule",
 ]
 
 # Differences are formed and squared in blocks of this many terms, so they stay in the CPU cache
@@ -74,14 +80,23 @@ def _has_nan(x: np.ndarray) -> bool:
     return bool(np.isnan(np.add.reduce(x))) if x.size else False
 
 
+def check_gap_rule(gap_rule: str) -> str:
+    """``gap_rule`` if it is one of ``SKIP_RULES``, else a ValueError naming it."""
+    if gap_rule not in SKIP_RULES:
+        raise ValueError(f"gap_rule == {gap_rule!r}, must be one of {list(SKIP_RULES)}")
+    return gap_rule
+
+
 def _difference_variance(
-    x: np.ndarray, m: np.ndarray, tau0_s: float, order: int, scale: float, overlapping: bool
+    x: np.ndarray, m: np.ndarray, tau0_s: float, order: int, scale: float, overlapping: bool, gap_rule: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """``sum d**2 / (scale * n * (m tau0)**2)`` over the lagged differences of ``order`` at each ``m``.
 
     Overlapping: every start ``i``; non-overlapping: the differences of the phase decimated by ``m``
-    (``x[::m]`` at lag 1), i.e. starts ``i = 0, m, 2m, ...``.
+    (``x[::m]`` at lag 1), i.e. starts ``i = 0, m, 2m, ...``. With gaps, the terms ``gap_rule`` skips are
+    left out.
     """
+    check_gap_rule(gap_rule)
     # A decimated term can step over a gap without reading it: with gaps, every m uses the span rule.
     # Whether there are gaps is known without a pass of its own when the first factor's terms read every
     # sample (step 1 and N >= (order + 1) m): its sum comes out NaN exactly when there is a gap.
@@ -91,19 +106,23 @@ def _difference_variance(
         sums, counts = difference_sums_fused(x, m, order, overlapping)
         if counts.size and counts[0] < 0:
             sums = counts = None
-    if sums is None:  # gaps: the span rule at every factor
-        prefix = nan_prefix(x)
+    if sums is None:  # gaps: the rule at every factor
+        prefix = nan_prefix(x) if gap_rule == "span" else None
         sums = np.empty(m.size)
         counts = np.empty(m.size, dtype=np.int64)
         for j, mj in enumerate(m.tolist()):
-            sums[j], counts[j] = difference_sum_of_squares_span(x, prefix, mj, order, 1 if overlapping else mj)
+            step = 1 if overlapping else mj
+            if prefix is None:
+                sums[j], counts[j] = difference_sum_of_squares_samples(x, mj, order, step)
+            else:
+                sums[j], counts[j] = difference_sum_of_squares_span(x, prefix, mj, order, step)
     var = np.full(m.size, np.nan)
     ok = counts > 0
     var[ok] = sums[ok] / (scale * counts[ok] * (m[ok] * tau0_s) ** 2)
     return var, counts
 
 
-def adev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def adev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Non-overlapping Allan deviation from phase, NIST SP 1065 eq. (7).
 
     ``AVAR(tau) = 1 / (2 (N-2) tau**2) * sum_i (x[i+2] - 2 x[i+1] + x[i])**2`` on the phase decimated
@@ -113,11 +132,13 @@ def adev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, n
     Parameters
     ----------
     x : ndarray of shape (N,)
-        Phase in seconds; NaN marks a missing sample (its terms are skipped).
+        Phase in seconds; NaN marks a missing sample (the terms ``gap_rule`` names are skipped).
     m : ndarray of int of shape (k,)
         Averaging factors, ``1 <= m <= max_m_adev(N)``.
     tau0_s : float
         Sample interval in seconds.
+    gap_rule : {"samples", "span"}
+        Which terms a missing sample removes (module docstring).
 
     Returns
     -------
@@ -127,22 +148,22 @@ def adev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, n
         Number of second differences averaged.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, SECOND, 2.0, overlapping=False)
+    var, n = _difference_variance(x, m, tau0_s, SECOND, 2.0, overlapping=False, gap_rule=gap_rule)
     return np.sqrt(var), n
 
 
-def oadev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def oadev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Overlapping Allan deviation from phase, NIST SP 1065 eq. (11).
 
     ``AVAR(m tau0) = 1 / (2 (m tau0)**2 (N-2m)) * sum_{i=1}^{N-2m} (x[i+2m] - 2 x[i+m] + x[i])**2``;
     ``n = N - 2m`` terms without gaps. Shapes as in :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, SECOND, 2.0, overlapping=True)
+    var, n = _difference_variance(x, m, tau0_s, SECOND, 2.0, overlapping=True, gap_rule=gap_rule)
     return np.sqrt(var), n
 
 
-def hdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def hdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Non-overlapping Hadamard deviation from phase, NIST SP 1065 eq. (18).
 
     ``HVAR(tau) = 1 / (6 tau**2 (N-3)) * sum_i (x[i+3] - 3 x[i+2] + 3 x[i+1] - x[i])**2`` on the phase
@@ -150,18 +171,18 @@ def hdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, n
     :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, THIRD, 6.0, overlapping=False)
+    var, n = _difference_variance(x, m, tau0_s, THIRD, 6.0, overlapping=False, gap_rule=gap_rule)
     return np.sqrt(var), n
 
 
-def ohdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def ohdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Overlapping Hadamard deviation from phase, NIST SP 1065 eq. (20).
 
     ``HVAR(m tau0) = 1 / (6 (m tau0)**2 (N-3m)) * sum_{i=1}^{N-3m} (x[i+3m] - 3 x[i+2m] + 3 x[i+m] - x[i])**2``;
     ``n = N - 3m`` terms without gaps. Shapes as in :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
-    var, n = _difference_variance(x, m, tau0_s, THIRD, 6.0, overlapping=True)
+    var, n = _difference_variance(x, m, tau0_s, THIRD, 6.0, overlapping=True, gap_rule=gap_rule)
     return np.sqrt(var), n
 
 
@@ -276,24 +297,26 @@ def _mvar(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.n
     return var, n
 
 
-def mdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def mdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Modified Allan deviation from phase, NIST SP 1065 eq. (14).
 
     ``MVAR(tau) = 1 / (2 m**2 tau**2 (N-3m+1)) * sum_{j=1}^{N-3m+1} [sum_{i=j}^{j+m-1} (x[i+2m] - 2 x[i+m] + x[i])]**2``
     with ``tau = m tau0``; ``n = N - 3m + 1`` terms without gaps (a term spans ``x[j .. j+3m-1]``).
-    Shapes as in :func:`adev_raw`.
+    Shapes as in :func:`adev_raw`; both gap rules skip the same terms (a term reads all its 3m samples).
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
+    check_gap_rule(gap_rule)
     var, n = _mvar(x, m, tau0_s)
     return np.sqrt(var), n
 
 
-def tdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def tdev_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Time deviation in seconds, NIST SP 1065 eq. (15): ``TDEV(tau) = tau / sqrt(3) * MDEV(tau)``.
 
     Same terms and ``n`` as :func:`mdev_raw`; shapes as in :func:`adev_raw`.
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
+    check_gap_rule(gap_rule)
     var, n = _mvar(x, m, tau0_s)
     tau_s = m * tau0_s
     return tau_s / np.sqrt(3.0) * np.sqrt(var), n

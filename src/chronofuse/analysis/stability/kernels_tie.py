@@ -31,24 +31,26 @@ import warnings
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from chronofuse.analysis.stability.kernels_differences import check_kernel_inputs, nan_prefix, sum_of_squares
+from chronofuse.analysis.stability.kernels_differences import SKIP_RULES, check_kernel_inputs, nan_prefix, sum_of_squares
 from chronofuse.analysis.stability.kernels_mtie import BLOCK, TOP_LEVEL, mtie_blocked
 
 __all__ = ["tie_rms_raw", "mtie_raw", "mtie_sparse_numpy", "mtie_windows_raw", "max_m_tie_rms", "max_m_mtie"]
 
 
-def tie_rms_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray, np.ndarray]:
+def tie_rms_raw(x: np.ndarray, m: np.ndarray, tau0_s: float, gap_rule: str = "samples") -> tuple[np.ndarray, np.ndarray]:
     """Root-mean-square time interval error ``sqrt(mean((x[i+m] - x[i])**2))`` in seconds.
 
     Parameters
     ----------
     x : ndarray of shape (N,)
-        Phase in seconds; NaN marks a missing sample (a difference whose span ``x[i : i + m + 1]`` holds one
-        is skipped, the rule of every difference statistic here).
+        Phase in seconds; NaN marks a missing sample: a difference is skipped when ``x[i]`` or ``x[i+m]`` is
+        missing (``gap_rule="samples"``) or when any sample of ``x[i : i + m + 1]`` is (``"span"``).
     m : ndarray of int of shape (k,)
         Averaging factors, ``1 <= m <= max_m_tie_rms(N)``.
     tau0_s : float
         Sample interval in seconds (TIE rms does not depend on it beyond ``tau = m tau0``).
+    gap_rule : {"samples", "span"}
+        Which differences a missing sample removes.
 
     Returns
     -------
@@ -58,15 +60,21 @@ def tie_rms_raw(x: np.ndarray, m: np.ndarray, tau0_s: float) -> tuple[np.ndarray
         Number of differences averaged (``N - m`` without gaps).
     """
     x, m, tau0_s = check_kernel_inputs(x, m, tau0_s)
+    if gap_rule not in SKIP_RULES:
+        raise ValueError(f"gap_rule == {gap_rule!r}, must be one of {list(SKIP_RULES)}")
     dev = np.full(m.size, np.nan)
     n = np.zeros(m.size, dtype=np.int64)
-    prefix = nan_prefix(x) if np.isnan(x).any() else None
+    gaps = bool(np.isnan(x).any())
+    prefix = nan_prefix(x) if gaps and gap_rule == "span" else None
     for j, mj in enumerate(m):
         mj = int(mj)
         d = x[mj:] - x[:-mj]
         s = sum_of_squares(d)
         if prefix is not None:
             d = d[prefix[mj + 1 :] == prefix[: x.size - mj]]  # no missing sample in x[i : i + m + 1]
+            s = sum_of_squares(d)
+        elif gaps:
+            d = d[~np.isnan(d)]  # x[i] and x[i+m] both present
             s = sum_of_squares(d)
         n[j] = d.size
         if d.size:

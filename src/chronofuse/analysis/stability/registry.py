@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.analysis.stability.bias import htotdev_bias, totdev_bias
+from chronofuse.analysis.stability.hybrid import theoh, theoh_grid
 from chronofuse.analysis.stability.kernels_allan import (
     adev_raw,
     hdev_raw,
@@ -27,6 +28,7 @@ from chronofuse.analysis.stability.kernels_allan import (
     tdev_raw,
 )
 from chronofuse.analysis.stability.kernels_theo import max_m_theo1, theo1_raw
+from chronofuse.analysis.stability.kernels_theobr import max_m_theobr, theobr_raw
 from chronofuse.analysis.stability.kernels_tie import max_m_mtie, max_m_tie_rms, mtie_raw, tie_rms_raw
 from chronofuse.analysis.stability.kernels_total import (
     htotdev_raw,
@@ -43,10 +45,15 @@ from chronofuse.validation import check_choice, check_scalar
 __all__ = ["StatisticSpec", "STATISTICS", "GAP_POLICIES", "EDF_FAMILIES"]
 
 GAP_POLICIES = ("skip", "fill")
-# What a Deviation reports as its gap rule: "span" (a term whose span holds a missing sample is skipped),
-# "window" (MTIE: a window's extremes over the samples present in it) or "fill" (gaps interpolated).
-GAP_RULES = ("span", "window", "fill")
+# What a Deviation reports as its gap rule: "samples" (a term is skipped when one of its own samples is
+# missing), "span" (when any sample it spans is: the rule for phase integrated from frequency), "window"
+# (MTIE: a window's extremes over the samples present in it) or "fill" (gaps interpolated).
+GAP_RULES = ("samples", "span", "window", "fill")
 EDF_FAMILIES = ("greenhall", "totdev", "mtotdev", "htotdev", "theo1", "none")
+
+FILL = ("fill",)
+
+
 
 Kernel = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 BiasFunction = Callable[[np.ndarray, np.ndarray, int], np.ndarray]
@@ -77,10 +84,20 @@ class StatisticSpec:
     bias : callable or None
         ``(alpha (k,), m (k,), N) -> factor (k,)`` multiplying the raw deviation, or None.
     gap_rule : str
-        One of ``GAP_RULES``, reported on every result.
+        One of ``GAP_RULES``: the default rule, reported on every result.
+    gap_rules : tuple of str
+        The rules a caller may choose (``compute(..., gap_rule=...)``); the default first. Kernels of
+        statistics with more than one take it as their ``gap_rule`` keyword.
     overlapping : bool
         The statistic averages overlapping terms (all but ADEV and HDEV): its B1 noise identification
         divides by the overlapping Allan variance.
+    combine : callable or None
+        For a statistic made of others (TheoH): ``combine(compute, x_s, rate_hz, tau_s, ci=,
+        bias_correction=, gap_rule=) -> Deviation``, which ``compute`` calls (passing itself) instead of its
+        own pipeline.
+    grid : callable or None
+        ``grid(kind, n_points, rate_hz) -> tau_s`` for a statistic whose averaging times are not
+        ``tau_factor m / rate_hz`` on one grid of factors (TheoH).
     """
 
     name: str
@@ -92,8 +109,11 @@ class StatisticSpec:
     edf_family: str = "greenhall"
     noise_dmax: int = 2
     bias: BiasFunction | None = None
-    gap_rule: str = "span"
+    gap_rule: str = "samples"
     overlapping: bool = True
+    gap_rules: tuple[str, ...] = ("samples", "span")
+    combine: Callable | None = None
+    grid: Callable | None = None
 
     def __post_init__(self):
         check_choice(self.gaps, "gaps", GAP_POLICIES)
@@ -101,6 +121,10 @@ class StatisticSpec:
         check_choice(self.gap_rule, "gap_rule", GAP_RULES)
         if (self.gaps == "fill") != (self.gap_rule == "fill"):
             raise ValueError(f"gap_rule == {self.gap_rule!r} does not go with gaps == {self.gaps!r}")
+        for rule in self.gap_rules:
+            check_choice(rule, "gap_rules", GAP_RULES)
+        if self.gap_rules[0] != self.gap_rule:
+            raise ValueError(f"gap_rules == {self.gap_rules}, must start with the default gap_rule {self.gap_rule!r}")
         check_scalar(self.tau_factor, "tau_factor", min_val=0, include_min=False)
         check_scalar(self.m_step, "m_step", min_val=1, integer=True)
 
@@ -115,17 +139,21 @@ STATISTICS: dict[str, StatisticSpec] = {
         StatisticSpec("hdev", hdev_raw, max_m_hdev, "skip", noise_dmax=3, overlapping=False),
         StatisticSpec("ohdev", ohdev_raw, max_m_ohdev, "skip", noise_dmax=3),
         StatisticSpec(
-            "totdev", totdev_raw, max_m_totdev, "fill", edf_family="totdev", bias=totdev_bias, gap_rule="fill"
+            "totdev", totdev_raw, max_m_totdev, "fill", edf_family="totdev", bias=totdev_bias, gap_rule="fill", gap_rules=FILL
         ),
-        StatisticSpec("mtotdev", mtotdev_raw, max_m_mtotdev, "fill", edf_family="mtotdev", gap_rule="fill"),
-        StatisticSpec("ttotdev", ttotdev_raw, max_m_ttotdev, "fill", edf_family="mtotdev", gap_rule="fill"),
+        StatisticSpec("mtotdev", mtotdev_raw, max_m_mtotdev, "fill", edf_family="mtotdev", gap_rule="fill", gap_rules=FILL),
+        StatisticSpec("ttotdev", ttotdev_raw, max_m_ttotdev, "fill", edf_family="mtotdev", gap_rule="fill", gap_rules=FILL),
         StatisticSpec(
             "htotdev", htotdev_raw, max_m_htotdev, "fill", edf_family="htotdev", noise_dmax=3, bias=htotdev_bias,
-            gap_rule="fill",
+            gap_rule="fill", gap_rules=FILL,
         ),
         StatisticSpec("theo1", theo1_raw, max_m_theo1, "fill", tau_factor=0.75, m_step=2, edf_family="theo1",
-                      gap_rule="fill"),
+                      gap_rule="fill", gap_rules=FILL),
+        StatisticSpec("theobr", theobr_raw, max_m_theobr, "fill", tau_factor=0.75, m_step=2, edf_family="theo1",
+                      gap_rule="fill", gap_rules=FILL),
+        StatisticSpec("theoh", theobr_raw, max_m_theobr, "fill", edf_family="theo1", gap_rule="fill", gap_rules=FILL,
+                      combine=theoh, grid=theoh_grid),
         StatisticSpec("tie_rms", tie_rms_raw, max_m_tie_rms, "skip", edf_family="none"),
-        StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none", gap_rule="window"),
+        StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none", gap_rule="window", gap_rules=("window",)),
     )
 }

@@ -45,10 +45,10 @@ class Deviation:
     skipped : int
         Number of missing (NaN) phase samples whose terms were skipped.
     gap_rule : str
-        How missing samples were handled: ``"span"`` (every term whose span, first to last phase sample
-        it covers, holds a missing sample is skipped: no term bridges a gap with an assumed value),
-        ``"window"`` (MTIE: each window's extremes over the samples present in it) or ``"fill"`` (gaps
-        interpolated linearly, ends trimmed).
+        How missing samples were handled: ``"samples"`` (a term is skipped when one of its own phase
+        samples is missing), ``"span"`` (when any sample between its first and last is: no term bridges a
+        gap), ``"window"`` (MTIE: each window's extremes over the samples present in it) or ``"fill"``
+        (gaps interpolated linearly, ends trimmed). With gaps skipped, ``edf`` comes from the terms used.
     """
 
     statistic: str
@@ -64,7 +64,7 @@ class Deviation:
     bias_corrected: bool = False
     filled: int = 0
     skipped: int = 0
-    gap_rule: str = "span"
+    gap_rule: str = "samples"
 
     def to_dict(self) -> dict:
         """JSON-ready dict: ``{"tau": [...], "dev": [...], "lo": [...], "hi": [...], ...}`` (NaN -> None)."""

@@ -1,0 +1,1 @@
+"""An example chronofuse plugin: :mod:`.servo` (a proportional servo) and :mod:`.detector` (a jump detector)."""
