@@ -37,7 +37,7 @@ import numpy as np
 
 from chronofuse.integrity.availability import POSITION_TOLERANCE_M, availability, overall_state
 from chronofuse.integrity.document import base_document
-from chronofuse.integrity.station_identify import IdentificationSettings, StationIdentification
+from chronofuse.integrity.station_identify import MIN_TESTED_SATELLITES, IdentificationSettings, StationIdentification
 from chronofuse.validation import InputDataError, check_scalar
 
 __all__ = ["station_document", "station_integrity", "read_station", "DEFAULT_RESERVED"]
@@ -134,7 +134,7 @@ def station_integrity(obs_path, nav_paths, position_m, *, train_s: float = 7200.
         states[clock.alarm] = "alarm"
     per_epoch = np.full(t_ns.size, "", dtype=object)
     per_epoch[training] = "training"
-    per_epoch[states == "unavailable"] = "fewer than 4 satellites tested outside the named ones"
+    per_epoch[states == "unavailable"] = f"fewer than {MIN_TESTED_SATELLITES} satellites tested outside the named ones"
     offsets = (_masked_fix_offsets(ch, np.asarray(out["named"], dtype=object), position) if check_position
                else np.full(t_ns.size, np.nan))
     finite = offsets[np.isfinite(offsets)]
