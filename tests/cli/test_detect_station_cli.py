@@ -22,6 +22,7 @@ def _args(name: str, *extra):
     return [str(st.obs_path), "--nav", ",".join(map(str, st.nav_paths)), "--position", position, *map(str, extra)]
 
 
+@pytest.mark.slow  # a whole day of a real station
 @pytest.mark.parametrize("test", ["chi-square", "glr"])
 def test_a_clean_rinex3_station_is_ok_with_every_code_tested(test):
     result = runner.invoke(app, ["detect", *_args("NYA1", "--train", 21600, "--codes", "G C1C,G C2W", "--test", test,
@@ -33,6 +34,7 @@ def test_a_clean_rinex3_station_is_ok_with_every_code_tested(test):
     assert doc["receiver_clock"]["state"] == "ok" and doc["position_offset_m"] < 10.0
 
 
+@pytest.mark.slow  # a whole day of a real station
 def test_a_real_satellite_fault_is_named_on_the_command_line():
     """BOR1's G08 on 2024-02-04: from about 21 h its channels leave the others by hundreds of sigma (window
     statistics up to 2e4); named alone, exit 1."""

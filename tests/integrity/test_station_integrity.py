@@ -72,6 +72,7 @@ def _common_jumps(ch, epochs, window=20):
     return confirmed
 
 
+@pytest.mark.slow  # a whole day of a real station (20-80 s on a loaded 2-core machine)
 @pytest.mark.parametrize("name", STATIONS)
 def test_a_clean_day_alarms_at_most_twice_the_station_pfa(name, channels_of):
     ch = channels_of(name)
@@ -86,6 +87,7 @@ def test_a_clean_day_alarms_at_most_twice_the_station_pfa(name, channels_of):
     assert k / c["tested"] <= 2e-3 and lo <= 2e-3, c
 
 
+@pytest.mark.slow  # a whole day of a real station (20-80 s on a loaded 2-core machine)
 def test_a_day_at_a_high_pfa_alarms_and_not_far_above_it(channels_of):
     """Negative verdict for "no alarm": at P_fa 0.05 per epoch a clean day must alarm (the test is not
     blind), and its rate stays within 2x nominal."""
@@ -105,6 +107,7 @@ def test_a_fault_on_one_satellite_is_named_alone_and_never_before_its_onset(name
     assert all(r["unavailable"] == 0 for r in results), results
 
 
+@pytest.mark.slow  # a whole day of a real station (20-80 s on a loaded 2-core machine)
 def test_the_glr_names_faults_alone_too(channels_of, fitted):
     ch = channels_of("ESBC")
     cases = fault_cases(ch, 2, seed=5, first=TRAIN_EPOCHS)
@@ -113,6 +116,7 @@ def test_the_glr_names_faults_alone_too(channels_of, fitted):
     assert sum(r["named_alone"] for r in results) >= 7, results
 
 
+@pytest.mark.slow  # a whole day of a real station (20-80 s on a loaded 2-core machine)
 def test_a_step_on_every_satellite_is_a_receiver_clock_fault_caught_in_detection_mode(channels_of):
     ch = channels_of("NYA1").epochs(0, 1000)
     onset = 900
@@ -127,6 +131,7 @@ def test_a_step_on_every_satellite_is_a_receiver_clock_fault_caught_in_detection
     assert clean["state"] == "ok" and clean["receiver_clock"]["state"] == "ok" and clean["faulty"] == []
 
 
+@pytest.mark.slow  # a whole day of a real station (20-80 s on a loaded 2-core machine)
 def test_a_ramp_on_one_satellite_leaves_the_known_position_check_passing(igs_stations):
     """The single-point fix leaves out the named satellite, so a fault is reported as a fault, never as
     "position off" (unavailable); with the fault in the pseudoranges themselves."""
