@@ -29,7 +29,7 @@ def _run(*args):
 
 def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_the_report(tmp_path):
     out = tmp_path / "rep"
-    res = _run("--scenario", "outage", "--duration", "7200", "--trials", "2", "--receivers", "2", "--out", str(out),
+    res = _run("--environment", "outage", "--duration", "7200", "--trials", "2", "--receivers", "2", "--out", str(out),
                "--json")
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -48,7 +48,7 @@ def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_t
     (["--gdop-max", "0.5"], "--gdop-max"),
     (["--controller", "lqr"], "--controller"),
     (["--dac-bits", "0"], "--dac-bits"),
-    (["--scenario", "moon"], "--scenario"),
+    (["--environment", "moon"], "--environment"),
     (["--duration", "-5"], "--duration"),
 ])
 def test_a_bad_configuration_is_refused_with_one_line_naming_the_option(args, needle):

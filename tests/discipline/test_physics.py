@@ -51,10 +51,10 @@ def test_the_seeds_pi_preset_is_far_from_optimal_in_an_urban_canyon():
 
 
 def test_gating_beats_the_plain_kalman_filter_under_jump_outliers_though_not_by_the_seeds_30_percent():
-    kf = _summary(scenario="jumps", controller="kf", receivers=1)["time_error_rms_ns"]
-    gated = _summary(scenario="jumps", controller="gated", receivers=1)["time_error_rms_ns"]
+    kf = _summary(scenario="outliers", controller="kalman", receivers=1)["time_error_rms_ns"]
+    gated = _summary(scenario="outliers", controller="gated-kalman", receivers=1)["time_error_rms_ns"]
     assert gated < 0.98 * kf
-    assert gated > 0.7 * kf  # measured: 5-10 % better (docs/gnssdo), not the seed's 30 %
+    assert gated > 0.7 * kf  # measured: 5-10 % better (docs/gnssdo), not the source paper's 30 %
 
 
 def test_fused_receivers_beat_best_source_selection_in_an_urban_canyon():

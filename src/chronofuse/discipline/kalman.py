@@ -199,7 +199,7 @@ class KalmanServo(Servo):
     given), ``n_fit_differences_``.
     """
 
-    name = "kf"
+    name = "kalman"
     kernel = sample_kf
 
     def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *,

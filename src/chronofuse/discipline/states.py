@@ -1,6 +1,6 @@
-"""The GPSDO's operating state, reported every second with the reason for each change (SPEC 3.6).
+"""The GPSDO's operating state, reported every second with the reason for each change.
 
-States (seed 000 section 3.2 (3): once disciplined "the system tells the outside that time-keeping may
+States (the GNSSDO paper section 3.2 (3): once disciplined "the system tells the outside that time-keeping may
 start"; with every receiver blocked or jammed it "enters time-keeping mode and says so")::
 
     FREE_RUN --usable reference--> ACQUIRING --|offset| < lock_threshold for lock_hold_s--> LOCKED

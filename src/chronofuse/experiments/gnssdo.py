@@ -8,7 +8,7 @@ on the trial count.
 Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys):
 
 * time error (TE) of the disciplined 1PPS against true time, over the seconds from ``SETTLE_S`` (30 min,
-  the seed's convergence bound) on that have a usable reference (holdover is reported apart):
+  the source paper's convergence bound) on that have a usable reference (holdover is reported apart):
   ``time_error_rms_ns`` (rms over trials and seconds), ``time_error_pp_ns`` (mean over trials of the
   peak-to-peak);
 * ``convergence_s``: the first second after which ``|TE| < CONVERGENCE_THRESHOLD_S`` (100 ns) holds at
@@ -32,38 +32,38 @@ from pathlib import Path
 
 import numpy as np
 
-import chronofuse.analysis.stability as st
+from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kalman import KalmanServo
+from chronofuse.discipline.design import clairvoyant_controller, design_measurement_sigma_s, equivalent_white_sigma_s
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.stages import LoopStage, StateStage
 from chronofuse.discipline.states import StateConfig, StateRun
 from chronofuse.estimation.pipeline import Pipeline
-from chronofuse.io.records import read_record
+from chronofuse.io.pps_reference import read_pps_reference
 from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_rng, child_seed, root_seed
-from chronofuse.validation import InputDataError, check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar, invalid
 
-__all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller", "clairvoyant_controller",
-           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "read_reference",
-           "equivalent_white_sigma_s"]
+__all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
+           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference"]
 
 Progress = Callable[[str], None]
 
-SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing")
-#: The built-in controllers the reproductions compare (any name of the servo registry,
-#: :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen).
-CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
+SCENARIOS = ("open-sky", "urban-canyon", "outage", "outliers", "spoofing")
+#: The built-in controllers the reproductions compare: the PI servo and four Kalman servos (plain; weighted
+#: adaptive, the GNSSDO paper's; with chi-square innovation gating; with a Huber robust update). Any name of
+#: the servo registry, :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen.
+CONTROLLERS = ("pi", "kalman", "adaptive-kalman", "gated-kalman", "huber-kalman")
 #: Picked by measurement: the lowest mean ratio to the clairvoyant time-error rms over open sky, urban
 #: canyon and jump outliers in ``chronofuse reproduce gnssdo`` (docs/gnssdo/README.md shows the table).
-DEFAULT_CONTROLLER = "gated"
+DEFAULT_CONTROLLER = "gated-kalman"
 SETTLE_S = 1800.0
 CONVERGENCE_THRESHOLD_S = 100e-9
 #: Initial offsets of the free-running oscillator, uniform per trial: phase (s) and frequency.
@@ -92,23 +92,24 @@ class GnssdoSetup:
     outage_s: float = 0.0
 
     def __post_init__(self):
-        check_choice(self.scenario, "--scenario", SCENARIOS)
+        check_choice(self.scenario, "scenario", SCENARIOS)
         _check_controller(self.controller)
-        check_scalar(self.receivers, "--receivers", min_val=1, integer=True)
-        check_scalar(self.duration_s, "--duration", min_val=2 * SETTLE_S, integer=True)
-        check_scalar(self.trials, "--trials", min_val=1, integer=True)
-        check_scalar(self.seed, "--seed", min_val=0, integer=True)
-        check_scalar(self.gdop_max, "--gdop-max", min_val=1.0)
+        check_scalar(self.receivers, "receivers", min_val=1, integer=True)
+        check_scalar(self.duration_s, "duration_s", min_val=2 * SETTLE_S, integer=True)
+        check_scalar(self.trials, "trials", min_val=1, integer=True)
+        check_scalar(self.seed, "seed", min_val=0, integer=True)
+        check_scalar(self.gdop_max, "gdop_max", min_val=1.0)
         if self.dac_bits is not None:
-            check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
+            check_scalar(self.dac_bits, "dac_bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
-            check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
+            check_scalar(self.loop_bandwidth_hz, "loop_bandwidth_hz", min_val=0.0, max_val=0.5, include_min=False)
             if "natural_hz" not in SERVOS.entry(self.controller).config.model_fields:
-                raise ValueError(f"--loop-bandwidth == {self.loop_bandwidth_hz}: --controller {self.controller!r} has "
-                                 "no loop-bandwidth setting (pi has)")
-        check_choice(self.fusion, "--fusion", ("fusion", "selection"))
+                raise InputError(f"{{loop_bandwidth_hz}} == {self.loop_bandwidth_hz}: {{controller}} "
+                                 f"{self.controller!r} has no loop-bandwidth setting (pi has)",
+                                 fields=("loop_bandwidth_hz", "controller"))
+        check_choice(self.fusion, "fusion", ("fusion", "selection"))
         if self.integrity_pfa is not None:
-            check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
+            check_scalar(self.integrity_pfa, "integrity_pfa", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
         if self.outage_start_s is not None:
             check_scalar(self.outage_start_s, "outage_start_s", min_val=0.0, max_val=self.duration_s)
@@ -117,38 +118,28 @@ class GnssdoSetup:
 
 def _check_controller(name: str) -> None:
     if name not in SERVOS:
-        raise ValueError(f"--controller == {name!r}, must be one of {list(SERVOS.names())}")
+        raise invalid("controller", name, f"one of {list(SERVOS.names())}")
 
 
 def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     """The receiver environment of a gnssdo scenario (events placed relative to the run's length).
 
     ``outage``: open sky, every receiver jammed for the third quarter of the run (holdover);
-    ``jumps``: open sky plus 2 % single-pulse outliers of rms 300 ns, the seed's "GPS jump outliers"
+    ``outliers``: open sky plus 2 % single-pulse outliers of rms 300 ns, the source paper's "GPS jump outliers"
     (跳变野值; persistent steps of the receivers' time are left out: they move the reference itself, and
     no controller can tell them from the truth); ``spoofing``: the preset drag-off (2 ns/s) from mid-run.
     """
-    check_choice(name, "--scenario", SCENARIOS)
+    check_choice(name, "scenario", SCENARIOS)
     if name in ("open-sky", "urban-canyon"):
         return receiver_environment(name)
     sky = receiver_environment("open-sky")
     if name == "outage":
         return dataclasses.replace(sky, name="outage", description="open sky, all receivers jammed for the third quarter",
                                    jamming_start_s=0.5 * duration_s, jamming_duration_s=0.25 * duration_s)
-    if name == "jumps":
+    if name == "outliers":
         model = dataclasses.replace(sky.model, outlier_prob=0.02, outlier_sigma_s=300e-9)
-        return dataclasses.replace(sky, name="jumps", model=model, description="open sky with outliers and steps")
+        return dataclasses.replace(sky, name="outliers", model=model, description="open sky with 1PPS outliers")
     return dataclasses.replace(receiver_environment("spoofing"), spoof_start_s=0.5 * duration_s)
-
-
-def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
-    """The designer's white measurement noise for the fused reference: white noise plus the multipath
-    as the white noise it looks like to a loop much slower than its correlation time (a Gauss-Markov
-    process has zero-frequency spectral density ``2 sigma^2 tau``, Brown and Hwang ch. 2, i.e. a
-    per-sample variance ``2 sigma^2 tau / dt``), divided by the number of receivers. The slow wander
-    is left out: no loop can tell it from the oscillator."""
-    m = env.model
-    return math.sqrt((m.white_sigma_s**2 + 2.0 * m.multipath_sigma_s**2 * m.multipath_tau_s / interval_s) / receivers)
 
 
 def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None,
@@ -162,21 +153,10 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
     loop-bandwidth setting refuses ``loop_bandwidth_hz`` by name.
     """
     _check_controller(name)
-    sigma = _design_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
+    sigma = design_measurement_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
     settings = {} if loop_bandwidth_hz is None else {"natural_hz": loop_bandwidth_hz}
     context = {"interval_s": 1.0, "dac": dac, "h": osc.h, "measurement_sigma_s": sigma}
     return SERVOS.create(name, context=context, **settings)
-
-
-def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None) -> KalmanServo:
-    """The optimality yardstick: a Kalman servo given the true model of the oscillator and of the fused
-    reference's noise (white noise inflated by the mean log-normal GDOP gain, multipath and wander as
-    Gauss-Markov states, each divided by the number of equal, independent receivers)."""
-    m = env.model
-    white = m.white_sigma_s * math.exp(m.gdop_log_sigma**2) / math.sqrt(receivers)
-    gm = ((m.multipath_sigma_s / math.sqrt(receivers), m.multipath_tau_s),
-          (m.wander_sigma_s / math.sqrt(receivers), m.wander_tau_s))
-    return KalmanServo(osc.h, white, gauss_markov=gm, dac=dac)
 
 
 def _free_phase(osc: OscillatorModel, steps: int, trials: int, root: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray]:
@@ -213,14 +193,6 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
             "run": run, "clairvoyant": best}
 
 
-def _oadev_pooled(x: np.ndarray, taus: np.ndarray) -> np.ndarray:
-    """sqrt of the mean over rows of the overlapping Allan variance at ``taus`` (1 Hz phase, NaN = gap)."""
-    avar = np.array([st.oadev(row, 1.0, taus).dev ** 2 for row in x])
-    ok = np.isfinite(avar)
-    count = ok.sum(axis=0)
-    return np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
-
-
 def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s: np.ndarray,
                 start: int = int(SETTLE_S)) -> dict:
     """``{"free_run": {"tau", "dev"}, "gnss": ..., "disciplined": ...}`` on one octave grid up to a quarter
@@ -231,10 +203,10 @@ def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s
     if np.isnan(gnss).mean() > 0.5:
         gnss_dev = np.full(taus.shape, np.nan)
     else:
-        gnss_dev = _oadev_pooled(gnss, taus)
-    return {"free_run": {"tau": taus, "dev": _oadev_pooled(free_phase_s, taus)},
+        gnss_dev = pooled_oadev(gnss, 1.0, taus).dev
+    return {"free_run": {"tau": taus, "dev": pooled_oadev(free_phase_s, 1.0, taus).dev},
             "gnss": {"tau": taus, "dev": gnss_dev},
-            "disciplined": {"tau": taus, "dev": _oadev_pooled(phase_s, taus)}}
+            "disciplined": {"tau": taus, "dev": pooled_oadev(phase_s, 1.0, taus).dev}}
 
 
 def time_error_metrics(phase_s: np.ndarray, has_reference: np.ndarray) -> dict:
@@ -297,64 +269,16 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
     return summary
 
 
-def equivalent_white_sigma_s(e: np.ndarray, block_s: int = 100) -> float:
-    """The white noise a slow loop sees in a 1PPS error record ``e`` (1 Hz): ``sqrt(B var(dm) / 2)`` with
-    ``dm`` the differences of consecutive ``B``-second block means (for white noise of variance
-    ``sigma^2`` that is ``sigma``; for short-correlated noise it is its zero-frequency level, the
-    ``2 sigma^2 tau`` of :func:`_design_sigma_s`; differencing removes the slow wander)."""
-    n = e.size // block_s * block_s
-    means = e[:n].reshape(-1, block_s).mean(axis=1)
-    return float(np.sqrt(block_s * np.var(np.diff(means)) / 2.0))
-
-
-def _data_line(path: Path, index: int) -> int:
-    """1-based file line of the ``index``-th data line (0-based) of a text record, for error messages."""
-    import gzip
-
-    opener = gzip.open if path.suffix == ".gz" else open
-    count = -1
-    with opener(path, "rt") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            text = line.split("#")[0].strip()
-            if text and (text[0].isdigit() or text[0] in "+-.n"):
-                count += 1
-                if count == index:
-                    return lineno
-    return lineno
-
-
-def read_reference(path: Path) -> np.ndarray:
-    """A real receiver's 1PPS phase against a reference clock (truth), 1 Hz, no gaps; seconds (N,).
-
-    Refused, naming the file and line: another rate than 1 Hz (from a time column), and any gap.
-    """
-    path = Path(path)
-    try:  # the time column, when there is one, says the rate (a rate given here would override it)
-        rec = read_record(path, kind="phase")
-    except InputDataError:
-        rec = read_record(path, kind="phase", rate_hz=1.0)
-    if not math.isclose(rec.rate_hz, 1.0, rel_tol=1e-6):
-        raise InputDataError(f"the time column gives a rate of {rec.rate_hz:g} Hz; the reference record must be "
-                             "sampled at 1 Hz", str(path), _data_line(path, 1))
-    if rec.n_gaps:
-        first = int(np.flatnonzero(np.isnan(rec.values))[0])
-        raise InputDataError(f"gap in the reference record ({rec.n_gaps} missing samples, the first at sample "
-                             f"{first}); the loop needs one sample every second", str(path), _data_line(path, first))
-    if rec.values.size < 2 * SETTLE_S:
-        raise InputDataError(f"{rec.values.size} samples, need at least {int(2 * SETTLE_S)}", str(path))
-    return rec.values
-
-
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
                   progress: Progress = lambda s: None, oscillator: str = "ocxo") -> dict:
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
     The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
     oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
-    first four hours by :func:`equivalent_white_sigma_s` (what a user with a reference would do once).
+    first four hours by :func:`~chronofuse.discipline.design.equivalent_white_sigma_s` (what a user with a reference would do once).
     """
     _check_controller(controller)
-    e = read_reference(path)
+    e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
     e = e - np.mean(e)
     steps = e.size
     osc = preset(oscillator)
