@@ -38,7 +38,7 @@ import numpy as np
 from chronofuse.integrity.availability import POSITION_TOLERANCE_M, availability, overall_state
 from chronofuse.integrity.document import base_document
 from chronofuse.integrity.station_identify import MIN_TESTED_SATELLITES, IdentificationSettings, StationIdentification
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputError, check_scalar
 
 __all__ = ["station_document", "station_integrity", "read_station", "DEFAULT_RESERVED"]
 
@@ -111,7 +111,7 @@ def station_integrity(obs_path, nav_paths, position_m, *, train_s: float = 7200.
     ``noise`` (fitted models by code) skips the fit; ``check_position=False`` skips the known-position check."""
     from chronofuse.integrity.inputs import parse_position
 
-    check_scalar(train_s, "train_s (--train)", min_val=0.0, include_min=False)
+    check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     position = parse_position(position_m)
     settings = IdentificationSettings(window=window, pfa=pfa, test=test, reserved=reserved)
     ch = channels if channels is not None else read_station(obs_path, nav_paths, position, codes=codes,
@@ -120,13 +120,13 @@ def station_integrity(obs_path, nav_paths, position_m, *, train_s: float = 7200.
     training = (t_ns - t_ns[0]) < int(round(train_s * 1e9))
     n_train = int(training.sum())
     if n_train >= t_ns.size:
-        raise InputDataError(f"the training stretch (--train {train_s:g} s) covers the whole record "
-                             f"({t_ns.size} epochs of {ch.interval_s:g} s)", ch.source)
+        raise InputError(f"the training stretch ({{train_s}} {train_s:g} s) covers the whole record "
+                         f"({t_ns.size} epochs of {ch.interval_s:g} s)", ch.source, fields=("train_s",))
     frame = dict(ch.frame(), training=training)
     stage = StationIdentification(ch.channels, settings, noise).fit(frame)
     reasons = [f"{code}: {why}" for code, why in stage.fit_problems_.items()]
     if not stage.noise_:
-        raise InputDataError("no code could be trained: " + "; ".join(reasons), ch.source)
+        raise InputError("no code could be trained: " + "; ".join(reasons), ch.source)
     out = stage.run(frame)
     clock = _receiver_clock(out, training, settings) if reserved > 0 else None
     states = np.asarray(out["identification_state"], dtype=object).copy()

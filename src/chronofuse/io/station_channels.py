@@ -30,7 +30,7 @@ import numpy as np
 from chronofuse.gnss.observables import channel_biases
 from chronofuse.io.grid import grid_slots
 from chronofuse.timescale import NS_PER_S
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputError, invalid
 
 __all__ = ["StationChannels", "station_channels", "station_codes", "MIN_CODE_SHARE", "KEPLER_SYSTEMS"]
 
@@ -110,15 +110,16 @@ def station_codes(obs, nav, codes=None, systems=None) -> list[str]:
         for label in codes:
             parts = str(label).split()
             if len(parts) != 2 or len(parts[1]) != 3 or parts[1][0] != "C":
-                raise InputDataError(f"code {label!r}: give a system letter and a RINEX 3 pseudorange observable, "
-                                     "e.g. 'G C1C'", obs.source)
+                raise InputError(f"{{codes}}: {label!r} is not a system letter and a RINEX 3 pseudorange "
+                                 "observable, e.g. 'G C1C'", obs.source, fields=("codes",))
             letter, name = parts
             if letter not in have:
-                raise InputDataError(f"code {label!r}: no {letter} ephemeris in the navigation data (it has "
-                                     f"{', '.join(nav.systems) or 'none'})", obs.source)
+                raise InputError(f"{{codes}}: {label!r} has no {letter} ephemeris in the navigation data (it has "
+                                 f"{', '.join(nav.systems) or 'none'})", obs.source, fields=("codes",))
             mask = obs.system_mask(letter)
             if name not in obs.values or not np.isfinite(obs.values[name][:, mask]).any():
-                raise InputDataError(f"code {label!r}: no such pseudorange in the observations", obs.source)
+                raise InputError(f"{{codes}}: no pseudorange {label!r} in the observations", obs.source,
+                                 fields=("codes",))
             out.append(f"{letter} {name}")
         return out
     out = []
@@ -138,7 +139,7 @@ def station_codes(obs, nav, codes=None, systems=None) -> list[str]:
             if total and held >= MIN_CODE_SHARE * total:
                 out.append(f"{letter} {name}")
     if not out:
-        raise InputDataError("no pseudorange code of a system with ephemerides (GPS, Galileo, BeiDou, QZSS) in the "
+        raise InputError("no pseudorange code of a system with ephemerides (GPS, Galileo, BeiDou, QZSS) in the "
                              "observations", obs.source)
     return out
 
@@ -151,10 +152,10 @@ def _grid(obs) -> tuple[np.ndarray, int, int]:
     elif gps.size > 1:
         step_ns = int(np.diff(gps).min())
     else:
-        raise InputDataError("one epoch and no INTERVAL in the header: the sampling interval is unknown", obs.source)
+        raise InputError("one epoch and no INTERVAL in the header: the sampling interval is unknown", obs.source)
     slots, bad = grid_slots((gps - gps[0]).astype(np.float64), float(step_ns), _GRID_TOLERANCE)
     if bad >= 0:
-        raise InputDataError(f"epoch {bad + 1} is not on the {step_ns / NS_PER_S:g} s grid (or not increasing)",
+        raise InputError(f"epoch {bad + 1} is not on the {step_ns / NS_PER_S:g} s grid (or not increasing)",
                              obs.source)
     return slots, step_ns, int(slots[-1]) + 1
 
@@ -162,13 +163,14 @@ def _grid(obs) -> tuple[np.ndarray, int, int]:
 def station_channels(obs, nav, position_m, *, codes=None, systems=None, elevation_mask_deg: float = 10.0
                      ) -> StationChannels:
     """The channels of ``obs`` (a :class:`chronofuse.io.rinex_obs.GnssObservations`) with ``nav`` for an
-    antenna at ``position_m`` (ECEF, m) (module docstring). Raises :class:`InputDataError` naming the file
+    antenna at ``position_m`` (ECEF, m) (module docstring). Raises :class:`InputError` naming the file
     when no code can be used or the epochs are off their grid."""
     position = np.asarray(position_m, dtype=np.float64)
     if position.shape != (3,) or not np.isfinite(position).all():
-        raise ValueError(f"position_m has shape {position.shape}, must be (3,) finite ECEF metres")
+        raise InputError(f"{{position_m}} has shape {position.shape}, must be (3,) finite ECEF metres",
+                         fields=("position_m",))
     if not 0.0 <= elevation_mask_deg < 90.0 or not math.isfinite(elevation_mask_deg):
-        raise ValueError(f"elevation_mask_deg == {elevation_mask_deg}, must be in [0, 90)")
+        raise invalid("elevation_mask_deg", elevation_mask_deg, "in [0, 90) degrees")
     labels = station_codes(obs, nav, codes, systems)
     slots, step_ns, epochs = _grid(obs)
     t_ns = obs.gps_ns[0] + np.arange(epochs, dtype=np.int64) * step_ns
@@ -194,7 +196,7 @@ def station_channels(obs, nav, position_m, *, codes=None, systems=None, elevatio
                 biases.append(full_b[j])
                 elevations.append(full_el[j])
     if not channels:
-        raise InputDataError("no channel above the elevation mask with an ephemeris (is the navigation file of "
+        raise InputError("no channel above the elevation mask with an ephemeris (is the navigation file of "
                              "this day?)", obs.source)
     used = list(dict.fromkeys(c for _, c in channels))
     return StationChannels(t_ns=t_ns, interval_ns=step_ns, channels=channels, bias_s=np.array(biases),
