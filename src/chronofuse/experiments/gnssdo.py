@@ -43,9 +43,9 @@ from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.states import StateConfig, run_states
 from chronofuse.io.records import read_record
-from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
+from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
-from chronofuse.models.oscillator_presets import preset
+from chronofuse.models.oscillator_presets import PRESETS, preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.validation import InputDataError, check_choice, check_scalar
@@ -56,7 +56,10 @@ __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "mak
 
 Progress = Callable[[str], None]
 
-SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing")
+#: The scenarios this module builds from the open sky, then every other receiver environment of the registry
+#: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
+SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing",
+             *(name for name in ENVIRONMENTS if name not in ("open-sky", "urban-canyon", "spoofing")))
 #: The built-in controllers the reproductions compare (any name of the servo registry,
 #: :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen).
 CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
@@ -65,9 +68,13 @@ CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
 DEFAULT_CONTROLLER = "gated"
 SETTLE_S = 1800.0
 CONVERGENCE_THRESHOLD_S = 100e-9
-#: Initial offsets of the free-running oscillator, uniform per trial: phase (s) and frequency.
+#: Initial offsets of the free-running oscillator, uniform per trial: phase (s) and frequency (at most; see
+#: :func:`initial_frequency_max`).
 INITIAL_PHASE_MAX_S = 5e-4
 INITIAL_FREQUENCY_MAX = 5e-9
+#: The initial frequency offset is drawn within this fraction of what the EFC can pull once the run's aging is
+#: set aside, so that the loop starts inside its tuning range with room to steer.
+INITIAL_FREQUENCY_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -83,6 +90,9 @@ class GnssdoSetup:
     oscillator: str = "ocxo"
     gdop_max: float = 5.0
     dac_bits: int | None = None
+    #: The free-running oscillator, when it is not the preset ``oscillator`` itself (a scenario file's
+    #: h-coefficient and drift overrides); its ``name`` is reported.
+    oscillator_model: OscillatorModel | None = None
     loop_bandwidth_hz: float | None = None
     fusion: str = "fusion"
     integrity_pfa: float | None = None
@@ -98,6 +108,8 @@ class GnssdoSetup:
         check_scalar(self.trials, "--trials", min_val=1, integer=True)
         check_scalar(self.seed, "--seed", min_val=0, integer=True)
         check_scalar(self.gdop_max, "--gdop-max", min_val=1.0)
+        if self.oscillator_model is None:
+            check_choice(self.oscillator, "--oscillator", tuple(PRESETS))
         if self.dac_bits is not None:
             check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
@@ -128,7 +140,7 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     no controller can tell them from the truth); ``spoofing``: the preset drag-off (2 ns/s) from mid-run.
     """
     check_choice(name, "--scenario", SCENARIOS)
-    if name in ("open-sky", "urban-canyon"):
+    if name not in ("outage", "jumps", "spoofing"):
         return receiver_environment(name)
     sky = receiver_environment("open-sky")
     if name == "outage":
@@ -178,19 +190,33 @@ def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, recei
     return KalmanServo(osc.h, white, gauss_markov=gm, dac=dac)
 
 
+def initial_frequency_max(osc: OscillatorModel, duration_s: float) -> float:
+    """Largest initial frequency offset drawn for ``osc`` over a run of ``duration_s``: at most
+    :data:`INITIAL_FREQUENCY_MAX`, and :data:`INITIAL_FREQUENCY_FRACTION` of the EFC's pull (the smaller
+    end of the DAC's range) less the aging over the run. An oscillator whose aging over the run alone
+    outruns its EFC is refused (no loop could hold it)."""
+    lo, hi = Dac.for_oscillator(osc).frequency_range
+    room = min(-lo, hi) - abs(osc.drift_per_s) * duration_s
+    if room <= 0:
+        raise ValueError(f"oscillator {osc.name!r}: its aging over {duration_s:g} s ({abs(osc.drift_per_s) * duration_s:.3g}) "
+                         f"exceeds its EFC range ({min(-lo, hi):.3g}); no loop can hold it")
+    return min(INITIAL_FREQUENCY_MAX, INITIAL_FREQUENCY_FRACTION * room)
+
+
 def _free_phase(osc: OscillatorModel, steps: int, trials: int, root: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray]:
-    """Free-running phase with each trial's initial offsets, and the same without them (for ADEV)."""
+    """Free-running phase with each trial's initial offsets (the frequency one inside the EFC's range,
+    :func:`initial_frequency_max`), and the same without them (for ADEV)."""
     truth = simulate_oscillator(osc, float(steps), 1.0, child_seed(root, 0), trials=trials)
     t = truth.t_s
     offsets = np.array([child_rng(root, 2, i).uniform(-1.0, 1.0, 2) for i in range(trials)])
-    free = truth.x_s + offsets[:, :1] * INITIAL_PHASE_MAX_S + offsets[:, 1:] * INITIAL_FREQUENCY_MAX * t
+    free = truth.x_s + offsets[:, :1] * INITIAL_PHASE_MAX_S + offsets[:, 1:] * initial_frequency_max(osc, steps) * t
     return free, truth.x_s
 
 
 def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> dict:
     """Simulate the scenario and run the chosen controller and the clairvoyant one on the same data."""
     root = root_seed(setup.seed)
-    osc = preset(setup.oscillator)
+    osc = preset(setup.oscillator) if setup.oscillator_model is None else setup.oscillator_model
     if setup.dac_bits is not None:
         osc = dataclasses.replace(osc, dac_bits=setup.dac_bits)
     dac = Dac.for_oscillator(osc)
@@ -209,7 +235,7 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
     progress("disciplining (clairvoyant)")
     best = discipline_run(clairvoyant_controller(osc, env, setup.receivers, dac), free, rx.pps_error_s, rx.epochs, config)
     return {"setup": setup, "oscillator": osc, "environment": env, "free_phase_s": free, "noise_phase_s": noise_only,
-            "run": run, "clairvoyant": best}
+            "receivers": rx, "run": run, "clairvoyant": best}
 
 
 def _oadev_pooled(x: np.ndarray, taus: np.ndarray) -> np.ndarray:
@@ -268,7 +294,7 @@ def evaluate(sim: dict) -> dict:
     has_ref = np.isfinite(run.reference_error_s)
     summary = {"scenario": setup.scenario, "controller": setup.controller, "receivers": setup.receivers,
                "duration_s": setup.duration_s, "trials": setup.trials, "seed": setup.seed,
-               "oscillator": setup.oscillator, **time_error_metrics(run.phase_s, has_ref)}
+               "oscillator": sim["oscillator"].name, **time_error_metrics(run.phase_s, has_ref)}
     summary["optimal_rms_ns"] = time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"]
     summary.update(_holdover(run, sim["environment"]))
     summary["state_seconds"] = run.states.seconds_in()
