@@ -47,7 +47,8 @@ def test_an_oscillator_whose_aging_outruns_its_efc_is_refused_naming_it():
 def test_every_preset_is_steered_off_its_rails_in_open_sky(name):
     sim = simulate_gnssdo(GnssdoSetup(oscillator=name, duration_s=7200, trials=4, seed=2))
     run = sim["run"]
-    assert not run.loop.near_rail.any()
+    # The acquisition's first seconds may pull to a rail (the frequency estimate still settling), never later.
+    assert not run.loop.near_rail[:, 600:].any()
     assert (run.states.state == 2).any(axis=1).all()
 
 
