@@ -160,5 +160,5 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     any_usable = np.isfinite(ref)
     all_alarmed = alarm.any(axis=1) & ~(usable.any(axis=1))
     states = run_states(any_usable, loop.offset_s, config.states, alarm=all_alarmed, near_rail=loop.near_rail,
-                        fast=config.fast)
+                        freq_adj=loop.freq_adj, fast=config.fast)
     return GnssdoRun(loop.phase_s, ref, usable, alarm, loop, fusion, states, dt)

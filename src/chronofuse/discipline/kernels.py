@@ -71,36 +71,72 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
 
 
 @numba.njit(cache=True)
-def states_kernel(usable, alarm, offset, threshold_s, hold):
-    """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps); returns
-    state and reason, int8 (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2, HOLDOVER 3,
-    RECOVERY 4; reasons NONE 0, REFERENCE_USABLE 1, REFERENCE_LOST 2, LOCK_ACHIEVED 3, INTEGRITY_ALARM 4."""
+def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
+    """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps), ``params`` from
+    :meth:`~.states.StateConfig.kernel_params`; returns state and reason (int8), filtered offset, holdover
+    ready (int8) and holdover sigma, each (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2,
+    HOLDOVER 3, RECOVERY 4, ALARM 5; reasons NONE 0, REFERENCE_USABLE 1, REFERENCE_LOST 2, LOCK_ACHIEVED 3,
+    INTEGRITY_ALARM 4, TIME_ERROR_EXCURSION 5, FREQUENCY_EXCURSION 6, DAC_RAIL 7, IMPLAUSIBLE_REFERENCE 8."""
+    limit, hold, a_te, f_thr, a_u, ready, model_var, horizon = (params[0], params[1], params[2], params[3],
+                                                                 params[4], params[5], params[6], params[7])
     trials, steps = usable.shape
     states = np.empty((trials, steps), dtype=np.int8)
     reasons = np.zeros((trials, steps), dtype=np.int8)
+    te_out = np.empty((trials, steps))
+    ready_out = np.zeros((trials, steps), dtype=np.int8)
+    sigma_out = np.empty((trials, steps))
     for i in range(trials):
         s = 0
         run = 0
+        locked = 0
+        te_f = np.nan
+        u_f = np.nan
+        u_var = 0.0
         for k in range(steps):
-            ok = usable[i, k] and not alarm[i, k]
-            settled = ok and abs(offset[i, k]) < threshold_s
+            z = offset[i, k]
+            ok = usable[i, k] and not alarm[i, k] and not implausible[i, k] and math.isfinite(z)
+            if ok:
+                te_f = te_f + a_te * (z - te_f) if math.isfinite(te_f) else z
+            else:
+                te_f = np.nan
+            u = freq_adj[i, k]
+            if math.isfinite(u_f):
+                dev = u - u_f
+                u_var = (1.0 - a_u) * u_var + a_u * dev * dev
+                u_f = u_f + a_u * dev
+            else:
+                dev = 0.0
+                u_var = 0.0
+                u_f = u
+            te_ok = ok and abs(te_f) < limit
+            f_ok = abs(dev) < f_thr
+            settled = ok and te_ok and f_ok and not near[i, k]
             run = run + 1 if settled else 0
-            lost = 4 if alarm[i, k] else 2
+            lost = 8 if implausible[i, k] else (4 if alarm[i, k] else 2)
+            broken = 7 if near[i, k] else (5 if not te_ok else 6)
             new = s
             why = 0
             if s == 0 and ok:
                 new, why = 1, 1
             elif s == 1 and not ok:
                 new, why = 0, lost
-            elif s == 2 and not ok:
+            elif (s == 2 or s == 5 or s == 4) and not ok:
                 new, why = 3, lost
             elif s == 3 and ok:
                 new, why = 4, 1
-            elif s == 4 and not ok:
-                new, why = 3, lost
-            if (s == 1 or s == 4) and run >= hold:
+            elif s == 2 and not settled:
+                new, why = 5, broken
+            if (s == 1 or s == 4 or s == 5) and run >= hold:
                 new, why = 2, 3
             s = new
+            locked = locked + 1 if s == 2 else 0
             states[i, k] = s
             reasons[i, k] = why
-    return states, reasons
+            te_out[i, k] = te_f
+            ready_out[i, k] = 1 if locked >= ready else 0
+            if s == 2:
+                t0 = te_f if ok else 0.0
+                sigma_out[i, k] = math.sqrt(t0 * t0 + horizon * horizon * u_var + model_var)
+            else:
+                sigma_out[i, k] = np.nan
+    return states, reasons, te_out, ready_out, sigma_out

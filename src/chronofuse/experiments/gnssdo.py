@@ -17,7 +17,10 @@ Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys)
   true receiver noise model, multipath and wander as Gauss-Markov states) on the same data;
 * ``holdover_error_ns`` / ``holdover_s`` (outage scenario): rms over trials of the TE accumulated over
   the outage;
-* ``state_seconds``: seconds per state (mean over trials);
+* ``state_seconds``: seconds per state (mean over trials); ``locked_over_threshold_seconds``: seconds LOCKED
+  while the true |TE| is at or above the lock threshold (mean over trials; a LOCKED that lies);
+  ``holdover_ready_seconds`` and ``predicted_holdover_sigma_ns`` (median over the LOCKED seconds of the
+  predicted holdover error's standard deviation after the state machine's horizon, 1 h);
 * ``adev``: overlapping ADEV (mean Allan variance over trials) of the free-running oscillator, of the
   GNSS reference (the fused, qErr-corrected 1PPS error) and of the disciplined output.
 """
@@ -41,7 +44,7 @@ from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
-from chronofuse.discipline.states import StateConfig, run_states
+from chronofuse.discipline.states import HoldoverModel, State, StateConfig, run_states
 from chronofuse.io.records import read_record
 from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
@@ -152,6 +155,16 @@ def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     return dataclasses.replace(receiver_environment("spoofing"), spoof_start_s=0.5 * duration_s)
 
 
+def state_config(osc: OscillatorModel) -> StateConfig:
+    """The lock criteria of a GNSSDO on ``osc``: the defaults of :class:`~chronofuse.discipline.states.StateConfig`
+    (|TE| 100 ns claimed, the filtered time error within half of it for 60 s), a frequency-correction
+    excursion of ``max(1e-9, 10 sigma_y(1 s))`` (the loop's correction scatters by 1.7e-10 about its 600 s
+    average with the OCXO or CSAC, 2e-11 with the Rb and 4e-9 with the TCXO in open sky and urban canyon),
+    and the holdover prediction from the oscillator's own noise and aging."""
+    adev_1s = math.sqrt(osc.h.h0 / 2.0 + 2.0 * math.log(2.0) * osc.h.hm1)
+    return StateConfig(freq_threshold=max(1e-9, 10.0 * adev_1s), holdover=HoldoverModel.of(osc))
+
+
 def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
     """The designer's white measurement noise for the fused reference: white noise plus the multipath
     as the white noise it looks like to a loop much slower than its correlation time (a Gauss-Markov
@@ -228,7 +241,7 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
     progress("simulating the receivers")
     rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=setup.trials)
     config = ChainConfig(qualification=Qualification(gdop_max=setup.gdop_max), fusion=setup.fusion,
-                         integrity_pfa=setup.integrity_pfa)
+                         integrity_pfa=setup.integrity_pfa, states=state_config(osc))
     progress(f"disciplining ({setup.controller})")
     servo = make_controller(setup.controller, osc, env, setup.receivers, dac, setup.loop_bandwidth_hz)
     run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, config)
@@ -271,8 +284,11 @@ def time_error_metrics(phase_s: np.ndarray, has_reference: np.ndarray) -> dict:
     pp = float(np.nanmean(np.nanmax(x, axis=1) - np.nanmin(x, axis=1))) if window.any() else math.nan
     bad = has_reference & (np.abs(phase_s) >= CONVERGENCE_THRESHOLD_S)
     conv = []
-    for row in bad:
+    for row, seen in zip(bad, has_reference):
         idx = np.flatnonzero(row)
+        if not seen.any():  # never disciplined: it never converged
+            conv.append(math.nan)
+            continue
         conv.append(0.0 if idx.size == 0 else (math.nan if idx[-1] == row.size - 1 else float(idx[-1] + 1)))
     converged = [c for c in conv if math.isfinite(c)]
     return {"time_error_rms_ns": rms * 1e9, "time_error_pp_ns": pp * 1e9,
@@ -288,6 +304,11 @@ def _holdover(run: GnssdoRun, env: ReceiverEnvironment) -> dict:
     return {"holdover_error_ns": float(np.sqrt(np.mean(err**2))) * 1e9, "holdover_s": float(end - start)}
 
 
+def run_config_threshold_s(sim: dict) -> float:
+    """The |TE| a run's LOCKED claims (its state machine's lock threshold)."""
+    return float(state_config(sim["oscillator"]).lock_threshold_s)
+
+
 def evaluate(sim: dict) -> dict:
     """The summary (JSON keys of the command line) of :func:`simulate_gnssdo`'s result."""
     run, best, setup = sim["run"], sim["clairvoyant"], sim["setup"]
@@ -298,6 +319,12 @@ def evaluate(sim: dict) -> dict:
     summary["optimal_rms_ns"] = time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"]
     summary.update(_holdover(run, sim["environment"]))
     summary["state_seconds"] = run.states.seconds_in()
+    locked = run.states.state == State.LOCKED
+    threshold = run_config_threshold_s(sim)
+    summary["locked_over_threshold_seconds"] = float(np.sum(locked & (np.abs(run.phase_s) >= threshold)) / setup.trials)
+    summary["holdover_ready_seconds"] = float(run.states.holdover_ready.sum() / setup.trials)
+    sigma = run.states.holdover_sigma_s
+    summary["predicted_holdover_sigma_ns"] = (float(np.nanmedian(sigma)) * 1e9 if np.isfinite(sigma).any() else None)
     summary["state_changes_trial0"] = run.states.changes(0)[:50]
     summary["dac_rail_alarm_seconds"] = float(run.states.rail_alarm.sum() / setup.trials)
     summary["no_usable_receiver"] = bool(not has_ref.any())
@@ -394,7 +421,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     loop = close_loop(servo, free, e)
     best = close_loop(clairvoyant_controller(osc, env, 1, dac), free, e)
     has_ref = np.ones(loop.phase_s.shape, dtype=bool)
-    states = run_states(has_ref, loop.offset_s, StateConfig(), near_rail=loop.near_rail)
+    states = run_states(has_ref, loop.offset_s, state_config(osc), near_rail=loop.near_rail, freq_adj=loop.freq_adj)
     summary = {"reference": str(path), "controller": controller, "duration_s": steps, "trials": trials, "seed": seed,
                **time_error_metrics(loop.phase_s, has_ref),
                "optimal_rms_ns": time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"],

@@ -1,0 +1,82 @@
+"""LOCKED is a claim about the truth: never made with |TE| at or above the lock threshold, on a DAC rail, or
+with no usable receiver, whatever the oscillator preset and the scenario."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from chronofuse.discipline.chain import ChainConfig, discipline_run
+from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.states import Reason, State
+from chronofuse.experiments.gnssdo import (SCENARIOS, GnssdoSetup, evaluate, make_controller, scenario_environment,
+                                           simulate_gnssdo, state_config)
+from chronofuse.models.oscillator import simulate_oscillator
+from chronofuse.models.oscillator_presets import PRESETS, preset
+from chronofuse.models.receiver import simulate_receivers
+
+THRESHOLD_S = state_config(preset("ocxo")).lock_threshold_s
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("oscillator", sorted(PRESETS))
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_no_second_is_reported_locked_with_the_time_error_above_the_threshold(oscillator, scenario):
+    sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, oscillator=oscillator, duration_s=7200, trials=2, seed=5))
+    run = sim["run"]
+    locked = run.states.state == State.LOCKED
+    assert not (locked & (np.abs(run.phase_s) >= THRESHOLD_S)).any()
+    assert not (locked & run.loop.near_rail).any()
+    assert evaluate(sim)["locked_over_threshold_seconds"] == 0.0
+
+
+def _railed_run(frequency_offset: float):
+    """An OCXO whose EFC pulls only +-3e-9, started ``frequency_offset`` off, disciplined in open sky."""
+    osc = dataclasses.replace(preset("ocxo"), efc_gain_per_V=3e-9 / 2.5)
+    dac = Dac.for_oscillator(osc)
+    steps = 7200
+    truth = simulate_oscillator(osc, float(steps), 1.0, 1, trials=2)
+    free = truth.x_s + frequency_offset * truth.t_s
+    env = scenario_environment("open-sky", steps)
+    rx = simulate_receivers(env, steps, 3, 2, trials=2)
+    servo = make_controller("gated", osc, env, 3, dac)
+    return discipline_run(servo, free, rx.pps_error_s, rx.epochs, ChainConfig(states=state_config(osc)))
+
+
+def test_a_loop_on_its_dac_rail_is_never_reported_locked():
+    run = _railed_run(4e-9)  # outside the EFC's reach: the DAC saturates and the time error runs away
+    assert run.loop.near_rail[:, 600:].all()
+    assert np.abs(run.phase_s[:, -1]).min() > 1e-6
+    assert not (run.states.state == State.LOCKED).any()
+
+
+def test_the_same_loop_inside_its_range_locks_and_a_rail_reached_later_is_an_alarm_with_its_reason():
+    run = _railed_run(1e-9)
+    assert (run.states.state[:, -1] == State.LOCKED).all()
+    # Now push it onto the rail after lock: the free oscillator jumps 3e-9 in frequency at 4000 s.
+    osc = dataclasses.replace(preset("ocxo"), efc_gain_per_V=3e-9 / 2.5)
+    steps = 7200
+    truth = simulate_oscillator(osc, float(steps), 1.0, 1, trials=2)
+    t = truth.t_s
+    free = truth.x_s + 1e-9 * t + 3e-9 * np.maximum(t - 4000.0, 0.0)
+    env = scenario_environment("open-sky", steps)
+    rx = simulate_receivers(env, steps, 3, 2, trials=2)
+    servo = make_controller("gated", osc, env, 3, Dac.for_oscillator(osc))
+    run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, ChainConfig(states=state_config(osc)))
+    states, reasons = run.states.state, run.states.reason
+    assert (states[:, 3999] == State.LOCKED).all()
+    for i in range(2):
+        k = 4000 + int(np.flatnonzero(states[i, 4000:] != State.LOCKED)[0])
+        assert states[i, k] == State.ALARM
+        assert reasons[i, k] in (Reason.DAC_RAIL, Reason.FREQUENCY_EXCURSION, Reason.TIME_ERROR_EXCURSION)
+        assert np.abs(run.phase_s[i, :k]).max() < THRESHOLD_S
+    assert not ((states == State.LOCKED) & run.loop.near_rail).any()
+
+
+def test_with_no_usable_receiver_the_gnssdo_is_never_locked():
+    setup = GnssdoSetup(scenario="open-sky", duration_s=3600, trials=2, outage_start_s=0.0, outage_s=3600.0)
+    sim = simulate_gnssdo(setup)
+    summary = evaluate(sim)
+    assert summary["no_usable_receiver"]
+    assert (sim["run"].states.state == State.FREE_RUN).all()
+    assert summary["convergence_s"] is None
