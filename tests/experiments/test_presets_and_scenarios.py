@@ -107,4 +107,5 @@ def test_every_shipped_scenario_file_runs_to_a_report(path, tmp_path):
     summary = json.loads(result.stdout)
     d = summary["discipline"]
     assert d["state_seconds"]["locked"] > 0
-    assert d["dac_rail_alarm_seconds"] == 0
+    assert d["locked_over_threshold_seconds"] == 0
+    assert d["dac_rail_alarm_seconds"] < 10  # at most the acquisition's first pull

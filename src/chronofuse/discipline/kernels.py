@@ -12,7 +12,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["fusion_kernel", "states_kernel"]
+__all__ = ["fusion_kernel", "states_kernel", "plausibility_kernel"]
 
 
 @numba.njit(cache=True)
@@ -140,3 +140,127 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
             else:
                 sigma_out[i, k] = np.nan
     return states, reasons, te_out, ready_out, sigma_out
+
+
+@numba.njit(cache=True)
+def _block(csum, count, start, end, m, L):
+    """Block mean over (end - m, end] of one series' cumulative ring (NaN: too early or half missing)."""
+    if end - m < start - 1 or end - m < -1:
+        return np.nan
+    c1 = csum[end % L]
+    n1 = count[end % L]
+    c0 = 0.0
+    n0 = 0
+    if end - m >= 0:
+        c0 = csum[(end - m) % L]
+        n0 = count[(end - m) % L]
+    n = n1 - n0
+    if n <= 0 or 2 * n < m:
+        return np.nan
+    return (c1 - c0) / n
+
+
+@numba.njit(cache=True)
+def _avar(h0, hm1, hm2, tau):
+    return h0 / (2.0 * tau) + 2.0 * math.log(2.0) * hm1 + 2.0 * math.pi**2 / 3.0 * hm2 * tau
+
+
+@numba.njit(cache=True)
+def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, scalars):
+    """The drag monitor (:mod:`.plausibility`, :meth:`~.plausibility.DragMonitor.update`) over (series, steps);
+    returns plausible (int8), readmitted (int8) and the statistic, each (series, steps)."""
+    h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
+    persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
+    check_var, readmit_k = scalars[9], scalars[10]
+    n_series, steps = y.shape
+    nh = horizons.size
+    plausible = np.empty((n_series, steps), dtype=np.int8)
+    readmitted = np.zeros((n_series, steps), dtype=np.int8)
+    stat = np.empty((n_series, steps))
+    csum = np.zeros(L)
+    count = np.zeros(L, dtype=np.int64)
+    for i in range(n_series):
+        csum[:] = 0.0
+        count[:] = 0
+        start = 0
+        trusted = True
+        streak = 0
+        agree = 0
+        anchor = 0.0
+        anchor_f = 0.0
+        anchor_t = 0.0
+        anchor_w = 1
+        anchor_j = -1
+        anchor_m = 1
+        for k in range(steps):
+            have = admitted[i, k] and math.isfinite(y[i, k])
+            c_prev = csum[(k - 1) % L] if k > 0 else 0.0
+            n_prev = count[(k - 1) % L] if k > 0 else 0
+            csum[k % L] = c_prev + (y[i, k] if have else 0.0)
+            count[k % L] = n_prev + (1 if have else 0)
+            worst = np.nan
+            first_w = 0
+            for j in range(nh):
+                w = horizons[j]
+                m = max(1, w // 4)
+                b0 = _block(csum, count, start, k, m, L)
+                b1 = _block(csum, count, start, k - w, m, L)
+                b2 = _block(csum, count, start, k - 2 * w, m, L)
+                ratio = abs(b0 - 2.0 * b1 + b2) / thresholds[j]
+                if math.isfinite(ratio):
+                    if not math.isfinite(worst) or ratio > worst:
+                        worst = ratio
+                    if ratio > 1.0 and first_w == 0:
+                        first_w = w
+            streak = streak + 1 if (trusted and first_w > 0 and have) else 0
+            refuse = trusted and streak >= persist
+            if refuse:
+                w = first_w
+                m = max(1, w // 4)
+                b1 = _block(csum, count, start, k - 2 * w, m, L)
+                c1 = k - 2 * w - (m - 1) / 2.0
+                f = np.nan
+                span = 0
+                for j in range(nh - 1, -1, -1):
+                    wl = horizons[j]
+                    ml = max(1, wl // 4)
+                    b0 = _block(csum, count, start, k - 2 * w - wl, ml, L)
+                    if math.isnan(f) and math.isfinite(b0):
+                        c0 = k - 2 * w - wl - (ml - 1) / 2.0
+                        f = (b1 - b0) / (c1 - c0)
+                        span = wl
+                if math.isnan(f):
+                    f = 0.0
+                anchor, anchor_f, anchor_t, anchor_w, anchor_m = b1, f, c1, max(span, 1), m
+                anchor_j = -1
+                for j in range(nh):
+                    if horizons[j] == anchor_w:
+                        anchor_j = j
+            bs = _block(csum, count, start, k, ms, L)
+            h = k - (ms - 1) / 2.0 - anchor_t
+            wa = float(anchor_w)
+            he = max(h, wa)
+            h1 = max(h, 1.0)
+            lever = lever_var[anchor_j] if anchor_j >= 0 else 0.0
+            ablock = 0.0
+            for j in range(nh):
+                if max(1, horizons[j] // 4) == anchor_m:
+                    ablock = block_var[j]
+            var = (2.0 * h1 * h1 * _avar(h0, hm1, hm2, h1) + h1 * h1 * _avar(h0, hm1, hm2, wa) + check_var + ablock
+                   + lever * (h1 / wa) ** 2)
+            tol = readmit_k * math.sqrt(var) + drift * he * he
+            agree_now = have and math.isfinite(bs) and abs(bs - (anchor + anchor_f * h)) < tol
+            refused = not trusted
+            agree = agree + 1 if (refused and agree_now) else 0
+            readmit = refused and agree >= readmit_s
+            if readmit:
+                start = k + 1
+            trusted = (trusted and not refuse) or readmit
+            if refuse or readmit:
+                streak = 0
+            if readmit:
+                agree = 0
+            plausible[i, k] = 1 if trusted else 0
+            readmitted[i, k] = 1 if readmit else 0
+            stat[i, k] = worst
+    return plausible, readmitted, stat
