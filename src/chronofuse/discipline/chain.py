@@ -24,6 +24,7 @@ import numpy as np
 from chronofuse.discipline.counter import MultiPhaseCounter
 from chronofuse.discipline.fusion import FusionRun, InverseVarianceFusion
 from chronofuse.discipline.loop import LoopRun, close_loop
+from chronofuse.discipline.plausibility import DragMonitor
 from chronofuse.discipline.qualification import Qualification, usable_epochs
 from chronofuse.discipline.servo import Servo, freeze
 from chronofuse.discipline.states import StateConfig, StateRun, run_states
@@ -46,6 +47,10 @@ class ChainConfig:
     integrity_train_s : seconds at the start used to fit the detector's noise model.
     alarm_hold_s : a receiver stays excluded this long after its last alarm.
     counter : measure offsets with this multi-phase counter (None: exact).
+    receiver_monitor, reference_monitor : the oscillator's plausibility test
+        (:class:`~chronofuse.discipline.plausibility.DragMonitor`) of each receiver (a refused one is excluded
+        from fusion and comes back with its weight earned anew) and of the fused reference (refused: the loop
+        holds over); None: off.
     fast : compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
     """
 
@@ -59,6 +64,8 @@ class ChainConfig:
     alarm_hold_s: float = 600.0
     counter: MultiPhaseCounter | None = None
     fast: bool = True
+    receiver_monitor: DragMonitor | None = None
+    reference_monitor: DragMonitor | None = None
 
     def __post_init__(self):
         check_choice(self.fusion, "fusion", ("fusion", "selection"))
@@ -76,9 +83,10 @@ class GnssdoRun:
     """The result of :func:`discipline_run`; arrays read-only.
 
     ``phase_s`` (trials, steps): time error of the disciplined 1PPS; ``reference_error_s``: the fused
-    reference's error ``e_f`` (NaN when none); ``usable`` (trials, receivers, steps) after qualification
-    and integrity exclusion; ``alarm`` (trials, receivers, steps): integrity alarms; ``loop``, ``fusion``
-    and ``states``: each stage's own result.
+    reference's error ``e_f`` the loop used (NaN when none or refused); ``usable`` (trials, receivers, steps)
+    after qualification, integrity exclusion and the plausibility test; ``alarm`` (trials, receivers, steps):
+    integrity alarms; ``implausible`` (trials, steps): the reference refused by the oscillator's prediction
+    (the fused one, or every offered receiver); ``loop``, ``fusion`` and ``states``: each stage's own result.
     """
 
     phase_s: np.ndarray
@@ -89,6 +97,7 @@ class GnssdoRun:
     fusion: FusionRun
     states: StateRun
     interval_s: float
+    implausible: np.ndarray | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -153,12 +162,25 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     else:
         alarm = np.zeros(usable.shape, dtype=bool)
     usable = usable & ~alarm
+    offered = usable
+    fresh = None
+    if config.receiver_monitor is not None:  # y_j = x_free - e_j: what z_j - c gives the GPSDO
+        check = config.receiver_monitor.run(free[:, None, :] - e, offered, fast=config.fast)
+        usable = offered & check.plausible
+        fresh = check.readmitted
     fusion = InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast).run(np.where(usable, -e, np.nan),
-                                                                                       usable)
+                                                                                       usable, fresh)
     ref = -fusion.offset_s  # e_f: fused offset is x - e_f with x = 0 here
+    implausible = offered.any(axis=1) & ~usable.any(axis=1)  # every offered receiver refused
+    if config.reference_monitor is not None:
+        have = np.isfinite(ref)
+        check = config.reference_monitor.run((free - ref)[:, None, :], have[:, None, :], fast=config.fast)
+        refused = have & ~check.plausible[:, 0]
+        ref = np.where(refused, np.nan, ref)
+        implausible = implausible | refused
     loop = close_loop(servo, free, ref, counter=config.counter, seed=seed)
     any_usable = np.isfinite(ref)
-    all_alarmed = alarm.any(axis=1) & ~(usable.any(axis=1))
+    all_alarmed = alarm.any(axis=1) & ~(usable.any(axis=1)) & ~implausible
     states = run_states(any_usable, loop.offset_s, config.states, alarm=all_alarmed, near_rail=loop.near_rail,
-                        freq_adj=loop.freq_adj, fast=config.fast)
-    return GnssdoRun(loop.phase_s, ref, usable, alarm, loop, fusion, states, dt)
+                        implausible=implausible, freq_adj=loop.freq_adj, fast=config.fast)
+    return GnssdoRun(loop.phase_s, ref, usable, alarm, loop, fusion, states, dt, implausible)

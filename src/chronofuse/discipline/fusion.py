@@ -71,10 +71,11 @@ class InverseVarianceFusion:
         self._check()
         return {"ms": np.full((trials, receivers), np.nan)}
 
-    def update(self, state: dict, z: np.ndarray, usable: np.ndarray):
-        """One second: ``z``, ``usable`` (N, R) -> ``(state', fused (N,), variance (N,), weights (N, R))``."""
+    def update(self, state: dict, z: np.ndarray, usable: np.ndarray, fresh=None):
+        """One second: ``z``, ``usable`` (N, R) -> ``(state', fused (N,), variance (N,), weights (N, R))``;
+        ``fresh`` (N, R): receivers whose variance estimate restarts this second (re-admitted: weight earned anew)."""
         alpha = self.interval_s / self.memory_s
-        ms = state["ms"]
+        ms = state["ms"] if fresh is None else np.where(fresh, np.nan, state["ms"])
         var = np.where(np.isfinite(ms), ms, self.initial_sigma_s**2)
         var = np.maximum(var, self.floor_sigma_s**2)
         w = np.where(usable, 1.0 / var, 0.0)
@@ -100,19 +101,21 @@ class InverseVarianceFusion:
         weights = w / np.where(has, total, 1.0)[:, None]
         return {"ms": new_ms}, fused, variance, weights
 
-    def run(self, z, usable) -> FusionRun:
-        """Fuse ``z`` (trials, receivers, steps) where ``usable`` (same shape); the object is unchanged."""
+    def run(self, z, usable, fresh=None) -> FusionRun:
+        """Fuse ``z`` (trials, receivers, steps) where ``usable`` (same shape); ``fresh`` (same shape): a receiver's
+        variance estimate restarts that second (see :meth:`update`); the object is unchanged."""
         z = check_array(z, "z", ndim=3, allow_nan=True)
         usable = np.asarray(usable, dtype=bool) & np.isfinite(z)
+        fresh = np.zeros(z.shape, bool) if fresh is None else np.ascontiguousarray(np.asarray(fresh, dtype=bool))
         trials, receivers, steps = z.shape
         state = self.initial_state(trials, receivers)
         if self.fast:
             out = fusion_kernel(z, usable, self.mode == "selection", self.interval_s / self.memory_s,
-                                self.initial_sigma_s**2, self.floor_sigma_s**2)
+                                self.initial_sigma_s**2, self.floor_sigma_s**2, fresh)
             return FusionRun(*out)
         fused = np.empty((trials, steps))
         var = np.empty((trials, steps))
         weights = np.empty((trials, receivers, steps))
         for k in range(steps):
-            state, fused[:, k], var[:, k], weights[:, :, k] = self.update(state, z[:, :, k], usable[:, :, k])
+            state, fused[:, k], var[:, k], weights[:, :, k] = self.update(state, z[:, :, k], usable[:, :, k], fresh[:, :, k])
         return FusionRun(fused, var, weights)

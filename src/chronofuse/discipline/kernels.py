@@ -16,8 +16,9 @@ __all__ = ["fusion_kernel", "states_kernel", "plausibility_kernel"]
 
 
 @numba.njit(cache=True)
-def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
-    """Online inverse-variance fusion (:mod:`.fusion`) over (trials, receivers, steps); returns
+def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var, fresh):
+    """Online inverse-variance fusion (:mod:`.fusion`) over (trials, receivers, steps); ``fresh`` (same shape):
+    a receiver's variance estimate restarts that second (its weight earned anew); returns
     fused (trials, steps), variance (trials, steps), weights (trials, receivers, steps)."""
     trials, receivers, steps = z.shape
     fused = np.empty((trials, steps))
@@ -32,6 +33,8 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
         ms[:] = np.nan
         for k in range(steps):
             for j in range(receivers):
+                if fresh[i, j, k]:
+                    ms[j] = np.nan
                 v = ms[j] if not math.isnan(ms[j]) else initial_var
                 var[j] = max(v, floor_var)
                 w_all[j] = 1.0 / var[j] if usable[i, j, k] else 0.0
@@ -143,21 +146,25 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
 
 
 @numba.njit(cache=True)
-def _block(csum, count, start, end, m, L):
-    """Block mean over (end - m, end] of one series' cumulative ring (NaN: too early or half missing)."""
+def _block(csum, tsum, count, start, end, m, L):
+    """Block mean over (end - m, end] of one series' cumulative rings, and the mean time of the samples in
+    it (NaN, NaN: too early or half missing)."""
     if end - m < start - 1 or end - m < -1:
-        return np.nan
+        return np.nan, np.nan
     c1 = csum[end % L]
+    t1 = tsum[end % L]
     n1 = count[end % L]
     c0 = 0.0
+    t0 = 0.0
     n0 = 0
     if end - m >= 0:
         c0 = csum[(end - m) % L]
+        t0 = tsum[(end - m) % L]
         n0 = count[(end - m) % L]
     n = n1 - n0
     if n <= 0 or 2 * n < m:
-        return np.nan
-    return (c1 - c0) / n
+        return np.nan, np.nan
+    return (c1 - c0) / n, (t1 - t0) / n
 
 
 @numba.njit(cache=True)
@@ -178,9 +185,11 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     readmitted = np.zeros((n_series, steps), dtype=np.int8)
     stat = np.empty((n_series, steps))
     csum = np.zeros(L)
+    tsum = np.zeros(L)
     count = np.zeros(L, dtype=np.int64)
     for i in range(n_series):
         csum[:] = 0.0
+        tsum[:] = 0.0
         count[:] = 0
         start = 0
         trusted = True
@@ -196,17 +205,19 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             have = admitted[i, k] and math.isfinite(y[i, k])
             c_prev = csum[(k - 1) % L] if k > 0 else 0.0
             n_prev = count[(k - 1) % L] if k > 0 else 0
+            t_prev = tsum[(k - 1) % L] if k > 0 else 0.0
             csum[k % L] = c_prev + (y[i, k] if have else 0.0)
+            tsum[k % L] = t_prev + (float(k) if have else 0.0)
             count[k % L] = n_prev + (1 if have else 0)
             worst = np.nan
             first_w = 0
             for j in range(nh):
                 w = horizons[j]
                 m = max(1, w // 4)
-                b0 = _block(csum, count, start, k, m, L)
-                b1 = _block(csum, count, start, k - w, m, L)
-                b2 = _block(csum, count, start, k - 2 * w, m, L)
-                ratio = abs(b0 - 2.0 * b1 + b2) / thresholds[j]
+                b0, t0 = _block(csum, tsum, count, start, k, m, L)
+                b1, t1 = _block(csum, tsum, count, start, k - w, m, L)
+                b2, t2 = _block(csum, tsum, count, start, k - 2 * w, m, L)
+                ratio = abs(b0 - b1 - (b1 - b2) * (t0 - t1) / (t1 - t2)) / thresholds[j]
                 if math.isfinite(ratio):
                     if not math.isfinite(worst) or ratio > worst:
                         worst = ratio
@@ -217,16 +228,14 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             if refuse:
                 w = first_w
                 m = max(1, w // 4)
-                b1 = _block(csum, count, start, k - 2 * w, m, L)
-                c1 = k - 2 * w - (m - 1) / 2.0
+                b1, c1 = _block(csum, tsum, count, start, k - 2 * w, m, L)
                 f = np.nan
                 span = 0
                 for j in range(nh - 1, -1, -1):
                     wl = horizons[j]
                     ml = max(1, wl // 4)
-                    b0 = _block(csum, count, start, k - 2 * w - wl, ml, L)
+                    b0, c0 = _block(csum, tsum, count, start, k - 2 * w - wl, ml, L)
                     if math.isnan(f) and math.isfinite(b0):
-                        c0 = k - 2 * w - wl - (ml - 1) / 2.0
                         f = (b1 - b0) / (c1 - c0)
                         span = wl
                 if math.isnan(f):
@@ -236,8 +245,8 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 for j in range(nh):
                     if horizons[j] == anchor_w:
                         anchor_j = j
-            bs = _block(csum, count, start, k, ms, L)
-            h = k - (ms - 1) / 2.0 - anchor_t
+            bs, ts = _block(csum, tsum, count, start, k, ms, L)
+            h = ts - anchor_t if math.isfinite(ts) else k - (ms - 1) / 2.0 - anchor_t
             wa = float(anchor_w)
             he = max(h, wa)
             h1 = max(h, 1.0)

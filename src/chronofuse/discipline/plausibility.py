@@ -9,11 +9,14 @@ than that allows is implausible.
 
 The test, per series (one per receiver, and the fused reference's), every second and at horizons
 ``W = 4, 8, ..., max_horizon_s``: block means ``B(k)`` of ``y`` over the last ``m = max(1, W / 4)`` seconds,
-and their second difference ``D_W(k) = B(k) - 2 B(k - W) + B(k - 2 W)``. For the oscillator alone
+and their second difference ``D_W(k) = B(k) - 2 B(k - W) + B(k - 2 W)``, taken at the blocks' actual mean
+times ``t_i`` (``B0 - B1 - (B1 - B2) (t0 - t1) / (t1 - t2)``: a block with gaps has its centre elsewhere,
+and the free oscillator's frequency offset, up to 5e-9, would turn a 64 s shift into 320 ns). For the oscillator alone
 ``var D_W ~ 2 W^2 sigma_y^2(W)`` (the Allan variance's definition; NIST SP 1065 eq. 8, with
 ``sigma_y^2(W) = h0 / (2 W) + 2 ln2 h_-1 + (2 pi^2 / 3) h_-2 W``); the reference's own noise adds the
 variance of the second difference of its block means (white: ``6 sigma_w^2 / m``; each Gauss-Markov term
-exactly, from its autocovariance ``sigma^2 rho^|l|``). The aging bound ``D`` adds a bias ``D W^2``. The series
+exactly, from its autocovariance ``sigma^2 rho^|l|``), for a block half filled (the fewest samples the test
+accepts; gaps are common where geometry disqualifies a receiver). The aging bound ``D`` adds a bias ``D W^2``. The series
 is refused when ``|D_W| > k_sigma sqrt(var D_W) + D W^2`` at some horizon for ``persist`` consecutive
 seconds. A drag of rate ``r`` starting at ``t0`` gives ``D_W = r (k - t0)`` until ``k - t0 = W``: the slowest
 rate caught before the time error reaches a budget ``b`` is about ``min_W threshold(W) / W`` over the
@@ -115,7 +118,7 @@ class DragMonitor:
     noise: ReferenceNoise
     drift_per_s: float = 0.0
     k_sigma: float = 5.0
-    persist: int = 2
+    persist: int = 3
     max_horizon_s: int = 2048
     readmit_s: int = 300
     readmit_k_sigma: float = 3.0
@@ -143,13 +146,16 @@ class DragMonitor:
         return cls(osc.h.h0, osc.h.hm1, osc.h.hm2, noise, abs(osc.drift_per_s), **kw)
 
     @staticmethod
-    def block(w: int) -> int:
-        return max(1, w // 4)
+    def block(w: int, filled: bool = False) -> int:
+        """The block length at horizon ``w``; ``filled``: the fewest samples a block may hold (half of it:
+        the noise terms are taken for the worst block the test accepts)."""
+        m = max(1, w // 4)
+        return max(1, m // 2) if filled else m
 
     def statistic_var_s2(self, w: int) -> float:
         """``var D_W``: the oscillator's ``2 W^2 sigma_y^2(W)`` plus the reference's part."""
         osc = 2.0 * w * w * float(oscillator_avar(self.h0, self.hm1, self.hm2, w))
-        return osc + self.noise.second_difference_var(self.block(w), w)
+        return osc + self.noise.second_difference_var(self.block(w, filled=True), w)
 
     def threshold_s(self, w: int) -> float:
         return self.k_sigma * math.sqrt(self.statistic_var_s2(w)) + self.drift_per_s * w * w
@@ -164,7 +170,7 @@ class DragMonitor:
         return best
 
     def _lever_var(self, w: int) -> float:
-        return self.noise.second_difference_var(self.block(int(w)), int(w)) if w > 1 else 0.0
+        return self.noise.second_difference_var(self.block(int(w), filled=True), int(w)) if w > 1 else 0.0
 
     def _prediction_var_s2(self, h, wa, ma):
         """Variance of the holdover prediction ``h`` seconds past its anchor (a block of ``ma`` samples, the
@@ -174,11 +180,11 @@ class DragMonitor:
         the frequency estimate levered by ``(h / wa)^2``."""
         h = np.maximum(h, 1.0)
         wa = np.asarray(wa, dtype=np.float64)
-        anchor_block = np.vectorize(lambda m: self.noise.block_var(int(m)), otypes=[float])(ma)
+        anchor_block = np.vectorize(lambda m: self.noise.block_var(max(1, int(m) // 2)), otypes=[float])(ma)
         lever = np.vectorize(self._lever_var, otypes=[float])(wa)
         var = (2.0 * h * h * oscillator_avar(self.h0, self.hm1, self.hm2, h)
                + h * h * oscillator_avar(self.h0, self.hm1, self.hm2, wa)
-               + self.noise.block_var(self.check_block_s) + anchor_block + lever * (h / wa) ** 2)
+               + self.noise.block_var(max(1, self.check_block_s // 2)) + anchor_block + lever * (h / wa) ** 2)
         return var
 
     def kernel_params(self) -> tuple:
@@ -186,10 +192,10 @@ class DragMonitor:
         taus, scalars) for the compiled twin :func:`~.kernels.plausibility_kernel`."""
         w = np.array(self.horizons, np.int64)
         lever = np.array([self._lever_var(int(x)) for x in w])
-        block = np.array([self.noise.block_var(self.block(int(x))) for x in w])
+        block = np.array([self.noise.block_var(self.block(int(x), filled=True)) for x in w])
         gm = np.array(self.noise.gauss_markov, dtype=np.float64).reshape(-1, 2)
         scalars = np.array([self.h0, self.hm1, self.hm2, self.drift_per_s, self.k_sigma, self.persist, self.readmit_s,
-                            self.check_block_s, self._ring, self.noise.block_var(self.check_block_s),
+                            self.check_block_s, self._ring, self.noise.block_var(max(1, self.check_block_s // 2)),
                             self.readmit_k_sigma])
         return w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]), scalars
 
@@ -221,36 +227,37 @@ class DragMonitor:
     # ---- the per-second core (readable twin of the kernel) ------------------------------------------------
     def initial_state(self, shape: tuple[int, ...]) -> dict:
         L = self._ring
-        return {"k": 0, "csum": np.zeros(shape + (L,)), "count": np.zeros(shape + (L,), np.int64),
+        return {"k": 0, "csum": np.zeros(shape + (L,)), "tsum": np.zeros(shape + (L,)), "count": np.zeros(shape + (L,), np.int64),
                 "start": np.zeros(shape, np.int64), "trusted": np.ones(shape, bool), "streak": np.zeros(shape, np.int64),
                 "agree": np.zeros(shape, np.int64), "anchor": np.zeros(shape), "anchor_f": np.zeros(shape),
                 "anchor_t": np.zeros(shape), "anchor_w": np.ones(shape, np.int64), "anchor_m": np.ones(shape, np.int64)}
 
     def _block_mean(self, state, end, m):
-        """Block mean over (end - m, end] per series (NaN where that block reaches before the history's
-        ``start`` or half of it is missing); ``end`` an absolute second (scalar)."""
+        """Block mean over (end - m, end] per series and the mean time of its samples (NaN where that block
+        reaches before the history's ``start`` or half of it is missing); ``end`` an absolute second."""
         L = self._ring
         ok = (end - m >= state["start"] - 1) & (end - m >= -1)
         i1, i0 = end % L, (end - m) % L
-        c1, n1 = state["csum"][..., i1], state["count"][..., i1]
-        c0 = state["csum"][..., i0] if end - m >= 0 else 0.0
-        n0 = state["count"][..., i0] if end - m >= 0 else 0
+        c1, t1, n1 = state["csum"][..., i1], state["tsum"][..., i1], state["count"][..., i1]
+        early = end - m < 0
+        c0 = 0.0 if early else state["csum"][..., i0]
+        t0 = 0.0 if early else state["tsum"][..., i0]
+        n0 = 0 if early else state["count"][..., i0]
         n = n1 - n0
         ok = ok & (2 * n >= m) & (n > 0)
-        return np.where(ok, (c1 - c0) / np.where(n > 0, n, 1), np.nan)
+        safe = np.where(n > 0, n, 1)
+        return np.where(ok, (c1 - c0) / safe, np.nan), np.where(ok, (t1 - t0) / safe, np.nan)
 
     def _anchor(self, state, k, w, m):
         """The holdover prediction's anchor for an excursion seen at horizon ``w``: the block mean at ``k - 2w``
         (before the excursion began) and the frequency to it from the longest horizon's block before it
         (``w``'s own when the history is shorter); returns (phase, frequency, centre, frequency span)."""
-        b1 = self._block_mean(state, k - 2 * w, m)
-        c1 = k - 2 * w - (m - 1) / 2.0
+        b1, c1 = self._block_mean(state, k - 2 * w, m)
         f = np.full(b1.shape, np.nan)
         span = np.zeros(b1.shape, np.int64)
         for wl in self.horizons[::-1]:
             ml = self.block(wl)
-            b0 = self._block_mean(state, k - 2 * w - wl, ml)
-            c0 = k - 2 * w - wl - (ml - 1) / 2.0
+            b0, c0 = self._block_mean(state, k - 2 * w - wl, ml)
             take = np.isnan(f) & np.isfinite(b0)
             f = np.where(take, (b1 - b0) / (c1 - c0), f)
             span = np.where(take, wl, span)
@@ -265,15 +272,17 @@ class DragMonitor:
         L = self._ring
         c_prev = state["csum"][..., (k - 1) % L] if k > 0 else 0.0
         n_prev = state["count"][..., (k - 1) % L] if k > 0 else 0
+        t_prev = state["tsum"][..., (k - 1) % L] if k > 0 else 0.0
         state["csum"][..., k % L] = c_prev + np.where(have, y, 0.0)
+        state["tsum"][..., k % L] = t_prev + np.where(have, float(k), 0.0)
         state["count"][..., k % L] = n_prev + have
         trusted = state["trusted"]
         worst = np.full(y.shape, np.nan)
         first_w = np.zeros(y.shape, np.int64)
         for w, thr in zip(self.horizons, self.thresholds_s):
             m = self.block(w)
-            b0, b1, b2 = (self._block_mean(state, k - j * w, m) for j in range(3))
-            ratio = np.abs(b0 - 2.0 * b1 + b2) / thr
+            (b0, t0), (b1, t1), (b2, t2) = (self._block_mean(state, k - j * w, m) for j in range(3))
+            ratio = np.abs(b0 - b1 - (b1 - b2) * (t0 - t1) / (t1 - t2)) / thr
             worst = np.fmax(worst, ratio)
             newly = np.isfinite(ratio) & (ratio > 1.0) & (first_w == 0)
             first_w = np.where(newly, w, first_w)
@@ -290,8 +299,8 @@ class DragMonitor:
                     state["anchor_w"] = np.where(sel, span, state["anchor_w"])
                     state["anchor_m"] = np.where(sel, self.block(w), state["anchor_m"])
         ms = self.check_block_s
-        bs = self._block_mean(state, k, ms)
-        h = k - (ms - 1) / 2.0 - state["anchor_t"]
+        bs, ts = self._block_mean(state, k, ms)
+        h = np.where(np.isfinite(ts), ts, k - (ms - 1) / 2.0) - state["anchor_t"]
         wa = state["anchor_w"].astype(np.float64)
         tol = (self.readmit_k_sigma * np.sqrt(self._prediction_var_s2(h, wa, state["anchor_m"]))
                + self.drift_per_s * np.maximum(h, wa) ** 2)

@@ -41,6 +41,7 @@ from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.kalman import KalmanServo
 from chronofuse.discipline.loop import close_loop
+from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
@@ -99,6 +100,8 @@ class GnssdoSetup:
     loop_bandwidth_hz: float | None = None
     fusion: str = "fusion"
     integrity_pfa: float | None = None
+    #: The oscillator's plausibility test of each receiver and of the fused reference (spoofing through the oscillator).
+    plausibility: bool = True
     #: A GNSS outage added to any scenario: every receiver jammed from ``outage_start_s`` for ``outage_s``.
     outage_start_s: float | None = None
     outage_s: float = 0.0
@@ -163,6 +166,26 @@ def state_config(osc: OscillatorModel) -> StateConfig:
     and the holdover prediction from the oscillator's own noise and aging."""
     adev_1s = math.sqrt(osc.h.h0 / 2.0 + 2.0 * math.log(2.0) * osc.h.hm1)
     return StateConfig(freq_threshold=max(1e-9, 10.0 * adev_1s), holdover=HoldoverModel.of(osc))
+
+
+def reference_noise(env: ReceiverEnvironment) -> ReferenceNoise:
+    """One receiver's 1PPS noise as the designer models it (its environment's receiver model): white noise
+    inflated by the mean log-normal GDOP gain, with the outliers' variance folded in, plus multipath and
+    wander as Gauss-Markov terms."""
+    m = env.model
+    white = m.white_sigma_s * math.exp(m.gdop_log_sigma**2)
+    white = math.sqrt(white**2 + m.outlier_prob * m.outlier_sigma_s**2)
+    return ReferenceNoise(white, ((m.multipath_sigma_s, m.multipath_tau_s), (m.wander_sigma_s, m.wander_tau_s)))
+
+
+def plausibility_monitors(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int) -> tuple[DragMonitor, DragMonitor]:
+    """The drag monitors of one receiver and of the fused reference. The fused one is given one receiver's
+    noise, not ``1 / sqrt(receivers)`` of it: its weights are unequal and move (one receiver in a bad
+    geometry can dominate it for minutes; measured in open sky, the fused series' second differences have
+    tails the scaled model puts at 5 sigma every few thousand seconds). At the long horizons that set the
+    slowest rate caught, the oscillator's noise dominates either way."""
+    noise = reference_noise(env)
+    return DragMonitor.for_oscillator(osc, noise), DragMonitor.for_oscillator(osc, noise)
 
 
 def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
@@ -240,8 +263,10 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
     free, noise_only = _free_phase(osc, setup.duration_s, setup.trials, root)
     progress("simulating the receivers")
     rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=setup.trials)
+    monitors = plausibility_monitors(osc, env, setup.receivers) if setup.plausibility else (None, None)
     config = ChainConfig(qualification=Qualification(gdop_max=setup.gdop_max), fusion=setup.fusion,
-                         integrity_pfa=setup.integrity_pfa, states=state_config(osc))
+                         integrity_pfa=setup.integrity_pfa, states=state_config(osc), receiver_monitor=monitors[0],
+                         reference_monitor=monitors[1])
     progress(f"disciplining ({setup.controller})")
     servo = make_controller(setup.controller, osc, env, setup.receivers, dac, setup.loop_bandwidth_hz)
     run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, config)
