@@ -161,13 +161,17 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
                                  config.alarm_hold_s)
     else:
         alarm = np.zeros(usable.shape, dtype=bool)
-    usable = usable & ~alarm
+    qualified = usable
+    usable = qualified & ~alarm
     offered = usable
-    fresh = None
     if config.receiver_monitor is not None:  # y_j = x_free - e_j: what z_j - c gives the GPSDO
-        check = config.receiver_monitor.run(free[:, None, :] - e, offered, fast=config.fast)
-        usable = offered & check.plausible
-        fresh = check.readmitted
+        # The monitor watches every qualified receiver, integrity-excluded or not, so that one returning from an
+        # integrity exclusion is judged on its whole record.
+        check = config.receiver_monitor.run(free[:, None, :] - e, qualified, fast=config.fast)
+        usable = usable & check.plausible
+    # A receiver back from an integrity or plausibility exclusion earns its weight anew.
+    held_out = qualified & ~usable
+    fresh = usable & np.concatenate([np.zeros(held_out.shape[:-1] + (1,), bool), held_out[..., :-1]], axis=-1)
     fusion = InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast).run(np.where(usable, -e, np.nan),
                                                                                        usable, fresh)
     ref = -fusion.offset_s  # e_f: fused offset is x - e_f with x = 0 here

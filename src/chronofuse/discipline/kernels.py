@@ -221,9 +221,10 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 if math.isfinite(ratio):
                     if not math.isfinite(worst) or ratio > worst:
                         worst = ratio
-                    if ratio > 1.0 and first_w == 0:
+                    if ratio > 1.0:
                         first_w = w
-            streak = streak + 1 if (trusted and first_w > 0 and have) else 0
+            if have:
+                streak = streak + 1 if (trusted and first_w > 0) else 0
             refuse = trusted and streak >= persist
             if refuse:
                 w = first_w
@@ -258,10 +259,14 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             var = (2.0 * h1 * h1 * _avar(h0, hm1, hm2, h1) + h1 * h1 * _avar(h0, hm1, hm2, wa) + check_var + ablock
                    + lever * (h1 / wa) ** 2)
             tol = readmit_k * math.sqrt(var) + drift * he * he
-            agree_now = have and math.isfinite(bs) and abs(bs - (anchor + anchor_f * h)) < tol
+            judged = have and math.isfinite(bs)
+            agree_now = judged and abs(bs - (anchor + anchor_f * h)) < tol
             refused = not trusted
-            agree = agree + 1 if (refused and agree_now) else 0
-            readmit = refused and agree >= readmit_s
+            if not refused:
+                agree = 0
+            elif judged:
+                agree = agree + 1 if agree_now else 0
+            readmit = refused and agree >= max(readmit_s, 4 * anchor_m)
             if readmit:
                 start = k + 1
             trusted = (trusted and not refuse) or readmit

@@ -24,7 +24,8 @@ horizons with ``threshold(W) < b`` (:meth:`DragMonitor.slowest_rate`).
 
 Once refused, the series is compared with the holdover prediction made from before the excursion (the
 block mean at ``k - 2W`` and the frequency to it over the longest horizon before it); it is admitted again only after
-``readmit_s`` consecutive seconds within ``readmit_k_sigma`` of that prediction's uncertainty, with its history
+``readmit_s`` consecutive seconds (and at least the horizon it was refused at) within ``readmit_k_sigma`` of
+that prediction's uncertainty, with its history
 cleared (and, in fusion, its weight earned anew: :attr:`PlausibilityRun.readmitted`).
 
 :class:`DragMonitor` is the readable per-second core over (N, S) arrays; :meth:`DragMonitor.run` runs it
@@ -170,7 +171,8 @@ class DragMonitor:
         return best
 
     def _lever_var(self, w: int) -> float:
-        return self.noise.second_difference_var(self.block(int(w), filled=True), int(w)) if w > 1 else 0.0
+        """The reference's part of a frequency measured between two blocks ``w`` apart, times ``w^2``."""
+        return 2.0 * self.noise.block_var(self.block(int(w), filled=True)) if w > 1 else 0.0
 
     def _prediction_var_s2(self, h, wa, ma):
         """Variance of the holdover prediction ``h`` seconds past its anchor (a block of ``ma`` samples, the
@@ -249,7 +251,8 @@ class DragMonitor:
         return np.where(ok, (c1 - c0) / safe, np.nan), np.where(ok, (t1 - t0) / safe, np.nan)
 
     def _anchor(self, state, k, w, m):
-        """The holdover prediction's anchor for an excursion seen at horizon ``w``: the block mean at ``k - 2w``
+        """The holdover prediction's anchor for an excursion seen at horizon ``w`` (the longest one over its
+        threshold, so that the anchor most likely precedes the excursion's start): the block mean at ``k - 2w``
         (before the excursion began) and the frequency to it from the longest horizon's block before it
         (``w``'s own when the history is shorter); returns (phase, frequency, centre, frequency span)."""
         b1, c1 = self._block_mean(state, k - 2 * w, m)
@@ -284,9 +287,10 @@ class DragMonitor:
             (b0, t0), (b1, t1), (b2, t2) = (self._block_mean(state, k - j * w, m) for j in range(3))
             ratio = np.abs(b0 - b1 - (b1 - b2) * (t0 - t1) / (t1 - t2)) / thr
             worst = np.fmax(worst, ratio)
-            newly = np.isfinite(ratio) & (ratio > 1.0) & (first_w == 0)
-            first_w = np.where(newly, w, first_w)
-        streak = np.where(trusted & (first_w > 0) & have, state["streak"] + 1, 0)
+            exceed = np.isfinite(ratio) & (ratio > 1.0)
+            first_w = np.where(exceed, w, first_w)  # the longest horizon over its threshold: its anchor is earliest
+        # A second without a sample neither extends nor breaks a run (of exceedances, or of agreement).
+        streak = np.where(have, np.where(trusted & (first_w > 0), state["streak"] + 1, 0), state["streak"])
         refuse = trusted & (streak >= self.persist)
         if refuse.any():
             for w in self.horizons:
@@ -304,10 +308,11 @@ class DragMonitor:
         wa = state["anchor_w"].astype(np.float64)
         tol = (self.readmit_k_sigma * np.sqrt(self._prediction_var_s2(h, wa, state["anchor_m"]))
                + self.drift_per_s * np.maximum(h, wa) ** 2)
-        agree_now = have & np.isfinite(bs) & (np.abs(bs - (state["anchor"] + state["anchor_f"] * h)) < tol)
+        judged = have & np.isfinite(bs)
+        agree_now = judged & (np.abs(bs - (state["anchor"] + state["anchor_f"] * h)) < tol)
         refused = ~trusted
-        agree = np.where(refused & agree_now, state["agree"] + 1, 0)
-        readmit = refused & (agree >= self.readmit_s)
+        agree = np.where(refused, np.where(judged, np.where(agree_now, state["agree"] + 1, 0), state["agree"]), 0)
+        readmit = refused & (agree >= np.maximum(self.readmit_s, 4 * state["anchor_m"]))
         state["start"] = np.where(readmit, k + 1, state["start"])
         trusted = (trusted & ~refuse) | readmit
         state.update(trusted=trusted, streak=np.where(refuse | readmit, 0, streak), agree=np.where(readmit, 0, agree),
