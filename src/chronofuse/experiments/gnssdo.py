@@ -40,12 +40,13 @@ from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.kalman import KalmanServo
-from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
-from chronofuse.discipline.states import HoldoverModel, State, StateConfig, run_states
+from chronofuse.discipline.stages import LoopStage, StateStage
+from chronofuse.discipline.states import HoldoverModel, State, StateConfig, StateRun
+from chronofuse.estimation.pipeline import Pipeline
 from chronofuse.io.records import read_record
 from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
@@ -443,13 +444,19 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     env = dataclasses.replace(receiver_environment("open-sky"), name="reference")
     servo = make_controller(controller, osc, env, 1, dac, measurement_sigma_s=sigma)
     progress(f"disciplining ({controller}) against {path.name}")
-    loop = close_loop(servo, free, e)
-    best = close_loop(clairvoyant_controller(osc, env, 1, dac), free, e)
-    has_ref = np.ones(loop.phase_s.shape, dtype=bool)
-    states = run_states(has_ref, loop.offset_s, state_config(osc), near_rail=loop.near_rail, freq_adj=loop.freq_adj)
+    # the chain's loop and state stages on the recorded reference (one receiver, always usable, no integrity,
+    # no plausibility test: the record is the truth's reference)
+    frame = {"free_phase_s": free, "reference_error_s": np.broadcast_to(e, free.shape),
+             "loop_reference_s": np.broadcast_to(e, free.shape), "implausible": np.zeros(free.shape, dtype=bool),
+             "usable": np.ones((trials, 1, steps), dtype=bool), "excluded": np.zeros((trials, 1, steps), dtype=bool)}
+    run = Pipeline([("loop", LoopStage(servo)), ("states", StateStage(state_config(osc)))]).fit().run(frame)
+    best = Pipeline([("loop", LoopStage(clairvoyant_controller(osc, env, 1, dac)))]).fit().run(frame)
+    has_ref = np.ones(free.shape, dtype=bool)
+    states = StateRun(run["gnssdo_state"], run["gnssdo_reason"], run["rail_alarm"], run["filtered_offset_s"],
+                      run["holdover_ready"], run["holdover_sigma_s"])
     summary = {"reference": str(path), "controller": controller, "duration_s": steps, "trials": trials, "seed": seed,
-               **time_error_metrics(loop.phase_s, has_ref),
-               "optimal_rms_ns": time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"],
+               **time_error_metrics(run["phase_s"], has_ref),
+               "optimal_rms_ns": time_error_metrics(best["phase_s"], has_ref)["time_error_rms_ns"],
                "state_seconds": states.seconds_in(),
-               "adev": adev_series(noise_only, np.broadcast_to(e, loop.phase_s.shape), loop.phase_s)}
+               "adev": adev_series(noise_only, np.broadcast_to(e, free.shape), run["phase_s"])}
     return summary
