@@ -137,3 +137,30 @@ def test_one_spoofed_receiver_of_three_leaves_the_output_within_10_percent_of_th
     # The spoofed receiver is out of the fusion from soon after the onset to the end, never re-admitted.
     assert not spoofed.usable[:, 1, int(ONSET_S) + 600:].any()
     assert (spoofed.states.state[:, -1] == State.LOCKED).all()
+
+
+def test_the_chain_with_its_plausibility_stages_streams_as_it_runs_through_a_drag_and_its_end():
+    from chronofuse.discipline.chain import gnssdo_frame
+    from chronofuse.discipline.stages import gnssdo_pipeline
+    from chronofuse.estimation.pipeline import compare_streaming_to_batch
+
+    osc = preset("ocxo")
+    steps = 1500
+    env = dataclasses.replace(receiver_environment("open-sky"), spoof_start_s=700.0, spoof_rate_s_per_s=2e-9)
+    free, _ = _free_phase(osc, steps, 2, root_seed(2))
+    rx = simulate_receivers(env, steps, 3, 5, trials=2)
+    pps = rx.pps_error_s.copy()
+    pps[..., 900:] -= rx.spoof_offset_s[..., 900:]  # the spoofer stops at 900 s: the receivers come back
+    noise = reference_noise(env)
+    monitor = DragMonitor.for_oscillator(osc, noise, max_horizon_s=128, readmit_s=60)
+    config = ChainConfig(states=dataclasses.replace(state_config(osc), lock_hold_s=20.0), receiver_monitor=monitor,
+                         reference_monitor=monitor)
+    servo = make_controller("gated", osc, env, 3, Dac.for_oscillator(osc))
+    pipe = gnssdo_pipeline(servo, config, 10**9).fit()
+    frame = gnssdo_frame(free, pps, rx.epochs)
+    names = ["receiver_plausible", "fresh", "usable", "loop_reference_s", "implausible", "phase_s", "gnssdo_state",
+             "gnssdo_reason", "holdover_sigma_s"]
+    assert compare_streaming_to_batch(pipe, frame, rtol=1e-9, atol=1e-15, names=names) == []
+    out = pipe.run(frame)
+    assert not np.asarray(out["receiver_plausible"])[..., 750:900].any()  # refused during the drag
+    assert np.asarray(out["fresh"])[..., 900:].any() and np.asarray(out["receiver_plausible"])[..., -1].all()
