@@ -90,8 +90,8 @@ class GnssdoRun:
     receivers, steps) after qualification, integrity exclusion and the plausibility test; ``alarm`` (trials,
     receivers, steps): integrity exclusions; ``implausible`` (trials, steps): the reference refused by the
     oscillator's prediction (the fused one, or every offered receiver); ``loop``, ``fusion`` and ``states``:
-    each stage's own result; ``leap``: the UTC label stage's columns (``utc_s``, ``leap_s``, ``leap_second``,
-    ``leap_dissent``) when the epochs carry time.
+    each stage's own result; ``leap``: the UTC label stage's columns (``utc_label_s``, ``utc_leap_s``,
+    ``leap_second``, ``leap_dissent``; :mod:`.utc_stage`).
     """
 
     phase_s: np.ndarray
@@ -154,6 +154,6 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     fusion = FusionRun(r["reference_error_s"] * -1.0, r["reference_variance_s2"], r["weights"])
     states = StateRun(r["gnssdo_state"], r["gnssdo_reason"], r["rail_alarm"], r["filtered_offset_s"],
                       r["holdover_ready"], r["holdover_sigma_s"])
-    leap = {name: r[name] for name in ("utc_s", "leap_s", "leap_second", "leap_dissent") if name in r}
+    leap = {name: r[name] for name in ("utc_label_s", "utc_leap_s", "leap_second", "leap_dissent") if name in r}
     return GnssdoRun(loop.phase_s, r["loop_reference_s"], r["usable"], r["excluded"], loop, fusion, states, dt,
                      r["implausible"], leap or None)

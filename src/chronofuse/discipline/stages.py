@@ -14,7 +14,8 @@ Per second, with ``trials`` and ``receivers`` as the lead axes of the receiver c
 4. :class:`FusionStage`: the qualified, not excluded, plausible receivers fused
    (:class:`~chronofuse.discipline.fusion.InverseVarianceFusion`): the reference's 1PPS error;
 5. :class:`~.guard_stages.ReferencePlausibilityStage`: the fused reference against the same prediction; the
-   reference the loop closes on (``loop_reference_s``, NaN while refused: holdover);
+   reference the loop closes on (``loop_reference_s``, NaN while refused: holdover); then
+   :class:`~.utc_stage.LeapStage`: the receivers' UTC and leap-second consensus, the output's UTC label;
 6. :class:`LoopStage`: the servo closes the loop on the oscillator (:func:`chronofuse.discipline.loop.close_loop`,
    through the servo's public ``initial_state``/``update``);
 7. :class:`StateStage`: the operating state and its reason, the filtered time error and the holdover report
@@ -38,6 +39,7 @@ from chronofuse.discipline.guard_stages import (NoReceiverPlausibility, NoRefere
                                                 ReceiverPlausibilityStage, ReferencePlausibilityStage)
 from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.qualification import Qualification
+from chronofuse.discipline.utc_stage import LeapStage
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.states import StateConfig, advance, initial_memory, run_states
 from chronofuse.estimation.pipeline import Pipeline
@@ -325,6 +327,7 @@ def gnssdo_pipeline(servo: Servo, config, interval_ns: int, *, seed=None) -> Pip
     stages += [("receiver_plausibility", receiver_check),
                ("fusion", FusionStage(InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast))),
                ("reference_plausibility", reference_check),
+               ("utc", LeapStage()),
                ("loop", LoopStage(servo, counter=config.counter, seed=seed, reference="loop_reference_s")),
                ("states", StateStage(config.states, fast=config.fast))]
     return Pipeline(stages)
