@@ -14,7 +14,17 @@ def register(app: typer.Typer) -> None:
     app.command("gnssdo")(gnssdo)
 
 
+#: Options that say how the simulated receivers are made and fused; a real reference record replaces all that.
+SIMULATION_ONLY = ("scenario", "receivers", "gdop_max", "dac_bits", "fusion", "integrity_pfa", "duration")
+
+
+def _given(ctx: typer.Context, name: str) -> bool:
+    """Whether option ``name`` was given on the command line (its source's name: typer has its own enum)."""
+    return getattr(ctx.get_parameter_source(name), "name", None) == "COMMANDLINE"
+
+
 def gnssdo(
+    ctx: typer.Context,
     scenario: str = typer.Option("open-sky", "--scenario", help="open-sky, urban-canyon, outage, jumps or spoofing."),
     controller: str = typer.Option("gated", "--controller",
                                    help="Servo: null, pi, kf, wakf, gated, huber, or one a plugin registers (group "
@@ -31,6 +41,7 @@ def gnssdo(
     fusion: str = typer.Option("fusion", "--fusion", help="fusion (inverse-variance) or selection (best source)."),
     integrity_pfa: float | None = typer.Option(None, "--integrity-pfa",
                                                help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
+    oscillator: str = typer.Option("ocxo", "--oscillator", help="Oscillator preset: tcxo, ocxo, rb or csac."),
     reference: Path | None = typer.Option(None, "--reference",
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
@@ -43,13 +54,18 @@ def gnssdo(
         fail(f"--rate == {rate}, must be > 0")
     if rate != 1.0:
         fail(f"--rate == {rate}, must be 1 (the loop runs on the 1PPS, one sample per second)")
+    if reference is not None:
+        given = [f"--{name.replace('_', '-')}" for name in SIMULATION_ONLY if _given(ctx, name)]
+        if given:
+            fail(f"{', '.join(given)}: not used with --reference (the record is the receiver; its length the run's)")
     with user_errors():
         setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
-                            trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits,
+                            trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits, oscillator=oscillator,
                             loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa)
         with progress_reporter("gnssdo") as say:
             if reference is not None:
-                summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say)
+                summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say,
+                                        oscillator=oscillator)
                 if out is not None:
                     from chronofuse.report.gnssdo import plot_adev
                     from chronofuse.report.jsonio import dumps

@@ -404,7 +404,8 @@ def _data_line(path: Path, index: int) -> int:
 def read_reference(path: Path) -> np.ndarray:
     """A real receiver's 1PPS phase against a reference clock (truth), 1 Hz, no gaps; seconds (N,).
 
-    Refused, naming the file and line: another rate than 1 Hz (from a time column), and any gap.
+    Refused, naming the file and line: another rate than 1 Hz (from a time column), any gap, and values that
+    cannot be a 1PPS phase in seconds (:func:`_check_pps_phase`: a frequency, another unit, a ramp).
     """
     path = Path(path)
     try:  # the time column, when there is one, says the rate (a rate given here would override it)
@@ -420,7 +421,43 @@ def read_reference(path: Path) -> np.ndarray:
                              f"{first}); the loop needs one sample every second", str(path), _data_line(path, first))
     if rec.values.size < 2 * SETTLE_S:
         raise InputDataError(f"{rec.values.size} samples, need at least {int(2 * SETTLE_S)}", str(path))
+    _check_pps_phase(rec.values, path)
     return rec.values
+
+
+#: What a receiver's 1PPS against a reference clock can look like (in seconds, once read): within this of its
+#: median (antenna and cable offsets are constant; a GNSS 1PPS wanders by tens of ns), drifting by at most
+#: this fractional frequency (the reference is a clock, the 1PPS steered to GNSS time), and moving by at least
+#: this rms from second to second (a timing receiver's 1PPS jitters by a nanosecond or more, the real GPS
+#: record in tests/data by 5.1 ns; a fractional-frequency record read as phase moves by 1e-11).
+REFERENCE_MAX_SPREAD_S = 10e-6
+REFERENCE_MAX_SLOPE = 1e-9
+REFERENCE_MIN_JITTER_S = 1e-10
+
+
+def _check_pps_phase(x: np.ndarray, path: Path) -> None:
+    """Refuse, naming the file and line, a record that is not a 1PPS phase against a reference clock in
+    seconds: a frequency (in Hz, or fractional), another unit read as seconds, or a ramp."""
+    median = float(np.median(x))
+    if abs(median) > 1.0:
+        raise InputDataError(f"values of order {median:.6g}: not a 1PPS phase in seconds (a frequency in Hz, or a phase "
+                             "in ns or us without a unit in the header?)", str(path), _data_line(path, 0))
+    far = np.flatnonzero(np.abs(x - median) > REFERENCE_MAX_SPREAD_S)
+    if far.size:
+        k = int(far[0])
+        raise InputDataError(f"{x[k]:.6g} s is {x[k] - median:+.3g} s from the record's median; a 1PPS against a reference "
+                             f"stays within {REFERENCE_MAX_SPREAD_S:g} s (values in ns or us without a unit header? a "
+                             "free-running clock?)", str(path), _data_line(path, k))
+    t = np.arange(x.size, dtype=np.float64)
+    slope = float(np.polyfit(t, x, 1)[0])
+    if abs(slope) > REFERENCE_MAX_SLOPE:
+        raise InputDataError(f"the record drifts by {slope:.3g} s/s over its {x.size} samples; a 1PPS against a "
+                             f"reference clock drifts by less than {REFERENCE_MAX_SLOPE:g} (a ramp: the reference is "
+                             "not a clock, or the record is not a 1PPS)", str(path), _data_line(path, x.size - 1))
+    jitter = float(np.sqrt(np.mean(np.diff(x) ** 2)))
+    if jitter < REFERENCE_MIN_JITTER_S:
+        raise InputDataError(f"consecutive values differ by {jitter:.3g} s rms; a receiver's 1PPS jitters by far more "
+                             "(a fractional-frequency record read as phase?)", str(path), _data_line(path, 1))
 
 
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
