@@ -18,10 +18,21 @@ from chronofuse.models.receiver import simulate_receivers
 THRESHOLD_S = state_config(preset("ocxo")).lock_threshold_s
 
 
+def _combinations():
+    for scenario in SCENARIOS:
+        for oscillator in sorted(PRESETS):
+            if (scenario, oscillator) == ("spoofing", "tcxo"):
+                # The TCXO's own noise puts the slowest drag it can refuse before 100 ns at 9.07 ns/s
+                # (DragMonitor.slowest_rate, docs/gnssdo/spoofing.md); the scenario drags at 2 ns/s.
+                yield pytest.param(scenario, oscillator, marks=pytest.mark.xfail(strict=True, reason=(
+                    "a 2 ns/s drag is below the 9.07 ns/s the TCXO can tell from its own noise before 100 ns")))
+            else:
+                yield scenario, oscillator
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("oscillator", sorted(PRESETS))
-@pytest.mark.parametrize("scenario", SCENARIOS)
-def test_no_second_is_reported_locked_with_the_time_error_above_the_threshold(oscillator, scenario):
+@pytest.mark.parametrize("scenario, oscillator", list(_combinations()))
+def test_no_second_is_reported_locked_with_the_time_error_above_the_threshold(scenario, oscillator):
     sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, oscillator=oscillator, duration_s=7200, trials=2, seed=5))
     run = sim["run"]
     locked = run.states.state == State.LOCKED
