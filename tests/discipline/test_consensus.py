@@ -3,7 +3,7 @@
 import numpy as np
 
 from chronofuse.discipline.consensus import apply_leap, utc_consensus
-from chronofuse.models.receiver import DEFAULT_START_GPS_S, GPS_MINUS_UTC_S, simulate_receivers
+from chronofuse.models.receiver import GPS_MINUS_UTC_S, simulate_receivers
 from chronofuse.timescale import NS_PER_S, utc_to_gps_ns
 
 

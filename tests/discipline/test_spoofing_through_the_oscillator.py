@@ -12,8 +12,7 @@ from chronofuse.discipline.chain import ChainConfig, corrected_pps_error, discip
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
 from chronofuse.discipline.states import Reason, State
-from chronofuse.experiments.gnssdo import (_free_phase, make_controller, plausibility_monitors, reference_noise,
-                                           scenario_environment, state_config)
+from chronofuse.experiments.gnssdo import _free_phase, make_controller, plausibility_monitors, reference_noise, state_config
 from chronofuse.models.environment import receiver_environment
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
