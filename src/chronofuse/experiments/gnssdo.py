@@ -179,14 +179,14 @@ def reference_noise(env: ReceiverEnvironment) -> ReferenceNoise:
     return ReferenceNoise(white, ((m.multipath_sigma_s, m.multipath_tau_s), (m.wander_sigma_s, m.wander_tau_s)))
 
 
-def plausibility_monitors(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int) -> tuple[DragMonitor, DragMonitor]:
-    """The drag monitors of one receiver and of the fused reference. The fused one is given one receiver's
-    noise, not ``1 / sqrt(receivers)`` of it: its weights are unequal and move (one receiver in a bad
-    geometry can dominate it for minutes; measured in open sky, the fused series' second differences have
-    tails the scaled model puts at 5 sigma every few thousand seconds). At the long horizons that set the
-    slowest rate caught, the oscillator's noise dominates either way."""
-    noise = reference_noise(env)
-    return DragMonitor.for_oscillator(osc, noise), DragMonitor.for_oscillator(osc, noise)
+def plausibility_monitors(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int) -> tuple[DragMonitor, None]:
+    """The drag monitors of each receiver and of the fused reference: each receiver's, and none on the fused
+    reference. A coherent drag refuses every receiver, which puts the GNSSDO in holdover by itself; a monitor
+    of the fused series would add the receivers coming and going (its value jumps by their differences: in
+    the default urban-canyon day such a monitor, given one receiver's noise, refused the fused reference for
+    51,920 s and never re-admitted it) and no sensitivity (at the long horizons that set the slowest rate
+    caught, the oscillator's noise dominates). The stage exists (``ChainConfig.reference_monitor``)."""
+    return DragMonitor.for_oscillator(osc, reference_noise(env)), None
 
 
 def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
