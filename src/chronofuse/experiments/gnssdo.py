@@ -104,6 +104,9 @@ class GnssdoSetup:
     loop_bandwidth_hz: float | None = None
     fusion: str = "fusion"
     integrity_pfa: float | None = None
+    #: ``"fit"``: the Kalman controllers learn the noise from a calibration record
+    #: (:mod:`chronofuse.experiments.gnssdo_design`); ``"datasheet"``: designed from the presets' figures.
+    design: str = "fit"
     #: A GNSS outage added to any scenario: every receiver jammed from ``outage_start_s`` for ``outage_s``.
     outage_start_s: float | None = None
     outage_s: float = 0.0
@@ -124,6 +127,7 @@ class GnssdoSetup:
                 raise ValueError(f"--loop-bandwidth == {self.loop_bandwidth_hz}: --controller {self.controller!r} has "
                                  "no loop-bandwidth setting (pi has)")
         check_choice(self.fusion, "--fusion", ("fusion", "selection"))
+        check_choice(self.design, "--design", ("fit", "datasheet"))
         if self.integrity_pfa is not None:
             check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
@@ -227,14 +231,22 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
     rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=setup.trials)
     config = ChainConfig(qualification=Qualification(gdop_max=setup.gdop_max), fusion=setup.fusion,
                          integrity_pfa=setup.integrity_pfa)
+    if setup.design == "fit":
+        from chronofuse.experiments.gnssdo_design import fitted_controller
+
+        progress(f"fitting {setup.controller} on a calibration record")
+        servo, design = fitted_controller(setup.controller, osc, env, setup.receivers, dac, root, config=config,
+                                          loop_bandwidth_hz=setup.loop_bandwidth_hz)
+    else:
+        servo = make_controller(setup.controller, osc, env, setup.receivers, dac, setup.loop_bandwidth_hz)
+        design = "datasheet"
     progress(f"disciplining ({setup.controller})")
-    servo = make_controller(setup.controller, osc, env, setup.receivers, dac, setup.loop_bandwidth_hz)
     run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, config)
     progress("disciplining (clairvoyant)")
     yardstick = clairvoyant_controller(osc, env, setup.receivers, dac)
     best = discipline_run(yardstick, free, rx.pps_error_s, rx.epochs, config)
     return {"setup": setup, "oscillator": osc, "environment": env, "free_phase_s": free, "noise_phase_s": noise_only,
-            "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick}
+            "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick, "design": design}
 
 
 def _oadev_pooled(x: np.ndarray, taus: np.ndarray) -> np.ndarray:
@@ -336,6 +348,7 @@ def evaluate(sim: dict) -> dict:
     summary = {"scenario": setup.scenario, "controller": setup.controller, "receivers": setup.receivers,
                "duration_s": setup.duration_s, "trials": setup.trials, "seed": setup.seed,
                "oscillator": setup.oscillator, **time_error_metrics(run.phase_s, has_ref)}
+    summary["design"] = sim.get("design", "datasheet")
     summary.update(optimal_metrics(run.phase_s, best.phase_s, has_ref, sim["environment"],
                                    sim["clairvoyant_servo"]))
     summary.update(_holdover(run, sim["environment"]))
