@@ -63,8 +63,13 @@ from chronofuse.integrity.live import stream_verdicts
 from chronofuse.integrity.modes import detect_file
 from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
 from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
-from chronofuse.io.capture_series import ClockBiasSeries, read_clock_series
-from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
+from chronofuse.io.capture_series import read_clock_series
+from chronofuse.io.clockbias import read_clock_bias
+from chronofuse.io.grid import GridPlacer
+from chronofuse.record import EpochRecord, Provenance
+from chronofuse.estimation.pipeline import Pipeline
+from chronofuse.integrity.watch import ClockWatch, DetectionSettings, detection_pipeline, watch_record
+from chronofuse.integrity.live import StreamDetection
 from chronofuse.io.records import ClockRecord, read_record
 from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
 from chronofuse.io.rinex_clock import read_station_clocks
@@ -137,8 +142,15 @@ __all__ = [
     "ClockRecord",
     "read_record",
     "read_nav_clock",
-    "ClockBiasInput",
-    "ClockBiasSeries",
+    "EpochRecord",
+    "Provenance",
+    "GridPlacer",
+    "Pipeline",
+    "DetectionSettings",
+    "detection_pipeline",
+    "watch_record",
+    "ClockWatch",
+    "StreamDetection",
     "read_clock_series",
     "read_clock_bias",
     "read_stable32_table",

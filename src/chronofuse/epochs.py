@@ -44,10 +44,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from chronofuse.record import RECEIVER_UNITS, EpochRecord
 from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 from chronofuse.validation import check_scalar
 
-__all__ = ["ReceiverEpochs", "FIX_MODES", "EXPORT_COLUMNS"]
+__all__ = ["ReceiverEpochs", "FIX_MODES", "EXPORT_COLUMNS", "FIELDS"]
 
 #: gpsd TPV ``mode`` values: 0 unknown, 1 no fix, 2 2-D, 3 3-D (or time-only).
 FIX_MODES = (0, 1, 2, 3)
@@ -74,6 +75,8 @@ _FIELDS = (
     ("clock_drift_s_per_s", _FLOAT, np.float64),
 )
 _ABSENT_FLOAT = tuple(name for name, kind, _ in _FIELDS if kind == _FLOAT)
+#: The per-receiver fields, in order (the receiver columns of :class:`chronofuse.record.EpochRecord`).
+FIELDS = tuple(name for name, _, _ in _FIELDS)
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -190,17 +193,52 @@ class ReceiverEpochs:
         i, j = int(trial), int(receiver)
         return dataclasses.replace(self, **{name: getattr(self, name)[i : i + 1, j : j + 1] for name, _, _ in _FIELDS})
 
+    def to_record(self, source: str, *, time_acc_s=None, position=None, position_unit: str = "index",
+                  info=None) -> EpochRecord:
+        """These epochs as the one epoch record: ``t_ns`` = ``gps_ns`` (GPS scale), one column per field
+        (units :data:`chronofuse.record.RECEIVER_UNITS`), lead axes ``(trials, receivers)``, ``valid`` where
+        the receiver did not report "no fix" (``fix_mode != 1``: an epoch it did not report says nothing
+        bad). ``time_acc_s`` (the cube's shape, s) adds the receiver's time accuracy estimate."""
+        columns = {name: getattr(self, name) for name in FIELDS}
+        if time_acc_s is not None:
+            columns["time_acc_s"] = np.broadcast_to(np.asarray(time_acc_s, dtype=np.float64), self.shape)
+        return EpochRecord.from_arrays(self.gps_ns, columns, {n: RECEIVER_UNITS[n] for n in columns}, source=source,
+                                       valid=self.fix_mode != 1, position=position, position_unit=position_unit,
+                                       info=info)
+
+    @classmethod
+    def from_record(cls, record: EpochRecord) -> ReceiverEpochs:
+        """The receiver fields of a GPS-scale record with lead axes ``(trials, receivers)`` (or none: one
+        receiver of one trial); fields the record lacks are absent (:meth:`absent`, leap count from the table)."""
+        from chronofuse.timescale import gps_minus_utc_s
+
+        if record.time_scale != "gps":
+            raise ValueError(f"the record from {record.source} is on the {record.time_scale!r} time axis; receiver "
+                             "epochs are on GPS time")
+        lead = record.lead if record.lead else (1, 1)
+        if len(lead) != 2:
+            raise ValueError(f"the record's lead axes are {record.lead}, must be (trials, receivers) or none")
+
+        def cube(a):
+            return np.asarray(a).reshape(lead + (record.n_epochs,))
+
+        leap = record.column("leap_s") if "leap_s" in record else gps_minus_utc_s(record.t_ns)
+        fields = cls.absent(record.t_ns, *lead, leap_s=cube(np.broadcast_to(leap, record.valid.shape)))
+        fields.update({name: cube(record.columns[name]) for name in FIELDS if name in record})
+        return cls(**fields)
+
     def to_frame(self, receiver: int = 0, trial: int = 0) -> pd.DataFrame:
         """One receiver of one trial as a table, one row per epoch, columns :data:`EXPORT_COLUMNS`.
 
         ``time_utc`` is the receiver's UTC label (:meth:`utc_ns`) in ISO 8601 with milliseconds and ``Z``
-        (``2025-01-01T00:00:00.000Z``); ``mode`` is ``fix_mode``; ``clock_drift`` is
+        (``2025-01-01T00:00:00.000Z``), or nanoseconds when an epoch has a part of a millisecond; ``mode`` is ``fix_mode``; ``clock_drift`` is
         ``clock_drift_s_per_s``; seconds stay seconds. Absent values are NaN (``n_sats`` -1).
         """
         one = self.select(receiver, trial)
-        utc = gps_ns_to_datetime64(one.utc_ns()[0, 0])
+        utc_ns = one.utc_ns()[0, 0]
+        unit = "ms" if np.all(utc_ns % 1_000_000 == 0) else "ns"  # sub-millisecond tags keep their digits
         columns = {
-            "time_utc": np.datetime_as_string(utc, unit="ms", timezone="UTC"),
+            "time_utc": np.datetime_as_string(gps_ns_to_datetime64(utc_ns), unit=unit, timezone="UTC"),
             "mode": one.fix_mode[0, 0],
             "n_sats": one.n_sats[0, 0],
             "gdop": one.gdop[0, 0],

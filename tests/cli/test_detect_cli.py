@@ -27,7 +27,7 @@ MODEL = ["--h0", "2e-18", "--hm2", "1e-22", "--sigma-rho", "1.0"]
 KEYS = {"mode", "n_epochs", "threshold", "window", "pfa", "alarms", "n_alarms", "n_skipped", "state",
         "unavailable_reasons", "n_tested", "n_training", "unavailable", "interval_s"}
 DETECTION_KEYS = KEYS | {"clock_events", "noise", "noise_change", "warnings", "n_no_fix", "n_time_accuracy_over",
-                         "max_time_acc_s"}
+                         "max_time_acc_s", "alarm_events", "n_alarm_epochs", "time_scale"}
 EXIT = {"ok": 0, "alarm": 1, "unavailable": 3}
 
 

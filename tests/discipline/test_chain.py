@@ -8,7 +8,7 @@ import pytest
 from chronofuse.analysis.stability import oadev
 from chronofuse.analysis.theory import corrected_pps_adev
 from chronofuse.discipline.chain import ChainConfig, corrected_pps_error, discipline_run
-from chronofuse.discipline.kalman import GatedKalmanServo
+from chronofuse.discipline.kalman_gated import GatedKalmanServo
 from chronofuse.discipline.states import Reason, State
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import preset

@@ -6,13 +6,10 @@ import pytest
 
 from chronofuse.analysis.theory import adev_theory
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kalman import (
-    AdaptiveKalmanServo,
-    GatedKalmanServo,
-    HuberKalmanServo,
-    KalmanServo,
-    effective_clock_noise,
-)
+from chronofuse.discipline.kalman import KalmanServo, effective_clock_noise
+from chronofuse.discipline.kalman_adaptive import AdaptiveKalmanServo
+from chronofuse.discipline.kalman_gated import GatedKalmanServo
+from chronofuse.discipline.kalman_huber import HuberKalmanServo
 from chronofuse.discipline.loop import close_loop
 from chronofuse.estimation.filter import KalmanFilter
 from chronofuse.models.oscillator import PowerLaw

@@ -4,10 +4,13 @@ import numpy as np
 import pytest
 
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kalman import AdaptiveKalmanServo, GatedKalmanServo, HuberKalmanServo, KalmanServo
+from chronofuse.discipline.kalman import KalmanServo
+from chronofuse.discipline.kalman_adaptive import AdaptiveKalmanServo
+from chronofuse.discipline.kalman_gated import GatedKalmanServo
+from chronofuse.discipline.kalman_huber import HuberKalmanServo
 from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.pi import PiServo
-from chronofuse.discipline.servo import NullServo
+from chronofuse.discipline.null import NullServo
 from chronofuse.models.oscillator_presets import preset
 
 OCXO = preset("ocxo")

@@ -9,7 +9,7 @@ from scipy.signal import lfilter
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.pi import PiServo
-from chronofuse.discipline.servo import NullServo
+from chronofuse.discipline.null import NullServo
 
 
 def _closed_loop_theory(x_free, kp, ki):

@@ -3,6 +3,8 @@
 import struct
 
 import numpy as np
+
+from chronofuse.timescale import NS_PER_WEEK
 import pytest
 
 from chronofuse.integrity.modes import detect_file
@@ -54,13 +56,15 @@ def test_without_its_fix_flags_the_coasting_gr701w_is_caught_by_its_own_time_acc
     doc = detect_file(path, **MODEL)
     assert doc["n_no_fix"] == 0 and doc["n_time_accuracy_over"] == 10
     spans = [u for u in doc["unavailable"] if u["reason"].startswith("receiver status: time accuracy over 100 ns")]
-    assert [(u["from_ns"], u["to_ns"]) for u in spans] == [(over[0] * 10**6, over[-1] * 10**6)]
-    assert not [a for a in doc["alarms"] if over[0] * 10**6 <= a["t_ns"] <= over[-1] * 10**6]
+    # times are GPS ns (the record keeps the receiver's full epoch); their time of week is the frames' iTOW
+    assert doc["time_scale"] == "gps"
+    assert [(u["from_ns"] % NS_PER_WEEK, u["to_ns"] % NS_PER_WEEK) for u in spans] == [(over[0] * 10**6, over[-1] * 10**6)]
+    assert not [a for a in doc["alarms"] if over[0] * 10**6 <= a["t_ns"] % NS_PER_WEEK <= over[-1] * 10**6]
     # with the limit off (None), those epochs are tested as healthy: the coasting clock looks clean
     off = detect_file(path, **MODEL, max_time_acc_s=None)
     # (the 10 epochs, and the 2 after them where the difference chain restarted)
     assert off["n_time_accuracy_over"] == 0 and off["n_tested"] == doc["n_tested"] + 10 + 2
-    assert not [a for a in off["alarms"] if over[0] * 10**6 <= a["t_ns"] <= over[-1] * 10**6]
+    assert not [a for a in off["alarms"] if over[0] * 10**6 <= a["t_ns"] % NS_PER_WEEK <= over[-1] * 10**6]
 
 
 def test_with_its_fix_flags_the_gr701w_is_unavailable_for_no_fix_whatever_the_accuracy_limit(real_data):

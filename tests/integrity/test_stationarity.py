@@ -139,7 +139,7 @@ def test_a_spike_in_a_grg_stations_training_is_left_out_and_no_longer_blinds_it(
     from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
 
     clocks = read_station_clocks(real_data / "receivers/rinex/gnss_lib_py/grg21553.clk.gz")
-    d2 = np.diff(station_clock_bias(clocks, "NRIL").bias_s[:20], 2)
+    d2 = np.diff(station_clock_bias(clocks, "NRIL").columns["clock_bias_s"][:20], 2)
     assert np.abs(d2).max() > 30e-9 and 1.4826 * np.median(np.abs(d2 - np.median(d2))) < 2e-9
     row = next(r for r in grg["stations"] if r["station"] == "NRIL")
     assert any(w.startswith("training outliers: 2 epoch(s)") for w in row["warnings"])

@@ -97,7 +97,7 @@ def test_detect_from_a_pipe_prints_one_json_line_per_epoch_equal_to_the_batch_js
     piped = _run_cli(["-", "--json-lines", *model], stdin=text)
     assert piped.returncode == 1, piped.stderr
     lines = [json.loads(line) for line in piped.stdout.splitlines()]
-    assert len(lines) == x.size and set(lines[0]) == {"t_ns", "statistic", "threshold", "state", "events"}
+    assert len(lines) == x.size and set(lines[0]) == {"t_ns", "statistic", "threshold", "alarm", "state", "events"}
     batch = _run_cli([str(path), "--json", *model])
     doc = json.loads(batch.stdout)
     over = [r["t_ns"] for r in lines if r["statistic"] is not None and r["statistic"] > r["threshold"]]

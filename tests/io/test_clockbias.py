@@ -4,7 +4,7 @@ epochs on the grid with missing solutions counted, and the grid placement's erro
 import numpy as np
 import pytest
 
-from chronofuse.io.clockbias import ClockBiasInput, bias_column, read_clock_bias
+from chronofuse.io.clockbias import bias_column, n_skipped, read_clock_bias
 from chronofuse.io.grid import regular_grid
 from chronofuse.io.ubx import read_nav_clock
 from chronofuse.validation import InputDataError
@@ -17,29 +17,33 @@ def test_the_clock_bias_column_is_found_by_name_and_scaled_by_its_unit(tmp_path)
         f"{100 + k},{20 + k},{v}\n" for k, v in enumerate(x_ns)))
     assert bias_column(path) == "clock_bias_ns"
     data = read_clock_bias(path, 1.0)
-    assert isinstance(data, ClockBiasInput) and data.source == str(path)
-    np.testing.assert_array_equal(data.bias_s, x_ns * 1e-9)
-    np.testing.assert_array_equal(data.t_s, 100.0 + np.arange(5))
-    assert data.n_skipped == 1
+    assert data.source == str(path) and data.time_scale == "file" and data.units["clock_bias_s"] == "s"
+    np.testing.assert_array_equal(data.columns["clock_bias_s"], x_ns * 1e-9)
+    np.testing.assert_array_equal(data.t_ns, (100 + np.arange(5)) * 10**9)
+    assert n_skipped(data) == 1
 
 
 def test_a_time_gap_in_the_csv_becomes_missing_epochs_on_the_file_time_axis(tmp_path):
     path = tmp_path / "g.csv"
     path.write_text("t_s,clock_bias_s\n0,1e-9\n1,2e-9\n4,3e-9\n5,4e-9\n")
     data = read_clock_bias(path, 1.0)
-    np.testing.assert_array_equal(data.t_s, np.arange(6.0))
-    assert np.isnan(data.bias_s[[2, 3]]).all() and data.n_skipped == 2
+    np.testing.assert_array_equal(data.t_ns, np.arange(6) * 10**9)
+    assert np.isnan(data.columns["clock_bias_s"][[2, 3]]).all() and n_skipped(data) == 2
 
 
 def test_ubx_epochs_land_on_the_grid_at_their_time_of_week_with_the_receivers_values(real_data):
+    from chronofuse.timescale import NS_PER_WEEK
+
     path = real_data / "receivers/gpsd/navisys-gr701w.log"
     data = read_clock_bias(path, 1.0)
     rec = read_nav_clock(path)  # the reader checked against gpsd's decoding in test_ubx
-    assert data.t_s[0] == rec.itow_ms[0] / 1000.0 and np.all(np.diff(data.t_s) == 1.0)
+    assert data.time_scale == "gps" and data.t_ns[0] % NS_PER_WEEK == rec.itow_ms[0] * 10**6
+    assert np.all(np.diff(data.t_ns) == 10**9)
     slot = np.rint(rec.t_s).astype(int)
-    np.testing.assert_array_equal(data.bias_s[slot], rec.clock_bias_s)
-    n_missing = data.bias_s.size - rec.t_s.size
-    assert n_missing == int(np.isnan(data.bias_s).sum()) and data.n_skipped == n_missing + rec.n_skipped_frames
+    bias = data.columns["clock_bias_s"]
+    np.testing.assert_array_equal(bias[slot], rec.clock_bias_s)
+    n_missing = bias.size - rec.t_s.size
+    assert n_missing == int(np.isnan(bias).sum()) and n_skipped(data) == n_missing + rec.n_skipped_frames
 
 
 def test_a_rinex_file_holds_no_single_clock_bias(real_data):

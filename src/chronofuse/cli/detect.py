@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
 
 
 def detect(
-    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file or RINEX clock product (.clk); - with --json-lines: standard input."),
+    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file or RINEX clock product (.clk); - : standard input (any of these but RINEX observations, read as it arrives)."),
     rate: float | None = typer.Option(None, "--rate", help="Sampling rate (Hz) of a file without a time column."),
     column: str | None = typer.Option(None, "--column", help="CSV clock-bias column (name)."),
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
@@ -45,7 +45,7 @@ def detect(
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
-    json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it arrives (FILE may be - for stdin, a pipe or a FIFO; CSV text)."),
+    json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it is decided (FILE may be - for stdin, a pipe or a FIFO)."),
     detector: str = typer.Option("chi-square", "--detector", help="Detector: chi-square (default), single-epoch, cusum, or one a plugin registers (group chronofuse.detectors)."),
 ) -> None:
     """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
@@ -82,13 +82,15 @@ def detect(
         sigma_rho = model["sigma_rho_m"] if sigma_rho is None else sigma_rho
     if train is None and None in (h0, hm2, sigma_rho):
         fail("give the noise model (--h0, --hm2 and --sigma-rho) or a training stretch (--train SECONDS)")
-    if json_lines:
-        _stream(file, follow, rate_hz=rate, column=column, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho,
-                train_s=train, detector=detector)
+    max_tacc_s = max_tacc_ns / 1e9 if max_tacc_ns > 0 else None
+    if json_lines or str(file) == "-":
+        _stream(file, follow, json_lines, json_out, rate_hz=rate, column=column, station=station, detector=detector,
+                settings=dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
+                              max_time_acc_s=max_tacc_s))
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                           window=window, pfa=pfa, position_m=position, nav=nav, station=station,
-                          max_time_acc_s=max_tacc_ns / 1e9 if max_tacc_ns > 0 else None, detector=detector)
+                          max_time_acc_s=max_tacc_s, detector=detector)
     if json_out:
         print_json(doc)
     else:
@@ -96,28 +98,49 @@ def detect(
     raise typer.Exit(_EXIT_CODES[doc["state"]])
 
 
-def _stream(file: Path, follow: float | None, **options) -> None:
-    """``--json-lines``: one JSON line per epoch, flushed as it is decided; exit status from all epochs."""
+def _stream(file: Path, follow: float | None, json_lines: bool, json_out: bool, *, rate_hz, column, station,
+            detector: str, settings: dict) -> None:
+    """``-`` or ``--json-lines``: the stream read as it arrives through the detection pipeline's live driver
+    (:class:`chronofuse.integrity.live.StreamDetection`); with ``--json-lines`` one JSON line per epoch,
+    flushed as it is decided; at the end the document ``detect FILE`` gives for the same data (printed unless
+    ``--json-lines``), whose state is the exit status."""
     import json
     import sys
 
-    from chronofuse.cli.common import user_errors
-    from chronofuse.integrity.live import follow_lines, stream_verdicts
+    from chronofuse.cli.common import print_json, user_errors
+    from chronofuse.integrity.live import StreamDetection, follow_lines
+    from chronofuse.integrity.modes import detection_settings
+    from chronofuse.io.record_streams import read_chunks
 
-    states = set()
+    name = "<stdin>" if str(file) == "-" else str(file)
     with user_errors():
-        source = sys.stdin if str(file) == "-" else open(file, encoding="utf-8", errors="replace")  # noqa: SIM115
+        source = sys.stdin.buffer if str(file) == "-" else open(file, "rb")  # noqa: SIM115
         try:
-            lines = source if follow is None else follow_lines(source, idle_s=follow)
-            for verdict in stream_verdicts(lines, **options):
-                states.add(verdict.state)
-                sys.stdout.write(json.dumps(verdict.as_json()) + "\n")
-                sys.stdout.flush()
+            if follow is None:
+                chunks = read_chunks(source)
+            else:
+                import io
+
+                text = io.TextIOWrapper(source, encoding="utf-8", errors="replace")
+                chunks = (line.encode() for line in follow_lines(text, idle_s=follow))
+            run = StreamDetection(chunks, detection_settings(detector, **settings), source=name, rate_hz=rate_hz, column=column,
+                                  station=station)
+            for key, verdict in run:
+                if json_lines:
+                    line = verdict.as_json() if key is None or station is not None else {"station": key,
+                                                                                          **verdict.as_json()}
+                    sys.stdout.write(json.dumps(line) + "\n")
+                    sys.stdout.flush()
+            doc = run.document()
         finally:
-            if source is not sys.stdin:
+            if source is not sys.stdin.buffer:
                 source.close()
-    state = "alarm" if "alarm" in states else ("ok" if "ok" in states else "unavailable")
-    raise typer.Exit(_EXIT_CODES[state])
+    if not json_lines:
+        if json_out:
+            print_json(doc)
+        else:
+            _print_human(Path(name), doc)
+    raise typer.Exit(_EXIT_CODES[doc["state"]])
 
 
 def _print_stations(file: Path, doc: dict) -> None:

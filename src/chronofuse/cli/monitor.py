@@ -50,6 +50,10 @@ def monitor(
     window: int = typer.Option(20, "--window", help="HOD detector window (differences)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="HOD detector false-alarm probability per epoch."),
     training: int = typer.Option(120, "--training", help="Clock-bias epochs that fit each receiver's noise model."),
+    h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s) of the receivers' clocks (with --hm2 and --sigma-rho: no training)."),
+    hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
+    sigma_rho: float | None = typer.Option(None, "--sigma-rho", help="Mean pseudorange noise (m)."),
+    train: float | None = typer.Option(None, "--train", help="Fit each receiver's noise model on its first SECONDS of clock bias instead (as detect --train)."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON summary document on stdout at the end."),
 ) -> None:
@@ -66,8 +70,10 @@ def monitor(
         chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
+        if train is not None and train <= 0:
+            fail(f"--train {train:g}: must be > 0 seconds")
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
-                                   jump_s=jump_ns * 1e-9)
+                                   jump_s=jump_ns * 1e-9, train_s=train, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho)
         log = EpochLog(db) if db is not None else None
 
     def ack(records: list[dict]) -> None:

@@ -1,4 +1,5 @@
-"""The whole GNSSDO chain in one library call: qualify -> integrity -> fuse -> close the loop -> states.
+"""The whole GNSSDO chain in one library call: qualify -> integrity -> fuse -> close the loop -> states,
+the batch run of the pipeline of :mod:`chronofuse.discipline.stages`.
 
 :func:`discipline_run` takes the free-running oscillator's phase (trials, steps) and what the receivers
 measured (their 1PPS errors and their epoch reports) and returns the disciplined 1PPS with everything
@@ -22,15 +23,17 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from chronofuse.discipline.counter import MultiPhaseCounter
-from chronofuse.discipline.fusion import FusionRun, InverseVarianceFusion
-from chronofuse.discipline.loop import LoopRun, close_loop
-from chronofuse.discipline.qualification import Qualification, usable_epochs
+from chronofuse.discipline.fusion import FusionRun
+from chronofuse.discipline.loop import LoopRun
+from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.servo import Servo, freeze
-from chronofuse.discipline.states import StateConfig, StateRun, run_states
+from chronofuse.discipline.stages import IntegrityStage, corrected_pps_error, gnssdo_pipeline
+from chronofuse.discipline.states import StateConfig, StateRun
 from chronofuse.epochs import ReceiverEpochs
+from chronofuse.integrity.watch import DetectionSettings
 from chronofuse.validation import check_array, check_choice, check_scalar
 
-__all__ = ["ChainConfig", "GnssdoRun", "corrected_pps_error", "integrity_alarms", "discipline_run"]
+__all__ = ["ChainConfig", "GnssdoRun", "corrected_pps_error", "integrity_alarms", "discipline_run", "gnssdo_frame"]
 
 
 @dataclass(frozen=True)
@@ -94,46 +97,33 @@ class GnssdoRun:
         freeze(self)
 
 
-def corrected_pps_error(pps_error_s, qerr_s, sign: int = 1, lag: int = 0) -> np.ndarray:
-    """``pps + sign * qerr`` shifted by ``lag`` pulses along the last axis (see the module docstring)."""
-    pps = np.asarray(pps_error_s, dtype=np.float64)
-    q = np.asarray(qerr_s, dtype=np.float64)
-    if lag:
-        q = np.concatenate([np.full(q.shape[:-1] + (lag,), np.nan), q[..., :-lag]], axis=-1)
-    return pps + sign * q
-
-
 def integrity_alarms(clock_bias_s, interval_s: float, pfa: float, train_s: float, hold_s: float) -> np.ndarray:
-    """Per-receiver exclusion mask from the clock-bias HOD detector (``chronofuse.integrity``).
+    """Per-receiver exclusion mask from the clock-bias detection pipeline (:mod:`chronofuse.integrity.watch`).
 
-    ``clock_bias_s`` (trials, receivers, steps). Each receiver's detector is fitted on its first
-    ``train_s`` seconds (Whittle fit, assumed anomaly-free), then run over the record; an alarm
-    excludes the receiver from that second until ``hold_s`` after its last alarm.
+    ``clock_bias_s`` (trials, receivers, steps). Each receiver's clock runs through the status gate, the
+    millisecond repair, the HOD detector fitted on its first ``train_s`` seconds and the latch; a receiver is
+    excluded while its alarm is raised and ``hold_s`` after it clears (:class:`~.stages.IntegrityStage`).
     """
-    from chronofuse.integrity.detector import HodDetector
-
     bias = check_array(clock_bias_s, "clock_bias_s", ndim=3, allow_nan=True)
-    trials, receivers, steps = bias.shape
-    n_train = int(round(train_s / interval_s))
-    hold = int(round(hold_s / interval_s))
-    excluded = np.zeros(bias.shape, dtype=bool)
-    for i in range(trials):
-        for j in range(receivers):
-            train = bias[i, j, :n_train]
-            if np.isfinite(train).sum() < 30:
-                continue
-            det = HodDetector(interval_s=interval_s, pfa=pfa).fit(train)
-            alarm = det.run(bias[i, j]).alarm
-            if alarm.any():
-                last = np.where(alarm, np.arange(steps), -(hold + 1))
-                last = np.maximum.accumulate(last)
-                excluded[i, j] = np.arange(steps) - last <= hold
-    return excluded
+    interval_ns = int(round(interval_s * 1e9))
+    stage = IntegrityStage(DetectionSettings(pfa=pfa, train_s=train_s, max_time_acc_s=None), interval_ns, hold_s)
+    t_ns = np.arange(bias.shape[-1], dtype=np.int64) * interval_ns
+    return stage.run({"t_ns": t_ns, "clock_bias_s": bias, "valid": np.ones(bias.shape, dtype=bool)})["excluded"]
+
+
+def gnssdo_frame(free_phase_s, pps_error_s, epochs: ReceiverEpochs) -> dict:
+    """The input columns of :func:`~.stages.gnssdo_pipeline`: the receivers' epochs (as their record gives them,
+    lead axes (trials, receivers)), their raw 1PPS errors and the free-running oscillator (trials, steps)."""
+    frame = epochs.to_record("receivers").frame()
+    frame["pps_error_s"] = pps_error_s
+    frame["free_phase_s"] = free_phase_s
+    return frame
 
 
 def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpochs, config: ChainConfig = ChainConfig(),
                    *, seed=None) -> GnssdoRun:
-    """Discipline ``free_phase_s`` (trials, steps) with ``servo`` to the receivers of ``epochs``.
+    """Discipline ``free_phase_s`` (trials, steps) with ``servo`` to the receivers of ``epochs``: the batch run of
+    :func:`~.stages.gnssdo_pipeline` (qualify, integrity, fusion, loop, states).
 
     ``pps_error_s`` (trials, receivers, steps): each receiver's raw 1PPS edge error (s; NaN without a
     pulse), corrected here with the epochs' qErr per ``config``. The servo's interval is the epoch step.
@@ -145,20 +135,10 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     if pps.shape != epochs.shape or free.shape != (pps.shape[0], pps.shape[2]):
         raise ValueError(f"shapes disagree: free_phase_s {free.shape}, pps_error_s {pps.shape}, epochs {epochs.shape}")
     dt = float(servo.interval_s)
-    e = corrected_pps_error(pps, epochs.qerr_s, config.qerr_sign, config.qerr_lag)
-    usable = usable_epochs(epochs, config.qualification, np.isfinite(e))
-    if config.integrity_pfa is not None:
-        alarm = integrity_alarms(epochs.clock_bias_s, dt, config.integrity_pfa, config.integrity_train_s,
-                                 config.alarm_hold_s)
-    else:
-        alarm = np.zeros(usable.shape, dtype=bool)
-    usable = usable & ~alarm
-    fusion = InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast).run(np.where(usable, -e, np.nan),
-                                                                                       usable)
-    ref = -fusion.offset_s  # e_f: fused offset is x - e_f with x = 0 here
-    loop = close_loop(servo, free, ref, counter=config.counter, seed=seed)
-    any_usable = np.isfinite(ref)
-    all_alarmed = alarm.any(axis=1) & ~(usable.any(axis=1))
-    states = run_states(any_usable, loop.offset_s, config.states, alarm=all_alarmed, near_rail=loop.near_rail,
-                        fast=config.fast)
-    return GnssdoRun(loop.phase_s, ref, usable, alarm, loop, fusion, states, dt)
+    pipeline = gnssdo_pipeline(servo, config, int(round(dt * 1e9)), seed=seed).fit()
+    r = pipeline.run(gnssdo_frame(free, pps, epochs))
+    loop = LoopRun(r["phase_s"], r["offset_s"], r["freq_adj"], r["phase_step_s"], r["offset_estimate_s"],
+                   r["innovation_s"], r["used"], r["near_rail"], interval_s=dt)
+    fusion = FusionRun(r["reference_error_s"] * -1.0, r["reference_variance_s2"], r["weights"])
+    states = StateRun(r["gnssdo_state"], r["gnssdo_reason"], r["rail_alarm"])
+    return GnssdoRun(loop.phase_s, r["reference_error_s"], r["usable"], r["excluded"], loop, fusion, states, dt)

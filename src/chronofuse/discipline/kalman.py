@@ -382,17 +382,3 @@ class KalmanServo(Servo):
         new = {"x": xs, "P": post.P, "model": state["model"], **extra}
         innovation = np.where(accept, e, np.nan)
         return new, y_cmd, xs[:, 0].copy(), innovation, accept
-
-
-def __getattr__(name):
-    # The robust variants moved to their own modules; importing them from here still works.
-    if name == "AdaptiveKalmanServo":
-        from chronofuse.discipline.kalman_adaptive import AdaptiveKalmanServo
-        return AdaptiveKalmanServo
-    if name == "GatedKalmanServo":
-        from chronofuse.discipline.kalman_gated import GatedKalmanServo
-        return GatedKalmanServo
-    if name == "HuberKalmanServo":
-        from chronofuse.discipline.kalman_huber import HuberKalmanServo
-        return HuberKalmanServo
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -320,11 +320,3 @@ class Servo:
             for dst, src in zip(outs, out):
                 dst[:, k] = src
         return ServoRun(*outs)
-
-
-def __getattr__(name):
-    # NullServo moved to its own module (.null); importing it from here still works.
-    if name == "NullServo":
-        from chronofuse.discipline.null import NullServo
-        return NullServo
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

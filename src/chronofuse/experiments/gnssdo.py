@@ -50,11 +50,12 @@ from chronofuse.analysis.montecarlo import mean_square_per_trial, ratio_ci, rms_
 from chronofuse.discipline.bound import ClairvoyantServo, clairvoyant_servo, time_error_bound
 from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
-from chronofuse.discipline.states import StateConfig, run_states
+from chronofuse.discipline.stages import LoopStage, StateStage
+from chronofuse.discipline.states import StateConfig, StateRun
+from chronofuse.estimation.pipeline import Pipeline
 from chronofuse.io.records import read_record
 from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
@@ -446,13 +447,16 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     env = dataclasses.replace(receiver_environment("open-sky"), name="reference")
     servo = make_controller(controller, osc, env, 1, dac, measurement_sigma_s=sigma)
     progress(f"disciplining ({controller}) against {path.name}")
-    loop = close_loop(servo, free, e)
-    best = close_loop(clairvoyant_controller(osc, env, 1, dac), free, e)
-    has_ref = np.ones(loop.phase_s.shape, dtype=bool)
-    states = run_states(has_ref, loop.offset_s, StateConfig(), near_rail=loop.near_rail)
+    # the chain's loop and state stages on the recorded reference (one receiver, always usable, no integrity)
+    frame = {"free_phase_s": free, "reference_error_s": np.broadcast_to(e, free.shape),
+             "usable": np.ones((trials, 1, steps), dtype=bool), "excluded": np.zeros((trials, 1, steps), dtype=bool)}
+    run = Pipeline([("loop", LoopStage(servo)), ("states", StateStage(StateConfig()))]).fit().run(frame)
+    best = Pipeline([("loop", LoopStage(clairvoyant_controller(osc, env, 1, dac)))]).fit().run(frame)
+    has_ref = np.ones(free.shape, dtype=bool)
+    states = StateRun(run["gnssdo_state"], run["gnssdo_reason"], run["rail_alarm"])
     summary = {"reference": str(path), "controller": controller, "duration_s": steps, "trials": trials, "seed": seed,
-               **time_error_metrics(loop.phase_s, has_ref),
-               "optimal_rms_ns": time_error_metrics(best.phase_s, has_ref)["time_error_rms_ns"],
+               **time_error_metrics(run["phase_s"], has_ref),
+               "optimal_rms_ns": time_error_metrics(best["phase_s"], has_ref)["time_error_rms_ns"],
                "state_seconds": states.seconds_in(),
-               "adev": adev_series(noise_only, np.broadcast_to(e, loop.phase_s.shape), loop.phase_s)}
+               "adev": adev_series(noise_only, np.broadcast_to(e, free.shape), run["phase_s"])}
     return summary

@@ -1,73 +1,165 @@
-"""Clock-bias detection on a text stream, epoch by epoch: standard input, a pipe, a FIFO (issue 10.6).
+"""Clock-bias detection on a stream, epoch by epoch: standard input, a pipe, a FIFO, a file still being written.
 
-:func:`stream_verdicts` reads ``time,clock_bias`` lines as they arrive and yields one
-:class:`~chronofuse.integrity.streaming.EpochVerdict` per epoch through
-:class:`~chronofuse.integrity.streaming.StreamingMonitor` (the per-epoch path the live monitor uses);
-``chronofuse detect - --json-lines`` prints each as one JSON line and flushes it. Nothing is read ahead:
-a line is turned into its verdict before the next one is read, so a FIFO or a pipe from a receiver works.
+:class:`StreamDetection` reads a byte stream of any format ``chronofuse inspect`` reads for a clock bias
+(UBX alone or with NMEA, a RINEX clock product, a time-and-value CSV; gzip or not;
+:func:`chronofuse.io.record_streams.open_stream`) and yields one
+:class:`~chronofuse.integrity.streaming.EpochVerdict` per epoch as it is decided, through the same steps
+``detect FILE`` takes: the epochs carrying a clock bias (:func:`chronofuse.io.capture_series.clock_epochs`),
+their grid (:class:`chronofuse.io.grid.GridPlacer`, the batch reader's placement) and the detection pipeline's
+live driver (:class:`chronofuse.integrity.watch.ClockWatch`). Nothing is read ahead: what has arrived is
+decided before more is read (a grid waits for its first epochs to learn the interval, unless a rate is
+given; a training stretch is reported ``unavailable`` while it arrives). At the end,
+:meth:`StreamDetection.document` is the document ``detect FILE`` gives for the same data.
 
-Lines: an optional header (any line whose first field is not a number) names the columns; the time is the
-first column (seconds, or nanoseconds when its name ends in ``_ns``), the bias is ``column`` if given, else
-the first name starting with ``clock_bias``, else the second column (seconds, scaled by a ``_ns``/``_us``/
-``_ms`` suffix). Empty lines and lines starting with ``#`` are skipped. The interval is ``1/rate_hz`` when
-given, else the spacing of the first two epochs; epochs missing from the stream (a time step of several
-intervals) are fed as missing (NaN) epochs, so the difference chain restarts after a gap.
-
-Noise model: given (``h0``, ``hm2``, ``sigma_rho_m``), or learnt from the first ``train_s`` seconds, which
-are reported ``unavailable`` with the event ``training`` while they arrive; at the end of the stretch the
-detector is fitted (with the confidence margin of :data:`chronofuse.integrity.modes.TRAINING_CONFIDENCE`),
-the training epochs are stepped through silently to fill its window, and testing starts with the next
-epoch. The verdicts equal the batch :func:`chronofuse.integrity.modes.detect_file` on the same data.
+A clock product without ``station`` watches every station (verdicts ``(station, verdict)``).
+:func:`stream_verdicts` is the same for ``time,clock_bias`` text lines.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Iterator
 
-from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
+import numpy as np
+
+from chronofuse.integrity.document import check_length, detection_document
+from chronofuse.integrity.products import product_document, station_row
+from chronofuse.integrity.streaming import EpochVerdict
+from chronofuse.integrity.watch import DetectionSettings, ClockWatch
+from chronofuse.io.capture_series import clock_epochs, clock_grid, no_bias_reason
+from chronofuse.io.grid import GridPlacer
+from chronofuse.io.record_streams import ClockProductLines, ReceiverBytes, TextLines, open_stream
+from chronofuse.io.rinex_clock import CLOCK_TOLERANCE
+from chronofuse.record import EpochRecord
 from chronofuse.validation import InputDataError
 
-_UNIT = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+__all__ = ["StreamDetection", "stream_verdicts", "follow_lines"]
+
+# A text stream's time tags may sit this fraction of an interval off their slot (the record reader's rule).
+_TEXT_TOLERANCE = 0.25
 
 
-def _columns(header: list[str], column: str | None) -> tuple[int, float, float]:
-    """``(bias column index, bias scale to s, time scale to ns)`` from a header (or none: ``[]``)."""
-    names = [h.strip().lower() for h in header]
-    time_scale = 1.0 if names and names[0].endswith("_ns") else 1e9
-    if column is not None:
-        if column.lower() not in names:
-            raise InputDataError(f"column {column!r} not found among {header}", "<stream>")
-        idx = names.index(column.lower())
-    else:
-        idx = next((i for i, n in enumerate(names) if n.startswith("clock_bias")), 1)
-    name = names[idx] if idx < len(names) else ""
-    unit = name.rsplit("_", 1)[-1] if "_" in name else "s"
-    return idx, _UNIT.get(unit, 1.0), time_scale
+class _Clock:
+    """One clock of the stream: its grid, its watch and what was placed (for the closing document)."""
+
+    def __init__(self, placer: GridPlacer, settings: DetectionSettings, *, lone_epoch_ok: bool = False):
+        self.placer = placer
+        self.watch = ClockWatch(settings)
+        self.placed: list[EpochRecord] = []
+        self.n_raw = 0
+        self.lone_epoch_ok = lone_epoch_ok  # a clock product's station with one epoch: a row, not an error
+
+    def push(self, record) -> list[EpochVerdict]:
+        if record is None:
+            return []
+        self.n_raw += record.n_epochs
+        gridded = self.placer.push(record)
+        return self._watch(gridded)
+
+    def close(self) -> list[EpochVerdict]:
+        if self.lone_epoch_ok and self.n_raw < 2 and self.placer.interval_ns is None:
+            return []
+        out = self._watch(self.placer.close())
+        self.watch.close()
+        return out
+
+    def _watch(self, gridded) -> list[EpochVerdict]:
+        if gridded is None:
+            return []
+        self.placed.append(gridded)
+        return self.watch.push(gridded)
+
+    def record(self) -> EpochRecord | None:
+        return EpochRecord.concat(self.placed) if self.placed else None
 
 
-def _epochs(lines: Iterable[str], column: str | None) -> Iterator[tuple[int, float, int]]:
-    """``(t_ns, bias_s, line number)`` per data line."""
-    idx, scale, time_scale = None, 1.0, 1e9
-    for number, raw in enumerate(lines, start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        fields = [f.strip() for f in line.replace(";", ",").split(",")]
-        try:
-            t = float(fields[0])
-        except ValueError:
-            if idx is None:
-                idx, scale, time_scale = _columns(fields, column)
+class StreamDetection:
+    """Detection on a byte stream (module docstring). Iterate to get ``(station or None, verdict)`` pairs as
+    epochs are decided; then :meth:`document`."""
+
+    def __init__(self, chunks: Iterable[bytes], settings: DetectionSettings, *, source: str = "<stdin>",
+                 rate_hz: float | None = None, column: str | None = None, station: str | None = None):
+        self.settings, self.source, self.rate_hz, self.station = settings, source, rate_hz, station
+        self.reader, self._chunks = open_stream(chunks, source, column=column, rate_hz=rate_hz)
+        if station is not None and not isinstance(self.reader, ClockProductLines):
+            raise InputDataError("--station needs a RINEX clock product (.clk)", source)
+        self.clocks: dict[str | None, _Clock] = {}
+        self._done = False
+
+    def _placer(self) -> GridPlacer:
+        if isinstance(self.reader, ReceiverBytes):
+            return clock_grid(self.rate_hz)
+        if isinstance(self.reader, ClockProductLines):
+            return GridPlacer(tolerance=CLOCK_TOLERANCE)
+        interval = None if self.rate_hz is None or self.reader._layout is None or self.reader._layout[0] is not None \
+            else int(round(1e9 / self.rate_hz))
+        return GridPlacer(interval, tolerance=_TEXT_TOLERANCE)
+
+    def _take(self, parts: list) -> Iterator[tuple[str | None, EpochVerdict]]:
+        for key, record in parts:
+            if isinstance(self.reader, ReceiverBytes):
+                record = clock_epochs(record)
+                if record is None:
+                    continue
+            elif isinstance(self.reader, ClockProductLines) and self.station is not None and key != self.station:
                 continue
-            raise InputDataError(f"time {fields[0]!r} is not a number", f"<stream>:{number}") from None
-        if idx is None:
-            idx, scale, time_scale = _columns([], column)
-        try:
-            bias = float(fields[idx]) * scale
-        except (ValueError, IndexError):
-            raise InputDataError(f"no clock bias number in {line!r}", f"<stream>:{number}") from None
-        yield int(round(t * time_scale)), bias, number
+            clock = self.clocks.get(key)
+            if clock is None:
+                clock = self.clocks[key] = _Clock(self._placer(), self.settings,
+                                                  lone_epoch_ok=isinstance(self.reader, ClockProductLines))
+            for verdict in clock.push(record):
+                yield key, verdict
+
+    def __iter__(self) -> Iterator[tuple[str | None, EpochVerdict]]:
+        for data in self._chunks:
+            yield from self._take(self.reader.feed(data))
+        yield from self._take(self.reader.close())
+        for key, clock in self.clocks.items():
+            for verdict in clock.close():
+                yield key, verdict
+        self._done = True
+
+    def document(self) -> dict:
+        """The ``detect FILE`` document of what the stream held (iterate the stream to its end first)."""
+        if not self._done:
+            raise RuntimeError("read the stream to its end before asking for its document")
+        if isinstance(self.reader, ClockProductLines):
+            return self._product_document()
+        clock = self.clocks.get(None)
+        if clock is None:
+            if isinstance(self.reader, ReceiverBytes):
+                protocols = self.reader.decoder.protocols
+                raise InputDataError(no_bias_reason(protocols, self.reader.decoder.ubx_stats.decoded), self.source)
+            raise InputDataError("no data lines (empty stream, or only comments and a header)", self.source)
+        record = clock.record()
+        check_length(record.n_epochs, self.settings.window, self.source)
+        if isinstance(self.reader, ReceiverBytes):  # the grid's gaps and the frames lost to damage
+            n_skipped = int(record.info.get("n_gaps", 0)) + self.reader.n_damaged
+        else:  # the grid's gaps and the missing values (NaN)
+            n_skipped = int(np.isnan(record.column("clock_bias_s")).sum())
+        return detection_document(clock.watch.result(), self.settings, n_skipped=n_skipped,
+                                  time_scale=record.time_scale)
+
+    def _product_document(self) -> dict:
+        if self.station is not None:
+            clock = self.clocks.get(self.station)
+            if clock is None:
+                raise InputDataError(f"station {self.station!r} (--station) not in the stream "
+                                     f"({len(self.reader.stations)} stations)", self.source)
+            record = clock.record()
+            check_length(record.n_epochs, self.settings.window, self.source)
+            doc = detection_document(clock.watch.result(), self.settings, n_skipped=int(record.info["n_gaps"]),
+                                     time_scale="gps")
+            doc["station"] = self.station
+            return doc
+        if not self.clocks:
+            raise InputDataError("no AR (receiver clock) record in the stream", self.source)
+        rows = []
+        for name in self.reader.stations:
+            clock = self.clocks[name]
+            record = clock.record()
+            watched = clock.watch.result() if record is not None else None
+            rows.append(station_row(name, record, self.settings, watched, source=self.source))
+        return product_document(rows, self.settings, n_bad_lines=self.reader.n_bad_lines, source=self.source)
 
 
 def stream_verdicts(
@@ -83,66 +175,15 @@ def stream_verdicts(
     train_s: float | None = None,
     detector: str = "chi-square",
 ) -> Iterator[EpochVerdict]:
-    """One verdict per epoch of the ``time,clock_bias`` text ``lines`` (module docstring), as they arrive.
+    """One verdict per epoch of ``time,clock_bias`` text ``lines`` as they arrive (:class:`StreamDetection`);
+    ``detector`` a name of :data:`chronofuse.integrity.registry.DETECTORS`."""
+    from chronofuse.integrity.modes import detection_settings
 
-    ``detector``: a name of :data:`chronofuse.integrity.registry.DETECTORS`, as in
-    :func:`chronofuse.integrity.modes.detect_file`."""
-    from chronofuse.integrity.modes import TRAINING_CONFIDENCE, _detector_factory
-
-    if train_s is None and None in (h0, hm2, sigma_rho_m):
-        raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
-    step_ns = None if rate_hz is None else int(round(1e9 / rate_hz))
-    monitor: StreamingMonitor | None = None
-    training: list[tuple[int, float]] = []
-    t0 = last = None
-    make = _detector_factory(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
-                             confidence=TRAINING_CONFIDENCE if train_s is not None else None)
-
-    def start(interval_ns: int) -> StreamingMonitor:
-        det = make(interval_ns / 1e9)
-        if train_s is None:
-            return StreamingMonitor(det.fit())
-        import numpy as np
-
-        from chronofuse.integrity.clock_events import repair_clock_steering
-
-        values = np.array([b for _, b in training])
-        det.fit(repair_clock_steering(values).repaired_s)
-        mon = StreamingMonitor(det)
-        left_outs = getattr(det, "training_outliers_", np.zeros(len(training), dtype=bool))
-        for (t, b), left_out in zip(training, left_outs):
-            mon.step(t, math.nan if left_out else b)  # training outliers are out of the window, as in the batch
-        return mon
-
-    for t_ns, bias, number in _epochs(lines, column):
-        if last is not None and t_ns <= last:
-            raise InputDataError(f"time is not increasing ({last} ns then {t_ns} ns)", f"<stream>:{number}")
-        if last is not None and step_ns is None:
-            step_ns = t_ns - last
-        fill = []
-        if last is not None:
-            k = (t_ns - last) / step_ns
-            if abs(k - round(k)) > 1e-6 or round(k) < 1:
-                raise InputDataError(f"time step {(t_ns - last) / 1e9:g} s is not a whole number of intervals "
-                                     f"({step_ns / 1e9:g} s)", f"<stream>:{number}")
-            fill = [last + j * step_ns for j in range(1, int(round(k)))]
-        t0 = t_ns if t0 is None else t0
-        for t, b in [*((tf, math.nan) for tf in fill), (t_ns, bias)]:
-            if monitor is None and train_s is not None and (t - t0) / 1e9 < train_s:
-                training.append((t, b))
-                yield EpochVerdict(t, math.nan, math.nan, False, "unavailable", ("training",))
-                continue
-            if monitor is None:
-                if step_ns is None:
-                    training.append((t, b))
-                    yield EpochVerdict(t, math.nan, math.nan, False, "unavailable", ())
-                    continue
-                monitor = start(step_ns)
-                if train_s is None:
-                    for tt, bb in training:
-                        monitor.step(tt, bb)
-            yield monitor.step(t, b)
-        last = t_ns
+    settings = detection_settings(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                                  train_s=train_s)
+    chunks = (line.encode() + (b"" if line.endswith("\n") else b"\n") for line in lines)
+    for _, verdict in StreamDetection(chunks, settings, source="<stream>", rate_hz=rate_hz, column=column):
+        yield verdict
 
 
 def follow_lines(stream, *, idle_s: float = 10.0, poll_s: float = 0.2) -> Iterator[str]:
@@ -167,6 +208,3 @@ def follow_lines(stream, *, idle_s: float = 10.0, poll_s: float = 0.2) -> Iterat
                 yield pending
             return
         time.sleep(poll_s)
-
-
-__all__ = ["follow_lines", "stream_verdicts"]

@@ -58,128 +58,43 @@ from chronofuse.integrity.availability import (  # noqa: F401 (EXIT_CODES and th
     overall_state,
     training_warnings,
 )
-from chronofuse.integrity.detector import HodDetector, chi2_thresholds
+from chronofuse.integrity.detector import HodDetector
+from chronofuse.integrity.document import base_document, check_length, detection_document
 from chronofuse.integrity.inputs import (  # noqa: F401 (re-exported: the CLI and tests import them from here)
     EARTH_SURFACE_M,
     parse_position,
     read_noise_file,
 )
-from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S, NO_FIX, status_reasons
-from chronofuse.integrity.stationarity import NOISE_CHANGE_ALPHA, noise_change
-from chronofuse.io.clockbias import ClockBiasInput, read_clock_bias
+from chronofuse.integrity.products import clock_product_document
+from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S
+from chronofuse.integrity.watch import TRAINING_CONFIDENCE, DetectionSettings, watch_record
+from chronofuse.io.clockbias import n_skipped, read_clock_bias
 from chronofuse.io.formats import sniff_format
 from chronofuse.validation import InputDataError, check_scalar
 
 #: The modes of :func:`detect_file`.
 MODES = ("detection", "identification")
 
-#: With ``train_s``, the detectors keep P_fa at or below nominal in this share of trainings (the
-#: ``confidence`` of :class:`~chronofuse.integrity.detector.HodDetector`; issue 10.4).
-TRAINING_CONFIDENCE = 0.9
+
+def detect_record(record, settings: DetectionSettings) -> dict:
+    """Detection mode on one gridded clock-bias record (:mod:`chronofuse.integrity.document`): the batch
+    driver of the detection pipeline (:func:`chronofuse.integrity.watch.watch_record`) and its document.
+    Raises :class:`InputDataError` naming the source when the record is shorter than one window."""
+    check_length(record.n_epochs, settings.window, record.source)
+    watched = watch_record(record, settings)
+    return detection_document(watched, settings, n_skipped=n_skipped(record), time_scale=record.time_scale)
 
 
-def _check_length(n_epochs: int, window: int, source: str) -> None:
-    if n_epochs - 2 < window:
-        raise InputDataError(f"window {window} is longer than the data: {n_epochs} epochs give {max(n_epochs - 2, 0)} "
-                             "differences", source)
-
-
-def _training_rows(t_s: np.ndarray, train_s: float | None) -> int:
-    return 0 if train_s is None else int(np.searchsorted(t_s - t_s[0], train_s, side="left"))
-
-
-def detection_document(data: ClockBiasInput, detector: HodDetector, train_s: float | None = None,
-                       max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S) -> dict:
-    """Detection mode on one clock bias (module docstring): repair the clock resets, fit ``detector`` (on its
-    model or the first ``train_s`` s), test every later epoch. ``detector`` is fitted in place. Epochs whose
-    receiver reports no fix (``data.receiver_ok``) or a time accuracy (``data.time_acc_s``) over ``max_time_acc_s``
-    are not tested (:mod:`chronofuse.integrity.receiver_status`)."""
-    from chronofuse.integrity.clock_events import repair_clock_steering
-
-    _check_length(data.bias_s.size, detector.window, data.source)
-    t_ns = data.t_ns
-    status = status_reasons(data.receiver_ok, data.time_acc_s, max_time_acc_s, data.bias_s.size)
-    bad_status = status != ""
-    steering = repair_clock_steering(np.where(bad_status, np.nan, data.bias_s))
-    x = steering.repaired_s
-    n_train = _training_rows(data.t_s, train_s)
-    reasons: list[str] = []
-    warnings: list[str] = []
-    fitted = True
-    if train_s is not None:
-        training = x[:n_train]
-        n_valid = int(np.isfinite(training).sum())
-        if n_valid < detector.window + 3:
-            reasons.append(f"training failed: train_s (--train) {train_s:g} s holds {n_valid} valid epochs; need at "
-                           f"least window + 3 = {detector.window + 3}")
-            fitted = False
-        else:
-            try:
-                detector.fit(training)
-                left_out = np.flatnonzero(getattr(detector, "training_outliers_", np.zeros(0, dtype=bool)))
-                if left_out.size:
-                    # the epochs of an outlier (spike, step) in training: out of the fit and of the first windows
-                    x = x.copy()
-                    x[left_out] = np.nan
-                    training = x[:n_train]
-                    warnings.append(f"training outliers: {left_out.size} epoch(s) left out of the noise fit (t_ns "
-                                    f"{', '.join(str(int(t_ns[k])) for k in left_out[:5])}"
-                                    f"{', ...' if left_out.size > 5 else ''})")
-                warnings.extend(training_warnings(np.diff(training, 2) / detector.interval_s))
-            except ValueError as err:
-                reasons.append(f"training failed: {err}")
-                fitted = False
-    else:
-        detector.fit()
-    n = x.size
-    per_epoch = np.full(n, "", dtype=object)
-    per_epoch[:n_train] = "training"
-    alarms = []
-    states = np.full(n, "unavailable", dtype=object)
-    if fitted:
-        res = detector.run(x)
-        tested = (res.dof > 0) & (np.arange(n) >= n_train)
-        alarm = res.alarm & tested
-        states[tested] = "ok"
-        states[alarm] = "alarm"
-        per_epoch[~tested & (np.arange(n) >= n_train)] = "no test (missing epoch or difference chain restarting)"
-        after = np.arange(n) >= n_train
-        per_epoch[bad_status & after] = status[bad_status & after]
-        alarms = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "statistic": float(res.statistic[k]), "channel": None}
-                  for k in np.flatnonzero(alarm)]
-    else:
-        per_epoch[:] = "training failed"
-    state = overall_state(states, n_train, reasons, present=np.isfinite(x))
-    doc = _document("detection", n, detector, alarms, data.n_skipped)
-    doc.update(availability(state, reasons, t_ns, per_epoch, states, n_train))
-    doc["clock_events"] = [{"t_ns": int(t_ns[k]), "t": t_ns[k] / 1e9, "size_s": float(size), "kind": "clock reset"}
-                           for k, size in zip(steering.event_epochs, steering.event_size_s)]
-    doc["interval_s"] = float(detector.interval_s)
-    doc["noise"] = _noise(detector) if fitted else None
-    doc["noise_change"] = None
-    if fitted and train_s is not None and hasattr(detector, "r_"):
-        df = np.full(n, np.nan)
-        df[2:] = np.diff(x, 2) / detector.interval_s
-        tested_df = np.where(states == "unavailable", np.nan, df)
-        ratio, p_value = noise_change(df[:n_train], tested_df[n_train:],
-                                      detector.r_ / getattr(detector, "inflation_", 1.0))
-        doc["noise_change"] = {"ratio": ratio, "p_value": p_value}
-        if p_value < NOISE_CHANGE_ALPHA:
-            warnings.append(f"noise changed after training: the tested differences' mean square is {ratio:.3g} times "
-                            f"the training's (F test p = {p_value:.2g}); alarms may be the noise model going stale")
-    doc["warnings"] = warnings
-    doc["n_no_fix"] = int((status == NO_FIX).sum())
-    doc["n_time_accuracy_over"] = int((bad_status & (status != NO_FIX)).sum())
-    doc["max_time_acc_s"] = max_time_acc_s
-    return doc
-
-
-def _noise(det) -> dict | None:
-    """The fitted noise model a detector reports (None for one that has none)."""
-    if not all(hasattr(det, name) for name in ("h0_", "hm2_", "sigma_rho_m_")):
-        return None
-    return {"h0": float(det.h0_), "hm2": float(det.hm2_), "sigma_rho_m": float(det.sigma_rho_m_),
-            "inflation": float(getattr(det, "inflation_", 1.0))}
+def detection_settings(detector: str = "chi-square", **fields) -> DetectionSettings:
+    """The :class:`DetectionSettings` of ``fields`` watching with the detector ``detector`` of
+    :data:`chronofuse.integrity.registry.DETECTORS` (the HOD chi-square test by default). Its settings are
+    checked here, before any data is read (an unknown or inapplicable one is refused by name)."""
+    if detector == "chi-square":
+        return DetectionSettings(**fields)
+    make = _detector_factory(detector, window=fields.get("window", 20), pfa=fields.get("pfa", 1e-3),
+                             h0=fields.get("h0"), hm2=fields.get("hm2"), sigma_rho_m=fields.get("sigma_rho_m"),
+                             confidence=TRAINING_CONFIDENCE if fields.get("train_s") is not None else None)
+    return DetectionSettings(**fields, detector=lambda interval_s, _settings: make(interval_s))
 
 
 def position_offsets_m(obs, nav, position_m: np.ndarray) -> np.ndarray:
@@ -228,7 +143,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
             interval_s = float(biases.interval_s)
             detector.interval_s = interval_s  # the file's own interval (issue 10.7)
             n_epochs = int(np.asarray(biases.t_s).size)
-            _check_length(n_epochs, detector.window, str(obs))
+            check_length(n_epochs, detector.window, str(obs))
             options = {}
             n_train = 0
             if train_s is not None:
@@ -277,7 +192,8 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
         untested += [label(ch, code) for ch in result.untested]
     alarms.sort(key=lambda a: (a["t_ns"], a["channel"]))
     faulty.sort(key=lambda f: (f["t_ns"], f["channel"]))
-    doc = _document("identification", n_epochs, detector, alarms, int(runs[0][1].n_skipped_epochs))
+    doc = base_document("identification", n_epochs, detector.window, detector.pfa, alarms,
+                        int(runs[0][1].n_skipped_epochs))
     doc.update(availability(state, reasons, t_ns, per_epoch, states, n_train))
     doc["faulty"] = faulty
     doc["channel_events"] = sorted(channel_events, key=lambda e: (e["t_ns"], e["channel"]))
@@ -362,39 +278,36 @@ def detect_file(
         check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     elif None in (h0, hm2, sigma_rho_m):
         raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
-    make = _detector_factory(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
-                             confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     kind = sniff_format(path)
     if kind == "rinex-nav":
         raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
-    params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
-                  confidence=TRAINING_CONFIDENCE if train_s is not None else None)
     if kind == "rinex-obs":
         _only_chi_square(detector, "identification mode (a RINEX observation file)")
         if nav is None or position_m is None:
             raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
                                  "mode: nav and position_m)", str(path))
+        params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                      confidence=TRAINING_CONFIDENCE if train_s is not None else None)
         return identification_document(path, nav, position_m, HodDetector(interval_s=1.0, **params), train_s)
     if nav is not None or position_m is not None:
         raise InputDataError("--nav/--position need a RINEX observation file (identification mode)", str(path))
+    if max_time_acc_s is not None:
+        check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
+    settings = detection_settings(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
+                                  train_s=train_s, max_time_acc_s=max_time_acc_s)
     if kind == "rinex-clock":
-        from chronofuse.integrity.products import clock_product_document
         from chronofuse.io.rinex_clock import read_station_clocks, station_clock_bias
 
         clocks = read_station_clocks(path)
         if station is None:
             _only_chi_square(detector, "the table of every station of a clock product (give --station)")
-            return clock_product_document(clocks, params, train_s)
-        data = station_clock_bias(clocks, station)
-        doc = detection_document(data, make(data.interval_s), train_s)
+            return clock_product_document(clocks, settings)
+        doc = detect_record(station_clock_bias(clocks, station), settings)
         doc["station"] = station
         return doc
     if station is not None:
         raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
-    if max_time_acc_s is not None:
-        check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
-    data = read_clock_bias(path, rate_hz, column)
-    return detection_document(data, make(data.interval_s), train_s, max_time_acc_s)
+    return detect_record(read_clock_bias(path, rate_hz, column), settings)
 
 
 def _only_chi_square(detector: str, where: str) -> None:
@@ -426,17 +339,3 @@ def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidenc
         return DETECTORS.create(name, context={"interval_s": interval_s}, **settings)
 
     return make
-
-
-def _document(mode: str, n_epochs: int, det, alarms: list[dict], n_skipped: int) -> dict:
-    threshold = getattr(det, "threshold_", None)
-    return {
-        "mode": mode,
-        "n_epochs": int(n_epochs),
-        "threshold": float(chi2_thresholds(det.pfa, int(det.window))[-1] if threshold is None else threshold),
-        "window": int(det.window),
-        "pfa": float(det.pfa),
-        "alarms": alarms,
-        "n_alarms": len(alarms),
-        "n_skipped": int(n_skipped),
-    }

@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from chronofuse.record import EpochRecord
+
 import numpy as np
 
 from chronofuse.integrity.noise_model import noise_intensities
@@ -47,6 +49,14 @@ class ClockBiasSimulation:
     def t_s(self) -> np.ndarray:
         """Epoch times (s) from the first epoch, shape (steps,)."""
         return np.arange(self.truth_s.shape[-1]) * self.interval_s
+
+    def record(self, t0_ns: int = 0, *, source: str = "simulate_clock_bias") -> EpochRecord:
+        """The measured biases as the one epoch record: column ``clock_bias_s`` with lead axis (trials,), on
+        the grid ``t0_ns + k * interval`` (integer ns, the file axis: the simulation has no GPS time)."""
+        interval_ns = int(round(self.interval_s * 1e9))
+        t_ns = int(t0_ns) + np.arange(self.measured_s.shape[-1], dtype=np.int64) * interval_ns
+        return EpochRecord.from_arrays(t_ns, {"clock_bias_s": self.measured_s}, {"clock_bias_s": "s"}, source=source,
+                                       interval_ns=interval_ns, time_scale="file")
 
 
 def simulate_clock_bias(

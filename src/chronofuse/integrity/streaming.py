@@ -37,11 +37,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from collections import deque
+import numpy as np
 
+from chronofuse.estimation.pipeline import Pipeline
 from chronofuse.integrity.clock_events import MILLISECOND_S
 from chronofuse.integrity.detector import HodDetector
-from chronofuse.integrity.noise_model import noise_intensities
+from chronofuse.integrity.stages import ClockRepair, DetectorStage, Latch, StatusGate, frequency_sigma
 
 #: Epoch states of :class:`EpochVerdict`.
 STATES = ("ok", "alarm", "unavailable")
@@ -64,93 +65,61 @@ class EpochVerdict:
             return None if math.isnan(v) else float(v)
 
         return {"t_ns": int(self.t_ns), "statistic": num(self.statistic), "threshold": num(self.threshold),
-                "state": self.state, "events": list(self.events)}
+                "alarm": bool(self.alarm), "state": self.state, "events": list(self.events)}
+
+
+def epoch_events(status: str, clock_reset_s: float, latch_event: str, training: bool, failed: bool) -> tuple[str, ...]:
+    """The events of one epoch, in order: training, the receiver's status, a clock reset, a raise or clear."""
+    events = []
+    if training:
+        events.append("training")
+    elif failed:
+        events.append("training failed")
+    if status:
+        events.append(status)
+    if clock_reset_s:
+        events.append(f"clock reset {round(clock_reset_s / MILLISECOND_S):+d} ms")
+    if latch_event:
+        events.append(latch_event)
+    return tuple(events)
 
 
 class StreamingMonitor:
-    """Clock steering, receiver status, the HOD test and a latched alarm, one epoch at a time (module docstring).
+    """Clock steering, receiver status, the HOD test and a latched alarm, one epoch at a time (module docstring):
+    the stages of :mod:`chronofuse.integrity.stages` stepped for an already fitted detector.
 
     ``detector`` must be fitted; it is stepped in place (``reset()`` restarts everything). ``clear_after``
     (default: the detector's window) quiet tested epochs clear a raised alarm; ``tolerance_s`` is the clock
-    reset tolerance.
+    reset tolerance. For a stream that trains its own detector, see :class:`chronofuse.integrity.watch.ClockWatch`.
     """
 
     def __init__(self, detector: HodDetector, *, clear_after: int | None = None, tolerance_s: float = 1e-4,
                  clear_sigma: float = 5.0):
+        if not hasattr(detector, "whitener_"):
+            raise RuntimeError("StreamingMonitor needs a fitted detector: call fit() first")
         self.detector = detector
-        self.clear_after = int(detector.window) if clear_after is None else int(clear_after)
-        self.tolerance_s = tolerance_s
-        self.clear_sigma = clear_sigma
-        n, ts = int(detector.window), float(detector.interval_s)
-        if all(hasattr(detector, name) for name in ("h0_", "hm2_", "sigma_rho_m_")):
-            q1, q2, s2 = noise_intensities(detector.h0_, detector.hm2_, detector.sigma_rho_m_)
-            q1, q2, s2 = (v * getattr(detector, "inflation_", 1.0) for v in (q1, q2, s2))
-            self._sigma_freq = math.sqrt(2.0 * (2.0 * s2 + n * q1 * ts + n**3 * q2 * ts**3 / 3.0)) / (n * ts)
-        else:  # a detector without a clock noise model: the latch clears on quiet epochs alone
-            self._sigma_freq = math.nan
+        stage = DetectorStage(detector)
+        stage.outlier_t_ns_, stage._outliers = np.zeros(0, dtype=np.int64), set()
+        latch = Latch(detector, clear_after=clear_after, clear_sigma=clear_sigma)
+        latch.sigma_freq_ = frequency_sigma(detector)
+        self.pipeline = Pipeline([("status", StatusGate(None)), ("repair", ClockRepair(tolerance_s)),
+                                  ("detector", stage), ("latch", latch)])
+        self._stages = [s for _, s in self.pipeline.stages]
         self.reset()
 
     def reset(self) -> None:
         """Forget the stream: the detector's window, the clock correction and the latch."""
-        self.detector.reset()
-        self._raw = [math.nan, math.nan]  # the last two raw biases
-        self._jump_prev = 0.0  # the reset found at the previous epoch
-        self._correction = 0.0
-        self._raised = False
-        self._quiet = 0
-        n = int(self.detector.window)
-        self._history = deque([math.nan] * (3 * n + 1), maxlen=3 * n + 1)  # repaired biases, oldest first
-        self._freq_ref = math.nan
-
-    def _frequency(self, end: int) -> float:
-        """Mean first difference over the window ending ``end`` epochs ago (NaN if a missing epoch is in it)."""
-        n = int(self.detector.window)
-        h = self._history
-        last, first = h[len(h) - 1 - end], h[len(h) - 1 - end - n]
-        return (last - first) / (n * float(self.detector.interval_s))
+        self.pipeline.reset()
 
     def step(self, t_ns: int, clock_bias_s: float, *, receiver_ok: bool = True) -> EpochVerdict:
         """One epoch: its time (int ns), clock bias (s; NaN/None = missing) and receiver status."""
         x = math.nan if clock_bias_s is None else float(clock_bias_s)
-        events: list[str] = []
-        if not receiver_ok:
-            x = math.nan
-            events.append("receiver status: no valid fix")
-        p1, p2 = self._raw
-        self._raw = [x, p1]
-        jump = 0.0
-        if not math.isnan(x) and not math.isnan(p1) and not math.isnan(p2):
-            d2 = x - 2.0 * p1 + p2 + self._jump_prev
-            m = round(d2 / MILLISECOND_S)
-            if m != 0 and abs(d2 - m * MILLISECOND_S) <= self.tolerance_s:
-                jump = m * MILLISECOND_S
-                self._correction += jump
-                events.append(f"clock reset {m:+d} ms")
-        self._jump_prev = jump
-        repaired = x - self._correction
-        self._history.append(repaired)
-        out = self.detector.step(repaired)
-        state = "unavailable"
-        if out.dof > 0:
-            if out.alarm:
-                self._quiet = 0
-                if not self._raised:
-                    self._raised = True
-                    self._freq_ref = self._frequency(int(self.detector.window))
-                    events.append(f"raise: statistic {out.statistic:.3g} over threshold {out.threshold:.3g}")
-            elif self._raised:
-                self._quiet += 1
-                drift = abs(self._frequency(0) - self._freq_ref)
-                steady = not drift > self.clear_sigma * self._sigma_freq  # NaN (no reference): not held
-                if self._quiet >= self.clear_after and steady:
-                    self._raised = False
-                    events.append(f"clear: {self._quiet} epochs consistent with the noise model and the frequency "
-                                  "back to its value before the alarm")
-            state = "alarm" if self._raised else "ok"
-        elif self._raised:
-            state = "alarm"  # an untested epoch does not clear a raised alarm
-        return EpochVerdict(int(t_ns), float(out.statistic), float(out.threshold), bool(out.alarm), state,
-                            tuple(events))
+        v = {"t_ns": t_ns, "clock_bias_s": x, "valid": receiver_ok, "training": False}
+        for stage in self._stages:  # the pipeline's step, without wrapping each epoch's columns
+            v.update(stage.step(v))
+        status, reset, event = v["status"], v["clock_reset_s"], v["latch_event"]
+        events = epoch_events(status, reset, event, False, False) if (status or reset or event) else ()
+        return EpochVerdict(int(t_ns), v["statistic"], v["threshold"], v["over"], v["state"], events)
 
 
-__all__ = ["STATES", "EpochVerdict", "StreamingMonitor"]
+__all__ = ["STATES", "EpochVerdict", "StreamingMonitor", "epoch_events"]

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from chronofuse.validation import InputDataError
 
-__all__ = ["FORMATS", "CAPTURE_FORMATS", "sniff_format", "capture_format", "is_gzip", "open_data", "open_text"]
+__all__ = ["FORMATS", "CAPTURE_FORMATS", "sniff_format", "format_of_head", "capture_format", "is_gzip", "open_data", "open_text"]
 
 #: The kinds :func:`sniff_format` tells apart.
 FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock", "csv")
@@ -79,6 +79,12 @@ def sniff_format(path: str | Path) -> str:
         raise InputDataError(f"cannot read file: {exc}", str(path)) from exc
     if not head:
         raise InputDataError("empty file", str(path))
+    return format_of_head(head)
+
+
+def format_of_head(head: bytes) -> str:
+    """One of :data:`FORMATS` for a stream whose first bytes (up to 4096, decompressed) are ``head``, by the
+    rules of :func:`sniff_format` (which reads them from a file)."""
     if _UBX_SYNC in head:
         return "ubx"
     first = head.split(b"\n", 1)[0].decode("ascii", errors="replace")

@@ -17,8 +17,10 @@ import numpy as np
 import pandas as pd
 
 from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
+from chronofuse.io.epoch_offsets import EpochOffsets
 from chronofuse.io.formats import open_data
 from chronofuse.io.frames import FrameScanner, FrameStats
+from chronofuse.record import RECEIVER_UNITS, EpochRecord
 from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs, rinex_kind
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
 from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
@@ -39,7 +41,9 @@ class Capture:
     :data:`EPOCH_FIELDS`, one entry per epoch. ``frames``: the framer's counts; ``nmea``/``ubx``: the
     decoders' counts; ``time_marks_gps_ns``: TIM-TM2 rising edges; ``duplicate_epochs``: epochs dropped
     because their time repeats an earlier one; ``time_acc_s``: the receiver's time accuracy estimate per
-    epoch of ``rows`` (UBX NAV-CLOCK ``tAcc``, s; NaN where not reported), None for RINEX."""
+    epoch of ``rows`` (UBX NAV-CLOCK ``tAcc``, s; NaN where not reported), None for RINEX; ``offsets``: the
+    byte offset where each epoch's UBX messages begin (:class:`chronofuse.io.epoch_offsets.EpochOffsets`; -1
+    unknown), None for RINEX."""
 
     source: str
     rows: dict
@@ -51,6 +55,7 @@ class Capture:
     protocols: tuple = field(default=())
     receivers: tuple = field(default=())  # names, for files holding several (RINEX clock: stations)
     time_acc_s: np.ndarray | None = None
+    offsets: np.ndarray | None = None
 
     @property
     def n_epochs(self) -> int:
@@ -67,6 +72,25 @@ class Capture:
             return None
         return ReceiverEpochs(gps_ns=self.rows["gps_ns"],
                               **{name: self.rows[name][None, None, :] for name in EPOCH_FIELDS})
+
+    @property
+    def n_damaged(self) -> int:
+        """Frames lost to damage: UBX checksum failures, truncated frames, frames pyubx2 refused."""
+        return int(self.frames.ubx_bad_checksum + self.frames.truncated + self.ubx.parse_errors)
+
+    def record(self) -> EpochRecord:
+        """The capture as the one epoch record (:class:`chronofuse.record.EpochRecord`, one stream): every
+        per-epoch field as a column on GPS time, ``time_acc_s`` where the capture has it, ``valid`` where the
+        receiver did not report "no fix", provenance the byte offset of each epoch's UBX messages (RINEX:
+        the epoch's index), ``info`` the damaged-frame count (``n_damaged``)."""
+        rows = self.rows
+        columns = {name: rows[name] for name in EPOCH_FIELDS}
+        if self.time_acc_s is not None:
+            columns["time_acc_s"] = self.time_acc_s
+        unit = "index" if self.offsets is None else "byte"
+        return EpochRecord.from_arrays(rows["gps_ns"], columns, {n: RECEIVER_UNITS[n] for n in columns},
+                                       source=self.source, valid=rows["fix_mode"] != 1, position=self.offsets,
+                                       position_unit=unit, info={"n_damaged": self.n_damaged})
 
     def to_frame(self) -> pd.DataFrame:
         """One row per epoch, columns :data:`chronofuse.epochs.EXPORT_COLUMNS` (see
@@ -92,11 +116,14 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
     scanner = FrameScanner()
     nmea_b, nmea_s = NmeaEpochBuilder(reference_gps_ns), NmeaDecodeStats()
     ubx_b, ubx_s = UbxEpochBuilder(), UbxDecodeStats()
+    offsets = EpochOffsets()
     for chunk in chunks:
         frames = scanner.feed(chunk)
+        offsets.feed(frames)
         decode_nmea(frames, nmea_b, nmea_s)
         decode_ubx(frames, ubx_b, ubx_s)
     frames = scanner.close()
+    offsets.feed(frames)
     decode_nmea(frames, nmea_b, nmea_s)
     decode_ubx(frames, ubx_b, ubx_s)
     ubx_rows = ubx_b.rows(ubx_s)
@@ -109,7 +136,8 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
                       if n)
     return Capture(source=source, rows=rows, frames=scanner.stats, nmea=nmea_s, ubx=ubx_s,
                    time_marks_gps_ns=np.asarray(ubx_b.marks_gps_ns, dtype=np.int64), duplicate_epochs=dup,
-                   protocols=protocols, time_acc_s=time_acc_s)
+                   protocols=protocols, time_acc_s=time_acc_s,
+                   offsets=offsets.of(rows["gps_ns"]) if "ubx" in protocols else np.full(rows["gps_ns"].size, -1))
 
 
 def read_capture(path, reference_gps_ns: int | None = None, receiver: str | None = None) -> Capture:

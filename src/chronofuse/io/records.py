@@ -48,10 +48,11 @@ from chronofuse.io.record_columns import (
 )
 from chronofuse.io.timestamps import date_time_to_ns, infer_time_unit, is_date_time
 from chronofuse.io.units import header_facts
+from chronofuse.record import EpochRecord
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
 from chronofuse.validation import InputDataError, check_choice, check_scalar
 
-__all__ = ["ClockRecord", "read_record", "KINDS"]
+__all__ = ["ClockRecord", "read_record", "capture_record", "epoch_record", "KINDS"]
 
 KINDS = ("phase", "freq")
 
@@ -240,7 +241,7 @@ def read_record(
     zero_is_gap: bool = False,
 ) -> ClockRecord:
     """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), or a
-    receiver recording's clock (:func:`chronofuse.io.capture_series.capture_record`).
+    receiver recording's clock (:func:`capture_record`).
 
     Parameters
     ----------
@@ -284,8 +285,6 @@ def read_record(
     if path.is_dir():
         raise InputDataError("is a directory, not a data file", str(path))
     if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
-        from chronofuse.io.capture_series import capture_record  # the receiver parsers only when needed
-
         return capture_record(path, kind=kind or "phase", rate_hz=rate_hz, station=station)
     if station is not None:
         raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
@@ -412,6 +411,62 @@ def _time_tags(text, choice: ColumnChoice, per_unit, path: Path, layout: Layout)
     if bad >= 0:
         raise InputDataError(f"cannot read {text[bad].as_py()!r} as a time", str(path), _line_of(path, layout, bad))
     return t_raw
+
+
+def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None = None,
+                   station: str | None = None) -> ClockRecord:
+    """A recording's clock as the phase or frequency record ``chronofuse stability`` analyses: the clock
+    bias (phase, s) or the clock drift (``kind="freq"``: fractional frequency, s/s) on the recording's grid
+    (:func:`chronofuse.io.capture_series.capture_clock_series`; ``rate_hz`` sets the interval), gaps as
+    NaN; ``t_ns`` holds the GPS epochs. A RINEX clock product gives ``station``'s clock, or without one its
+    first station's (with a warning naming it); ``station`` on any other recording is refused naming the file."""
+    # the receiver parsers (pyubx2, pynmeagps) only when a recording is read: text records need none of them
+    from chronofuse.io.capture_series import capture_clock_series
+    from chronofuse.io.inspect import read_capture
+
+    check_choice(kind, "kind", KINDS)
+    capture = read_capture(path, receiver=station)
+    if station is not None and "rinex-clock" not in capture.protocols:
+        raise InputDataError("--station picks a station of a RINEX clock product (.clk); this recording has "
+                             "one receiver", str(path))
+    if station is None and len(capture.receivers) > 1:
+        warnings.warn(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
+                      f"{capture.receivers[0]}, is analysed (--station picks any)", stacklevel=2)
+    series = capture_clock_series(capture, rate_hz)
+    column = "clock_bias_s" if kind == "phase" else "clock_drift_s_per_s"
+    values = np.asarray(series.column(column, np.nan), dtype=np.float64)
+    if np.isnan(values).all():
+        raise InputDataError(f"every {column} value is missing", series.source)
+    return ClockRecord(values=values, rate_hz=1e9 / series.interval_ns, kind=kind, t_ns=np.asarray(series.t_ns),
+                       source=series.source, n_gaps=int(np.isnan(values).sum()), column=column,
+                       jitter_rms_s=series.info["jitter_rms_s"], jitter_max_s=series.info["jitter_max_s"])
+
+
+def epoch_record(record: ClockRecord, column: str | None = None) -> EpochRecord:
+    """A :class:`ClockRecord` as the one epoch record: its values as column ``column`` (default: the record's
+    own column name, its unit suffix made SI: ``clock_bias_ns`` -> ``clock_bias_s``), unit ``s`` for phase
+    and ``s/s`` for frequency, on its grid (``interval_ns``); ``t_ns`` on the file's axis (its time column
+    in ns, or the sample number times the interval without one). Provenance: each value's 0-based sample
+    index (the file line is :func:`_line_of` of it)."""
+    name = column or _si_name(record.column, record.kind)
+    interval_ns = int(round(1e9 / record.rate_hz))
+    t_ns = record.t_ns if record.t_ns is not None else np.arange(record.values.size, dtype=np.int64) * interval_ns
+    return EpochRecord.from_arrays(t_ns, {name: record.values}, {name: "s" if record.kind == "phase" else "s/s"},
+                                   source=record.source, interval_ns=interval_ns, time_scale="file",
+                                   info={"n_gaps": record.n_gaps, "jitter_rms_s": record.jitter_rms_s,
+                                         "jitter_max_s": record.jitter_max_s})
+
+
+_TIME_UNIT_SUFFIX = re.compile(r"_(s|ms|us|ns|ps)$")
+
+
+def _si_name(name: str, kind: str) -> str:
+    """A column name with its unit suffix made SI: ``clock_bias_ns`` -> ``clock_bias_s``, ``phase`` ->
+    ``phase_s``; a frequency column keeps its name (its values are already fractional frequency)."""
+    lowered = name.lower()
+    if kind == "phase":
+        return _TIME_UNIT_SUFFIX.sub("", lowered) + "_s"
+    return lowered
 
 
 def column_names(path: str | Path) -> list[str] | None:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from chronofuse.record import EpochRecord
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns
 from chronofuse.validation import InputDataError
 
@@ -33,7 +34,8 @@ class StationClocks:
     """The ``AR`` records of one clock product, per station.
 
     ``stations`` (names, file order); ``gps_ns[name]`` int64 (epochs,) and ``bias_s[name]`` (epochs,)
-    each station's epochs and clock biases in time order; ``n_bad_lines`` data lines that could not be read.
+    each station's epochs and clock biases in time order, ``lines[name]`` the file line of each;
+    ``n_bad_lines`` data lines that could not be read.
     """
 
     stations: list[str]
@@ -41,6 +43,7 @@ class StationClocks:
     bias_s: dict[str, np.ndarray]
     n_bad_lines: int
     source: str = ""
+    lines: dict[str, np.ndarray] | None = None  # the 1-based line of each epoch's AR record, per station
 
 
 def _lines(path: Path) -> list[str]:
@@ -76,59 +79,72 @@ def read_station_clocks(path) -> StationClocks:
     names: dict[str, list] = {}
     bad = 0
     for number, line in enumerate(lines[body:], start=body + 1):
-        if not line.startswith("AR "):
-            continue
-        parts = line.split()
         try:
-            year, month, day, hour, minute = (int(v) for v in parts[2:7])
-            sec = float(parts[7])
-            bias = float(parts[9].replace("D", "E"))
-        except (ValueError, IndexError):
+            parsed = parse_ar_line(line)
+        except ValueError:
             bad += 1
             continue
-        whole = int(sec)
-        stamp = np.datetime64(f"{year:04d}-{month:02d}-{day:02d}T{hour:02d}:{minute:02d}:{whole:02d}", "ns")
-        ns = int(datetime64_to_gps_ns(np.array([stamp]))[0]) + int(round((sec - whole) * NS_PER_S))
-        names.setdefault(parts[1], []).append((ns, bias))
+        if parsed is not None:
+            names.setdefault(parsed[0], []).append((parsed[1], parsed[2], number))
     if not names:
         raise InputDataError("no AR (receiver clock) record in the file", str(path))
-    gps, bias = {}, {}
+    gps, bias, where = {}, {}, {}
     for name, rows in names.items():
-        arr = np.array(rows, dtype=np.float64)
-        order = np.argsort(arr[:, 0], kind="stable")
+        order = np.argsort(np.array([r[0] for r in rows], dtype=np.int64), kind="stable")
         gps[name] = np.array([rows[i][0] for i in order], dtype=np.int64)
-        bias[name] = arr[order, 1]
-    return StationClocks(stations=list(names), gps_ns=gps, bias_s=bias, n_bad_lines=bad, source=str(path))
+        bias[name] = np.array([rows[i][1] for i in order], dtype=np.float64)
+        where[name] = np.array([rows[i][2] for i in order], dtype=np.int64)
+    return StationClocks(stations=list(names), gps_ns=gps, bias_s=bias, n_bad_lines=bad, source=str(path), lines=where)
 
 
-def station_clock_bias(clocks: StationClocks, station: str):
-    """One station's clock bias as a :class:`chronofuse.io.clockbias.ClockBiasInput` on its own interval grid.
+def parse_ar_line(line: str) -> tuple[str, int, float] | None:
+    """``(station, GPS ns, bias s)`` of an ``AR`` data line, None for any other record; ``ValueError`` when an
+    ``AR`` line cannot be read. The epoch's seconds are split at the decimal point, so the time tag is exact."""
+    if not line.startswith("AR "):
+        return None
+    parts = line.split()
+    try:
+        year, month, day, hour, minute = (int(v) for v in parts[2:7])
+        sec = float(parts[7])
+        bias = float(parts[9].replace("D", "E"))
+    except IndexError:
+        raise ValueError(f"short AR line {line!r}") from None
+    whole = int(sec)
+    stamp = np.datetime64(f"{year:04d}-{month:02d}-{day:02d}T{hour:02d}:{minute:02d}:{whole:02d}", "ns")
+    ns = int(datetime64_to_gps_ns(np.array([stamp]))[0]) + int(round((sec - whole) * NS_PER_S))
+    return parts[1], ns, bias
 
-    The interval is the smallest epoch spacing; missing epochs (the GRG file's 1 h 45 min gap) become NaN
-    epochs counted in ``n_skipped``, so the detector restarts its difference chain after them and goes on.
-    ``t_s`` is seconds since the station's first epoch. Raises :class:`InputDataError` naming the file for
-    a station not in the file (the message lists the first names that are).
-    """
-    from chronofuse.io.clockbias import ClockBiasInput
-    from chronofuse.io.grid import regular_grid
 
+def station_record(clocks: StationClocks, station: str) -> EpochRecord:
+    """One station's clock bias as it is in the file: a record (GPS time) with the column ``clock_bias_s``,
+    each epoch's provenance its ``AR`` line. Raises :class:`InputDataError` naming the file for a station not
+    in the file (the message lists the first names that are)."""
     if station not in clocks.gps_ns:
         known = ", ".join(clocks.stations[:8])
         raise InputDataError(f"station {station!r} (--station) not in the file ({len(clocks.stations)} stations: "
                              f"{known}{', ...' if len(clocks.stations) > 8 else ''})", clocks.source)
-    gps = clocks.gps_ns[station]
-    rel_ns = gps - gps[0]
-    if gps.size < 2:
-        interval_ns = 0
-    else:
-        interval_ns = int(np.diff(rel_ns).min())
-    if interval_ns <= 0:
-        return ClockBiasInput(bias_s=clocks.bias_s[station].copy(), t_s=rel_ns / NS_PER_S, n_skipped=0,
-                              source=f"{clocks.source} {station}", interval_s=float("nan"))
-    t_s, bias = regular_grid(rel_ns / NS_PER_S, clocks.bias_s[station], interval_ns / NS_PER_S,
-                             f"{clocks.source} {station}")
-    return ClockBiasInput(bias_s=bias, t_s=t_s, n_skipped=int(np.isnan(bias).sum()),
-                          source=f"{clocks.source} {station}", interval_s=interval_ns / NS_PER_S)
+    lines = None if clocks.lines is None else clocks.lines[station]
+    return EpochRecord.from_arrays(clocks.gps_ns[station], {"clock_bias_s": clocks.bias_s[station]},
+                                   {"clock_bias_s": "s"}, source=clocks.source, position=lines,
+                                   position_unit="index" if lines is None else "line", info={"station": station})
 
 
-__all__ = ["StationClocks", "is_rinex_clock", "read_station_clocks", "station_clock_bias"]
+def station_clock_bias(clocks: StationClocks, station: str, interval_ns: int | None = None) -> EpochRecord:
+    """One station's clock bias on its own regular grid (:class:`chronofuse.io.grid.GridPlacer`, epochs on
+    their exact slots): missing epochs (the GRG file's 1 h 45 min gap) become NaN epochs counted in
+    ``info["n_gaps"]``, so the detector restarts its difference chain after them and goes on. The interval is
+    learnt from the station's first epochs unless ``interval_ns`` is given; a station with one epoch and no
+    interval is refused (:class:`InputDataError`)."""
+    from chronofuse.io.grid import GridPlacer
+
+    placer = GridPlacer(interval_ns, tolerance=CLOCK_TOLERANCE)
+    return EpochRecord.concat([placer.push(station_record(clocks, station)), placer.close()])
+
+
+#: A clock product's epochs sit on their slots: a step may differ from a whole number of intervals by this
+#: fraction of one (rounding of the epoch's seconds in the file).
+CLOCK_TOLERANCE = 1e-6
+
+
+__all__ = ["StationClocks", "is_rinex_clock", "read_station_clocks", "station_clock_bias", "station_record",
+           "parse_ar_line", "CLOCK_TOLERANCE"]

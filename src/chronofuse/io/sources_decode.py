@@ -14,23 +14,56 @@ import math
 
 import numpy as np
 
+from chronofuse.io.epoch_offsets import EpochOffsets
 from chronofuse.io.frames import FrameScanner
 from chronofuse.io.inspect import EPOCH_FIELDS, merge_epochs, strictly_increasing
 from chronofuse.io.nmea import NmeaDecodeStats, NmeaEpochBuilder, decode_nmea
 from chronofuse.io.ubx_epochs import UbxDecodeStats, UbxEpochBuilder, decode_ubx
+from chronofuse.record import RECEIVER_UNITS, EpochRecord
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s, utc_to_gps_ns
 
-__all__ = ["StreamDecoder", "GpsdJsonDecoder", "decoder_for", "split_rows"]
+__all__ = ["StreamDecoder", "GpsdJsonDecoder", "split_rows", "rows_record", "record_rows", "dicts_record"]
 
 _NEVER = int(np.iinfo(np.int64).min)
 
 
 def split_rows(rows: dict | None) -> list[dict]:
-    """Column arrays -> one dict of Python scalars per epoch (``gps_ns`` and :data:`EPOCH_FIELDS`)."""
+    """Column arrays -> one dict of Python scalars per epoch (``gps_ns``, :data:`EPOCH_FIELDS` and
+    ``time_acc_s`` when the rows have it)."""
     if rows is None or rows["gps_ns"].size == 0:
         return []
-    cols = {k: rows[k].tolist() for k in ("gps_ns",) + EPOCH_FIELDS}
+    names = ("gps_ns",) + EPOCH_FIELDS + (("time_acc_s",) if "time_acc_s" in rows else ())
+    cols = {k: rows[k].tolist() for k in names}
     return [{k: cols[k][i] for k in cols} for i in range(len(cols["gps_ns"]))]
+
+
+def rows_record(rows: dict, source: str, offsets=None) -> EpochRecord | None:
+    """Decoded epochs (column arrays: ``gps_ns`` and the receiver fields) as one record chunk, provenance the
+    byte offsets given (else unknown); None when there are none."""
+    if rows is None or rows["gps_ns"].size == 0:
+        return None
+    columns = {k: rows[k] for k in EPOCH_FIELDS + ("time_acc_s",) if k in rows}
+    n = rows["gps_ns"].size
+    return EpochRecord.from_arrays(rows["gps_ns"], columns, {k: RECEIVER_UNITS[k] for k in columns}, source=source,
+                                   valid=np.asarray(rows["fix_mode"]) != 1,
+                                   position=np.full(n, -1, dtype=np.int64) if offsets is None else offsets,
+                                   position_unit="byte")
+
+
+def dicts_record(epochs: list[dict], source: str) -> EpochRecord | None:
+    """Epoch dicts (``gps_ns`` and the receiver fields) as one record chunk; None when there are none."""
+    if not epochs:
+        return None
+    rows = {k: np.array([e[k] for e in epochs]) for k in ("gps_ns",) + EPOCH_FIELDS}
+    rows["gps_ns"] = rows["gps_ns"].astype(np.int64)
+    return rows_record(rows, source)
+
+
+def record_rows(record: EpochRecord | None) -> list[dict]:
+    """A receiver record chunk as one dict of Python scalars per epoch (what the monitor logs)."""
+    if record is None:
+        return []
+    return split_rows({"gps_ns": np.asarray(record.t_ns), **record.columns})
 
 
 class StreamDecoder:
@@ -43,7 +76,9 @@ class StreamDecoder:
     that falls silent (more than ``max_wait_s`` of the other's time behind) stops holding the stream back.
     """
 
-    def __init__(self, reference_gps_ns: int | None = None, max_wait_s: float = 3.0) -> None:
+    def __init__(self, reference_gps_ns: int | None = None, max_wait_s: float = 3.0, source: str = "<stream>") -> None:
+        self.source = source
+        self.offsets = EpochOffsets()
         self.scanner = FrameScanner()
         self.nmea_stats, self.ubx_stats = NmeaDecodeStats(), UbxDecodeStats()
         self._nmea = NmeaEpochBuilder(reference_gps_ns)
@@ -58,13 +93,36 @@ class StreamDecoder:
     def feed(self, data: bytes) -> list[dict]:
         """Decode ``data``; return the epochs that closed, in time order (an epoch that repeats or runs
         behind the last one returned is dropped, as the batch reader drops duplicates)."""
-        return self._decode(self.scanner.feed(data), final=False)
+        return record_rows(self.feed_record(data))
 
     def close(self) -> list[dict]:
         """End of stream: flush the epochs in progress."""
+        return record_rows(self.close_record())
+
+    def feed_record(self, data: bytes) -> EpochRecord | None:
+        """:meth:`feed`, the epochs as one record chunk (with ``time_acc_s`` and each epoch's byte offset)."""
+        return self._decode(self.scanner.feed(data), final=False)
+
+    def close_record(self) -> EpochRecord | None:
+        """:meth:`close`, as one record chunk."""
         return self._decode(self.scanner.close(), final=True)
 
-    def _decode(self, frames, final: bool) -> list[dict]:
+    def decode(self, data: bytes) -> list:
+        """:meth:`feed_record` as ``[(None, record)]`` (the one receiver of the stream), or ``[]``."""
+        record = self.feed_record(data)
+        return [] if record is None else [(None, record)]
+
+    def finish(self) -> list:
+        record = self.close_record()
+        return [] if record is None else [(None, record)]
+
+    @property
+    def n_damaged(self) -> int:
+        """Frames lost to damage so far: UBX checksum failures, truncated frames, frames pyubx2 refused."""
+        return int(self.scanner.stats.ubx_bad_checksum + self.scanner.stats.truncated + self.ubx_stats.parse_errors)
+
+    def _decode(self, frames, final: bool) -> EpochRecord | None:
+        self.offsets.feed(frames)
         decode_ubx(frames, self._ubx, self.ubx_stats)
         decode_nmea(frames, self._nmea, self.nmea_stats)
         for name, stats in (("ubx", self.ubx_stats), ("nmea", self.nmea_stats)):
@@ -97,7 +155,7 @@ class StreamDecoder:
         lead = max(marks)
         return min(t for t in marks if lead - t <= self.max_wait_ns)
 
-    def _release(self, horizon: int) -> list[dict]:
+    def _release(self, horizon: int) -> EpochRecord | None:
         parts = {}
         for name in ("ubx", "nmea"):
             rows = _joined(self._pending[name])
@@ -108,14 +166,21 @@ class StreamDecoder:
             parts[name] = {k: v[ready] for k, v in rows.items()}
             self._pending[name] = [] if ready.all() else [{k: v[~ready] for k, v in rows.items()}]
         if parts["ubx"]["gps_ns"].size + parts["nmea"]["gps_ns"].size == 0:
-            return []
-        merged, _ = strictly_increasing(merge_epochs(parts["ubx"], parts["nmea"]))
-        kept = []
-        for epoch in split_rows(merged):
-            if epoch["gps_ns"] > self._last_gps_ns:
-                kept.append(epoch)
-                self._last_gps_ns = epoch["gps_ns"]
-        return kept
+            return None
+        merged = merge_epochs(parts["ubx"], parts["nmea"])
+        tacc = np.full(merged["gps_ns"].size, np.nan)  # as the batch reader: every UBX epoch is among the merged
+        if parts["ubx"]["gps_ns"].size:
+            tacc[np.searchsorted(merged["gps_ns"], parts["ubx"]["gps_ns"])] = parts["ubx"]["time_acc_s"]
+        merged["time_acc_s"] = tacc
+        merged, _ = strictly_increasing(merged)
+        keep = merged["gps_ns"] > self._last_gps_ns  # sorted and unique: only a repeat of what was released goes
+        merged = {k: v[keep] for k, v in merged.items()}
+        if merged["gps_ns"].size == 0:
+            return None
+        self._last_gps_ns = int(merged["gps_ns"][-1])
+        offsets = self.offsets.of(merged["gps_ns"]) if "ubx" in self.protocols else None
+        self.offsets.forget_before(self._last_gps_ns)
+        return rows_record(merged, self.source, offsets)
 
 
 def _joined(parts: list[dict]) -> dict | None:
@@ -145,6 +210,21 @@ class GpsdJsonDecoder:
         for line in lines:
             self._line(line.strip(), out)
         return out
+
+    def feed_record(self, data: bytes) -> EpochRecord | None:
+        """:meth:`feed`, the epochs as one record chunk (no byte offsets: gpsd's reports are not the receiver's)."""
+        return dicts_record(self.feed(data), "<gpsd>")
+
+    def close_record(self) -> EpochRecord | None:
+        return dicts_record(self.close(), "<gpsd>")
+
+    def decode(self, data: bytes) -> list:
+        record = self.feed_record(data)
+        return [] if record is None else [(None, record)]
+
+    def finish(self) -> list:
+        record = self.close_record()
+        return [] if record is None else [(None, record)]
 
     def close(self) -> list[dict]:
         out: list[dict] = []
@@ -200,8 +280,3 @@ def _absent_epoch(gps_ns: int, leap_s: int) -> dict:
     return {"gps_ns": gps_ns, "fix_mode": 0, "time_valid": False, "n_sats": -1, "gdop": math.nan,
             "pdop": math.nan, "hdop": math.nan, "vdop": math.nan, "tdop": math.nan, "leap_s": leap_s,
             "leap_pending": 0, "qerr_s": math.nan, "clock_bias_s": math.nan, "clock_drift_s_per_s": math.nan}
-
-
-def decoder_for(source) -> StreamDecoder | GpsdJsonDecoder:
-    """The decoder a source's bytes need: gpsd JSON or raw NMEA/UBX."""
-    return GpsdJsonDecoder() if getattr(source, "kind", "raw") == "gpsd" else StreamDecoder()

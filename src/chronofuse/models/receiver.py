@@ -68,6 +68,7 @@ import numpy as np
 import pandas as pd
 
 from chronofuse.epochs import ReceiverEpochs
+from chronofuse.record import EpochRecord
 from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.models.environment import ReceiverEnvironment, receiver_environment
 from chronofuse.models.noise import gauss_markov
@@ -121,6 +122,11 @@ class ReceiverTruth:
             view = value.view()
             view.flags.writeable = False
             object.__setattr__(self, name, view)
+
+    def record(self, source: str = "simulate_receivers") -> EpochRecord:
+        """What the receivers report as the one epoch record (:meth:`ReceiverEpochs.to_record`, lead axes
+        (trials, receivers)); the truth stays here."""
+        return self.epochs.to_record(source)
 
     @property
     def t_s(self) -> np.ndarray:

@@ -1,5 +1,5 @@
-"""The monitor loop: sources -> live decoders -> per-receiver decisions -> cross-receiver decisions ->
-the durable log -> acknowledgements (and the live table).
+"""The monitor loop: sources -> live decoders (record chunks) -> per-receiver decisions (qualification and
+the detection pipeline) -> cross-receiver decisions -> the durable log -> acknowledgements (and the live table).
 
 Each pass drains the source events that arrived, decodes them per receiver, groups the epochs of all
 receivers by GPS time (an epoch is decided once every connected receiver has passed it, or after
@@ -12,8 +12,8 @@ from __future__ import annotations
 import time
 from collections import defaultdict
 
+from chronofuse.io.record_streams import decoder_for
 from chronofuse.io.sources import SourceGroup
-from chronofuse.io.sources_decode import decoder_for
 from chronofuse.monitor.decisions import MonitorSettings, ReceiverMonitor, decide_second
 from chronofuse.monitor.log import EpochLog
 
@@ -21,11 +21,15 @@ __all__ = ["Monitor"]
 
 
 def _utc_label(gps_ns: int, leap_s: int) -> str:
+    """The receiver's UTC label of an epoch in ISO 8601, to the millisecond, or to the nanosecond when the
+    epoch has a part of a millisecond (a gpsd TPV time written to the ns keeps its digits)."""
     import numpy as np
 
     from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 
-    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(gps_ns - leap_s * NS_PER_S)), unit="ms")) + "Z"
+    utc_ns = gps_ns - leap_s * NS_PER_S
+    unit = "ms" if utc_ns % 1_000_000 == 0 else "ns"
+    return str(np.datetime_as_string(gps_ns_to_datetime64(np.int64(utc_ns)), unit=unit)) + "Z"
 
 
 class Monitor:
@@ -43,6 +47,7 @@ class Monitor:
         self.hold_s = hold_s
         self.receivers = {s.name: ReceiverMonitor(s.name, settings) for s in self.sources}
         self.decoders = {s.name: decoder_for(s) for s in self.sources}
+        self._source_of = {s.name: s.name for s in self.sources}  # receiver -> its source (a product: many)
         self._pending: dict[int, list] = defaultdict(list)
         self._pending_since: dict[int, float] = {}
         self._previous_bias: dict[str, float] = {}
@@ -80,24 +85,43 @@ class Monitor:
         for ev in events:
             rx = self.receivers[ev.source]
             if ev.kind == "data":
-                for epoch in self.decoders[ev.source].feed(ev.data):
-                    self._add(rx.decide(epoch))
+                self._take(ev.source, self.decoders[ev.source].decode(ev.data))
             else:
                 if ev.kind == "up":
-                    rx.connected = True
+                    for each in self._of_source(ev.source):
+                        each.connected = True
                 elif ev.kind in ("down", "end"):
                     if rx.connected and ev.kind == "down":
                         rx.outages += 1
-                    rx.connected = False
+                    for each in self._of_source(ev.source):
+                        each.connected = False
                     if ev.kind == "end":
-                        for epoch in self.decoders[ev.source].close():
-                            self._add(rx.decide(epoch))
+                        self._take(ev.source, self.decoders[ev.source].finish())
+                        for each in self._of_source(ev.source):
+                            for record in each.close():
+                                self._add(record)
                         self._ended.add(ev.source)
                 detail = ev.data if isinstance(ev.data, str) else ""
                 conn_events.append((ev.source, time.time(), ev.kind, detail))
                 if self.on_event is not None:
                     self.on_event(ev.source, ev.kind, detail)
         self._flush(final=False, events=conn_events)
+
+    def _of_source(self, source: str) -> list[ReceiverMonitor]:
+        return [rx for name, rx in self.receivers.items() if self._source_of[name] == source]
+
+    def _take(self, source: str, parts: list) -> None:
+        """Decoded record chunks of ``source``, each for its receiver (``key`` None: the source's own; else a
+        station of a replayed clock product, created when first met)."""
+        for key, record in parts:
+            name = source if key is None else f"{source}/{key}"
+            rx = self.receivers.get(name)
+            if rx is None:
+                rx = self.receivers[name] = ReceiverMonitor(name, self.settings)
+                rx.connected = self.receivers[source].connected
+                self._source_of[name] = source
+            for row in rx.take(record):
+                self._add(row)
 
     def _add(self, record: dict) -> None:
         record["utc"] = _utc_label(record["gps_ns"], record["leap_s"])
@@ -106,8 +130,8 @@ class Monitor:
 
     def _flush(self, final: bool, events=()) -> None:
         now = time.monotonic()
-        live = [rx for rx in self.receivers.values() if rx.connected and rx.name not in self._ended]
-        horizon = min((rx._last_gps_ns for rx in live if rx._last_gps_ns is not None), default=None)
+        live = [rx for name, rx in self.receivers.items() if rx.connected and self._source_of[name] not in self._ended]
+        horizon = min((rx.horizon_ns for rx in live if rx.horizon_ns is not None), default=None)
         ready = []
         for gps_ns in sorted(self._pending):
             old = now - self._pending_since[gps_ns] >= self.hold_s

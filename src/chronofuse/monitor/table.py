@@ -27,7 +27,7 @@ def receiver_table(monitor) -> Table:
     for rx in monitor.receivers.values():
         r = rx.last or {}
         flags = []
-        if r.get("alarm"):
+        if r.get("alarm") or r.get("state") == "alarm":
             flags.append("[red]ALARM[/red]")
         if r.get("dissent"):
             flags.append("[yellow]UTC/leap dissent[/yellow]")

@@ -27,6 +27,7 @@ import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from pydantic import Field
 
 from chronofuse.analysis.stability import edf as edf_mod
 from chronofuse.analysis.stability import edf_tables
@@ -37,9 +38,11 @@ from chronofuse.analysis.stability.noise_id import identify_noise_methods
 from chronofuse.analysis.stability.registry import EDF_FAMILIES, GAP_POLICIES, STATISTICS, StatisticSpec
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.analysis.stability.taus import taus_to_factors
+from chronofuse.registry import Config, Entry, Registry
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM"]
+__all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM",
+           "STATISTIC_REGISTRY", "Statistic", "StatisticConfig", "statistic_entry", "statistic_spec"]
 
 #: Records at least this long have their kernel and their noise identification run on two threads: at
 #: 1e7 points OADEV's kernel takes 0.15 s and the identification 0.08 s; below ~1e6 points a thread's
@@ -187,12 +190,10 @@ def compute(
     if statistic in STATISTICS:
         spec = STATISTICS[statistic]
     else:  # a plugin's statistic, or an unknown name (refused, listing every name)
-        from chronofuse.analysis.stability.statistic_registry import statistic_spec
-
         spec = statistic_spec(statistic)
     if spec.combine is not None:  # a statistic made of others (TheoH): each part runs this pipeline
         check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
-        return spec.combine(_phase(x_s)[0], rate_hz, tau_s, ci=ci, bias_correction=bias_correction,
+        return spec.combine(compute, _phase(x_s)[0], rate_hz, tau_s, ci=ci, bias_correction=bias_correction,
                             gap_rule=gap_rule)
     x, n_missing = _phase(x_s)
     check_scalar(rate_hz, "rate_hz", min_val=0, include_min=False)
@@ -244,3 +245,58 @@ def compute(
         skipped=int(skipped),
         gap_rule=rule,
     )
+
+
+# The family's registry (:mod:`chronofuse.analysis.stability.statistic_registry` re-exports it): here, beside
+# compute, because a registered statistic is computed by it and the engine runs a plugin's statistic by name.
+class StatisticConfig(Config):
+    """What :func:`~chronofuse.analysis.stability.engine.compute` lets a caller choose for any statistic."""
+
+    ci: float = Field(0.683, gt=0.0, lt=1.0, description="confidence of the interval (dimensionless)")
+    bias_correction: bool = Field(True, description="apply the statistic's bias correction, as Stable32 does (bool)")
+
+
+class Statistic:
+    """One statistic with its settings: ``stat(x_s, rate_hz, tau_s)`` is ``compute(name, x_s, rate_hz, tau_s,
+    ci=..., bias_correction=...)`` (a :class:`~chronofuse.analysis.stability.result.Deviation`)."""
+
+    def __init__(self, name: str, spec: StatisticSpec, *, ci: float = 0.683, bias_correction: bool = True):
+        self.name = name
+        self.spec = spec
+        self.ci = ci
+        self.bias_correction = bias_correction
+
+    def __call__(self, x_s, rate_hz: float, tau_s):
+        return compute(self.name, x_s, rate_hz, tau_s, ci=self.ci, bias_correction=self.bias_correction)
+
+    def __repr__(self) -> str:
+        return f"Statistic({self.name!r}, ci={self.ci}, bias_correction={self.bias_correction})"
+
+
+def _build(config: StatisticConfig, context) -> Statistic:
+    spec = context["spec"]
+    return Statistic(spec.name, spec, **config.settings())
+
+
+def statistic_entry(spec: StatisticSpec, summary: str = "") -> Entry:
+    """The registry entry of ``spec`` (what a plugin's entry point names)."""
+    if not isinstance(spec, StatisticSpec):
+        raise TypeError(f"spec == {spec!r}, must be a StatisticSpec")
+    return Entry(spec, StatisticConfig, summary, lambda config, context: _build(config, {"spec": spec}))
+
+
+STATISTIC_REGISTRY = Registry("statistics", builtins=lambda: {name: statistic_entry(spec)
+                                                              for name, spec in STATISTICS.items()})
+
+
+def statistic_spec(name: str) -> StatisticSpec:
+    """The :class:`StatisticSpec` called ``name``: the engine's table first, then the plugins."""
+    if name in STATISTICS:
+        return STATISTICS[name]
+    try:
+        entry = STATISTIC_REGISTRY.entry(name)
+    except ValueError:
+        raise ValueError(f"statistic == {name!r}, must be one of {sorted(STATISTIC_REGISTRY.names())}") from None
+    if not isinstance(entry.target, StatisticSpec):
+        raise TypeError(f"statistic {name!r}: its entry's target is {entry.target!r}, must be a StatisticSpec")
+    return entry.target

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from chronofuse.analysis.stability.convert import fill_gaps
+from chronofuse.analysis.stability.factors import averaging_factors
 from chronofuse.analysis.stability.kernels_allan import max_m_oadev
 from chronofuse.analysis.stability.kernels_theobr import max_m_theobr, theoh_split_s
 from chronofuse.analysis.stability.result import Deviation
@@ -22,8 +23,6 @@ __all__ = ["theoh", "theoh_grid"]
 def theoh_grid(kind: str, n_points: int, rate_hz: float) -> np.ndarray:
     """TheoH's averaging times (s): the ``kind`` grid's ``m tau0`` below ``k``, then ``0.75 m tau0`` (m even)
     from ``k`` on, shape (k,)."""
-    from chronofuse.analysis.stability.taus import averaging_factors
-
     tau0 = 1.0 / rate_hz
     k = theoh_split_s(n_points, tau0)
     low = averaging_factors(max_m_oadev(n_points), kind) * tau0
@@ -32,11 +31,11 @@ def theoh_grid(kind: str, n_points: int, rate_hz: float) -> np.ndarray:
     return np.concatenate((low[low < k], high[high >= k]))
 
 
-def theoh(x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True,
+def theoh(compute, x_s, rate_hz: float, tau_s, *, ci: float = 0.683, bias_correction: bool = True,
           gap_rule: str | None = None) -> Deviation:
-    """TheoH at ``tau_s`` (k,): OADEV where ``tau < k``, TheoBR where ``tau >= k`` (``k`` = 10 % of the record)."""
-    from chronofuse.analysis.stability.engine import compute
-
+    """TheoH at ``tau_s`` (k,): OADEV where ``tau < k``, TheoBR where ``tau >= k`` (``k`` = 10 % of the record),
+    each part by ``compute`` (the engine's :func:`~chronofuse.analysis.stability.engine.compute`, which passes
+    itself: the engine imports the statistics' table, so the table's members may not import the engine)."""
     x = np.asarray(x_s, dtype=float)
     filled = 0
     if np.isnan(x).any():

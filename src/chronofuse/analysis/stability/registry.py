@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from chronofuse.analysis.stability.bias import htotdev_bias, totdev_bias
+from chronofuse.analysis.stability.hybrid import theoh, theoh_grid
 from chronofuse.analysis.stability.kernels_allan import (
     adev_raw,
     hdev_raw,
@@ -53,16 +54,6 @@ EDF_FAMILIES = ("greenhall", "totdev", "mtotdev", "htotdev", "theo1", "none")
 FILL = ("fill",)
 
 
-def _theoh(*args, **kwargs):
-    from chronofuse.analysis.stability.hybrid import theoh  # it calls the engine, which imports this module
-
-    return theoh(*args, **kwargs)
-
-
-def _theoh_grid(*args):
-    from chronofuse.analysis.stability.hybrid import theoh_grid
-
-    return theoh_grid(*args)
 
 Kernel = Callable[[np.ndarray, np.ndarray, float], tuple[np.ndarray, np.ndarray]]
 BiasFunction = Callable[[np.ndarray, np.ndarray, int], np.ndarray]
@@ -101,8 +92,9 @@ class StatisticSpec:
         The statistic averages overlapping terms (all but ADEV and HDEV): its B1 noise identification
         divides by the overlapping Allan variance.
     combine : callable or None
-        For a statistic made of others (TheoH): ``combine(x_s, rate_hz, tau_s, ci=, bias_correction=,
-        gap_rule=) -> Deviation``, which ``compute`` calls instead of its own pipeline.
+        For a statistic made of others (TheoH): ``combine(compute, x_s, rate_hz, tau_s, ci=,
+        bias_correction=, gap_rule=) -> Deviation``, which ``compute`` calls (passing itself) instead of its
+        own pipeline.
     grid : callable or None
         ``grid(kind, n_points, rate_hz) -> tau_s`` for a statistic whose averaging times are not
         ``tau_factor m / rate_hz`` on one grid of factors (TheoH).
@@ -160,7 +152,7 @@ STATISTICS: dict[str, StatisticSpec] = {
         StatisticSpec("theobr", theobr_raw, max_m_theobr, "fill", tau_factor=0.75, m_step=2, edf_family="theo1",
                       gap_rule="fill", gap_rules=FILL),
         StatisticSpec("theoh", theobr_raw, max_m_theobr, "fill", edf_family="theo1", gap_rule="fill", gap_rules=FILL,
-                      combine=_theoh, grid=_theoh_grid),
+                      combine=theoh, grid=theoh_grid),
         StatisticSpec("tie_rms", tie_rms_raw, max_m_tie_rms, "skip", edf_family="none"),
         StatisticSpec("mtie", mtie_raw, max_m_mtie, "skip", edf_family="none", gap_rule="window", gap_rules=("window",)),
     )
