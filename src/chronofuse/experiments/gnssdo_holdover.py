@@ -4,7 +4,9 @@ Every trial: the oscillator runs free-running truth for ``locked_s + max(horizon
 receivers give the fused reference (the equal-weight mean of equal receivers) for the first
 ``locked_s`` seconds, none after. Two loops close on the same data:
 
-* ours, the default controller as :func:`~chronofuse.experiments.gnssdo.make_controller` designs it;
+* ours, the default controller as ``chronofuse gnssdo`` designs it: fitted once on a calibration record
+  (:func:`chronofuse.experiments.gnssdo_design.fitted_controller`; ``design="datasheet"``: from the
+  presets' figures, :func:`~chronofuse.experiments.gnssdo.make_controller`);
 * the causal optimal predictor: the clairvoyant servo (:func:`chronofuse.discipline.bound.clairvoyant_servo`,
   the true model with flicker FM as its Gauss-Markov bank) on the same locked data; in holdover its
   update is skipped and its unconstrained steering follows its own prediction, so its time error after
@@ -54,7 +56,7 @@ def _ci(t) -> list | None:
 
 def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_400.0), trials: int = 200, *,
                    oscillator: str = "ocxo", receivers: int = 2, controller: str = DEFAULT_CONTROLLER,
-                   seed: int = 3, chunk: int = 25, progress: Progress = lambda s: None) -> dict:
+                   seed: int = 3, chunk: int = 25, design: str = "fit", progress: Progress = lambda s: None) -> dict:
     """Run the study (module docstring); returns horizons, each figure in ns with its interval, the ratio."""
     check_scalar(locked_s, "locked_s", min_val=3600, integer=True)
     check_scalar(trials, "trials", min_val=2, integer=True)
@@ -64,6 +66,12 @@ def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_40
     dac = Dac.for_oscillator(osc)
     env = scenario_environment("open-sky", float(locked_s))
     steps = int(locked_s + horizons.max() + 1)
+    if design == "fit":
+        from chronofuse.experiments.gnssdo_design import fitted_controller
+
+        servo, how = fitted_controller(controller, osc, env, receivers, dac, root_seed(seed))
+    else:
+        servo, how = make_controller(controller, osc, env, receivers, dac), "datasheet"
     ours_err, best_err = [], []
     for start in range(0, trials, chunk):
         n = min(chunk, trials - start)
@@ -74,7 +82,7 @@ def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_40
         ref = np.full((n, steps), np.nan)
         ref[:, :locked_s] = np.nanmean(rx.pps_error_s + rx.epochs.qerr_s, axis=1)
         del rx
-        ours = close_loop(make_controller(controller, osc, env, receivers, dac), free, ref)
+        ours = close_loop(servo, free, ref)
         ours_err.append(holdover_error(ours.phase_s, locked_s, horizons))
         del ours
         best = close_loop(clairvoyant_servo(osc, env, receivers, dac), free, ref)
@@ -95,7 +103,8 @@ def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_40
                      "clairvoyant_ns": b[0] * 1e9, "clairvoyant_ci_ns": _ci(tuple(v * 1e9 for v in b)),
                      "clairvoyant_predicted_ns": float(predicted[locked_s + int(h)]) * 1e9,
                      "floor_ns": float(floor[j]) * 1e9, "ratio": r[0], "ratio_ci": _ci(r)})
-    return {"oscillator": oscillator, "receivers": receivers, "controller": controller, "locked_s": int(locked_s),
+    return {"oscillator": oscillator, "receivers": receivers, "controller": controller, "design": how,
+            "locked_s": int(locked_s),
             "trials": int(trials), "seed": seed, "rows": rows}
 
 
@@ -113,7 +122,8 @@ def write_study(study: dict, out_dir) -> list[str]:
         return "-" if v is None else f"{v[0]:.4g}..{v[1]:.4g}"
 
     lines = [f"# Holdover after {study['locked_s'] / 3600:g} h locked ({study['oscillator']}, {study['receivers']} "
-             f"receivers, {study['controller']}, {study['trials']} trials, seed {study['seed']})", "",
+             f"receivers, {study['controller']} designed by {study['design']}, {study['trials']} trials, "
+             f"seed {study['seed']})", "",
              "rms over trials, 95 % Monte Carlo intervals; written by "
              "`python -m chronofuse.experiments.gnssdo_holdover`.", "",
              "| horizon | ours (ns) | 95 % CI | causal optimal predictor (ns) | 95 % CI | its covariance (ns) | "
