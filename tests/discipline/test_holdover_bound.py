@@ -19,8 +19,8 @@ def test_the_analytic_floor_of_the_ocxo_preset_at_a_day_is_about_4_us():
 
 @pytest.mark.slow
 def test_after_a_day_locked_the_datasheet_designed_24_h_holdover_is_within_110_percent_of_the_causal_optimal_predictor():
-    # the data-sheet design; the design fitted on a calibration record is not within 1.1x (measured 1.25x,
-    # 16 trials): from a day of GNSS data the fit takes the reference's wander for random-walk FM
+    # the data-sheet design: 16 trials are not enough for the fitted one, whose ratio spreads with its one
+    # calibration record (1.25x on this seed; 0.962 [0.937, 0.988] over 200 trials, docs/gnssdo/holdover.md)
     s = holdover_study(locked_s=86_400, horizons_s=(86_400.0,), trials=16, chunk=16, seed=40, design="datasheet")
     row = s["rows"][0]
     assert row["ratio_ci"][1] <= 1.10
