@@ -6,6 +6,12 @@ STAMP := $(VENV)/.installed
 
 .PHONY: demo test test-fast bench clean debian-packages
 
+# The real parts the tests start (Debian's packages): RTKLIB's rnx2rtkp (an independent positioning
+# solution), chronyd and chronyc, gpsd and gpsfake, headless Chromium and its driver. Installed when one is
+# missing (CI runs as root on a clean machine).
+DEBIAN_PACKAGES := rtklib chrony gpsd gpsd-clients chromium chromium-driver
+DEBIAN_TOOLS := rnx2rtkp chronyd chronyc gpsd gpsfake chromium chromedriver
+
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
@@ -15,16 +21,17 @@ $(STAMP): pyproject.toml constraints.txt
 demo: $(STAMP)
 	$(BIN)/chronofuse run --out out/demo
 
-# Debian packages the tests run (RTKLIB's rnx2rtkp as an independent positioning solution); CI runs as root.
-DEBIAN_PACKAGES := rtklib
-
 debian-packages:
-	@command -v rnx2rtkp >/dev/null || (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(DEBIAN_PACKAGES))
+	@for tool in $(DEBIAN_TOOLS); do PATH="$$PATH:/usr/sbin" command -v $$tool >/dev/null || missing=1; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages: $(DEBIAN_PACKAGES)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(DEBIAN_PACKAGES); \
+	fi
 
 test: $(STAMP) debian-packages
 	$(BIN)/python -m pytest -n 2 --durations=15
 
-test-fast: $(STAMP)
+test-fast: $(STAMP) debian-packages
 	$(BIN)/python -m pytest -n 2 -m "not slow"
 
 bench: $(STAMP)

@@ -149,7 +149,29 @@ def test_tim_tp_qerr_is_paired_with_the_pulse_it_announces_not_the_epoch_it_arri
     i = int(np.searchsorted(capture.rows["gps_ns"], pulse_gps_ns))
     assert capture.rows["gps_ns"][i] == pulse_gps_ns
     assert capture.rows["qerr_s"][i] == pytest.approx(first_tp.qErr * 1e-12)
-    assert np.isfinite(capture.rows["qerr_s"]).sum() == 152
+    # 152 TIM-TP: 150 announce a pulse of a logged epoch; the first announces the pulse before the
+    # first navigation epoch, the last the pulse after the recording ends: counted, not made epochs
+    assert capture.ubx.decoded["TIM-TP"] == 152
+    assert np.isfinite(capture.rows["qerr_s"]).sum() == 150
+    assert capture.ubx.pulses_without_epoch == 2
+    assert (capture.rows["fix_mode"] >= 2).all()  # no epoch without a fix is made of a lone pulse
+
+
+def test_nav_dop_invalid_99_99_is_missing_not_a_dilution(receivers):
+    from chronofuse.io.frames import scan_bytes as scan
+    from pyubx2 import UBXReader
+
+    # the M8T timing receiver is in fixed-position mode: NAV-DOP sends 99.99 for pDOP, hDOP and vDOP
+    log = receivers / "gpsd" / "u-blox-m8t-time.log"
+    frames, _ = scan(log.read_bytes())
+    sent = [UBXReader.parse(f.raw) for f in frames if f.name == "NAV-DOP"]
+    assert sent and all(m.hDOP == 99.99 and m.pDOP == 99.99 and m.vDOP == 99.99 for m in sent)
+    capture = read_capture(log)
+    for name in ("pdop", "hdop", "vdop"):
+        assert np.isnan(capture.rows[name]).all(), name
+    # its gDOP and tDOP are real values and are kept, equal to what the receiver sent
+    assert np.isfinite(capture.rows["gdop"]).all() and capture.rows["gdop"].max() < 99.99
+    assert sorted(set(np.round(capture.rows["tdop"], 2))) == sorted({round(m.tDOP, 2) for m in sent})
 
 
 def test_the_leap_count_comes_from_the_receiver_not_the_table(receivers):

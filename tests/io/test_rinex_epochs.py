@@ -62,3 +62,53 @@ def test_a_rinex_3_04_clock_product_of_a_time_laboratory_is_read():
     capture = read_capture(path, receiver="WAB200CHE")
     assert "WAB200CHE" in capture.receivers
     assert np.isfinite(capture.rows["clock_bias_s"]).sum() > 100
+
+
+def _clock_file(tmp_path, version: str, leap_lines: list[str], year: int = 2010) -> "Path":
+    head = [f"{version:>9}           C                                       RINEX VERSION / TYPE",
+            "   GPS                                                      TIME SYSTEM ID"]
+    head += leap_lines
+    head += ["                                                            END OF HEADER"]
+    body = [f"AR ABCD {year} 06 01 00 00  0.000000  1    1.234567890123E-06"]
+    path = tmp_path / f"v{version}.clk"
+    path.write_text("\n".join(head + body) + "\n")
+    return path
+
+
+def test_a_rinex_clock_3_04_leap_seconds_record_is_tai_minus_utc(tmp_path):
+    import warnings as _w
+
+    from chronofuse.io.rinex_epochs import read_rinex_clock_epochs
+
+    # 2010: TAI - UTC 34 s, GPS - UTC 15 s. Version 3.04 defines LEAP SECONDS as TAI - UTC.
+    path = _clock_file(tmp_path, "3.04", ["    34                                                      LEAP SECONDS"])
+    with _w.catch_warnings():
+        _w.simplefilter("error")  # it agrees with the table once read as the format defines it
+        _, epochs, _ = read_rinex_clock_epochs(path)
+    assert int(epochs.leap_s[0, 0, 0]) == 15
+    # LEAP SECONDS GNSS (3.04) is GNSS - UTC as given, and wins
+    path = _clock_file(tmp_path, "3.04", ["    34                                                      LEAP SECONDS",
+                                          "    15                                                      LEAP SECONDS GNSS"])
+    assert int(read_rinex_clock_epochs(path)[1].leap_s[0, 0, 0]) == 15
+
+
+def test_a_rinex_clock_3_00_leap_seconds_record_is_gps_minus_utc_and_a_misfit_is_warned(tmp_path):
+    import pytest as _pytest
+
+    from chronofuse.io.rinex_epochs import read_rinex_clock_epochs
+
+    path = _clock_file(tmp_path, "3.00", ["    15                                                      LEAP SECONDS"])
+    assert int(read_rinex_clock_epochs(path)[1].leap_s[0, 0, 0]) == 15
+    path = _clock_file(tmp_path, "3.00", ["    34                                                      LEAP SECONDS"])
+    with _pytest.warns(UserWarning, match="GPS - UTC = 34 s"):
+        _, epochs, _ = read_rinex_clock_epochs(path)
+    assert int(epochs.leap_s[0, 0, 0]) == 34  # read as the format defines it, and said
+
+
+def test_the_real_clock_products_leap_counts_are_their_gps_minus_utc(receivers):
+    from chronofuse.io.rinex_epochs import clock_header_leap
+
+    rinex = receivers / "rinex"
+    assert clock_header_leap(rinex / "rtklib" / "igs15904.clk") == 15  # 3.00, 2010
+    assert clock_header_leap(rinex / "gnss_lib_py" / "COD0MGXFIN_20211180000_01D_30S_CLK.CLK") == 18  # 3.04 GNSS
+    assert clock_header_leap(rinex / "gnss_lib_py" / "COD0OPSRAP_20230730000_01D_30S_CLK.CLK") == 18  # 2.00, 2023

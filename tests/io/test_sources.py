@@ -217,3 +217,28 @@ def test_when_ubx_falls_silent_the_nmea_epochs_keep_coming_after_the_wait(receiv
     assert batch["gps_ns"][-1] - fed[-1]["gps_ns"] <= 4 * 10**9 and len(closed) <= 5
     late = [e for e in fed if e["gps_ns"] > batch["gps_ns"][-1] - 100 * 10**9]
     assert late and all(np.isnan(e["clock_bias_s"]) for e in late)
+
+
+UBX_ONLY = ("gpsd/navisys-gr701w.log", "gpsd/navisys-gr8013.log", "gpsd/u-blox-m8t-time.log", "gpsd/ublox-8-time.log",
+            "gpsd/ublox-aek-4t.log", "gpsd/ublox-f9p-rtcm.log", "gpsd/ublox-glo.log", "gpsd/ublox-lea-4t.log",
+            "gpsd/ublox-lea-m8f.log", "gpsd/ublox-neo-f9v.log", "gpsd/ublox-neo-m8l.log", "gpsd/ublox-neo-m8n.log",
+            "gpsd/ublox-neo-m8p.log", "gpsd/ublox-neo-m8t-s.log", "gpsd/ublox-neo-m8t.log", "gpsd/ublox-neo-m8u-hnr.log",
+            "gpsd/ublox-neo-m8u.log", "gpsd/ublox-x20p.log", "gpsd/ublox-zed-f9p-hp.log", "gpsd/ublox-zed-f9p-rtk.log",
+            "gpsd/ublox-zed-f9p-sfrbx.log", "gpsd/ublox-zed-f9t-rtcm3.log", "ubx/mon_span.ubx", "ubx/pygpsdata-MIXED.log",
+            "ubx/pygpsdata-NAV-ZED-X20P.log", "ubx/pygpsdata-RXMRAWX.log", "ubx/pygpsdata_testobsnavdata.log")
+
+
+@pytest.mark.parametrize("name", UBX_ONLY)
+def test_the_scalar_live_path_of_a_ubx_only_stream_gives_the_batch_readers_epochs(receivers, name):
+    # UBX alone takes the builder's scalar twin (pop_complete_records); the batch reader its arrays
+    data = (receivers / name).read_bytes()
+    batch = read_capture(receivers / name)
+    assert batch.protocols == ("ubx",)
+    for seed in range(2):
+        decoder = StreamDecoder()
+        fed, closed = _live(decoder, data, np.random.default_rng(seed))
+        live = fed + closed
+        for field in ("gps_ns",) + tuple(f for f in batch.rows if f in live[0]):
+            got = np.array([e[field] for e in live])
+            np.testing.assert_array_equal(got, batch.rows[field], err_msg=f"{name} seed {seed}: {field}")
+        assert decoder.ubx_stats.pulses_without_epoch == batch.ubx.pulses_without_epoch

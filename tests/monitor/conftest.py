@@ -12,11 +12,19 @@ WEEK = 2300  # 2024-02-04
 
 
 def ubx_stream(clock_bias_s: np.ndarray, *, week: int = WEEK, start_tow_s: int = 100_000, leap_s: int = 18,
-               gdop: float = 2.1, fix_type: int = 3) -> bytes:
+               gdop: float = 2.1, fix_type: int = 3, eoe: bool = False) -> bytes:
     """One epoch per second: NAV-TIMEGPS (week, leap), NAV-PVT (fix, UTC), NAV-DOP, NAV-CLOCK (``clkB`` =
-    the given bias, in whole ns as the receiver sends it)."""
-    out = []
+    the given bias, in whole ns as the receiver sends it), and with ``eoe`` the NAV-EOE that ends it."""
+    return b"".join(ubx_epochs(clock_bias_s, week=week, start_tow_s=start_tow_s, leap_s=leap_s, gdop=gdop,
+                               fix_type=fix_type, eoe=eoe))
+
+
+def ubx_epochs(clock_bias_s, *, week: int = WEEK, start_tow_s: int = 100_000, leap_s: int = 18, gdop: float = 2.1,
+               fix_type: int = 3, eoe: bool = False) -> list[bytes]:
+    """:func:`ubx_stream`, one bytes object per epoch."""
+    epochs = []
     for k, bias in enumerate(clock_bias_s):
+        out = []
         tow_s = start_tow_s + k
         itow = tow_s * 1000
         utc = np.datetime64("1980-01-06T00:00:00", "s") + np.timedelta64(week * 604800 + tow_s - leap_s, "s")
@@ -31,7 +39,10 @@ def ubx_stream(clock_bias_s: np.ndarray, *, week: int = WEEK, start_tow_s: int =
                               nDOP=0.6, eDOP=0.6).serialize())
         out.append(UBXMessage("NAV", "NAV-CLOCK", GET, iTOW=itow, clkB=int(round(bias * 1e9)), clkD=0, tAcc=10,
                               fAcc=100).serialize())
-    return b"".join(out)
+        if eoe:
+            out.append(UBXMessage("NAV", "NAV-EOE", GET, iTOW=itow).serialize())
+        epochs.append(b"".join(out))
+    return epochs
 
 
 def _io_conftest():

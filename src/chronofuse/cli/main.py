@@ -28,6 +28,7 @@ COMMANDS: dict[str, tuple[str, ...]] = {
     "swarm": ("swarm",),
     "inspect": ("inspect",),
     "monitor": ("monitor",),
+    "log": ("log",),
     "validate": ("validate",),
     "reproduce": ("reproduce", "gnssdo", "position", "swarm"),
 }

@@ -1,46 +1,48 @@
-"""``chronofuse monitor SOURCE ...``: watch receivers live, log every epoch durably, report a session."""
+"""``chronofuse monitor SOURCE ...``: watch receivers live, log every epoch durably, serve a dashboard and
+metrics, fire alert hooks, feed chronyd, report a session.
+
+Output streams: the live table and the event lines go to stderr (the table only when stderr is a
+terminal, drawn without capturing stdout); ``--json-lines`` writes each committed record to stdout,
+``--json-lines-file`` to a file, with or without the table; ``--json`` one summary at the end.
+"""
 
 from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import typer
-from rich.live import Live
 
 from chronofuse.cli.common import err_console, fail, print_json, user_errors
-from chronofuse.io.inspect import read_capture
-from chronofuse.io.sources import FileSource, parse_source
-from chronofuse.monitor.decisions import MonitorSettings
-from chronofuse.monitor.engine import Monitor
-from chronofuse.monitor.log import EpochLog
-from chronofuse.monitor.table import receiver_table
-from chronofuse.timescale import NS_PER_S
 
 
 def register(app: typer.Typer) -> None:
     app.command("monitor")(monitor)
 
 
-def _replay_source(path: Path, speed: float, index: int) -> FileSource:
-    """A recording replayed at ``speed`` x its own pace (its bytes spread over its time span / speed)."""
-    capture = read_capture(path)
-    span_s = (capture.rows["gps_ns"][-1] - capture.rows["gps_ns"][0]) / NS_PER_S if capture.n_epochs > 1 else 0
-    rate = path.stat().st_size / span_s * speed if span_s > 0 else None
-    return FileSource(path, name=f"{path.name}#{index}", rate_bytes_s=rate, chunk=4096)
+def _replay_source(path: Path, speed: float, index: int, start_at):
+    """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
+    from chronofuse.io.replay import ReplaySource
+
+    if not path.is_file():
+        fail(f"{path}: no such file")
+    return ReplaySource(path, name=f"{path.name}#{index}", speed=speed, start_at=start_at)
 
 
-def _line(record: dict) -> str:
-    doc = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in record.items()}
-    return json.dumps(doc, separators=(",", ":"))
+def _timeout(value: float | None, name: str) -> float | None:
+    if value is None or math.isinf(value):
+        return None
+    if value < 0:
+        fail(f"{name} {value}: must be >= 0 s (or inf)")
+    return value
 
 
 def monitor(
     sources: list[str] = typer.Argument(None, help="serial:/dev/ttyUSB0@9600, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file."),
-    db: Path | None = typer.Option(None, "--db", help="Append every epoch to this SQLite log (WAL)."),
-    json_lines: bool = typer.Option(False, "--json-lines", help="Print each epoch as a JSON line once it is committed."),
+    db: Path | None = typer.Option(None, "--db", help="Append every epoch to this SQLite log (WAL); one row per receiver and epoch."),
+    json_lines: bool = typer.Option(False, "--json-lines", help="Print each epoch on stdout as a JSON line once it is committed."),
+    json_lines_file: Path | None = typer.Option(None, "--json-lines-file", help="Append each committed epoch as a JSON line to this file."),
     replay: list[Path] = typer.Option(None, "--replay", help="Replay a recording as a receiver (repeatable)."),
     speed: float = typer.Option(1.0, "--speed", help="Replay pace, x real time."),
     duration: float | None = typer.Option(None, "--duration", help="Stop after this many seconds."),
@@ -55,9 +57,18 @@ def monitor(
     sigma_rho: float | None = typer.Option(None, "--sigma-rho", help="Mean pseudorange noise (m)."),
     train: float | None = typer.Option(None, "--train", help="Fit each receiver's noise model on its first SECONDS of clock bias instead (as detect --train)."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
+    stale_s: float = typer.Option(5.0, "--stale-s", help="A receiver silent for longer than this (s) is stale: not usable, an event."),
+    connect_timeout_s: float = typer.Option(0.0, "--connect-timeout-s", help="Retry a source that cannot be opened at the start for this long (s; inf: for ever); then exit 2 naming it. 0: the first failure."),
+    reconnect_timeout_s: float = typer.Option(math.inf, "--reconnect-timeout-s", help="Give up (exit 2) on a source down for longer than this (s); default: retry for ever, backoff 0.1 s doubling to 5 s."),
+    http: str | None = typer.Option(None, "--http", help="Serve the dashboard, /api/status and /metrics at HOST:PORT (HOST defaults to 127.0.0.1)."),
+    on_alarm: str | None = typer.Option(None, "--on-alarm", help="Run this shell command once per alarm event (event JSON on stdin, CHRONOFUSE_* variables)."),
+    webhook: str | None = typer.Option(None, "--webhook", help="POST each alarm event as JSON to this URL."),
+    chrony_sock: Path | None = typer.Option(None, "--chrony-sock", help="Feed integrity-gated samples to chronyd's 'refclock SOCK' at this path."),
+    no_table: bool = typer.Option(False, "--no-table", help="No live table on stderr, even on a terminal (event lines only)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON summary document on stdout at the end."),
 ) -> None:
-    """Live table per receiver (fix, satellites, GDOP, usable, UTC, leap, clock bias/drift, qErr, alarms)."""
+    """Live table per receiver (fix, satellites, GDOP, usable and why not, UTC, leap, clock bias/drift, qErr,
+    alarms, age), events on stderr, the log, a web dashboard, metrics, alert hooks and a chrony feed."""
     if report is not None:
         _report(report, out, json_out)
         return
@@ -65,39 +76,72 @@ def monitor(
         fail("--json and --json-lines both want stdout: choose one")
     if speed <= 0:
         fail(f"--speed {speed}: must be > 0")
+    if not stale_s > 0:
+        fail(f"--stale-s {stale_s}: must be > 0 s")
+    connect = _timeout(connect_timeout_s, "--connect-timeout-s")
+    reconnect = _timeout(reconnect_timeout_s, "--reconnect-timeout-s")
     with user_errors():
+        from chronofuse.io.sources import parse_source
+
         chosen = [parse_source(s) for s in (sources or [])]
-        chosen += [_replay_source(p, speed, i) for i, p in enumerate(replay or [])]
+        for source in chosen:
+            path = getattr(source, "path", None)
+            if path is not None and not path.exists():
+                fail(f"{path}: no such file (a source is serial:PORT, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file)")
+        from chronofuse.io.replay import SharedStart
+
+        start_at = SharedStart()  # the replays' first epochs together (GPS-locked receivers are)
+        chosen += [_replay_source(p, speed, i, start_at) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
         if train is not None and train <= 0:
             fail(f"--train {train:g}: must be > 0 seconds")
+        names = [s.name for s in chosen]
+        if len(set(names)) != len(names):
+            fail(f"two sources share the name {next(n for n in names if names.count(n) > 1)!r}")
+        from chronofuse.monitor.decisions import MonitorSettings
+        from chronofuse.monitor.log import EpochLog
+        from chronofuse.monitor.web import parse_address
+
+        address = parse_address(http) if http is not None else None
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
                                    jump_s=jump_ns * 1e-9, train_s=train, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho)
         log = EpochLog(db) if db is not None else None
-
-    def ack(records: list[dict]) -> None:
-        if json_lines:
-            sys.stdout.write("".join(_line(r) + "\n" for r in records))
-            sys.stdout.flush()
-
-    mon = Monitor(chosen, settings, log=log, on_ack=ack)
-    show = err_console.is_terminal and not json_out
     try:
-        if show:
-            with Live(receiver_table(mon), console=err_console, refresh_per_second=4, transient=False) as live:
-                mon.run(duration, on_tick=lambda m: live.update(receiver_table(m)))
-        else:
-            mon.run(duration)
+        lines_file = open(json_lines_file, "a", encoding="utf-8") if json_lines_file is not None else None
+    except OSError as err:
+        fail(f"{json_lines_file}: {err.strerror}")
+    from chronofuse.monitor.live_outputs import LiveOutputs
+
+    outputs = LiveOutputs(json_lines=json_lines, lines_file=lines_file, http_address=address, on_alarm=on_alarm,
+                          webhook=webhook, chrony_sock=chrony_sock, replayed=bool(replay),
+                          table=err_console.is_terminal and not json_out and not no_table, console=err_console)
+    from chronofuse.monitor.engine import Monitor, SourceUnavailable
+
+    mon = Monitor(chosen, settings, log=log, on_ack=outputs.records, on_event=outputs.event, stale_s=stale_s,
+                  connect_timeout_s=connect, reconnect_timeout_s=reconnect)
+    outputs.attach(mon)
+    gave_up = None
+    try:
+        with outputs.running():
+            mon.run(duration, on_tick=outputs.tick)
+    except SourceUnavailable as err:
+        gave_up = str(err)
     except KeyboardInterrupt:
         pass
     finally:
         if log is not None:
             log.close()
+        if lines_file is not None:
+            lines_file.close()
+    if gave_up is not None:
+        fail(gave_up)
     if json_out:
         print_json({"receivers": [{"receiver": rx.name, "epochs": rx.epochs, "alarms": rx.alarms,
                                    "outages": rx.outages, "last": rx.last} for rx in mon.receivers.values()],
-                    "acknowledged": mon.acknowledged, "db": str(db) if db else None})
+                    "acknowledged": mon.acknowledged, "db": str(db) if db else None,
+                    "chrony": outputs.chrony.state() if outputs.chrony is not None else None,
+                    "alerts": outputs.alert_counts()})
 
 
 def _report(db: Path, out: Path | None, json_out: bool) -> None:
@@ -105,6 +149,7 @@ def _report(db: Path, out: Path | None, json_out: bool) -> None:
         fail("--report needs --out DIR")
     from chronofuse.monitor.summary import read_session
     from chronofuse.report.figures import plot_deviations, plot_time_error
+    from chronofuse.timescale import NS_PER_S
 
     with user_errors():
         sessions = read_session(db)
@@ -127,5 +172,6 @@ def _report(db: Path, out: Path | None, json_out: bool) -> None:
         for s in sessions:
             d = s.to_dict()
             err_console.print(f"{s.name}: {d['epochs']} epochs, {d['usable']} usable, {d['alarms']} alarm(s), "
-                              f"{len(d['outages'])} outage(s)")
+                              f"{d['dissent_epochs']} dissenting, {d['jumps']} jump(s), {len(d['outages'])} outage(s)")
         err_console.print(f"wrote {len(files)} plot(s) and summary.json to {out}")
+

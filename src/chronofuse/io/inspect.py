@@ -276,6 +276,7 @@ def summarize(capture: Capture, max_gaps: int = 20) -> dict:
             "comment_lines": f.comment_lines,
             "parser_refused": capture.nmea.parse_errors + capture.ubx.parse_errors,
             "undated_epochs": capture.ubx.undated_epochs,
+            "pulses_without_epoch": capture.ubx.pulses_without_epoch,
             "duplicate_epochs": capture.duplicate_epochs,
         },
         "unknown_talkers": dict(sorted(f.unknown_talkers.items())),

@@ -131,11 +131,12 @@ class ClockProductReceivers:
     """A RINEX clock product's stations as receivers for the monitor: :class:`ClockProductLines` chunks with
     every receiver field (a clock product reports only the bias: no fix report, ``fix_mode`` 0 and NaN DOPs,
     as :func:`chronofuse.io.rinex_epochs.read_rinex_clock_epochs` gives them; the leap count of the header's
-    ``LEAP SECONDS``, else the table). ``decode``/``finish`` give ``[(station, record)]``."""
+    leap records as its version defines them (:func:`chronofuse.io.rinex_epochs.header_leap`), else the table). ``decode``/``finish`` give ``[(station, record)]``."""
 
     def __init__(self, source: str):
         self.lines = ClockProductLines(source)
         self._leap: int | None = None
+        self._header = ""
 
     def _receivers(self, parts: list) -> list:
         from chronofuse.epochs import ReceiverEpochs
@@ -153,14 +154,11 @@ class ClockProductReceivers:
 
     def decode(self, data: bytes) -> list:
         if self.lines.in_header and self._leap is None:
-            for line in data.decode("ascii", errors="replace").splitlines():
-                if "LEAP SECONDS" in line[60:]:
-                    try:
-                        self._leap = int(line[:6])
-                    except ValueError:
-                        pass
-                if "END OF HEADER" in line:
-                    break
+            from chronofuse.io.rinex_epochs import header_leap
+
+            self._header += data.decode("ascii", errors="replace")
+            if "END OF HEADER" in self._header:  # the leap records read as the file's version defines them
+                self._leap = header_leap(self._header.splitlines())
         return self._receivers(self.lines.feed(data))
 
     def finish(self) -> list:

@@ -8,13 +8,18 @@
   the leap-second table.
 * Clock files (RINEX clock 2.x/3.x, IGS/CODE products): ``AR`` records give each station receiver's
   clock bias (s) against the product's time scale at each epoch; every station is one receiver of the
-  record on the union epoch grid (a station absent at an epoch has NaN there). georinex reads no clock
+  record on the union epoch grid (a station absent at an epoch has NaN there). The header's leap count
+  is read as each version defines it (:func:`clock_header_leap`): ``LEAP SECONDS GNSS`` (3.04) is
+  GNSS - UTC; ``LEAP SECONDS`` is GPS - UTC ("since 6-Jan-1980") up to 3.02 and TAI - UTC from 3.04 on
+  (then GPS - UTC = TAI - UTC - 19 s); a value that disagrees with the leap-second table is still read as
+  the format defines it, with a warning. georinex reads no clock
   files; the ``AR`` data line is fixed by the RINEX clock format (record type, name, epoch, value
   count, bias, sigma, separated by blanks), so it is split here.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +30,7 @@ from chronofuse.io.formats import open_data, open_text
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s
 from chronofuse.validation import InputDataError
 
-__all__ = ["rinex_kind", "read_rinex_observation_epochs", "read_rinex_clock_epochs"]
+__all__ = ["rinex_kind", "read_rinex_observation_epochs", "read_rinex_clock_epochs", "clock_header_leap", "header_leap"]
 
 
 def rinex_kind(path) -> tuple[str, str] | None:
@@ -59,6 +64,41 @@ def _header_leap(path: Path) -> int | None:
             if "END OF HEADER" in line[60:]:
                 return None
     return None
+
+
+TAI_MINUS_GPS_S = 19
+
+
+def clock_header_leap(path) -> int | None:
+    """GPS - UTC (s) from a RINEX clock file's header, as its version defines its leap records (module
+    docstring); None when the header gives none."""
+    with open_text(path) as f:
+        return header_leap(f)
+
+
+def header_leap(lines) -> int | None:
+    """GPS - UTC (s) from the header lines of a RINEX clock file (any iterable of lines, read up to ``END
+    OF HEADER``): ``LEAP SECONDS GNSS`` as given; ``LEAP SECONDS`` as GPS - UTC before version 3.04 and as
+    TAI - UTC from 3.04 on."""
+    version, leap, gnss = 0.0, None, None
+    for line in lines:
+        label = line[60:].strip()
+        try:
+            if label.startswith("RINEX VERSION"):
+                version = float(line[:9])
+            elif label.startswith("LEAP SECONDS GNSS"):
+                gnss = int(line[:6])
+            elif label.startswith("LEAP SECONDS"):
+                leap = int(line[:6])
+        except ValueError:
+            pass
+        if label.startswith("END OF HEADER"):
+            break
+    if gnss is not None:
+        return gnss
+    if leap is None:
+        return None
+    return leap - TAI_MINUS_GPS_S if version >= 3.04 else leap
 
 
 def read_rinex_observation_epochs(path) -> ReceiverEpochs:
@@ -120,8 +160,13 @@ def read_rinex_clock_epochs(path) -> tuple[tuple[str, ...], ReceiverEpochs, int]
     idx_t = np.searchsorted(times, np.array([t for t, _, _ in rows], dtype=np.int64))
     idx_r = np.array([names[n] for _, n, _ in rows])
     bias[0, idx_r, idx_t] = [b for _, _, b in rows]
-    leap = _header_leap(path)
-    leap_s = leap if leap is not None else gps_minus_utc_s(times)[None, None, :]
+    leap = clock_header_leap(path)
+    table = gps_minus_utc_s(times)
+    if leap is not None and not np.all(table == leap):
+        warnings.warn(f"{path}: the header's leap count gives GPS - UTC = {leap} s, the leap-second table "
+                      f"{int(table[0])} s at the first epoch; read as the RINEX {rinex_kind(path)[0]} clock format "
+                      "defines it", stacklevel=2)
+    leap_s = leap if leap is not None else table[None, None, :]
     fields = ReceiverEpochs.absent(times, 1, len(names), leap_s=leap_s)
     fields["clock_bias_s"] = bias
     return tuple(names), ReceiverEpochs(**fields), bad

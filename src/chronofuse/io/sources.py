@@ -28,17 +28,20 @@ __all__ = ["Backoff", "SourceEvent", "FileSource", "SerialSource", "TcpSource", 
            "parse_source"]
 
 _CHUNK = 65536
-GPSD_WATCH = b'?WATCH={"enable":true,"json":true};\n'
+GPSD_WATCH = b'?WATCH={"enable":true,"json":true,"pps":true};\n'
 
 
 @dataclass(frozen=True)
 class SourceEvent:
-    """``kind``: "up", "data", "down" or "end"; ``data``: bytes for "data", the reason for "down"."""
+    """``kind``: "up", "data", "down" or "end"; ``data``: bytes for "data", the reason for "down";
+    ``time_s``: the monotonic clock when it was read; ``wall_ns``: the system clock then (UNIX ns), the
+    arrival time a time server needs."""
 
     source: str
     kind: str
     data: bytes | str = b""
     time_s: float = 0.0
+    wall_ns: int = 0
 
 
 class Backoff:
@@ -221,7 +224,13 @@ class SourceGroup:
     def start(self) -> SourceGroup:
         for source in self.sources:
             def emit(kind, data=b"", _name=source.name):
-                self.events.put(SourceEvent(_name, kind, data, time.monotonic()))
+                event = SourceEvent(_name, kind, data, time.monotonic(), time.time_ns())
+                while not self._stop.is_set():  # a full queue waits for the consumer, not past a stop
+                    try:
+                        self.events.put(event, timeout=0.1)
+                        return
+                    except queue.Full:
+                        continue
 
             thread = threading.Thread(target=source.run, args=(emit, self._stop), name=source.name, daemon=True)
             thread.start()
@@ -235,9 +244,11 @@ class SourceGroup:
             return None
 
     def stop(self, join_s: float = 2.0) -> None:
+        """Stop every source thread (at most ``join_s`` in all for the stragglers)."""
         self._stop.set()
+        deadline = time.monotonic() + join_s
         for thread in self._threads:
-            thread.join(join_s)
+            thread.join(max(deadline - time.monotonic(), 0.0))
 
     def __enter__(self) -> SourceGroup:
         return self.start()

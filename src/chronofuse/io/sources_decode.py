@@ -25,6 +25,10 @@ from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns, gps_minus_utc_s
 __all__ = ["StreamDecoder", "GpsdJsonDecoder", "split_rows", "rows_record", "record_rows", "dicts_record"]
 
 _NEVER = int(np.iinfo(np.int64).min)
+_ROW_NAMES = ("gps_ns",) + EPOCH_FIELDS + ("time_acc_s",)
+_DTYPES = {"gps_ns": np.int64, "fix_mode": np.int8, "time_valid": np.bool_, "n_sats": np.int16, "leap_s": np.int16,
+           "leap_pending": np.int8}
+_GPS_EPOCH_UNIX_S = 315_964_800  # 1980-01-06T00:00:00 UTC
 
 
 def split_rows(rows: dict | None) -> list[dict]:
@@ -129,12 +133,37 @@ class StreamDecoder:
             if name not in self.protocols and sum(stats.decoded.values()):
                 self.protocols += (name,)
                 self._closed.setdefault(name, None)
+        if self.protocols == ("ubx",) and not self._pending["ubx"]:
+            return self._ubx_only(final)
         self._take("ubx", self._ubx.pop_complete(self.ubx_stats))
         self._take("nmea", self._nmea.pop_complete())
         if final:
             self._take("ubx", self._ubx.pop_all(self.ubx_stats))
             self._take("nmea", self._nmea.pop_all())
         return self._release(np.iinfo(np.int64).max if final else self._horizon())
+
+    def _ubx_only(self, final: bool) -> EpochRecord | None:
+        """A stream of UBX alone: the epochs straight from the builder's scalar path (no merge to wait for,
+        no arrays to set up per column for the one or two epochs a chunk closes), as one record chunk."""
+        records = self._ubx.pop_complete_records(self.ubx_stats)
+        if final:
+            records += self._ubx.pop_all_records(self.ubx_stats)
+        kept = []
+        for epoch in sorted(records, key=lambda r: r["gps_ns"]):
+            if epoch["gps_ns"] > self._last_gps_ns:
+                kept.append(epoch)
+                self._last_gps_ns = epoch["gps_ns"]
+        if not kept:
+            return None
+        last = kept[-1]["gps_ns"]
+        previous = self._closed.get("ubx")
+        self._closed["ubx"] = last if previous is None else max(previous, last)
+        if self._first_closed is None:
+            self._first_closed = kept[0]["gps_ns"]
+        rows = {k: np.array([e[k] for e in kept], dtype=_DTYPES.get(k, np.float64)) for k in _ROW_NAMES}
+        offsets = self.offsets.of(rows["gps_ns"])
+        self.offsets.forget_before(self._last_gps_ns)
+        return rows_record(rows, self.source, offsets)
 
     def _take(self, name: str, rows: dict | None) -> None:
         if rows is not None and rows["gps_ns"].size:
@@ -194,13 +223,26 @@ def _joined(parts: list[dict]) -> dict | None:
 class GpsdJsonDecoder:
     """A gpsd server's JSON reports (gpsd_json(5)) to epochs: a TPV with a ``time`` opens an epoch
     (UTC label, ``mode``, ``leapseconds`` when gpsd knows it, else the leap-second table), a SKY adds its
-    DOPs and ``uSat``; an epoch closes when the next TPV time arrives."""
+    DOPs and ``uSat``; an epoch closes when the next TPV time arrives.
+
+    Timing reports (sent when the watch asks for ``"pps":true``): ``TOFF`` is gpsd's receipt of the
+    receiver's time message (``real`` the UTC second it names, ``clock`` the system time it arrived): it
+    becomes the epoch's ``received_unix_ns``. ``PPS`` is a 1PPS edge timed by the system (kernel PPS or
+    a modem-control line): ``clock`` is the edge, ``real`` the second it marks; it becomes
+    ``pps_unix_ns`` (and its ``qErr``, ps, the epoch's ``qerr_s``). Neither carries the receiver's clock
+    bias or drift, which gpsd does not report."""
 
     def __init__(self) -> None:
         self._buffer = b""
         self._current: dict | None = None
         self._last_gps_ns = np.iinfo(np.int64).min
+        self._toff: dict[int, int] = {}  # UTC UNIX s -> system receipt, UNIX ns
+        self._pps: dict[int, tuple[int, float]] = {}  # UTC UNIX s -> (edge, UNIX ns; qErr s)
+        #: gps_ns -> {"received_unix_ns", "pps_unix_ns"} of the epochs given, for a caller that keeps
+        #: only the receiver fields (the monitor pops them); the epoch dicts carry them too
+        self.timing: dict[int, dict] = {}
         self.bad_lines = 0
+        self.timing_reports = 0
         self.protocol = "gpsd"
 
     def feed(self, data: bytes) -> list[dict]:
@@ -262,6 +304,22 @@ class GpsdJsonDecoder:
                 self._current = _absent_epoch(gps_ns, leap)
             self._current["fix_mode"] = int(doc.get("mode", 0))
             self._current["time_valid"] = int(doc.get("mode", 0)) >= 2
+        elif cls in ("TOFF", "PPS"):
+            try:
+                real_s = int(doc["real_sec"]) + (1 if int(doc.get("real_nsec", 0)) >= 500_000_000 else 0)
+                clock_ns = int(doc["clock_sec"]) * NS_PER_S + int(doc.get("clock_nsec", 0))
+            except (KeyError, TypeError, ValueError):
+                self.bad_lines += 1
+                return
+            self.timing_reports += 1
+            if cls == "TOFF":
+                self._toff[real_s] = clock_ns
+            else:
+                qerr = doc.get("qErr")
+                self._pps[real_s] = (clock_ns, math.nan if qerr is None else float(qerr) * 1e-12)
+            for table in (self._toff, self._pps):
+                while len(table) > 16:
+                    table.pop(min(table))
         elif cls == "SKY" and self._current is not None:
             for name in ("gdop", "pdop", "hdop", "vdop", "tdop"):
                 if name in doc:
@@ -271,6 +329,19 @@ class GpsdJsonDecoder:
 
     def _emit(self, out: list) -> None:
         if self._current is not None and self._current["gps_ns"] > self._last_gps_ns:
+            utc_s = (self._current["gps_ns"] - self._current["leap_s"] * NS_PER_S) // NS_PER_S + _GPS_EPOCH_UNIX_S
+            if utc_s in self._toff:
+                self._current["received_unix_ns"] = self._toff.pop(utc_s)
+            if utc_s in self._pps:
+                edge, qerr = self._pps.pop(utc_s)
+                self._current["pps_unix_ns"] = edge
+                if math.isfinite(qerr):
+                    self._current["qerr_s"] = qerr
+            told = {k: self._current[k] for k in ("received_unix_ns", "pps_unix_ns") if k in self._current}
+            if told:
+                self.timing[self._current["gps_ns"]] = told
+                while len(self.timing) > 64:
+                    self.timing.pop(min(self.timing))
             out.append(self._current)
             self._last_gps_ns = self._current["gps_ns"]
         self._current = None

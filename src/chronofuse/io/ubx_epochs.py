@@ -13,6 +13,8 @@ Messages used (u-blox 8 / M8 and F9 interface descriptions; field names as pyubx
   1 UTC): it is paired with the epoch of that pulse, not with the epoch it arrives in.
 * TIM-TM2: time marks on the EXTINT input (rising-edge times kept as GPS ns).
 * RXM-RAWX: ``rcvTow``, ``week`` and ``leapS`` (valid when ``recStat.leapSec``).
+* NAV-EOE (protocol 18 and later): the end of the navigation epoch ``iTOW``. A live stream closes that
+  epoch at once instead of waiting for the next epoch's first message (one epoch interval later).
 
 Every navigation message carries ``iTOW`` (GPS time of week, ms) of its epoch; messages with the same
 ``iTOW`` are one epoch. The full epoch is ``week * 604800 s + iTOW``; the week comes from a message that
@@ -34,6 +36,7 @@ import numpy as np
 from pyubx2 import UBXReader
 from pyubx2.ubxhelpers import calc_checksum
 
+from chronofuse.io.ubx_layouts import decode_fixed
 from chronofuse.io.ubx_pulses import attach_pulses, pulse_gps_ns
 from chronofuse.timescale import (
     MS_PER_WEEK,
@@ -46,7 +49,7 @@ from chronofuse.timescale import (
 __all__ = ["UBX_TYPES", "UbxDecodeStats", "UbxEpochBuilder", "decode_ubx", "GPSD_FIX_MODE"]
 
 UBX_TYPES = frozenset({"NAV-PVT", "NAV-SOL", "NAV-STATUS", "NAV-TIMEGPS", "NAV-TIMEUTC", "NAV-TIMELS",
-                       "NAV-DOP", "NAV-SAT", "NAV-CLOCK", "TIM-TP", "TIM-TM2", "RXM-RAWX"})
+                       "NAV-DOP", "NAV-SAT", "NAV-CLOCK", "TIM-TP", "TIM-TM2", "RXM-RAWX", "NAV-EOE"})
 
 #: u-blox ``fixType``/``gpsFix`` -> gpsd TPV mode: 0 no fix, 1 dead reckoning only, 2 2-D, 3 3-D,
 #: 4 GNSS + dead reckoning, 5 time only (a surveyed timing receiver: 3, as gpsd reports it).
@@ -57,23 +60,26 @@ _NEAR_EPOCHS = 16  # how far back a late message may still find its epoch
 
 @dataclass
 class UbxDecodeStats:
-    """Messages decoded per type, frames pyubx2 refused (first reasons kept), and epochs that could not
-    be dated (no week and no valid UTC date anywhere in the stream)."""
+    """Messages decoded per type, frames pyubx2 refused (first reasons kept), epochs that could not be
+    dated (no week and no valid UTC date anywhere in the stream), and TIM-TP pulses whose epoch never
+    came (not made epochs: see :func:`chronofuse.io.ubx_pulses.attach_pulses`)."""
 
     decoded: Counter = field(default_factory=Counter)
     parse_errors: int = 0
     undated_epochs: int = 0
+    pulses_without_epoch: int = 0
     errors: list = field(default_factory=list)
 
 
 class _Epoch:
     __slots__ = ("itow_ms", "week", "utc_ns", "mode", "time_valid", "n_sats", "n_used_sat", "gdop", "pdop",
                  "hdop", "vdop", "tdop", "leap_s", "leap_pending", "clock_bias_s", "clock_drift_s_per_s",
-                 "time_acc_s", "leap_from_utc", "raw_only")
+                 "time_acc_s", "leap_from_utc", "raw_only", "ended")
 
     def __init__(self, itow_ms: int) -> None:
         self.itow_ms = itow_ms
         self.raw_only = False
+        self.ended = False  # NAV-EOE seen: nothing more will come for this epoch
         self.week = -1
         self.utc_ns: int | None = None  # a valid UTC label (UTC count since the GPS epoch)
         self.leap_from_utc = False
@@ -85,6 +91,17 @@ class _Epoch:
         self.leap_s: int | None = None
         self.leap_pending = 0
         self.clock_bias_s = self.clock_drift_s_per_s = self.time_acc_s = math.nan
+
+
+#: NAV-DOP's "no value": 9999 in units of 0.01 (a timing receiver in fixed-position mode sends it for
+#: pDOP/hDOP/vDOP, having no position solution to dilute). gpsd treats it as missing; so do we.
+_DOP_INVALID = 99.99
+
+
+def _dop(value) -> float:
+    """A NAV-DOP value (pyubx2 has applied the 0.01 scale), NaN for u-blox's invalid 99.99."""
+    value = float(value)
+    return math.nan if value >= _DOP_INVALID - 1e-6 else value
 
 
 def _utc_label_ns(year, month, day, hour, minute, second, nano) -> int | None:
@@ -144,7 +161,9 @@ class UbxEpochBuilder:
                 ep.leap_s = int(m.leapS)
             return
         ep = self._epoch(int(m.iTOW))
-        if name == "NAV-PVT":
+        if name == "NAV-EOE":
+            ep.ended = True
+        elif name == "NAV-PVT":
             ep.mode = GPSD_FIX_MODE.get(int(m.fixType), 0)
             ep.n_sats = int(m.numSV)
             ep.pdop = float(m.pDOP)
@@ -182,8 +201,8 @@ class UbxEpochBuilder:
             if m.validTimeToLsEvent and m.lsChange and 0 < m.timeToLsEvent <= 86_400:
                 ep.leap_pending = int(np.sign(m.lsChange))
         elif name == "NAV-DOP":
-            ep.gdop, ep.pdop, ep.hdop = float(m.gDOP), float(m.pDOP), float(m.hDOP)
-            ep.vdop, ep.tdop = float(m.vDOP), float(m.tDOP)
+            ep.gdop, ep.pdop, ep.hdop = _dop(m.gDOP), _dop(m.pDOP), _dop(m.hDOP)
+            ep.vdop, ep.tdop = _dop(m.vDOP), _dop(m.tDOP)
         elif name == "NAV-CLOCK":
             ep.clock_bias_s = m.clkB * 1e-9
             ep.clock_drift_s_per_s = m.clkD * 1e-9
@@ -193,8 +212,11 @@ class UbxEpochBuilder:
         """Streaming: the epochs before the one in progress as arrays, removed from the builder. The last
         dated epoch and the receiver's last leap count carry over to later calls, so an epoch without a
         week of its own is placed from its predecessors; TIM-TP pulses wait for their epoch. Epochs
-        before anything dates them wait (at most ``max_undated``). None when nothing is ready."""
-        closed = self._epochs[:-1]
+        before anything dates them wait (at most ``max_undated``); an epoch whose NAV-EOE has come is
+        complete even while it is the last one. None when nothing is ready."""
+        ended = [i for i, ep in enumerate(self._epochs) if ep.ended]
+        cut = max(len(self._epochs) - 1, ended[-1] + 1 if ended else 0)
+        closed = self._epochs[:cut]
         if not closed:
             return None
         rows = self._rows_of(closed, stats, streaming=True, final=len(closed) > max_undated)
@@ -203,13 +225,45 @@ class UbxEpochBuilder:
         self._epochs = self._epochs[len(closed):]
         return rows
 
+    def pop_complete_records(self, stats: UbxDecodeStats | None = None, max_undated: int = 64) -> list[dict]:
+        """:meth:`pop_complete` as one dict per epoch, computed without arrays: the live path's twin for a
+        receiver that sends UBX only (a few epochs per call, where array set-up costs more than the work;
+        :func:`_records_of` is the scalar twin of :meth:`_rows_of`, and the tests compare the two)."""
+        ended = [i for i, ep in enumerate(self._epochs) if ep.ended]
+        cut = max(len(self._epochs) - 1, ended[-1] + 1 if ended else 0)
+        closed = self._epochs[:cut]
+        if not closed:
+            return []
+        records = _records_of(self, closed, stats, final=len(closed) > max_undated)
+        if records is None:
+            return []
+        self._epochs = self._epochs[len(closed):]
+        return records
+
+    def pop_all_records(self, stats: UbxDecodeStats | None = None) -> list[dict]:
+        """:meth:`pop_all` as one dict per epoch (see :meth:`pop_complete_records`)."""
+        self._epochs.append(_Epoch(-1))
+        records = self.pop_complete_records(stats, max_undated=0)
+        self._epochs = []
+        if self._pulses:
+            unmatched = _attach_pulses_records(records, self._pulses)
+            if stats is not None:
+                stats.pulses_without_epoch += unmatched
+        self._pulses = []
+        return records
+
     def pop_all(self, stats: UbxDecodeStats | None = None) -> dict | None:
         """Streaming, at the end of the stream: every epoch left (the one in progress too)."""
         self._epochs.append(_Epoch(-1))  # a sentinel "next epoch" so that every real one is closed
         rows = self.pop_complete(stats, max_undated=0)
         self._epochs = []
-        if self._pulses and rows is not None:
-            rows = attach_pulses(rows, self._pulses)
+        if self._pulses:
+            if rows is not None:
+                rows, unmatched = attach_pulses(rows, self._pulses)
+            else:
+                unmatched = len(self._pulses)
+            if stats is not None:
+                stats.pulses_without_epoch += unmatched
         self._pulses = []
         return rows
 
@@ -281,13 +335,122 @@ class UbxEpochBuilder:
             dated[0] = False  # the carried anchor is no epoch of this batch
         rows = {k: v[dated] for k, v in rows.items()}
         if not streaming:
-            return attach_pulses(rows, self._pulses)
+            rows, unmatched = attach_pulses(rows, self._pulses)
+            if stats is not None:
+                stats.pulses_without_epoch += unmatched
+            return rows
         if rows["gps_ns"].size == 0:
             return rows
         last_gps = int(rows["gps_ns"][-1])
         ready = [p for p in self._pulses if pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
         self._pulses = [p for p in self._pulses if p not in ready]
-        return attach_pulses(rows, ready)
+        rows, unmatched = attach_pulses(rows, ready)
+        if stats is not None:
+            stats.pulses_without_epoch += unmatched
+        return rows
+
+
+_MISSING = int(np.iinfo(np.int64).min)
+
+
+def _records_of(builder: UbxEpochBuilder, eps: list, stats, final: bool) -> list[dict] | None:
+    """Scalar twin of :meth:`UbxEpochBuilder._rows_of` in its streaming use: the same placement on weeks
+    (:func:`_place_on_weeks`), leap filling (:func:`_fill_leap`) and pulse pairing, one epoch at a time."""
+    has_anchor = builder._anchor is not None
+    if has_anchor:
+        anchor = _Epoch(builder._anchor[0])
+        anchor.week = builder._anchor[1]
+        anchor.leap_s = builder._last_leap
+        eps = [anchor] + list(eps)
+    n = len(eps)
+    approx = []
+    for e in eps:
+        if e.week >= 0:
+            approx.append(e.week * NS_PER_WEEK + e.itow_ms * 1_000_000)
+        elif e.utc_ns is not None:
+            leap = e.leap_s if e.leap_s is not None else int(gps_minus_utc_s(e.utc_ns))
+            approx.append(e.utc_ns + leap * NS_PER_S)
+        else:
+            approx.append(_MISSING)
+    have = [i for i, a in enumerate(approx) if a != _MISSING]
+    if not have:
+        if stats is not None and final:
+            stats.undated_epochs += n - (1 if has_anchor else 0)
+        return None if not final else []
+    gps = []
+    for i, e in enumerate(eps):
+        # nearest dated epoch in stream order (the left one on a tie), as _place_on_weeks
+        j = min(have, key=lambda h: (abs(h - i), h > i))
+        step_ms = e.itow_ms - eps[j].itow_ms
+        step_ms = (step_ms + MS_PER_WEEK // 2) % MS_PER_WEEK - MS_PER_WEEK // 2
+        estimate = approx[j] + step_ms * 1_000_000
+        week = int(np.rint((estimate - e.itow_ms * 1_000_000) / NS_PER_WEEK))
+        gps.append(week * NS_PER_WEEK + e.itow_ms * 1_000_000)
+    own = []
+    leap = []
+    for i, e in enumerate(eps):
+        if e.leap_s is not None:
+            leap.append(e.leap_s)
+            own.append(True)
+        elif e.utc_ns is not None:
+            leap.append(round((gps[i] - e.utc_ns) / NS_PER_S))
+            own.append(True)
+        else:
+            leap.append(-1)
+            own.append(False)
+    if any(own):  # carry the last own count forward, the first one backward (_fill_leap)
+        first = next(v for v, o in zip(leap, own) if o)
+        current = first
+        for i in range(n):
+            if own[i]:
+                current = leap[i]
+            else:
+                leap[i] = current
+    else:
+        leap = [int(gps_minus_utc_s(g)) for g in gps]
+    records = []
+    for i, e in enumerate(eps):
+        if has_anchor and i == 0:
+            continue
+        records.append({
+            "gps_ns": gps[i], "fix_mode": e.mode, "time_valid": bool(e.time_valid),
+            "n_sats": e.n_sats if e.n_sats >= 0 else e.n_used_sat, "gdop": e.gdop, "pdop": e.pdop,
+            "hdop": e.hdop, "vdop": e.vdop, "tdop": e.tdop, "leap_s": int(leap[i]), "leap_pending": e.leap_pending,
+            "qerr_s": math.nan, "clock_bias_s": e.clock_bias_s, "clock_drift_s_per_s": e.clock_drift_s_per_s,
+            "time_acc_s": e.time_acc_s})
+    builder._anchor = (eps[-1].itow_ms, gps[-1] // NS_PER_WEEK)  # every epoch is placed once one is dated
+    owned = [i for i in range(n) if own[i]]
+    if owned:
+        builder._last_leap = int(leap[owned[-1]])
+    if not records:
+        return records
+    last_gps = records[-1]["gps_ns"]
+    ready = [p for p in builder._pulses if pulse_gps_ns(p, records[-1]["leap_s"]) <= last_gps]
+    builder._pulses = [p for p in builder._pulses if p not in ready]
+    unmatched = _attach_pulses_records(records, ready)
+    if stats is not None:
+        stats.pulses_without_epoch += unmatched
+    return records
+
+
+def _attach_pulses_records(records: list[dict], pulses: list) -> int:
+    """:func:`~chronofuse.io.ubx_pulses.attach_pulses` on records (in time order); returns the unmatched."""
+    import bisect
+
+    times = [r["gps_ns"] for r in records]
+    unmatched = 0
+    for week, tow_ms, base, qerr in pulses:
+        t = week * NS_PER_WEEK + tow_ms * 1_000_000
+        if base == 1:
+            j = bisect.bisect_right(times, t) - 1
+            leap = records[max(j, 0)]["leap_s"] if times else int(gps_minus_utc_s(t))
+            t += leap * NS_PER_S
+        j = bisect.bisect_left(times, t)
+        if j < len(times) and times[j] == t:
+            records[j]["qerr_s"] = qerr
+        else:
+            unmatched += 1
+    return unmatched
 
 
 def nav_sat_used(raw: bytes) -> int:
@@ -358,8 +521,10 @@ def decode_ubx(frames, builder: UbxEpochBuilder, stats: UbxDecodeStats) -> None:
                 builder.push_nav_sat(frame.raw)  # read by its layout, see nav_sat_used
                 stats.decoded[frame.name] += 1
                 continue
-            raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
-            msg = UBXReader.parse(raw, validate=0)
+            msg = decode_fixed(frame.name, frame.raw)  # pyubx2's layout, compiled (io/ubx_layouts.py)
+            if msg is None:
+                raw = _rawx_header_frame(frame.raw) if frame.name == "RXM-RAWX" and len(frame.raw) >= 24 else frame.raw
+                msg = UBXReader.parse(raw, validate=0)
             builder.push(frame.name, msg)
         except Exception as err:  # pyubx2 raises several types on short or odd payloads; count, go on
             stats.parse_errors += 1

@@ -21,16 +21,19 @@ def pulse_gps_ns(pulse: tuple, leap_s: int) -> int:
     return week * NS_PER_WEEK + tow_ms * 1_000_000 + (leap_s * NS_PER_S if base == 1 else 0)
 
 
-def attach_pulses(rows: dict, pulses: list) -> dict:
-    """Put each TIM-TP ``qErr`` on the epoch of the pulse it describes (GPS ns of the pulse; a UTC
-    time base is moved to GPS with that epoch's leap count); a pulse without an epoch gets its own row."""
+def attach_pulses(rows: dict, pulses: list) -> tuple[dict, int]:
+    """Put each TIM-TP ``qErr`` on the epoch of the pulse it describes (GPS ns of the pulse; a UTC time
+    base is moved to GPS with that epoch's leap count). Returns the rows and the number of pulses whose
+    epoch is not among them: such a pulse is no epoch (it has no fix, no time, no solution of its own; the
+    last TIM-TP of a recording announces a pulse after the recording ends), so it is counted, never made
+    a row."""
     if not pulses:
-        return rows
+        return rows, 0
     gps = rows["gps_ns"]
     order = np.argsort(gps, kind="stable")
     rows = {k: v[order] for k, v in rows.items()}
     gps = rows["gps_ns"]
-    extra = []
+    unmatched = 0
     for week, tow_ms, base, qerr in pulses:
         t = week * NS_PER_WEEK + tow_ms * 1_000_000
         if base == 1:  # UTC time base: towMS counts UTC seconds of the week
@@ -41,18 +44,5 @@ def attach_pulses(rows: dict, pulses: list) -> dict:
         if j < gps.size and gps[j] == t:
             rows["qerr_s"][j] = qerr
         else:
-            extra.append((t, qerr))
-    if extra:
-        n_extra = len(extra)
-        add = {k: np.resize(np.zeros(1, v.dtype), n_extra) for k, v in rows.items()}
-        add["gps_ns"] = np.array([t for t, _ in extra], dtype=np.int64)
-        add["qerr_s"] = np.array([q for _, q in extra])
-        for k in ("gdop", "pdop", "hdop", "vdop", "tdop", "clock_bias_s", "clock_drift_s_per_s"):
-            add[k] = np.full(n_extra, np.nan)
-        add["n_sats"] = np.full(n_extra, -1, dtype=np.int16)
-        j = np.clip(np.searchsorted(gps, add["gps_ns"]) - 1, 0, max(gps.size - 1, 0))
-        add["leap_s"] = rows["leap_s"][j] if gps.size else gps_minus_utc_s(add["gps_ns"]).astype(np.int16)
-        rows = {k: np.concatenate([rows[k], add[k]]) for k in rows}
-        order = np.argsort(rows["gps_ns"], kind="stable")
-        rows = {k: v[order] for k, v in rows.items()}
-    return rows
+            unmatched += 1
+    return rows, unmatched

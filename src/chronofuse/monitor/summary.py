@@ -3,7 +3,6 @@ and outages (``chronofuse monitor --report``)."""
 
 from __future__ import annotations
 
-import sqlite3
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,6 +28,8 @@ class ReceiverSession:
     usable: np.ndarray
     outages: list
     adev: object
+    dissent: np.ndarray | None = None
+    jump: np.ndarray | None = None
 
     def to_dict(self) -> dict:
         return {
@@ -37,33 +38,33 @@ class ReceiverSession:
             "usable": int(self.usable.sum()),
             "alarms": int(self.alarm.sum()),
             "alarm_gps_ns": self.gps_ns[self.alarm].tolist()[:100],
-            "outages": [{"wall_time_s": t, "reason": why} for t, why in self.outages],
+            "dissent_epochs": int(0 if self.dissent is None else self.dissent.sum()),
+            "jumps": int(0 if self.jump is None else self.jump.sum()),
+            "outages": [{"wall_time_s": t, "duration_s": d, "reason": why} for t, d, why in self.outages],
             "clock_bias_epochs": int(np.isfinite(self.clock_bias_s).sum()),
             "adev": None if self.adev is None else {"tau_s": self.adev.tau_s.tolist(), "adev": self.adev.dev.tolist()},
         }
 
 
 def read_session(db_path) -> list[ReceiverSession]:
-    """Every receiver of the log ``db_path``; raises :class:`InputDataError` naming it when it is no log."""
-    path = Path(db_path)
-    if not path.is_file():
-        raise InputDataError("no such file", str(path))
-    try:
-        db = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
-        rows = db.execute("SELECT receiver, gps_ns, clock_bias_s, alarm, usable FROM epochs ORDER BY receiver, gps_ns").fetchall()
-        events = db.execute("SELECT receiver, wall_time_s, detail FROM events WHERE kind = 'down'").fetchall()
-        db.close()
-    except sqlite3.DatabaseError as err:
-        raise InputDataError(f"not a monitor log ({err})", str(path)) from err
+    """Every receiver of the log ``db_path``; raises :class:`InputDataError` naming it when it is no log.
+    An outage is counted once, with its duration (:func:`chronofuse.monitor.logquery.outages`), however
+    many reconnections it took."""
+    from chronofuse.monitor.logquery import epochs, outages
+
+    frame = epochs(db_path)
+    drops = outages(db_path)
     out = []
-    for name in sorted({r[0] for r in rows}):
-        mine = [r for r in rows if r[0] == name]
-        gps = np.array([r[1] for r in mine], dtype=np.int64)
-        bias = np.array([np.nan if r[2] is None else r[2] for r in mine], dtype=np.float64)
+    for name, mine in frame.groupby("receiver", sort=True):
+        gps = mine["gps_ns"].to_numpy(np.int64)
+        bias = mine["clock_bias_s"].to_numpy(np.float64)
+        theirs = drops[drops["receiver"] == name]
         out.append(ReceiverSession(
-            name=name, gps_ns=gps, clock_bias_s=bias,
-            alarm=np.array([bool(r[3]) for r in mine]), usable=np.array([bool(r[4]) for r in mine]),
-            outages=[(t, why) for who, t, why in events if who == name], adev=_adev(gps, bias)))
+            name=name, gps_ns=gps, clock_bias_s=bias, alarm=mine["alarm"].to_numpy(bool),
+            usable=mine["usable"].to_numpy(bool),
+            outages=[(float(t), None if d != d else float(d), why)
+                     for t, d, why in zip(theirs["start_unix_s"], theirs["duration_s"], theirs["reason"])],
+            adev=_adev(gps, bias), dissent=mine["dissent"].to_numpy(bool), jump=mine["jump"].to_numpy(bool)))
     return out
 
 

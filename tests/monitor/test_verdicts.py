@@ -1,0 +1,174 @@
+"""Verdicts that mean what they say: a stale receiver, a dissenting one, one with a latched alarm and one
+with a wrong leap count alone are never reported usable, each with its reason; the same receivers without
+the fault are (the positive controls); every unusable epoch names why."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from _real_parts import TcpReceiver
+from chronofuse.discipline.verdict import (LEAP_TABLE_KNOWN_UNTIL_GPS_NS, ReceiverVerdict, reasons, verdict_bits)
+from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+from chronofuse.io.replay import ReplaySource, SharedStart
+from chronofuse.io.sources import TcpSource
+from chronofuse.monitor.decisions import MonitorSettings
+from chronofuse.monitor.engine import Monitor
+from chronofuse.monitor.status import status_document
+from chronofuse.timescale import NS_PER_S, gps_minus_utc_s
+
+from .conftest import WEEK, ubx_epochs, ubx_stream
+
+NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=3.0)
+KNOWN = MonitorSettings(h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m)
+
+
+def _bias(steps, seed, anomaly=None):
+    x = simulate_clock_bias(NOISE, interval_s=1.0, steps=steps, trials=1, seed=seed).measured_s[0]
+    return inject(x, anomaly, 1.0) if anomaly is not None else x
+
+
+def _replay(tmp_path, streams: dict[str, bytes], settings=KNOWN) -> tuple[Monitor, list[dict]]:
+    """The streams replayed together at 50x (each epoch's bursts sent at one instant, as GPS-locked
+    receivers send them), every epoch decided with all the receivers."""
+    sources, start = [], SharedStart(lead_s=0.5)
+    for name, data in streams.items():
+        path = tmp_path / f"{name}.ubx"
+        path.write_bytes(data)
+        sources.append(ReplaySource(path, name=name, speed=50.0, start_at=start))
+    acked: list[dict] = []
+    mon = Monitor(sources, settings, on_ack=acked.extend, hold_s=60.0)  # each epoch decided with all receivers
+    mon.run(duration_s=60)
+    return mon, acked
+
+
+def test_a_receiver_reporting_leap_17_with_a_clock_step_is_never_usable_while_the_others_are(tmp_path):
+    # the operator's case: leap 17 s and a 1 us clock step; two honest receivers beside it
+    streams = {"honest1": ubx_stream(_bias(120, 1)), "honest2": ubx_stream(_bias(120, 2)),
+               "wrong": ubx_stream(_bias(120, 3, Anomaly("step", 60.0, offset_s=1e-6)), leap_s=17)}
+    _, acked = _replay(tmp_path, streams)
+    wrong = [r for r in acked if r["receiver"] == "wrong"]
+    assert len(wrong) == 120
+    assert all(r["dissent"] for r in wrong), [(r["utc"], r["leap_s"], r["time_valid"]) for r in wrong if not r["dissent"]]
+    assert not any(r["usable"] for r in wrong)  # was usable in 449 of 449 epochs before
+    assert all(any("dissent" in why for why in r["reasons"]) for r in wrong)
+    assert all(any("leap-second table" in why for why in r["reasons"]) for r in wrong)
+    honest = [r for r in acked if r["receiver"] != "wrong"]
+    assert all(r["usable"] and not r["reasons"] for r in honest)  # the positive control
+
+
+def test_a_lone_receiver_with_a_wrong_leap_count_is_not_usable_and_the_table_says_why(tmp_path):
+    _, acked = _replay(tmp_path, {"alone": ubx_stream(_bias(40, 4), leap_s=17)})
+    assert acked and not any(r["usable"] for r in acked)
+    assert not any(r["dissent"] for r in acked)  # nobody to dissent from: the table is the referee
+    assert all(r["reasons"] == ["leap 17 s disagrees with the leap-second table (18 s)"] for r in acked)
+    _, acked = _replay(tmp_path, {"alone": ubx_stream(_bias(40, 4), leap_s=18)})
+    assert all(r["usable"] for r in acked)
+
+
+def test_a_receiver_whose_alarm_is_latched_is_not_usable_for_as_long_as_it_is_latched(tmp_path):
+    # a ramp (a frequency step of 50 ns/s): the second difference sees its onset only, the latch holds
+    bias = _bias(200, 5, Anomaly("ramp", 100.0, rate_s_per_s=50e-9))
+    _, acked = _replay(tmp_path, {"rx": ubx_stream(bias)})
+    latched = [r for r in acked if r["state"] == "alarm"]
+    assert len(latched) > 20  # held after the onset's differences have left the window
+    assert sum(r["alarm"] for r in acked) < len(latched)  # the epochs over threshold are fewer
+    assert not any(r["usable"] for r in latched)
+    assert all("integrity alarm (latched)" in r["reasons"] for r in latched)
+    before = [r for r in acked if r["gps_ns"] < acked[0]["gps_ns"] + 95 * NS_PER_S and r["state"] == "ok"]
+    assert before and all(r["usable"] for r in before)
+
+
+def test_a_receiver_that_goes_silent_with_its_link_open_becomes_stale_and_unusable():
+    rx = TcpReceiver()
+    epochs = ubx_epochs(_bias(10, 6), start_tow_s=300_000, eoe=True)
+    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="quiet")], KNOWN, stale_s=1.0)
+    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 6.0}, daemon=True)
+    runner.start()
+    try:
+        for data in epochs:
+            rx.send(data)
+            time.sleep(0.2)
+        deadline = time.monotonic() + 5
+        while status_document(mon)["receivers"][0]["usable"] is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        fresh = status_document(mon)["receivers"][0]
+        assert fresh["usable"] is True and not fresh["stale"] and fresh["link"] == "up"
+        time.sleep(2.0)  # the link stays up; nothing comes
+        quiet = status_document(mon)["receivers"][0]
+        assert quiet["link"] == "up" and quiet["stale"] and quiet["age_s"] > 1.0
+        assert quiet["usable"] is False
+        assert any(why.startswith("stale: no epoch for") for why in quiet["reasons"])
+        assert quiet["last"]["utc"] == fresh["last"]["utc"]  # its old UTC is shown, with its age
+        assert mon.is_stale("quiet")
+    finally:
+        runner.join(10)
+        rx.close()
+
+
+_EPOCH = st.fixed_dictionaries({
+    "fix_mode": st.integers(0, 3), "time_valid": st.booleans(), "gdop": st.one_of(st.just(float("nan")),
+                                                                                  st.floats(0.5, 20.0)),
+    "n_sats": st.integers(-1, 20), "leap_s": st.integers(14, 20), "state": st.sampled_from(["ok", "alarm", "unavailable"]),
+    "dissent": st.booleans(), "jump": st.booleans(),
+    "t_ns": st.integers((WEEK - 600) * 604_800 * NS_PER_S, (WEEK + 200) * 604_800 * NS_PER_S)})
+
+
+@settings(max_examples=300, deadline=None)
+@given(_EPOCH)
+def test_usable_exactly_when_every_condition_holds_and_an_unusable_epoch_names_each_failure(epoch):
+    stage = ReceiverVerdict(gdop_max=5.0, min_sats=4)
+    out = stage.step(epoch)
+    table = int(gps_minus_utc_s(np.int64(epoch["t_ns"])))
+    leap_ok = epoch["leap_s"] == table or (epoch["t_ns"] >= LEAP_TABLE_KNOWN_UNTIL_GPS_NS and epoch["leap_s"] == table + 1)
+    expected = (epoch["fix_mode"] >= 2 and epoch["time_valid"] and epoch["gdop"] == epoch["gdop"]
+                and epoch["gdop"] < 5.0 and epoch["n_sats"] >= 4 and epoch["state"] != "alarm"
+                and not epoch["dissent"] and not epoch["jump"] and leap_ok)
+    assert out["usable"] == expected
+    words = reasons(out["unusable_bits"], epoch, gdop_max=5.0, min_sats=4)
+    assert bool(words) == (not expected)
+    assert len(words) == bin(out["unusable_bits"]).count("1")
+    # the batch path (arrays) gives the step's verdict
+    frame = {k: np.array([v]) for k, v in epoch.items()}
+    assert stage.run(frame)["unusable_bits"][0] == out["unusable_bits"]
+
+
+def test_a_leap_one_above_the_table_passes_only_after_the_table_is_known_to_end():
+    before = LEAP_TABLE_KNOWN_UNTIL_GPS_NS - 86_400 * NS_PER_S
+    after = LEAP_TABLE_KNOWN_UNTIL_GPS_NS + 86_400 * NS_PER_S
+    common = dict(fix_mode=3, time_valid=True, gdop=1.5, n_sats=9, alarm=False, dissent=False, jump=False,
+                  gdop_max=5.0, min_sats=4)
+    assert verdict_bits(leap_s=19, t_ns=before, **common) != 0
+    assert verdict_bits(leap_s=19, t_ns=after, **common) == 0  # a leap second announced after the table
+    assert verdict_bits(leap_s=17, t_ns=after, **common) != 0  # never a count below it
+
+
+def test_the_log_queries_count_availability_alarms_and_unusable_runs_as_logged(tmp_path):
+    from chronofuse.monitor import logquery
+    from chronofuse.monitor.log import EpochLog
+
+    bias = _bias(200, 5, Anomaly("ramp", 100.0, rate_s_per_s=50e-9))
+    path = tmp_path / "rx.ubx"
+    path.write_bytes(ubx_stream(bias))
+    log = EpochLog(tmp_path / "log.db")
+    acked: list[dict] = []
+    Monitor([ReplaySource(path, name="rx", speed=100.0)], KNOWN, log=log, on_ack=acked.extend).run(duration_s=60)
+    log.close()
+    db = tmp_path / "log.db"
+    latched = [r["gps_ns"] for r in acked if r["state"] == "alarm"]
+    runs = logquery.intervals(db, "alarm")
+    assert int(runs["epochs"].sum()) == len(latched) > 0
+    assert int(runs["start_gps_ns"].iloc[0]) == latched[0]
+    unusable = logquery.intervals(db, "unusable")
+    assert int(unusable["epochs"].sum()) == sum(not r["usable"] for r in acked)
+    assert "integrity alarm (latched)" in unusable["reasons"].iloc[-1]
+    avail = logquery.availability(db, 20.0)
+    assert int(avail["epochs"].sum()) == len(acked) and int(avail["usable"].sum()) == sum(r["usable"] for r in acked)
+    full = avail[avail["epochs"] == 20]
+    assert (full["expected"] == 20.0).all()
+    np.testing.assert_allclose(full["availability"], full["usable"] / 20.0)
