@@ -39,6 +39,9 @@ def gnssdo(
     loop_bandwidth: float | None = typer.Option(None, "--loop-bandwidth",
                                                 help="pi only: design the PI from this natural frequency (Hz)."),
     fusion: str = typer.Option("fusion", "--fusion", help="fusion (inverse-variance) or selection (best source)."),
+    design: str = typer.Option("fit", "--design",
+                               help="fit (the Kalman controllers learn the noise from a day's calibration record) or "
+                                    "datasheet (designed from the oscillator preset and the receivers' figures)."),
     integrity_pfa: float | None = typer.Option(None, "--integrity-pfa",
                                                help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
     oscillator: str = typer.Option("ocxo", "--oscillator", help="Oscillator preset: tcxo, ocxo, rb or csac."),
@@ -61,7 +64,8 @@ def gnssdo(
     with user_errors():
         setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
                             trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits, oscillator=oscillator,
-                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa)
+                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa,
+                            design=design)
         with progress_reporter("gnssdo") as say:
             if reference is not None:
                 summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say,
@@ -83,14 +87,18 @@ def gnssdo(
         return
     con = human_console(False)
     table = Table("metric", "value", title=f"GNSSDO: {summary.get('scenario', 'reference')}, {controller}")
-    for key in ("time_error_rms_ns", "time_error_pp_ns", "convergence_s", "optimal_rms_ns", "holdover_error_ns",
-                "holdover_s"):
+    for key in ("time_error_rms_ns", "time_error_pp_ns", "convergence_s", "optimal_rms_ns", "ratio_to_optimal",
+                "holdover_error_ns", "holdover_s"):
         if key in summary:
             value = summary[key]
-            table.add_row(key, "never" if value is None else f"{value:.4g}")
+            ci = summary.get(f"{key}_ci_ns" if key.endswith("_ns") else f"{key}_ci")
+            text = "never" if value is None else f"{value:.4g}"
+            table.add_row(key, text if not ci else f"{text} (95 % CI {ci[0]:.4g}..{ci[1]:.4g})")
     for state, seconds in summary["state_seconds"].items():
         table.add_row(f"seconds {state}", f"{seconds:.0f}")
     con.print(table)
+    if summary.get("optimal_note"):
+        con.print(f"optimal_rms_ns: {summary['optimal_note']}")
     if summary.get("no_usable_receiver"):
         con.print("no usable receiver at any second: the oscillator stayed in free-run")
     if out is not None:

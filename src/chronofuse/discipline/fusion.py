@@ -13,6 +13,12 @@ phase cancels): ``r_j = z_j - z_f(-j)`` has variance ``sigma_j^2 + var(z_f(-j))`
 ``sigma_j^2 ~ EWMA(r_j^2) - var(z_f(-j))`` (exponentially weighted over ``memory_s``, floored at
 ``floor_sigma_s``). Receivers start at ``initial_sigma_s``. Only qualified receivers vote.
 
+The memory (default 3600 s) must be long against the receivers' slowest error (the open-sky wander has
+a 1530 s correlation time): with 300 s the weights of three equal receivers wandered with a standard
+deviation of 0.24 and the clairvoyant servo behind the fusion lost 12 % of time-error rms against the
+equal-weight mean (3.95 against 3.53 ns, 8 trials of 20,000 s); with 3600 s the weights' spread is
+0.10 and nothing is lost (3.48 ns).
+
 Best-source selection, the comparison: each second the usable receiver with the smallest estimated
 variance (the same estimator) is the reference.
 
@@ -52,7 +58,7 @@ class FusionRun:
 class InverseVarianceFusion:
     """Online inverse-variance fusion (``mode="fusion"``) or best-source selection (``mode="selection"``)."""
 
-    def __init__(self, mode: str = "fusion", *, memory_s: float = 300.0, initial_sigma_s: float = 20e-9,
+    def __init__(self, mode: str = "fusion", *, memory_s: float = 3600.0, initial_sigma_s: float = 20e-9,
                  floor_sigma_s: float = 0.5e-9, interval_s: float = 1.0, fast: bool = True):
         self.mode = mode
         self.memory_s = memory_s
