@@ -50,6 +50,7 @@ def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_t
     (["--dac-bits", "0"], "--dac-bits"),
     (["--scenario", "moon"], "--scenario"),
     (["--duration", "-5"], "--duration"),
+    (["--design", "guess"], "--design"),
 ])
 def test_a_bad_configuration_is_refused_with_one_line_naming_the_option(args, needle):
     res = _run(*args)
@@ -145,7 +146,8 @@ def test_a_1pps_phase_with_a_ns_unit_header_is_read_as_such_and_accepted(tmp_pat
 
 
 @pytest.mark.parametrize("option", [["--receivers", "2"], ["--scenario", "urban-canyon"], ["--dac-bits", "12"],
-                                    ["--gdop-max", "3"], ["--fusion", "selection"], ["--integrity-pfa", "1e-4"],
+                                    ["--gdop-max", "3"], ["--fusion", "selection"], ["--design", "datasheet"],
+                                    ["--integrity-pfa", "1e-4"],
                                     ["--duration", "7200"]])
 def test_options_that_do_not_apply_to_a_reference_record_are_refused_naming_them(tmp_path, option):
     path = _write(tmp_path / "ref.txt.gz", 5e-9 * np.random.default_rng(0).standard_normal(4000))

@@ -15,7 +15,7 @@ def register(app: typer.Typer) -> None:
 
 
 #: Options that say how the simulated receivers are made and fused; a real reference record replaces all that.
-SIMULATION_ONLY = ("scenario", "receivers", "gdop_max", "dac_bits", "fusion", "integrity_pfa", "duration")
+SIMULATION_ONLY = ("scenario", "receivers", "gdop_max", "dac_bits", "fusion", "design", "integrity_pfa", "duration")
 
 
 def _given(ctx: typer.Context, name: str) -> bool:
