@@ -85,3 +85,29 @@ def test_with_data_sheets_off_10x_in_h_minus_2_and_3x_in_receiver_noise_the_fitt
     assert ratio_ci(ms(servo), best)[2] <= 1.25
     # the negative: the GNSSDO paper's PI preset is not within 1.25x
     assert ratio_ci(ms(make_controller("pi", osc, env, 3, dac)), best)[1] > 1.25
+
+
+def test_a_fitted_design_kept_for_its_setup_is_the_one_fitted_anew_and_a_new_seed_fits_anew():
+    import dataclasses
+
+    import chronofuse.experiments.gnssdo_design as design
+
+    osc, env = preset("ocxo"), scenario_environment("open-sky", 7200)
+    dac = Dac.for_oscillator(osc)
+
+    def fit(env=env, seed=3):
+        servo, how = fitted_controller("kf", osc, env, 3, dac, root_seed(seed), calibration_s=7200)
+        assert how.startswith("fit")
+        return servo
+
+    design._FITTED.clear()
+    first = fit()
+    # The same record whatever the run's events (the calibration is taken in ordinary conditions): kept.
+    again = fit(env=dataclasses.replace(env, jamming_start_s=600.0, jamming_duration_s=600.0))
+    assert len(design._FITTED) == 1 and again is not first and again.design() == first.design()
+    again.reset()  # a caller's copy: using it leaves the kept one alone
+    design._FITTED.clear()
+    assert fit().design() == first.design()
+    # Another seed is another calibration record: fitted anew, and it differs.
+    assert fit(seed=4).design() != first.design()
+    assert len(design._FITTED) == 2

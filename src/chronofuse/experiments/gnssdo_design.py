@@ -11,11 +11,18 @@ reference's two Gauss-Markov errors (``learn_gauss_markov=2``,
 A servo that learns nothing (``pi``, ``null``) keeps its data-sheet design. The data sheets enter only
 through the calibration loop, whose own quality does not matter: the fit sees the record turned open
 loop (:func:`~chronofuse.discipline.servo.open_loop_offset_s`).
+
+The record depends on the run only through its seed, oscillator, receivers and chain (not its length,
+trials or events), so a fitted servo is kept per those inputs (the last :data:`FIT_CACHE_SIZE`) and every
+caller gets its own copy: a sweep over durations or trials, or a test suite, fits each setup once.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import pickle
+from collections import OrderedDict
 
 import numpy as np
 
@@ -39,6 +46,14 @@ __all__ = ["CALIBRATION_S", "calibration_run", "fitted_controller", "mismatched"
 CALIBRATION_S = 24 * 3600
 #: Least usable reference in the calibration record for a fit (s).
 MIN_CALIBRATION_S = 3600
+#: Fitted servos kept (the calibration run and the fit take seconds; a servo is a few kilobytes).
+FIT_CACHE_SIZE = 32
+_FITTED: OrderedDict[bytes, tuple[Servo | None, int]] = OrderedDict()
+
+
+def _quiet(env: ReceiverEnvironment) -> ReceiverEnvironment:
+    """``env`` in ordinary conditions: its noise without its jamming and spoofing events."""
+    return dataclasses.replace(env, jamming_start_s=None, jamming_duration_s=0.0, spoof_start_s=None)
 
 
 def calibration_run(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None, root,
@@ -48,7 +63,7 @@ def calibration_run(osc: OscillatorModel, env: ReceiverEnvironment, receivers: i
     (designed from ``design_osc`` / ``design_env``, the truth when None): the chain's
     :class:`~chronofuse.discipline.chain.GnssdoRun`. The record is taken in ordinary conditions: the
     environment's noise without its jamming and spoofing events (a user calibrates before trouble)."""
-    quiet = dataclasses.replace(env, jamming_start_s=None, jamming_duration_s=0.0, spoof_start_s=None)
+    quiet = _quiet(env)
     free, _ = _free_phase(osc, calibration_s, 1, child_seed(root, 3))
     rx = simulate_receivers(quiet, calibration_s, receivers, child_seed(root, 4), trials=1)
     datasheet = make_controller("kf", design_osc or osc, design_env or env, receivers, dac)
@@ -66,15 +81,37 @@ def fitted_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment,
     datasheet = make_controller(name, design_osc or osc, design_env or env, receivers, dac, loop_bandwidth_hz)
     if not (isinstance(entry.target, type) and issubclass(entry.target, KalmanServo)):
         return datasheet, f"datasheet ({name} learns nothing from data)"
+    # The calibration's own data-sheet loop is designed from the environment's noise figures alone, so the
+    # quiet environment stands for the run's in the key.
+    design_env = _quiet(design_env or env)
+    key = pickle.dumps((name, osc, _quiet(env), receivers, dac, (root.entropy, tuple(root.spawn_key), root.pool_size),
+                        config, calibration_s, design_osc, design_env))
+    if key in _FITTED:
+        _FITTED.move_to_end(key)
+    else:
+        _FITTED[key] = _fit_on_calibration(name, osc, env, receivers, dac, root, config, calibration_s, design_osc,
+                                           design_env)
+        while len(_FITTED) > FIT_CACHE_SIZE:
+            _FITTED.popitem(last=False)
+    servo, usable = _FITTED[key]
+    if servo is None:
+        return datasheet, (f"datasheet: the calibration record has {usable} s of usable reference, fitting needs "
+                           f"{MIN_CALIBRATION_S}")
+    return copy.deepcopy(servo), f"fit on a {calibration_s} s calibration record"
+
+
+def _fit_on_calibration(name, osc, env, receivers, dac, root, config, calibration_s, design_osc,
+                        design_env) -> tuple[Servo | None, int]:
+    """``(servo fitted on the calibration record, or None when it has under an hour of usable reference;
+    its usable seconds)``."""
     run = calibration_run(osc, env, receivers, dac, root, config, calibration_s, design_osc, design_env)
     usable = int(np.isfinite(run.loop.offset_s).sum())
     if usable < MIN_CALIBRATION_S:
-        return datasheet, (f"datasheet: the calibration record has {usable} s of usable reference, fitting needs "
-                           f"{MIN_CALIBRATION_S}")
+        return None, usable
     servo = SERVOS.create(name, context={"interval_s": 1.0, "dac": dac}, learn_gauss_markov=2,
                           steer_s=DESIGN_STEER_S)
     servo.fit(run.loop.offset_s, freq_adj=run.loop.freq_adj, phase_step_s=run.loop.phase_step_s)
-    return servo, f"fit on a {calibration_s} s calibration record"
+    return servo, usable
 
 
 def mismatched(osc: OscillatorModel, env: ReceiverEnvironment, hm2_factor: float = 10.0,
