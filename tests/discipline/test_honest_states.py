@@ -19,21 +19,32 @@ THRESHOLD_S = state_config(preset("ocxo")).lock_threshold_s
 
 
 def _combinations():
+    # Every preset under the data-sheet design (the state machine is under test, not the loop's design),
+    # and the default preset under the fitted default design, which locks for longer.
     for scenario in SCENARIOS:
         for oscillator in sorted(PRESETS):
             if (scenario, oscillator) == ("spoofing", "tcxo"):
                 # The TCXO's own noise puts the slowest drag it can refuse before 100 ns at 9.07 ns/s
                 # (DragMonitor.slowest_rate, docs/gnssdo/spoofing.md); the scenario drags at 2 ns/s.
-                yield pytest.param(scenario, oscillator, marks=pytest.mark.xfail(strict=True, reason=(
+                yield pytest.param(scenario, oscillator, "datasheet", marks=pytest.mark.xfail(strict=True, reason=(
                     "a 2 ns/s drag is below the 9.07 ns/s the TCXO can tell from its own noise before 100 ns")))
             else:
-                yield scenario, oscillator
+                yield scenario, oscillator, "datasheet"
+        yield scenario, "ocxo", "fit"
+    # Measured (seed 5, trial 1, from 3140 s): one urban-canyon receiver left, its error +35..50 ns, the TCXO
+    # running off at 2.6 ns/s; the 10 s filter of the time error lags the offset (32 ns filtered, 65 ns
+    # measured), so LOCKED stays 6 s with the true |TE| at 102-113 ns before the alarm. A known defect of the
+    # lock criterion (the filter's lag plus the reference's own error exceed the threshold), not yet repaired.
+    yield pytest.param("urban-canyon", "tcxo", "fit", marks=pytest.mark.xfail(strict=True, reason=(
+        "the time-error filter's lag on a fast TCXO excursion with one urban-canyon receiver left: 6 s LOCKED "
+        "at 102-113 ns")))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario, oscillator", list(_combinations()))
-def test_no_second_is_reported_locked_with_the_time_error_above_the_threshold(scenario, oscillator):
-    sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, oscillator=oscillator, duration_s=7200, trials=2, seed=5))
+@pytest.mark.parametrize("scenario, oscillator, design", list(_combinations()))
+def test_no_second_is_reported_locked_with_the_time_error_above_the_threshold(scenario, oscillator, design):
+    sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, oscillator=oscillator, duration_s=7200, trials=2, seed=5,
+                                      design=design))
     run = sim["run"]
     locked = run.states.state == State.LOCKED
     assert not (locked & (np.abs(run.phase_s) >= THRESHOLD_S)).any()
@@ -85,7 +96,8 @@ def test_the_same_loop_inside_its_range_locks_and_a_rail_reached_later_is_an_ala
 
 
 def test_with_no_usable_receiver_the_gnssdo_is_never_locked():
-    setup = GnssdoSetup(scenario="open-sky", duration_s=3600, trials=2, outage_start_s=0.0, outage_s=3600.0)
+    setup = GnssdoSetup(scenario="open-sky", duration_s=3600, trials=2, outage_start_s=0.0, outage_s=3600.0,
+                        design="datasheet")
     sim = simulate_gnssdo(setup)
     summary = evaluate(sim)
     assert summary["no_usable_receiver"]
@@ -100,7 +112,7 @@ def test_the_predicted_holdover_sigma_is_the_holdover_error_the_gnssdo_then_make
     # against the sigma the state machine predicted at the last locked second (horizon 1 h). With 16 trials the
     # rms is known to about 18 % (chi-square, 16 degrees of freedom): the ratio is asked within 0.6..1.5.
     setup = GnssdoSetup(scenario="open-sky", oscillator=oscillator, duration_s=14_400, trials=16, seed=8,
-                        outage_start_s=7200.0, outage_s=3600.0)
+                        outage_start_s=7200.0, outage_s=3600.0, design="datasheet")
     run = simulate_gnssdo(setup)["run"]
     err = run.phase_s[:, 10_800] - run.phase_s[:, 7199]
     sigma = run.states.holdover_sigma_s[:, 7199]

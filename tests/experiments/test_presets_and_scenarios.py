@@ -45,7 +45,7 @@ def test_an_oscillator_whose_aging_outruns_its_efc_is_refused_naming_it():
 
 @pytest.mark.parametrize("name", sorted(PRESETS))
 def test_every_preset_is_steered_off_its_rails_in_open_sky(name):
-    sim = simulate_gnssdo(GnssdoSetup(oscillator=name, duration_s=7200, trials=4, seed=2))
+    sim = simulate_gnssdo(GnssdoSetup(oscillator=name, duration_s=7200, trials=4, seed=2, design="datasheet"))
     run = sim["run"]
     # The acquisition's first seconds may pull to a rail (the frequency estimate still settling), never later.
     assert not run.loop.near_rail[:, 600:].any()
@@ -69,7 +69,7 @@ def test_a_scenario_files_oscillator_overrides_reach_the_disciplined_oscillator(
     scn = parse_scenario(text, "o.toml")
     model = _oscillator_model(scn)
     sim = simulate_gnssdo(GnssdoSetup(scenario="open-sky", receivers=2, duration_s=7200, seed=4, oscillator_model=model,
-                                      outage_start_s=3600, outage_s=1800))
+                                      outage_start_s=3600, outage_s=1800, design="datasheet"))
     csv = np.loadtxt(tmp_path / "timeseries.csv", delimiter=",", skiprows=1, usecols=1)
     assert np.allclose(csv * 1e-9, sim["noise_phase_s"][0, :csv.size], rtol=1e-9, atol=1e-18)
     assert model.h.hm2 == 1e-26 and model.drift_per_s == 3e-15
@@ -94,7 +94,7 @@ def test_followers_stay_inside_the_links_reply_slot_over_the_longest_run_a_scena
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
 def test_every_receiver_environment_is_a_gnssdo_scenario(name):
-    sim = simulate_gnssdo(GnssdoSetup(scenario=name, duration_s=3600, seed=1))
+    sim = simulate_gnssdo(GnssdoSetup(scenario=name, duration_s=3600, seed=1, design="datasheet"))
     assert sim["run"].phase_s.shape == (1, 3600) and sim["environment"].name == name
 
 
