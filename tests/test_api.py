@@ -12,6 +12,33 @@ def test_every_public_name_is_importable_from_the_api():
     assert not missing
 
 
+def test_importing_the_api_loads_no_part_of_the_toolkit_until_a_name_is_used():
+    script = ("import sys; import chronofuse.api as api; before = sorted(m for m in sys.modules if m.startswith("
+              "('numpy', 'scipy', 'chronofuse.')) and m != 'chronofuse.api'); api.adev; "
+              "print(before, 'chronofuse.analysis.stability' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["[]", "True"], done.stdout + done.stderr
+
+
+def test_every_public_name_is_listed_by_dir_and_an_unknown_one_is_an_attribute_error():
+    assert set(api.__all__) <= set(dir(api))
+    try:
+        api.no_such_name  # noqa: B018
+    except AttributeError as exc:
+        assert "no_such_name" in str(exc)
+    else:
+        raise AssertionError("an unknown name resolved")
+
+
+def test_python_dash_m_chronofuse_runs_the_program():
+    from chronofuse import __version__
+
+    done = subprocess.run([sys.executable, "-m", "chronofuse", "--version"], capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == __version__ and done.stderr == ""
+    usage = subprocess.run([sys.executable, "-m", "chronofuse", "detect"], capture_output=True, text=True)
+    assert usage.returncode == 2 and "Usage: chronofuse detect" in usage.stderr
+
+
 def test_the_api_reexports_rather_than_redefines():
     for name in api.__all__:
         obj = getattr(api, name)

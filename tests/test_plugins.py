@@ -148,16 +148,16 @@ def _dist_info(folder: Path, name: str, group: str, points: dict[str, str]) -> N
 
 
 def test_a_plugin_that_fails_to_load_is_named_and_one_that_takes_a_builtin_name_is_refused(tmp_path, monkeypatch):
-    _dist_info(tmp_path, "broken_plugin", "chronofuse.servos", {"broken": "no_such_module:ENTRY", "kf": "x:Y"})
+    _dist_info(tmp_path, "broken_plugin", "chronofuse.servos", {"broken": "no_such_module:ENTRY", "kalman": "x:Y"})
     monkeypatch.syspath_prepend(str(tmp_path))
     SERVOS.refresh()
     try:
-        with pytest.warns(UserWarning, match="'kf'.*names a built-in servos member; the built-in is kept"):
+        with pytest.warns(UserWarning, match="'kalman'.*names a built-in servos member; the built-in is kept"):
             names = SERVOS.names()
-        assert "broken" in names and names.count("kf") == 1
+        assert "broken" in names and names.count("kalman") == 1
         with pytest.raises(PluginError, match="'broken' \\(no_such_module:ENTRY of distribution broken_plugin 0.1\\)"):
             SERVOS.create("broken")
-        assert type(SERVOS.create("kf", context={"h": None})).__name__ == "KalmanServo"
+        assert type(SERVOS.create("kalman", context={"h": None})).__name__ == "KalmanServo"
     finally:
         monkeypatch.undo()
         SERVOS.refresh()

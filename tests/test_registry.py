@@ -101,7 +101,7 @@ def test_the_tables_members_are_behind_their_registries_and_build_what_the_table
     assert OSCILLATORS.builtin_names() == tuple(PRESETS)
     assert OSCILLATORS.create("ocxo", drift_per_s=2e-15) == dataclasses.replace(PRESETS["ocxo"], drift_per_s=2e-15)
     assert ENVIRONMENT_REGISTRY.builtin_names() == tuple(ENVIRONMENTS)
-    assert SERVOS.builtin_names() == ("null", "pi", "kf", "wakf", "gated", "huber")
+    assert SERVOS.builtin_names() == ("null", "pi", "kalman", "adaptive-kalman", "gated-kalman", "huber-kalman")
     assert DETECTORS.builtin_names() == ("chi-square", "single-epoch", "cusum", "reference-clock")
 
 

@@ -149,7 +149,7 @@ def test_a_clock_products_odd_microseconds_survive_detect_its_stream_and_the_mon
     times = [json.loads(line)["t_ns"] for line in streamed.stdout.splitlines()]
     assert times == [t0 + k * 30 * 10**9 for k in range(400)]
     db = tmp_path / "log.db"
-    mon = runner.invoke(app, ["monitor", "--replay", str(path), "--speed", "1e6", "--json-lines", "--db", str(db),
+    mon = runner.invoke(app, ["monitor", "--replay", str(path), "--replay-speed", "1e6", "--json-lines", "--db", str(db),
                               *args])
     records = [json.loads(line) for line in mon.stdout.splitlines()]
     assert [r["gps_ns"] for r in records] == times
@@ -168,7 +168,7 @@ def test_ubx_time_of_week_in_odd_milliseconds_reaches_the_documents_exactly(tmp_
     t0 = WEEK * 604_800 * 10**9 + start_tow_ms * 10**6
     assert doc["time_scale"] == "gps" and doc["alarms"][0]["t_ns"] == t0 + STEP_AT * 10**9
     assert _on_grid(_doc_times(doc), t0)
-    mon = runner.invoke(app, ["monitor", "--replay", str(path), "--speed", "1e6", "--json-lines", *MODEL])
+    mon = runner.invoke(app, ["monitor", "--replay", str(path), "--replay-speed", "1e6", "--json-lines", *MODEL])
     records = [json.loads(line) for line in mon.stdout.splitlines()]
     assert [r["gps_ns"] for r in records] == [t0 + k * 10**9 for k in range(400)]
     assert [r["gps_ns"] for r in records if r["alarm"]] == [a["t_ns"] for a in doc["alarms"]]

@@ -1,287 +1,212 @@
 """The public surface of chronofuse, in one place: ``from chronofuse.api import ...``.
 
 Truth models -> measurements -> analysis -> report, in the order data flows.
+
+Lazy: importing this module imports nothing else; each name loads its module on first use (PEP 562), so
+``import chronofuse.api`` costs about what the interpreter's start does, and a script pays only for the
+parts it uses. ``dir()`` and ``__all__`` list every name.
 """
 
 from __future__ import annotations
 
-from chronofuse.analysis.masks import MASKS
-from chronofuse.analysis.stability import (
-    STATISTICS,
-    Deviation,
-    adev,
-    compute,
-    frequency_to_phase,
-    hdev,
-    htotdev,
-    mdev,
-    mtie,
-    mtotdev,
-    oadev,
-    ohdev,
-    phase_to_frequency,
-    tdev,
-    theo1,
-    theobr,
-    theoh,
-    tie_rms,
-    totdev,
-    ttotdev,
-)
-from chronofuse.analysis.stability.taus import averaging_factors, tau_grid
-from chronofuse.analysis.theory import adev_theory, avar_components, corrected_pps_adev
-from chronofuse.estimation.filter import FilterResult, KalmanFilter
-from chronofuse.estimation.interface import Estimator, FrozenResult, compare_streaming_to_batch, pick_inputs
-from chronofuse.estimation.null import HoldLastEstimator
-from chronofuse.estimation.process import ClockProcess
-from chronofuse.estimation.rts import SmootherResult, rts_smooth
-from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
-from chronofuse.discipline.consensus import apply_leap, utc_consensus
-from chronofuse.discipline.counter import MultiPhaseCounter
-from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.fusion import InverseVarianceFusion
-from chronofuse.discipline.holdover import clairvoyant_holdover_error, holdover_error
-from chronofuse.discipline.kalman import KalmanServo
-from chronofuse.discipline.kalman_adaptive import AdaptiveKalmanServo
-from chronofuse.discipline.kalman_gated import GatedKalmanServo
-from chronofuse.discipline.kalman_huber import HuberKalmanServo
-from chronofuse.discipline.loop import close_loop
-from chronofuse.discipline.pi import PiServo
-from chronofuse.discipline.qualification import Qualification, usable_epochs
-from chronofuse.discipline.null import NullServo
-from chronofuse.discipline.servo import Servo
-from chronofuse.discipline.smoothing import smooth_run
-from chronofuse.discipline.states import State, StateConfig, StateMachine
-from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo
-from chronofuse.experiments.main_job import run_scenario
-from chronofuse.integrity.baselines import CusumDetector, ReferenceClockDetector, SingleEpochDetector
-from chronofuse.integrity.detector import DetectionResult, HodDetector
-from chronofuse.integrity.identification import identify
-from chronofuse.integrity.inject import Anomaly, inject
-from chronofuse.integrity.clock_events import repair_clock_steering
-from chronofuse.integrity.live import stream_verdicts
-from chronofuse.integrity.modes import detect_file
-from chronofuse.integrity.streaming import EpochVerdict, StreamingMonitor
-from chronofuse.experiments.scenario import Scenario, load_scenario, parse_scenario
-from chronofuse.io.capture_series import read_clock_series
-from chronofuse.io.clockbias import read_clock_bias
-from chronofuse.io.grid import GridPlacer
-from chronofuse.record import EpochRecord, Provenance
-from chronofuse.estimation.pipeline import Pipeline
-from chronofuse.integrity.watch import ClockWatch, DetectionSettings, detection_pipeline, watch_record
-from chronofuse.integrity.live import StreamDetection
-from chronofuse.io.records import ClockRecord, read_record
-from chronofuse.io.rinex import channel_clock_biases, read_gps_navigation, read_gps_observations
-from chronofuse.io.rinex_clock import read_station_clocks
-from chronofuse.io.stable32 import read_stable32_table
-from chronofuse.io.ubx import read_nav_clock
-from chronofuse.models.imu import IMU_GRADES, ImuModel, SensorErrors, imu_grade, simulate_imu
-from chronofuse.io.inspect import Capture, read_bytes, read_capture, summarize
-from chronofuse.io.rinex_epochs import read_rinex_clock_epochs, read_rinex_observation_epochs
-from chronofuse.io.sources import FileSource, GpsdSource, SerialSource, SourceGroup, TcpSource, parse_source
-from chronofuse.io.sources_decode import GpsdJsonDecoder, StreamDecoder
-from chronofuse.monitor.decisions import MonitorSettings
-from chronofuse.monitor.engine import Monitor
-from chronofuse.monitor.log import EpochLog
-from chronofuse.monitor.summary import read_session
-from chronofuse.models.noise import power_law_noise
-from chronofuse.positioning.ins import InsState, propagate
-from chronofuse.positioning.loose import CoupledResult, LooselyCoupled, smooth
-from chronofuse.positioning.scenario import DriveData, simulate_drive
-from chronofuse.gnss.constellation import CONSTELLATIONS, constellation
-from chronofuse.gnss.lsq_position import PositionFix, least_squares_position
-from chronofuse.models.oscillator import OscillatorModel, PowerLaw, simulate_oscillator
-from chronofuse.models.oscillator_presets import PRESETS, preset
-from chronofuse.epochs import ReceiverEpochs
-from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
-from chronofuse.models.receiver import ReceiverTruth, simulate_receivers
-from chronofuse.models.receiver_model import ReceiverModel
-from chronofuse.validation import ChronofuseError, InputDataError
-from chronofuse.models.kinematics import Trajectory, constant_acceleration, constant_velocity, manoeuvre
-from chronofuse.models.link import Exchanges, LinkModel, simulate_exchanges
-from chronofuse.sync.base import SyncResult, measurement_array
-from chronofuse.sync.pcrb import link_pcrb
-from chronofuse.sync.registry import ALGORITHM_NAMES as SYNC_ALGORITHMS
-from chronofuse.sync.registry import make_algorithm as make_sync_algorithm
-from chronofuse.experiments.swarm import LinkScenario, run_link, simulate_scenario
-from chronofuse.experiments.swarm_network import SwarmResult, follow_leader, leader_clock_s, link_availability
+import importlib
 
-__all__ = [
+#: Public name -> the module that defines it (or (module, name there) where the public name differs).
+_EXPORTS: dict[str, str | tuple[str, str]] = {
     # truth models
-    "PowerLaw",
-    "OscillatorModel",
-    "PRESETS",
-    "preset",
-    "simulate_oscillator",
-    "power_law_noise",
-    "ReceiverModel",
-    "ReceiverEnvironment",
-    "ENVIRONMENTS",
-    "receiver_environment",
-    "simulate_receivers",
-    "ReceiverTruth",
-    "ReceiverEpochs",
-    "ImuModel",
-    "SensorErrors",
-    "IMU_GRADES",
-    "imu_grade",
-    "simulate_imu",
+    "PowerLaw": "chronofuse.models.oscillator",
+    "OscillatorModel": "chronofuse.models.oscillator",
+    "PRESETS": "chronofuse.models.oscillator_presets",
+    "preset": "chronofuse.models.oscillator_presets",
+    "simulate_oscillator": "chronofuse.models.oscillator",
+    "power_law_noise": "chronofuse.models.noise",
+    "ReceiverModel": "chronofuse.models.receiver_model",
+    "ReceiverEnvironment": "chronofuse.models.environment",
+    "ENVIRONMENTS": "chronofuse.models.environment",
+    "receiver_environment": "chronofuse.models.environment",
+    "simulate_receivers": "chronofuse.models.receiver",
+    "ReceiverTruth": "chronofuse.models.receiver",
+    "ReceiverEpochs": "chronofuse.epochs",
+    "ImuModel": "chronofuse.models.imu",
+    "SensorErrors": "chronofuse.models.imu",
+    "IMU_GRADES": "chronofuse.models.imu",
+    "imu_grade": "chronofuse.models.imu",
+    "simulate_imu": "chronofuse.models.imu",
     # GNSS models and positioning
-    "CONSTELLATIONS",
-    "constellation",
-    "least_squares_position",
-    "PositionFix",
-    "InsState",
-    "propagate",
-    "LooselyCoupled",
-    "CoupledResult",
-    "smooth",
-    "DriveData",
-    "simulate_drive",
+    "CONSTELLATIONS": "chronofuse.gnss.constellation",
+    "constellation": "chronofuse.gnss.constellation",
+    "least_squares_position": "chronofuse.gnss.lsq_position",
+    "PositionFix": "chronofuse.gnss.lsq_position",
+    "InsState": "chronofuse.positioning.ins",
+    "propagate": "chronofuse.positioning.ins",
+    "LooselyCoupled": "chronofuse.positioning.loose",
+    "CoupledResult": "chronofuse.positioning.loose",
+    "smooth": "chronofuse.positioning.loose",
+    "DriveData": "chronofuse.positioning.scenario",
+    "simulate_drive": "chronofuse.positioning.scenario",
     # real data in
-    "ClockRecord",
-    "read_record",
-    "read_nav_clock",
-    "EpochRecord",
-    "Provenance",
-    "GridPlacer",
-    "Pipeline",
-    "DetectionSettings",
-    "detection_pipeline",
-    "watch_record",
-    "ClockWatch",
-    "StreamDetection",
-    "read_clock_series",
-    "read_clock_bias",
-    "read_stable32_table",
-    "read_gps_observations",
-    "read_gps_navigation",
-    "read_capture",
-    "read_bytes",
-    "Capture",
-    "summarize",
-    "read_rinex_observation_epochs",
-    "read_rinex_clock_epochs",
-    "FileSource",
-    "SerialSource",
-    "TcpSource",
-    "GpsdSource",
-    "SourceGroup",
-    "parse_source",
-    "StreamDecoder",
-    "GpsdJsonDecoder",
+    "ClockRecord": "chronofuse.io.records",
+    "read_record": "chronofuse.io.records",
+    "read_nav_clock": "chronofuse.io.ubx",
+    "EpochRecord": "chronofuse.record",
+    "Provenance": "chronofuse.record",
+    "GridPlacer": "chronofuse.io.grid",
+    "Pipeline": "chronofuse.estimation.pipeline",
+    "DetectionSettings": "chronofuse.integrity.watch",
+    "detection_pipeline": "chronofuse.integrity.watch",
+    "watch_record": "chronofuse.integrity.watch",
+    "ClockWatch": "chronofuse.integrity.watch",
+    "StreamDetection": "chronofuse.integrity.live",
+    "read_clock_series": "chronofuse.io.capture_series",
+    "read_clock_bias": "chronofuse.io.clockbias",
+    "read_stable32_table": "chronofuse.io.stable32",
+    "read_gps_observations": "chronofuse.io.rinex",
+    "read_gps_navigation": "chronofuse.io.rinex",
+    "read_capture": "chronofuse.io.inspect",
+    "read_bytes": "chronofuse.io.inspect",
+    "Capture": "chronofuse.io.inspect",
+    "summarize": "chronofuse.io.inspect",
+    "read_rinex_observation_epochs": "chronofuse.io.rinex_epochs",
+    "read_rinex_clock_epochs": "chronofuse.io.rinex_epochs",
+    "FileSource": "chronofuse.io.sources",
+    "SerialSource": "chronofuse.io.sources",
+    "TcpSource": "chronofuse.io.sources",
+    "GpsdSource": "chronofuse.io.sources",
+    "SourceGroup": "chronofuse.io.sources",
+    "parse_source": "chronofuse.io.sources",
+    "StreamDecoder": "chronofuse.io.sources_decode",
+    "GpsdJsonDecoder": "chronofuse.io.sources_decode",
     # monitor
-    "Monitor",
-    "MonitorSettings",
-    "EpochLog",
-    "read_session",
+    "Monitor": "chronofuse.monitor.engine",
+    "MonitorSettings": "chronofuse.monitor.decisions",
+    "EpochLog": "chronofuse.monitor.log",
+    "read_session": "chronofuse.monitor.summary",
     # analysis
-    "Deviation",
-    "STATISTICS",
-    "compute",
-    "adev",
-    "oadev",
-    "mdev",
-    "tdev",
-    "hdev",
-    "ohdev",
-    "totdev",
-    "mtotdev",
-    "htotdev",
-    "ttotdev",
-    "theo1",
-    "theobr",
-    "theoh",
-    "tie_rms",
-    "mtie",
-    "frequency_to_phase",
-    "phase_to_frequency",
-    "averaging_factors",
-    "tau_grid",
-    "adev_theory",
-    "avar_components",
-    "corrected_pps_adev",
-    "MASKS",
+    "Deviation": "chronofuse.analysis.stability",
+    "STATISTICS": "chronofuse.analysis.stability",
+    "compute": "chronofuse.analysis.stability",
+    "adev": "chronofuse.analysis.stability",
+    "oadev": "chronofuse.analysis.stability",
+    "mdev": "chronofuse.analysis.stability",
+    "tdev": "chronofuse.analysis.stability",
+    "hdev": "chronofuse.analysis.stability",
+    "ohdev": "chronofuse.analysis.stability",
+    "totdev": "chronofuse.analysis.stability",
+    "mtotdev": "chronofuse.analysis.stability",
+    "htotdev": "chronofuse.analysis.stability",
+    "ttotdev": "chronofuse.analysis.stability",
+    "theo1": "chronofuse.analysis.stability",
+    "theobr": "chronofuse.analysis.stability",
+    "theoh": "chronofuse.analysis.stability",
+    "tie_rms": "chronofuse.analysis.stability",
+    "mtie": "chronofuse.analysis.stability",
+    "frequency_to_phase": "chronofuse.analysis.stability",
+    "phase_to_frequency": "chronofuse.analysis.stability",
+    "averaging_factors": "chronofuse.analysis.stability.taus",
+    "tau_grid": "chronofuse.analysis.stability.taus",
+    "adev_theory": "chronofuse.analysis.theory",
+    "avar_components": "chronofuse.analysis.theory",
+    "corrected_pps_adev": "chronofuse.analysis.theory",
+    "MASKS": "chronofuse.analysis.masks",
     # estimation
-    "Estimator",
-    "FrozenResult",
-    "compare_streaming_to_batch",
-    "pick_inputs",
-    "KalmanFilter",
-    "FilterResult",
-    "rts_smooth",
-    "SmootherResult",
-    "HoldLastEstimator",
-    "ClockProcess",
+    "Estimator": "chronofuse.estimation.interface",
+    "FrozenResult": "chronofuse.estimation.interface",
+    "compare_streaming_to_batch": "chronofuse.estimation.interface",
+    "pick_inputs": "chronofuse.estimation.interface",
+    "KalmanFilter": "chronofuse.estimation.filter",
+    "FilterResult": "chronofuse.estimation.filter",
+    "rts_smooth": "chronofuse.estimation.rts",
+    "SmootherResult": "chronofuse.estimation.rts",
+    "HoldLastEstimator": "chronofuse.estimation.null",
+    "ClockProcess": "chronofuse.estimation.process",
     # integrity
-    "HodDetector",
-    "DetectionResult",
-    "SingleEpochDetector",
-    "CusumDetector",
-    "ReferenceClockDetector",
-    "Anomaly",
-    "inject",
-    "channel_clock_biases",
-    "identify",
-    "detect_file",
+    "HodDetector": "chronofuse.integrity.detector",
+    "DetectionResult": "chronofuse.integrity.detector",
+    "SingleEpochDetector": "chronofuse.integrity.baselines",
+    "CusumDetector": "chronofuse.integrity.baselines",
+    "ReferenceClockDetector": "chronofuse.integrity.baselines",
+    "Anomaly": "chronofuse.integrity.inject",
+    "inject": "chronofuse.integrity.inject",
+    "channel_clock_biases": "chronofuse.io.rinex",
+    "identify": "chronofuse.integrity.identification",
+    "detect_file": "chronofuse.integrity.modes",
     # discipline (GNSSDO)
-    "Qualification",
-    "usable_epochs",
-    "MultiPhaseCounter",
-    "Dac",
-    "Servo",
-    "NullServo",
-    "PiServo",
-    "KalmanServo",
-    "AdaptiveKalmanServo",
-    "GatedKalmanServo",
-    "HuberKalmanServo",
-    "close_loop",
-    "InverseVarianceFusion",
-    "utc_consensus",
-    "apply_leap",
-    "State",
-    "StateConfig",
-    "StateMachine",
-    "holdover_error",
-    "clairvoyant_holdover_error",
-    "smooth_run",
-    "ChainConfig",
-    "GnssdoRun",
-    "discipline_run",
-    "StreamingMonitor",
-    "EpochVerdict",
-    "stream_verdicts",
-    "repair_clock_steering",
-    "read_station_clocks",
+    "Qualification": "chronofuse.discipline.qualification",
+    "usable_epochs": "chronofuse.discipline.qualification",
+    "MultiPhaseCounter": "chronofuse.discipline.counter",
+    "Dac": "chronofuse.discipline.dac",
+    "Servo": "chronofuse.discipline.servo",
+    "NullServo": "chronofuse.discipline.null",
+    "PiServo": "chronofuse.discipline.pi",
+    "KalmanServo": "chronofuse.discipline.kalman",
+    "AdaptiveKalmanServo": "chronofuse.discipline.kalman_adaptive",
+    "GatedKalmanServo": "chronofuse.discipline.kalman_gated",
+    "HuberKalmanServo": "chronofuse.discipline.kalman_huber",
+    "close_loop": "chronofuse.discipline.loop",
+    "InverseVarianceFusion": "chronofuse.discipline.fusion",
+    "utc_consensus": "chronofuse.discipline.consensus",
+    "apply_leap": "chronofuse.discipline.consensus",
+    "State": "chronofuse.discipline.states",
+    "StateConfig": "chronofuse.discipline.states",
+    "StateMachine": "chronofuse.discipline.states",
+    "holdover_error": "chronofuse.discipline.holdover",
+    "clairvoyant_holdover_error": "chronofuse.discipline.holdover",
+    "smooth_run": "chronofuse.discipline.smoothing",
+    "ChainConfig": "chronofuse.discipline.chain",
+    "GnssdoRun": "chronofuse.discipline.chain",
+    "discipline_run": "chronofuse.discipline.chain",
+    "StreamingMonitor": "chronofuse.integrity.streaming",
+    "EpochVerdict": "chronofuse.integrity.streaming",
+    "stream_verdicts": "chronofuse.integrity.live",
+    "repair_clock_steering": "chronofuse.integrity.clock_events",
+    "read_station_clocks": "chronofuse.io.rinex_clock",
     # experiments
-    "GnssdoSetup",
-    "run_gnssdo",
-    "Scenario",
-    "load_scenario",
-    "parse_scenario",
-    "run_scenario",
-    # swarm sync (seed 001)
-    "Trajectory",
-    "constant_velocity",
-    "constant_acceleration",
-    "manoeuvre",
-    "LinkModel",
-    "Exchanges",
-    "simulate_exchanges",
-    "measurement_array",
-    "SyncResult",
-    "SYNC_ALGORITHMS",
-    "make_sync_algorithm",
-    "link_pcrb",
-    "LinkScenario",
-    "simulate_scenario",
-    "run_link",
-    "SwarmResult",
-    "follow_leader",
-    "leader_clock_s",
-    "link_availability",
+    "GnssdoSetup": "chronofuse.experiments.gnssdo",
+    "run_gnssdo": "chronofuse.experiments.gnssdo",
+    "Scenario": "chronofuse.experiments.scenario",
+    "load_scenario": "chronofuse.experiments.scenario",
+    "parse_scenario": "chronofuse.experiments.scenario",
+    "run_scenario": "chronofuse.experiments.main_job",
+    # swarm sync (the swarm paper)
+    "Trajectory": "chronofuse.models.kinematics",
+    "constant_velocity": "chronofuse.models.kinematics",
+    "constant_acceleration": "chronofuse.models.kinematics",
+    "manoeuvre": "chronofuse.models.kinematics",
+    "LinkModel": "chronofuse.models.link",
+    "Exchanges": "chronofuse.models.link",
+    "simulate_exchanges": "chronofuse.models.link",
+    "measurement_array": "chronofuse.sync.base",
+    "SyncResult": "chronofuse.sync.base",
+    "SYNC_ALGORITHMS": ("chronofuse.sync.registry", "ALGORITHM_NAMES"),
+    "make_sync_algorithm": ("chronofuse.sync.registry", "make_algorithm"),
+    "link_pcrb": "chronofuse.sync.pcrb",
+    "LinkScenario": "chronofuse.experiments.swarm",
+    "simulate_scenario": "chronofuse.experiments.swarm",
+    "run_link": "chronofuse.experiments.swarm",
+    "SwarmResult": "chronofuse.experiments.swarm_network",
+    "follow_leader": "chronofuse.experiments.swarm_network",
+    "leader_clock_s": "chronofuse.experiments.swarm_network",
+    "link_availability": "chronofuse.experiments.swarm_network",
     # errors
-    "ChronofuseError",
-    "InputDataError",
-]
+    "ChronofuseError": "chronofuse.validation",
+    "InputDataError": "chronofuse.validation",
+    "InputError": "chronofuse.validation",
+    "InputWarning": "chronofuse.validation",
+}
+
+__all__ = list(_EXPORTS)
+
+
+def __getattr__(name: str):
+    try:
+        where = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    module, attr = (where, name) if isinstance(where, str) else where
+    value = getattr(importlib.import_module(module), attr)
+    globals()[name] = value  # the next access is a plain global
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

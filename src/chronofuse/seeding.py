@@ -1,4 +1,4 @@
-"""Reproducible randomness (SPEC section 1): one SeedSequence per experiment, a child per trial.
+"""Reproducible randomness: one SeedSequence per experiment, a child per trial.
 
 The one convention for every ``simulate_*`` that takes a ``seed`` (:func:`root_seed`):
 

@@ -21,6 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from chronofuse.validation import InputError
+
 __all__ = [
     "NS_PER_S",
     "SECONDS_PER_DAY",
@@ -101,7 +103,7 @@ def tai_minus_utc_s(utc) -> np.ndarray:
     utc_ns = datetime64_to_gps_ns(utc)
     i = np.searchsorted(_LEAP_START_UTC_NS, utc_ns, side="right") - 1
     if np.any(i < 0):
-        raise ValueError("UTC before 1972-01-01 has no integer leap-second count")
+        raise InputError("UTC before 1972-01-01 has no integer leap-second count")
     return _TAI_MINUS_UTC[i]
 
 
@@ -110,7 +112,7 @@ def gps_minus_utc_s(gps_ns) -> np.ndarray:
     gps_ns = np.asarray(gps_ns, dtype=np.int64)
     i = np.searchsorted(_LEAP_START_GPS_NS, gps_ns, side="right") - 1
     if np.any(i < 0):
-        raise ValueError("GPS time before 1972-01-01 has no integer leap-second count")
+        raise InputError("GPS time before 1972-01-01 has no integer leap-second count")
     return _TAI_MINUS_UTC[i] - TAI_MINUS_GPS_S
 
 

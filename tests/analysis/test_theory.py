@@ -1,4 +1,4 @@
-"""Theoretical Allan variance (SPEC 2.1): each term against an independent computation."""
+"""Theoretical Allan variance: each term against an independent computation."""
 
 from __future__ import annotations
 

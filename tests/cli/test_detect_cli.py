@@ -302,7 +302,7 @@ STATION_0759 = np.array([-3976219.5082, 3382372.5671, 3652512.9849])
 
 @pytest.mark.parametrize("offset_m", [1_000.0, 10_000.0])
 def test_a_position_kilometres_off_makes_integrity_unavailable_not_alarms_on_healthy_satellites(real_data, offset_m):
-    # issue 10.2: 1 km and 10 km off gave 80 and 51 alarms blaming healthy satellites
+    # 1 km and 10 km off gave 80 and 51 alarms blaming healthy satellites
     rtk = real_data / "receivers" / "rinex" / "rtklib"
     east = np.array([-np.sin(np.arctan2(STATION_0759[1], STATION_0759[0])), np.cos(np.arctan2(STATION_0759[1], STATION_0759[0])), 0.0])
     pos = STATION_0759 + offset_m * east
@@ -328,7 +328,7 @@ def test_a_navigation_file_of_another_day_tests_nothing_and_says_integrity_unava
 
 
 def test_a_fault_on_p2_alone_is_named_on_p2(tmp_path, real_data):
-    # issue 10.7: identification used only C1, so a fault on P2 was invisible
+    # identification used only C1, so a fault on P2 was invisible
     rtk = real_data / "receivers" / "rinex" / "rtklib"
     text = (rtk / "30400920.05o").read_text()
     obs = tmp_path / "30400920.05o"
@@ -390,7 +390,7 @@ def test_importing_the_detect_command_does_not_import_the_detector_library():
 
 
 def test_detect_help_imports_no_numpy():
-    # issue 10.6: `detect --help` under 0.5 s; numpy (through cli.common and report.jsonio, 0.12 s of the
+    # `detect --help` under 0.5 s; numpy (through cli.common and report.jsonio, 0.12 s of the
     # import time measured with -X importtime) is what the command module itself pulled in before (typer
     # renders its help with rich's tables itself)
     import subprocess

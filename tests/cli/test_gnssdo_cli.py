@@ -29,7 +29,7 @@ def _run(*args):
 
 def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_the_report(tmp_path):
     out = tmp_path / "rep"
-    res = _run("--scenario", "outage", "--duration", "7200", "--trials", "2", "--receivers", "2", "--out", str(out),
+    res = _run("--environment", "outage", "--duration", "7200", "--trials", "2", "--receivers", "2", "--out", str(out),
                "--json")
     assert res.exit_code == 0, res.output
     doc = json.loads(res.stdout)
@@ -48,7 +48,7 @@ def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_t
     (["--gdop-max", "0.5"], "--gdop-max"),
     (["--controller", "lqr"], "--controller"),
     (["--dac-bits", "0"], "--dac-bits"),
-    (["--scenario", "moon"], "--scenario"),
+    (["--environment", "moon"], "--environment"),
     (["--duration", "-5"], "--duration"),
     (["--design", "guess"], "--design"),
 ])
@@ -145,7 +145,7 @@ def test_a_1pps_phase_with_a_ns_unit_header_is_read_as_such_and_accepted(tmp_pat
     assert json.loads(res.stdout)["duration_s"] == 4000
 
 
-@pytest.mark.parametrize("option", [["--receivers", "2"], ["--scenario", "urban-canyon"], ["--dac-bits", "12"],
+@pytest.mark.parametrize("option", [["--receivers", "2"], ["--environment", "urban-canyon"], ["--dac-bits", "12"],
                                     ["--gdop-max", "3"], ["--fusion", "selection"], ["--design", "datasheet"],
                                     ["--integrity-pfa", "1e-4"],
                                     ["--duration", "7200"]])

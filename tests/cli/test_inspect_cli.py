@@ -67,7 +67,7 @@ def test_bad_checksums_and_unknown_talkers_are_reported(tmp_path):
 @pytest.mark.parametrize("suffix", [".csv", ".parquet"])
 def test_export_has_exactly_the_columns_and_the_readers_values(tmp_path, suffix):
     out = tmp_path / f"epochs{suffix}"
-    result = runner.invoke(app, ["inspect", str(M8T), "--export", str(out), "--json"])
+    result = runner.invoke(app, ["inspect", str(M8T), "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output
     table = pd.read_csv(out) if suffix == ".csv" else pd.read_parquet(out)
     assert tuple(table.columns) == EXPORT_COLUMNS
@@ -92,6 +92,6 @@ def test_a_missing_file_is_one_line_on_stderr_and_exit_code_2(tmp_path):
 
 
 def test_an_export_name_without_a_table_suffix_is_refused(tmp_path):
-    result = runner.invoke(app, ["inspect", str(M8T), "--export", str(tmp_path / "out.xlsx")])
+    result = runner.invoke(app, ["inspect", str(M8T), "--out", str(tmp_path / "out.xlsx")])
     assert result.exit_code == 2
-    assert "--export" in result.output
+    assert "--out" in result.output

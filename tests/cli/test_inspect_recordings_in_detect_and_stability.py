@@ -103,7 +103,7 @@ def test_stability_with_station_analyses_that_station_of_a_clock_product_and_ref
         assert len(result.stderr.splitlines()) == 1 and fragment in result.stderr and str(target) in result.stderr
 
 
-@pytest.mark.parametrize("relative, fragment", [("rinex/rtklib/07590920.05o", "--nav NAVFILE --position"),
+@pytest.mark.parametrize("relative, fragment", [("rinex/rtklib/07590920.05o", "clock-bias detection in identification mode, given a navigation file"),
                                                 ("rinex/rtklib/07590920.05n", "nav file holds no receiver epochs"),
                                                 ("gpsd/ublox-neo-m8t.log", "no UBX NAV-CLOCK message")])
 def test_stability_on_a_recording_without_a_clock_says_what_to_do_in_one_line(relative, fragment):

@@ -37,7 +37,7 @@ def test_no_acknowledged_record_is_lost_when_the_monitor_is_killed_mid_stream(tm
     db = tmp_path / "log.db"
     env = {**os.environ, "PYTHONPATH": str(REPO / "src")}
     cmd = [sys.executable, "-m", "chronofuse.cli.main", "monitor", "--replay", str(F9P), "--replay", str(M8T),
-           "--speed", "20", "--db", str(db), "--json-lines"]
+           "--replay-speed", "20", "--db", str(db), "--json-lines"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, cwd=tmp_path)
     printed = []
     deadline = time.monotonic() + 120
@@ -56,7 +56,7 @@ def test_no_acknowledged_record_is_lost_when_the_monitor_is_killed_mid_stream(tm
 
 def test_a_replay_logs_every_epoch_of_the_recording_and_the_report_plots_it(tmp_path):
     db = tmp_path / "log.db"
-    result = runner.invoke(app, ["monitor", "--replay", str(M8T), "--replay", str(F9P), "--speed", "1000", "--db",
+    result = runner.invoke(app, ["monitor", "--replay", str(M8T), "--replay", str(F9P), "--replay-speed", "1000", "--db",
                                  str(db), "--json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)

@@ -65,7 +65,7 @@ def test_json_lines_reach_a_file_and_stdout_while_the_live_table_is_drawn_on_a_t
     lines_file = tmp_path / "epochs.jsonl"
     env = {k: v for k, v in ENV.items() if k not in ("COLUMNS", "LINES")}
     with open(tmp_path / "stdout.jsonl", "wb") as stdout:
-        proc = subprocess.run([sys.executable, "-m", "chronofuse.cli.main", "monitor", "--replay", str(M8T), "--speed",
+        proc = subprocess.run([sys.executable, "-m", "chronofuse.cli.main", "monitor", "--replay", str(M8T), "--replay-speed",
                                "60", "--json-lines", "--json-lines-file", str(lines_file)], stdout=stdout, stderr=slave,
                               stdin=slave, env={**env, "TERM": "xterm-256color"}, timeout=120)
     os.close(slave)
@@ -135,7 +135,7 @@ def test_without_a_retry_window_a_refused_source_gives_up_and_says_how_long_it_t
 def test_a_replay_logged_twice_into_one_database_has_no_duplicates_and_exports_agree_row_by_row(tmp_path):
     db = tmp_path / "log.db"
     for _ in range(2):
-        done = _chronofuse("monitor", "--replay", str(M8T), "--speed", "1000", "--db", str(db), "--no-table")
+        done = _chronofuse("monitor", "--replay", str(M8T), "--replay-speed", "1000", "--db", str(db), "--no-table")
         assert done.returncode == 0, done.stderr
     con = sqlite3.connect(db)
     assert con.execute("SELECT COUNT(*) FROM epochs").fetchone()[0] == 151
@@ -144,7 +144,7 @@ def test_a_replay_logged_twice_into_one_database_has_no_duplicates_and_exports_a
     con.close()
     for suffix in ("csv", "parquet"):
         out = tmp_path / f"epochs.{suffix}"
-        _log("log", "epochs", str(db), "--export", str(out))
+        _log("log", "epochs", str(db), "--out", str(out))
         exported = pd.read_csv(out, keep_default_na=True) if suffix == "csv" else pd.read_parquet(out)
         assert list(exported.columns) == list(rows.columns)
         assert len(exported) == len(rows) == 151

@@ -17,7 +17,7 @@ def _run(*args):
 
 
 def test_position_prints_cep_and_vertical_per_solution_as_json(tmp_path):
-    result = _run("--scenario", "tunnel", "--systems", "gps", "--ins", "tactical", "--smooth", "--duration", "420",
+    result = _run("--environment", "tunnel", "--systems", "gps", "--ins", "tactical", "--smooth", "--duration", "420",
                   "--trials", "2", "--imu-rate", "20", "--json", "--out", str(tmp_path / "out"))
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -31,7 +31,7 @@ def test_position_prints_cep_and_vertical_per_solution_as_json(tmp_path):
 
 def test_real_broadcast_orbits_drive_the_gps_satellites(real_data):
     nav = real_data / "receivers" / "rinex" / "rtklib" / "07590920.05n"
-    result = _run("--scenario", "open-sky", "--systems", "gps", "--ins", "none", "--duration", "60", "--trials", "1",
+    result = _run("--environment", "open-sky", "--systems", "gps", "--ins", "none", "--duration", "60", "--trials", "1",
                   "--imu-rate", "10", "--nav", str(nav), "--json")
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -41,7 +41,7 @@ def test_real_broadcast_orbits_drive_the_gps_satellites(real_data):
 @pytest.mark.parametrize("args, named", [
     (["--imu-rate", "5"], "--imu-rate"),
     (["--speed", "300"], "--speed"),
-    (["--scenario", "desert"], "scenario"),
+    (["--environment", "desert"], "--environment"),
     (["--ins", "navigation-grade"], "ins"),
 ])
 def test_bad_options_are_one_line_errors_naming_the_option(args, named):

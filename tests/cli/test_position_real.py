@@ -24,7 +24,7 @@ def test_position_from_a_hatanaka_file_writes_the_csv_and_the_statistics(igs_sta
     s = igs_stations["ESBC"]
     ref = ",".join(f"{v:.4f}" for v in s.reference_arp_m)
     out = tmp_path / "out"
-    result = runner.invoke(app, _args(s) + ["--reference-position", ref, "--end", "3599", "--json", "--out", str(out)])
+    result = runner.invoke(app, _args(s) + ["--position", ref, "--end", "3599", "--json", "--out", str(out)])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     assert doc["epochs"] == doc["fixes"] == 120 and doc["codes"] == {"G": "C1C", "C": "C2I"}
@@ -46,7 +46,7 @@ def test_gps_plus_bds_with_a_gps_only_navigation_file_is_refused_in_one_line(igs
 
 def test_bad_options_are_refused_naming_them(igs_stations):
     s = igs_stations["BOR1"]
-    for extra, word in ((["--reference-position", "1,2"], "--reference-position"), (["--start", "60", "--end", "0"], "--end"),
+    for extra, word in ((["--position", "1,2"], "--position"), (["--start", "60", "--end", "0"], "--end"),
                         (["--systems", "gps+glonass"], "systems")):
         result = runner.invoke(app, [a for a in _args(s, "gps") if a != "gps+bds"] + extra)
         assert result.exit_code == 2 and word in result.output

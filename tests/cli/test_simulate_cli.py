@@ -15,7 +15,7 @@ runner = CliRunner()
 
 def test_simulate_oscillator_writes_phase_columns_and_prints_theory(tmp_path):
     out = tmp_path / "ocxo.csv"
-    result = runner.invoke(app, ["simulate", "oscillator", "--preset", "ocxo", "--duration", "1000", "--rate", "1",
+    result = runner.invoke(app, ["simulate", "oscillator", "--oscillator", "ocxo", "--duration", "1000", "--rate", "1",
                                  "--seed", "3", "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
@@ -45,7 +45,7 @@ def test_the_same_seed_gives_the_same_file(tmp_path):
 
 def test_simulate_receiver_writes_one_row_per_receiver_and_second(tmp_path):
     out = tmp_path / "rx.csv"
-    result = runner.invoke(app, ["simulate", "receiver", "--scenario", "urban-canyon", "--duration", "600",
+    result = runner.invoke(app, ["simulate", "receiver", "--environment", "urban-canyon", "--duration", "600",
                                  "--receivers", "3", "--seed", "1", "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output
     frame = pd.read_csv(out)
@@ -56,9 +56,9 @@ def test_simulate_receiver_writes_one_row_per_receiver_and_second(tmp_path):
 
 
 def test_a_bad_preset_or_scenario_is_a_one_line_error_with_exit_code_2(tmp_path):
-    result = runner.invoke(app, ["simulate", "oscillator", "--preset", "hydrogen", "--out", str(tmp_path / "x.csv")])
+    result = runner.invoke(app, ["simulate", "oscillator", "--oscillator", "hydrogen", "--out", str(tmp_path / "x.csv")])
     assert result.exit_code == 2 and "hydrogen" in result.stderr
-    result = runner.invoke(app, ["simulate", "receiver", "--scenario", "moon", "--out", str(tmp_path / "x.csv")])
+    result = runner.invoke(app, ["simulate", "receiver", "--environment", "moon", "--out", str(tmp_path / "x.csv")])
     assert result.exit_code == 2 and "moon" in result.stderr
     result = runner.invoke(app, ["simulate", "oscillator", "--rate", "-1", "--out", str(tmp_path / "x.csv")])
     assert result.exit_code == 2 and "rate" in result.stderr

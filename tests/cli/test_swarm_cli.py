@@ -59,3 +59,14 @@ def test_an_outage_reports_robustness_and_the_filters_recover():
     assert rob["ours-doppler"]["recovery_epochs"] is not None and rob["ours-doppler"]["recovery_epochs"] < 50
     bad = runner.invoke(app, ["swarm", "run", "--outage", "0:5", "--exchanges", "50", "--trials", "1"])
     assert bad.exit_code == 2 and bad.stderr.startswith("error: --outage == 0:5")
+
+
+def test_swarm_run_and_network_write_their_document_with_out(tmp_path):
+    for args in (["swarm", "run", "--algorithm", "rtt-rvc", "--trials", "2", "--exchanges", "100"],
+                 ["swarm", "network", "--duration", "100", "--followers", "2"]):
+        out = tmp_path / args[1]
+        result = CliRunner().invoke(app, [*args, "--out", str(out), "--json", "--quiet"])
+        assert result.exit_code == 0, result.output
+        doc = json.loads(result.stdout)
+        assert doc["files"] == [str(out / "summary.json")]
+        assert json.loads((out / "summary.json").read_text()) == {k: v for k, v in doc.items() if k != "files"}

@@ -1,4 +1,4 @@
-"""Multi-phase counter: the seed's worked example exactly, and the 1/N resolution gain shown statistically."""
+"""Multi-phase counter: the source paper's worked example exactly, and the 1/N resolution gain shown statistically."""
 
 import numpy as np
 import pytest

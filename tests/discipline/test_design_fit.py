@@ -96,7 +96,7 @@ def test_a_fitted_design_kept_for_its_setup_is_the_one_fitted_anew_and_a_new_see
     dac = Dac.for_oscillator(osc)
 
     def fit(env=env, seed=3):
-        servo, how = fitted_controller("kf", osc, env, 3, dac, root_seed(seed), calibration_s=7200)
+        servo, how = fitted_controller("kalman", osc, env, 3, dac, root_seed(seed), calibration_s=7200)
         assert how.startswith("fit")
         return servo
 

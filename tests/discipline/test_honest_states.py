@@ -61,7 +61,7 @@ def _railed_run(frequency_offset: float):
     free = truth.x_s + frequency_offset * truth.t_s
     env = scenario_environment("open-sky", steps)
     rx = simulate_receivers(env, steps, 3, 2, trials=2)
-    servo = make_controller("gated", osc, env, 3, dac)
+    servo = make_controller("gated-kalman", osc, env, 3, dac)
     return discipline_run(servo, free, rx.pps_error_s, rx.epochs, ChainConfig(states=state_config(osc)))
 
 
@@ -83,7 +83,7 @@ def test_the_same_loop_inside_its_range_locks_and_a_rail_reached_later_is_an_ala
     free = truth.x_s + 1e-9 * t + 3e-9 * np.maximum(t - 4000.0, 0.0)
     env = scenario_environment("open-sky", steps)
     rx = simulate_receivers(env, steps, 3, 2, trials=2)
-    servo = make_controller("gated", osc, env, 3, Dac.for_oscillator(osc))
+    servo = make_controller("gated-kalman", osc, env, 3, Dac.for_oscillator(osc))
     run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, ChainConfig(states=state_config(osc)))
     states, reasons = run.states.state, run.states.reason
     assert (states[:, 3999] == State.LOCKED).all()

@@ -130,7 +130,7 @@ def test_the_gnssdo_output_is_labelled_by_the_consensus(leap_at):
     rx = simulate_receivers(env, 3600, 3, 4, start_gps_s=start, leap_event_gps_s=midnight + 1,
                             leap_announce_s=2 * 86_400)
     free, _ = _free_phase(osc, 3600, 1, root_seed(1))
-    run = discipline_run(make_controller("gated", osc, env, 3, Dac.for_oscillator(osc)), free, rx.pps_error_s,
+    run = discipline_run(make_controller("gated-kalman", osc, env, 3, Dac.for_oscillator(osc)), free, rx.pps_error_s,
                          rx.epochs, ChainConfig())
     assert run.leap["leap_second"].sum() == 1
     assert np.array_equal(run.leap["utc_label_s"][0], rx.epochs.utc_ns()[0, 0] // NS_PER_S)

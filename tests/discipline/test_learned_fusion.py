@@ -30,6 +30,18 @@ def test_ica_weights_pass_the_common_mode_unchanged():
     np.testing.assert_allclose(ica.fuse(np.tile(x, (4, 1))), x, rtol=0, atol=1e-15)
 
 
+def test_ica_that_does_not_converge_says_so_in_its_fit_and_warns_nothing():
+    import warnings
+
+    z, _, u, _, _ = _data("open-sky", 1)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        short = IcaFusion(max_iter=1).fit(z[:, u.all(axis=0)])
+        full = IcaFusion().fit(z[:, u.all(axis=0)])
+    assert short.n_iter_ == 1 and not short.converged_
+    assert full.converged_ == (full.n_iter_ < full.max_iter)
+
+
 @pytest.mark.slow
 def test_ica_preprocessing_does_not_beat_inverse_variance_fusion_on_held_out_urban_data():
     z, _, u, _, _ = _data("urban-canyon", 1)

@@ -1,4 +1,4 @@
-"""PI servo and the closed loop: the seed's preset, design from bandwidth, streaming == batch, null baseline."""
+"""PI servo and the closed loop: the source paper's preset, design from bandwidth, streaming == batch, null baseline."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Source qualification: fix, time, satellites and GDOP < 5 (seed 000 section 3.2 (1))."""
+"""Source qualification: fix, time, satellites and GDOP < 5 (the GNSSDO paper section 3.2 (1))."""
 
 import numpy as np
 import pytest

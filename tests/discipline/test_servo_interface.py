@@ -72,7 +72,7 @@ def test_the_null_servo_never_steps_and_never_corrects():
 
 
 def test_a_jump_moves_the_1pps_by_the_offset_and_a_continuous_step_is_slewed():
-    run = SERVOS.create("kf", context=CONTEXT).run(_offsets())
+    run = SERVOS.create("kalman", context=CONTEXT).run(_offsets())
     steps = np.flatnonzero(run.phase_step_s[1])
     assert steps.tolist() == [0, 345]  # the first sample and the step seen after a gap, not the one at 300
     assert run.servo_state[1, 345] == ServoState.JUMP
@@ -162,9 +162,9 @@ def test_a_loop_bandwidth_is_refused_for_a_servo_that_has_no_such_setting():
     from chronofuse.experiments.gnssdo import GnssdoSetup, make_controller
     from chronofuse.models.environment import receiver_environment
 
-    with pytest.raises(ValueError, match="--loop-bandwidth == 0.001: --controller 'kf' has no loop-bandwidth"):
-        GnssdoSetup(controller="kf", loop_bandwidth_hz=1e-3)
-    with pytest.raises(ValueError, match="natural_hz is not a setting of servos member 'gated'"):
-        make_controller("gated", OCXO, receiver_environment("open-sky"), 3, None, loop_bandwidth_hz=1e-3)
+    with pytest.raises(ValueError, match="loop_bandwidth_hz == 0.001: controller 'kalman' has no loop-bandwidth"):
+        GnssdoSetup(controller="kalman", loop_bandwidth_hz=1e-3)
+    with pytest.raises(ValueError, match="natural_hz is not a setting of servos member 'gated-kalman'"):
+        make_controller("gated-kalman", OCXO, receiver_environment("open-sky"), 3, None, loop_bandwidth_hz=1e-3)
     pi = make_controller("pi", OCXO, receiver_environment("open-sky"), 3, None, loop_bandwidth_hz=1e-3)
     assert pi.ki == pytest.approx((2 * math.pi * 1e-3) ** 2)

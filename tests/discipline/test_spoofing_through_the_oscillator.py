@@ -33,7 +33,7 @@ def _spoofed_run(oscillator: str, rate: float = 0.0, accel: float = 0.0, affecte
     monitors = plausibility_monitors(osc, env, receivers) if plausibility else (None, None)
     config = ChainConfig(states=state_config(osc), receiver_monitor=monitors[0], reference_monitor=monitors[1],
                          integrity_pfa=integrity_pfa)
-    servo = make_controller("gated", osc, env, receivers, Dac.for_oscillator(osc))
+    servo = make_controller("gated-kalman", osc, env, receivers, Dac.for_oscillator(osc))
     return discipline_run(servo, free, rx.pps_error_s, rx.epochs, config)
 
 
@@ -155,7 +155,7 @@ def test_the_chain_with_its_plausibility_stages_streams_as_it_runs_through_a_dra
     monitor = DragMonitor.for_oscillator(osc, noise, max_horizon_s=128, readmit_s=60)
     config = ChainConfig(states=dataclasses.replace(state_config(osc), lock_hold_s=20.0), receiver_monitor=monitor,
                          reference_monitor=monitor)
-    servo = make_controller("gated", osc, env, 3, Dac.for_oscillator(osc))
+    servo = make_controller("gated-kalman", osc, env, 3, Dac.for_oscillator(osc))
     pipe = gnssdo_pipeline(servo, config, 10**9).fit()
     frame = gnssdo_frame(free, pps, rx.epochs)
     names = ["receiver_plausible", "fresh", "usable", "loop_reference_s", "implausible", "phase_s", "gnssdo_state",

@@ -35,7 +35,7 @@ def test_report_folder_holds_figures_tables_summary_and_markdown(small_run):
 
 def test_hod_false_alarm_rates_track_nominal_over_four_decades(small_run):
     _, summary = small_run
-    hod = [r for r in summary["false_alarms"] if r["detector"] == "hod"]
+    hod = [r for r in summary["false_alarms"] if r["detector"] == "hod-chi2"]
     assert [r["pfa"] for r in hod] == [1e-1, 1e-2, 1e-3, 1e-4]
     for r in hod[:2]:  # enough independent epochs for a tight check at 1e-1 and 1e-2
         assert r["nominal_in_ci99"], r
@@ -45,10 +45,10 @@ def test_hod_false_alarm_rates_track_nominal_over_four_decades(small_run):
 def test_hod_detects_a_drag_off_far_smaller_than_the_single_epoch_threshold_can(small_run):
     _, summary = small_run
     best = summary["min_size_p90"]["drag"]
-    assert best["hod"] is not None and best["single"] is not None
-    assert best["hod"] * 5 <= best["single"]
-    rows = [r for r in summary["detection"] if r["kind"] == "drag" and r["detector"] == "hod"
-            and r["size_sigma"] == best["hod"]]
+    assert best["hod-chi2"] is not None and best["single-epoch"] is not None
+    assert best["hod-chi2"] * 5 <= best["single-epoch"]
+    rows = [r for r in summary["detection"] if r["kind"] == "drag" and r["detector"] == "hod-chi2"
+            and r["size_sigma"] == best["hod-chi2"]]
     assert np.isfinite(rows[0]["median_delay_s"]) and rows[0]["median_delay_s"] <= SMALL.horizon
 
 

@@ -98,3 +98,13 @@ def test_an_outage_past_the_end_of_the_run_is_refused_naming_the_key(tmp_path):
     text = SHORT.replace("7200", "14400") + "[discipline]\noutage_start_s = 14000\noutage_s = 3600\n"
     with pytest.raises(ScenarioError, match="discipline.outage_start_s"):
         run_scenario(parse_scenario(text, "late.toml"), tmp_path)
+
+
+def test_run_seed_replaces_the_scenarios_seed(report, tmp_path):
+    other = tmp_path / "short.toml"
+    other.write_text(SHORT.replace("seed = 11", "seed = 5"))
+    result = CliRunner().invoke(app, ["run", str(other), "--seed", "11", "--out", str(tmp_path / "a"), "--json"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "a" / "timeseries.csv").read_bytes() == (report.out_dir / "timeseries.csv").read_bytes()
+    refused = CliRunner().invoke(app, ["run", str(other), "--seed", "-1", "--out", str(tmp_path / "b")])
+    assert refused.exit_code == 2 and refused.stderr.startswith("error: --seed: ") and "greater than or equal to 0" in refused.stderr

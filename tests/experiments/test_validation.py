@@ -17,6 +17,7 @@ from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.main import app
 from chronofuse.experiments import validation
 from chronofuse.models.oscillator_presets import PRESETS
+from chronofuse.validation import InputError
 
 PNGS = [
     "gps_deviations.png",
@@ -133,8 +134,21 @@ def test_pooled_oadev_of_one_trial_is_plain_oadev_and_pooling_adds_degrees_of_fr
         pooled_oadev(x[0], 1.0)
 
 
+def test_pooled_oadev_leaves_out_a_trial_only_where_its_gaps_leave_it_no_term():
+    rng = np.random.default_rng(6)
+    x = np.cumsum(rng.standard_normal((3, 4000)), axis=1) * 1e-9
+    x[2, 100:3900] = np.nan  # trial 2 keeps terms at short taus only
+    taus = np.array([1.0, 2.0, 1000.0])
+    pooled = pooled_oadev(x, 1.0, taus)
+    per_trial = np.array([st.oadev(row, 1.0, taus).dev for row in x])
+    assert np.isfinite(per_trial[2, 0]) and np.isnan(per_trial[2, 2])
+    np.testing.assert_allclose(pooled.dev[0], np.sqrt(np.mean(per_trial[:, 0] ** 2)), rtol=1e-14)
+    np.testing.assert_allclose(pooled.dev[2], np.sqrt(np.mean(per_trial[:2, 2] ** 2)), rtol=1e-14)
+    assert pooled.edf[2] == 2 * pooled_oadev(x[:1], 1.0, taus).edf[2]
+
+
 def test_missing_data_folder_is_named_in_the_error(tmp_path):
-    with pytest.raises(FileNotFoundError, match="data_dir"):
+    with pytest.raises(InputError, match="data_dir"):
         validation.write_validation_figures(tmp_path / "out", tmp_path / "nowhere")
 
 

@@ -1,4 +1,4 @@
-"""Baseline detectors: single-epoch threshold, CUSUM, reference clock (SPEC 4)."""
+"""Baseline detectors: single-epoch threshold, CUSUM, reference clock."""
 
 import math
 

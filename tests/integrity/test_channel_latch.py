@@ -1,5 +1,5 @@
 """Latched channel faults: raised when identification names a channel, cleared (with a reason) when it is
-consistent with the other channels again (issue 10.5), on the real Trimble stations."""
+consistent with the other channels again, on the real Trimble stations."""
 
 import numpy as np
 import pytest

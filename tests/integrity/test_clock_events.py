@@ -1,4 +1,4 @@
-"""Receiver clock steering: whole-millisecond resets found, repaired and reported (issue 10.3)."""
+"""Receiver clock steering: whole-millisecond resets found, repaired and reported."""
 
 import json
 
@@ -53,7 +53,7 @@ def test_detect_on_a_clock_product_lists_every_station_with_its_clock_events(rea
     for name in igs.stations:
         expected = repair_clock_steering(igs.bias_s[name]).event_epochs.size
         assert len(rows[name]["clock_events"]) == expected, name
-    # issue 10.3: MANA, URUM, TIXJ "and five others" steer their clocks
+    # MANA, URUM, TIXJ "and five others" steer their clocks
     assert {n for n, r in rows.items() if r["clock_events"]} == {"MANA", "URUM", "TIXJ", "MAL2", "UNBJ", "METS",
                                                                  "OHI2", "LHAZ"}
     # stations with too few epochs to train or fill a window say so instead of "no alarm"

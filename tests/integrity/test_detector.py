@@ -1,4 +1,4 @@
-"""The HOD chi-square detector (SPEC 4): model, statistic, start-up and gaps, streaming, false alarms, fitting."""
+"""The HOD chi-square detector: model, statistic, start-up and gaps, streaming, false alarms, fitting."""
 
 import math
 
@@ -224,7 +224,7 @@ def _pfa_given_models(fitted: HodDetector, true_r, rng_draws) -> float:
 @pytest.mark.slow
 @pytest.mark.parametrize("n_train", [100, 1000, 10000])
 def test_a_threshold_with_90_percent_confidence_keeps_pfa_at_or_below_nominal_in_90_percent_of_trainings(n_train):
-    # issue 10.4: after training on short records 2.6-4.6 % of epochs alarmed against a nominal 0.1 %
+    # after training on short records 2.6-4.6 % of epochs alarmed against a nominal 0.1 %
     noise = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=1.0)
     true_r = difference_autocorrelation(noise.h0, noise.hm2, noise.sigma_rho_m, 1.0)
     draws = np.random.default_rng(1).standard_normal((400_000, 20)) ** 2

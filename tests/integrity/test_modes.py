@@ -70,17 +70,17 @@ def test_the_noise_model_or_a_training_stretch_is_required_and_options_must_fit_
         detect_file(path, 1.0, h0=1e-18)
     with pytest.raises(ValueError, match="rate_hz == 0"):
         detect_file(path, 0.0, train_s=10)
-    with pytest.raises(InputDataError, match="b.csv: --nav/--position need a RINEX observation file"):
+    with pytest.raises(InputDataError, match="b.csv: nav and position_m need a RINEX observation file"):
         detect_file(path, 1.0, train_s=10, position_m=STATION_0759_M)
     failed = detect_file(path, 1.0, train_s=10)  # training failed: integrity unavailable, not "no alarm"
     assert failed["state"] == "unavailable" and failed["alarms"] == [] and failed["noise"] is None
-    assert "train_s (--train) 10 s holds 10 valid epochs" in failed["unavailable_reasons"][0]
+    assert "the training stretch (train_s) of 10 s holds 10 valid epochs" in failed["unavailable_reasons"][0]
     with pytest.raises(InputDataError, match="07590920.05n: this is a RINEX navigation file"):
         detect_file(real_data / "receivers/rinex/rtklib/07590920.05n", 1 / 30, train_s=1200)
 
 
 def test_a_file_with_a_time_column_needs_no_rate_and_a_rounded_rate_is_not_refused(tmp_path):
-    # issue 10.7: 300 s data with --rate 0.003333 was refused; the time column gives the interval
+    # 300 s data with --rate 0.003333 was refused; the time column gives the interval
     x = simulate_clock_bias(NOISE, interval_s=300.0, steps=200, trials=1, seed=5).measured_s[0]
     path = tmp_path / "b.csv"
     path.write_text("t_s,clock_bias_s\n" + "".join(f"{300 * k},{float(v)!r}\n" for k, v in enumerate(x)))
@@ -137,7 +137,7 @@ def test_the_stationarity_screen_stays_quiet_on_stationary_simulated_training():
 
 
 def test_the_gr701w_coasting_without_a_fix_is_unavailable_not_healthy(real_data):
-    # issue 10.5: the Navisys GR-701W kept reporting a clock bias after losing its fix (NAV-SOL gpsfixOK = 0)
+    # the Navisys GR-701W kept reporting a clock bias after losing its fix (NAV-SOL gpsfixOK = 0)
     doc = detect_file(real_data / "receivers/gpsd/navisys-gr701w.log", h0=2e-18, hm2=1e-22, sigma_rho_m=1.0,
                       window=5)
     coasting = [u for u in doc["unavailable"] if u["reason"] == "receiver status: no valid fix"]

@@ -1,4 +1,4 @@
-"""The receiver's own status: its fix flags and its time accuracy estimate rule epochs out (issue 10.5)."""
+"""The receiver's own status: its fix flags and its time accuracy estimate rule epochs out."""
 
 import struct
 

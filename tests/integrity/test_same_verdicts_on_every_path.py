@@ -132,7 +132,7 @@ def _check_paths(path: Path, args: list[str], monitor_args: list[str] | None, tm
         assert _events(lines) == _doc_events(doc)
     if monitor_args is None:
         return lines
-    mon = runner.invoke(app, ["monitor", "--replay", str(path), "--speed", "1e6", "--json-lines", *monitor_args])
+    mon = runner.invoke(app, ["monitor", "--replay", str(path), "--replay-speed", "1e6", "--json-lines", *monitor_args])
     assert mon.exit_code == 0, mon.output
     records = [json.loads(line) for line in mon.stdout.splitlines()]
     streamed = {(r.get("station"), r["t_ns"]): r for r in lines}

@@ -1,5 +1,5 @@
 """The streaming monitor: one epoch in, one verdict out; equal to the batch path; latched alarms; the
-receiver's status used; `detect - --json-lines` from a pipe and a FIFO (issue 10.5, 10.6)."""
+receiver's status used; `detect - --json-lines` from a pipe and a FIFO."""
 
 import json
 import os
@@ -57,7 +57,7 @@ def test_streaming_verdicts_equal_the_batch_document_on_the_same_data(tmp_path, 
 
 
 def test_an_alarm_stays_raised_while_a_ramp_lasts_and_clears_a_window_after_it_ends():
-    # issue 10.5: a ramp's alarms stopped after 10 epochs while the range error grew
+    # a ramp's alarms stopped after 10 epochs while the range error grew
     x = simulate_clock_bias(NOISE, interval_s=1.0, steps=1500, trials=1, seed=4).measured_s[0]
     x = inject(x, Anomaly("ramp", 500.0, rate_s_per_s=1e-8, duration_s=400.0), 1.0)
     mon = StreamingMonitor(HodDetector(interval_s=1.0, window=20, **MODEL).fit())

@@ -6,6 +6,10 @@ and we differ by gpsd's choice, the count and the reason are in :data:`GPSD_CHOI
 the counts exactly, so a new disagreement (or a fixed one) shows. Each DOP disagreement is given, value
 by value, the first reason of :mod:`gpsd_dop_reasons` that reproduces gpsd's value (or ``unexplained``);
 ``python tests/io/gpsd_dop_reasons.py`` prints the totals.
+
+Captures in another receiver's binary protocol (or NMEA from a talker we do not read) are named in
+:data:`UNDECODABLE` with the protocol; every other capture must decode to epochs, so a reader regression
+fails here instead of showing as a skip.
 """
 
 from __future__ import annotations
@@ -88,6 +92,35 @@ for _name, _reasons in _DOP_REASONS.items():
     GPSD_CHOICES.setdefault(_name, {})["dop"] = _reasons
 
 _DOPS = ("gdop", "pdop", "hdop", "vdop", "tdop")
+
+_SIRF = "SiRF binary protocol"
+_TSIP = "Trimble TSIP binary protocol"
+_ONCORE = "Motorola Oncore binary protocol"
+_GREIS = "Javad GREIS binary protocol"
+#: Captures gpsd decodes and we do not, each with the reason (its header's receiver and protocol). Each
+#: holds no NMEA sentence of a talker we read and no UBX message; a capture listed here that starts to
+#: decode fails too, so the list stays true.
+UNDECODABLE: dict[str, str] = {
+    "bu303-climbing.log": _SIRF, "bu303-moving.log": _SIRF, "bu303-nofix.log": _SIRF,
+    "bu303-stillfix.log": _SIRF, "bu303b-nofix.log": _SIRF, "sirf2.log": _SIRF, "sirfstarv.log": _SIRF,
+    "ublox-sirf1.log": _SIRF + " (a SiRF-I u-blox)",
+    "garmin18x-bin.log": "Garmin binary protocol",
+    "geostar-geos1m-binary.log": "GeoStar binary protocol",
+    "greis-binary.log": _GREIS, "greis-raw-2m.log": _GREIS, "greis-reset.log": _GREIS, "greis-test2.log": _GREIS,
+    "humminbird-M37.log": "NMEA from talker IN (integrated instrumentation), not a GNSS talker we read",
+    "italk-binary.log": "Fastrax iTalk binary protocol",
+    "navcom.log": "Navcom binary protocol",
+    "oncore-binary-pos-hold.log": _ONCORE, "oncore-binary.log": _ONCORE, "oncore-m12.log": _ONCORE,
+    "quectel-l76k-binary.log": "CASIC binary protocol (Quectel L76K)",
+    "skytraq-A8.log": "SkyTraq binary protocol", "skytraq-bin.log": "SkyTraq binary protocol",
+    "superstar2.log": "NovAtel SuperStar II binary protocol",
+    "trimble-lassen_iq-3dfix.log": _TSIP, "trimble-lassen_iq-playacar.log": _TSIP, "trimble-lassen_iq.log": _TSIP,
+    "trimble-lasseniq-bin2d.log": _TSIP, "trimble-res720-dr.log": _TSIP, "trimble-res720.log": _TSIP,
+    "trimble-ressmt360-dr.log": _TSIP, "trimble-smt-360.log": _TSIP, "trimble-smtx-dr.log": _TSIP,
+    "trimble-smtx.log": _TSIP,
+    "zodiac.log": "Rockwell Zodiac (Jupiter) binary protocol",
+}
+
 
 
 def gpsd_expected(chk: Path) -> tuple[dict, dict]:
@@ -176,12 +209,16 @@ def test_the_oracle_covers_the_nmea_and_ubx_captures_with_a_reference_decoding()
     assert len(ORACLE_FILES) >= 150
 
 
-@pytest.mark.parametrize("name", ORACLE_FILES)
+@pytest.mark.parametrize("name", sorted(UNDECODABLE))
+def test_a_capture_listed_as_undecodable_decodes_to_nothing(receivers, name):
+    capture = read_capture(receivers / "gpsd" / name)
+    assert capture.protocols == () and capture.n_epochs == 0, f"{name} decodes now: take it off UNDECODABLE"
+
+
+@pytest.mark.parametrize("name", [n for n in ORACLE_FILES if n not in UNDECODABLE])
 def test_time_mode_and_dops_agree_with_gpsd_epoch_by_epoch(receivers, name):
     result = compare_with_gpsd(receivers / "gpsd" / name)
-    if not result["protocols"]:
-        pytest.skip(f"{name} holds no NMEA or UBX sentence we decode (another binary protocol, or a talker we do "
-                    "not use)")
+    assert result["protocols"], f"{name}: decoded to nothing, and it is not listed in UNDECODABLE"
     choices = GPSD_CHOICES.get(name, {})
     for key in ("missing", "mode"):
         expected = choices.get(key, (0, ""))[0]
@@ -191,6 +228,11 @@ def test_time_mode_and_dops_agree_with_gpsd_epoch_by_epoch(receivers, name):
 
 def test_every_listed_choice_names_a_capture_of_the_oracle():
     assert set(GPSD_CHOICES) <= set(ORACLE_FILES)
+
+
+def test_every_capture_listed_as_undecodable_is_a_capture_of_the_oracle_with_no_listed_choice():
+    assert set(UNDECODABLE) <= set(ORACLE_FILES)
+    assert not set(UNDECODABLE) & set(GPSD_CHOICES)
 
 
 def test_every_listed_dop_disagreement_has_one_of_the_checked_reasons():

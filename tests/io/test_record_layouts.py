@@ -84,7 +84,7 @@ def test_units_written_in_the_header_scale_the_values_and_set_the_kind(tmp_path,
 def test_a_unit_that_contradicts_the_kind_asked_for_is_refused(tmp_path):
     path = tmp_path / "y.csv"
     path.write_text("t,y_ppb\n0,1.5\n1,1.6\n2,1.4\n")
-    with pytest.raises(InputDataError, match=r"y.csv:1: column 'y_ppb' is in ppb.*use --kind freq") as info:
+    with pytest.raises(InputDataError, match=r"y.csv:1: column .y_ppb. is in ppb.*use kind freq") as info:
         read_record(path, kind="phase")
     assert "\n" not in str(info.value)
 

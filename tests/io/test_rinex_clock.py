@@ -31,7 +31,7 @@ def test_every_ar_record_of_the_igs_file_is_read_against_a_plain_split_of_its_li
 
 
 def test_a_long_gap_becomes_missing_epochs_and_the_station_stays_usable(real_data):
-    # issue 10.7: the GRG file's 1 h 45 min gap made the whole file unusable
+    # the GRG file's 1 h 45 min gap made the whole file unusable
     clocks = read_station_clocks(real_data / "receivers/rinex/gnss_lib_py/grg21553.clk.gz")
     data = station_clock_bias(clocks, "TLSE")
     assert data.interval_s == 30.0
@@ -44,7 +44,7 @@ def test_a_long_gap_becomes_missing_epochs_and_the_station_stays_usable(real_dat
 
 def test_an_unknown_station_or_a_file_that_is_not_a_clock_product_is_named(real_data, tmp_path):
     clocks = read_station_clocks(real_data / "receivers/rinex/rtklib/igs15904.clk.gz")
-    with pytest.raises(InputDataError, match="station 'NOPE' .--station. not in the file .176 stations"):
+    with pytest.raises(InputDataError, match="station == 'NOPE' is not in the file .176 stations"):
         station_clock_bias(clocks, "NOPE")
     with pytest.raises(InputDataError, match="not a RINEX clock file"):
         read_station_clocks(real_data / "receivers/rinex/rtklib/07590920.05n")

@@ -1,4 +1,4 @@
-"""Link truth: exact light-time against closed forms and the seed's first-order model; noise tables."""
+"""Link truth: exact light-time against closed forms and the source paper's first-order model; noise tables."""
 
 import math
 
@@ -62,7 +62,7 @@ def test_at_2000_m_s_the_seed_model_misses_the_uplink_term_s_v_over_c_squared():
         expected = ex.range_m * v / (C * (C - v))
         np.testing.assert_allclose(ex.t_i_s - t_i, expected, rtol=1e-9)
         np.testing.assert_allclose(ex.t_r_s, t_r, atol=1e-15)
-    # At 80 km the difference is 1.78 ns in T_i, hence 0.89 ns in the offset of seed eq. (1)/(9).
+    # At 80 km the difference is 1.78 ns in T_i, hence 0.89 ns in the offset of the source paper's eq. (1)/(9).
     ex = _noiseless(80e3, v)
     assert (ex.t_i_s[0, 0] - seed_first_order_timestamps(80e3, v, 0.0, 4e-3)[0]) == pytest.approx(1.7803e-9, rel=1e-4)
 

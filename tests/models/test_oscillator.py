@@ -1,4 +1,4 @@
-"""Oscillator truth model (SPEC 2.1): ADEV against theory, presets, seeding, temperature, EFC/DAC."""
+"""Oscillator truth model: ADEV against theory, presets, seeding, temperature, EFC/DAC."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Tests of the GNSS timing-receiver truth model (SPEC section 2.2)."""
+"""Tests of the GNSS timing-receiver truth model."""
 
 from __future__ import annotations
 
@@ -103,7 +103,7 @@ def test_urban_canyon_gdop_and_fix_loss_follow_the_model_laws():
 
 
 def test_clock_bias_second_difference_has_the_spec_section_4_autocorrelation():
-    """SPEC section 4: r(0) = (2 q1 ts + 2/3 q2 ts^3 + 6 s2) / ts^2, r(1) = (-q1 ts + 1/6 q2 ts^3 - 4 s2) / ts^2,
+    """The noise model: r(0) = (2 q1 ts + 2/3 q2 ts^3 + 6 s2) / ts^2, r(1) = (-q1 ts + 1/6 q2 ts^3 - 4 s2) / ts^2,
     r(2) = s2 / ts^2, r(3) = 0, with q1 = h0 / 2, q2 = 2 pi^2 h_-2 and s2 the white measurement variance."""
     ts = 2.0
     model = dataclasses.replace(QUIET, white_sigma_s=1e-9, gdop_log_sigma=0.0, clock_h0=2e-17, clock_hm2=1e-18)

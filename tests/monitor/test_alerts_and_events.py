@@ -87,7 +87,7 @@ def test_the_alarm_command_and_the_webhook_fire_once_per_alarm_event(tmp_path):
     threading.Thread(target=server.serve_forever, daemon=True).start()
     fired = tmp_path / "fired.jsonl"
     db = tmp_path / "log.db"
-    proc = MonitorProcess(["--replay", str(recording), "--speed", "200", "--training", "60", "--db", str(db),
+    proc = MonitorProcess(["--replay", str(recording), "--replay-speed", "200", "--train", "60", "--db", str(db),
                            "--on-alarm", f"cat >> {fired}; echo >> {fired}", "--webhook",
                            f"http://127.0.0.1:{server.server_address[1]}/hook", "--no-table"], tmp_path)
     try:
@@ -115,7 +115,7 @@ def test_the_table_fits_80_and_100_columns_and_keeps_names_and_utc_readable(tmp_
         path = tmp_path / f"{name}.ubx"
         path.write_bytes(ubx_stream(_bias(30, seed=len(name))))
         sources.append(FileSource(path, name=name))
-    mon = Monitor(sources, MonitorSettings(training_epochs=200))
+    mon = Monitor(sources, MonitorSettings(train_s=200.0))
     mon.run(duration_s=30)
     for width in (80, 100):
         console = Console(record=True, width=width, force_terminal=False)

@@ -75,7 +75,7 @@ def _wait_for(chrony: Chronyd, predicate, timeout_s: float):
 @pytest.mark.slow
 def test_chronyd_sees_a_replayed_recording_fed_through_its_sock_refclock(tmp_path):
     chrony = Chronyd(poll=2)
-    proc = MonitorProcess(["--replay", str(M8T), "--speed", "1", "--chrony-sock", str(chrony.refclock),
+    proc = MonitorProcess(["--replay", str(M8T), "--replay-speed", "1", "--chrony-sock", str(chrony.refclock),
                            "--duration", "40", "--no-table"], tmp_path)
     try:
         state = _wait_for(chrony, lambda s: s["samples"] >= 1 and s["reach"] > 0, 60)
@@ -96,7 +96,7 @@ def test_with_an_injected_alarm_the_samples_to_chronyd_stop(tmp_path):
     recording = tmp_path / "stepped.ubx"
     recording.write_bytes(ubx_stream(bias))
     chrony = Chronyd(poll=3)  # a sample may be 16 s old: the monitor decides late on a loaded machine
-    proc = MonitorProcess(["--replay", str(recording), "--speed", "1", "--training", "16", "--window", "12",
+    proc = MonitorProcess(["--replay", str(recording), "--replay-speed", "1", "--train", "16", "--window", "12",
                            "--chrony-sock", str(chrony.refclock), "--no-table", "--duration", "90"], tmp_path)
     try:
         before = _wait_for(chrony, lambda s: s["samples"] >= 1, 60)

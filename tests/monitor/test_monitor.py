@@ -22,7 +22,7 @@ from chronofuse.monitor.summary import read_session
 from .conftest import receivers_dir, ubx_stream
 
 NOISE = ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=3.0)
-SETTINGS = MonitorSettings(h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m, training_epochs=60)
+SETTINGS = MonitorSettings(h0=NOISE.h0, hm2=NOISE.hm2, sigma_rho_m=NOISE.sigma_rho_m, train_s=60.0)
 
 
 def _bias(steps: int, seed: int, anomaly: Anomaly | None = None) -> np.ndarray:

@@ -56,7 +56,7 @@ def test_the_dashboard_shows_every_receiver_updates_within_two_seconds_and_shows
     live = [TcpReceiver(), TcpReceiver()]
     feeds = [ubx_epochs(_bias(60, seed=11 + i), start_tow_s=200_000, eoe=True) for i in range(2)]
     first = 10  # the detection pipeline holds a receiver's first epochs while its grid learns the interval
-    proc = MonitorProcess([live[0].spec, live[1].spec, "--replay", str(recording), "--speed", "10", "--training",
+    proc = MonitorProcess([live[0].spec, live[1].spec, "--replay", str(recording), "--replay-speed", "10", "--train",
                            "40", "--http", "127.0.0.1:0", "--stale-s", "30", "--db", str(tmp_path / "log.db")], tmp_path)
     driver = chromium(tmp_path / "profile")
     try:

@@ -43,7 +43,7 @@ def test_a_real_scheduler_with_two_loopback_workers_reproduces_the_serial_sweep_
 def test_an_unreachable_scheduler_is_a_one_line_error_with_exit_code_2(tmp_path):
     runner = CliRunner()
     result = runner.invoke(app, ["swarm", "sweep", "--param", "velocity", "--values", "200", "--trials", "1",
-                                 "--exchanges", "100", "--algorithms", "rtt-rvc", "--urt-mode", "paper",
+                                 "--exchanges", "100", "--algorithm", "rtt-rvc", "--urt-mode", "paper",
                                  "--scheduler", "tcp://127.0.0.1:9", "--out", str(tmp_path)])
     assert result.exit_code == 2
     lines = [x for x in result.stderr.splitlines() if x.strip()]
@@ -53,7 +53,7 @@ def test_an_unreachable_scheduler_is_a_one_line_error_with_exit_code_2(tmp_path)
 def test_sweep_writes_a_tidy_table_a_summary_and_a_figure(tmp_path):
     runner = CliRunner()
     result = runner.invoke(app, ["swarm", "sweep", "--param", "urt", "--values", "0,4e-8", "--trials", "2",
-                                 "--exchanges", "150", "--algorithms", "rtt-rvc", "--urt-mode", "paper",
+                                 "--exchanges", "150", "--algorithm", "rtt-rvc", "--urt-mode", "paper",
                                  "--scheduler", "serial", "--out", str(tmp_path), "--json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)

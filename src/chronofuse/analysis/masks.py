@@ -32,7 +32,7 @@ from chronofuse.analysis.mask_results import limit_result as _limit
 from chronofuse.analysis.mask_tables import NOT_TRANSCRIBED, TABLES
 from chronofuse.analysis.stability import mtie, tau_grid, tdev
 from chronofuse.analysis.stability.result import Deviation
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = ["MaskSegment", "Mask", "MaskResult", "ClockMasks", "ClockVerdict", "TimeErrorResult", "LimitResult",
            "MASKS", "OFFSETS", "NOT_TRANSCRIBED"]
@@ -273,7 +273,7 @@ class ClockMasks:
             raise ValueError(f"clock == {self.name!r} has no max |TE| limit ({self.reference})")
         te = check_array(te_s, "te_s", allow_nan=True)
         if not np.isfinite(te).any():
-            raise ValueError("te_s has no valid sample")
+            raise InputError("te_s has no valid sample")
         peak = float(np.nanmax(np.abs(te)))
         margin = self.max_abs_te_s - peak
         return TimeErrorResult(self.name, peak, self.max_abs_te_s, margin, bool(peak <= self.max_abs_te_s))

@@ -24,19 +24,25 @@ def clopper_pearson(k: int, n: int, level: float = 0.99) -> tuple[float, float]:
     return float(lo), float(hi)
 
 
-def pooled_oadev(x_s: np.ndarray, rate_hz: float, ci: float = 0.683) -> st.Deviation:
-    """OADEV of independent trials pooled: mean AVAR, EDF = trials x one trial's EDF.
+def pooled_oadev(x_s: np.ndarray, rate_hz: float, tau_s: np.ndarray | None = None, ci: float = 0.683) -> st.Deviation:
+    """OADEV of independent trials pooled: mean AVAR over the trials, EDF = trials x one trial's EDF.
 
-    ``x_s`` (trials, N) phase in seconds. The trials are independent, so the mean of their Allan
-    variances has the sum of their EDFs (chi-square interval of NIST SP 1065 eq. (45) on that EDF);
-    ``n`` is the total number of terms. Returns a :class:`Deviation` on the octave grid.
+    ``x_s`` (trials, N) phase in seconds (NaN: a gap); ``tau_s`` (k,) averaging times (default: the octave
+    grid). The trials are independent, so the mean of their Allan variances has the sum of their EDFs
+    (chi-square interval of NIST SP 1065 eq. (45) on that EDF); at a tau where a trial's gaps leave no
+    term, that trial is left out of the mean and of the EDF (NaN where every trial is). ``n`` is the total
+    number of terms. Returns a :class:`Deviation`.
     """
     if x_s.ndim != 2:
         raise ValueError(f"x_s has shape {x_s.shape}, must be (trials, N)")
-    per_trial = [st.oadev(row, rate_hz, st.tau_grid("octave", x_s.shape[1], rate_hz, "oadev"), ci=ci) for row in x_s]
-    avar = np.mean([d.dev**2 for d in per_trial], axis=0)
-    edf = x_s.shape[0] * np.asarray(per_trial[0].edf)
-    dev = np.sqrt(avar)
+    taus = st.tau_grid("octave", x_s.shape[1], rate_hz, "oadev") if tau_s is None else np.asarray(tau_s, float)
+    per_trial = [st.oadev(row, rate_hz, taus, ci=ci) for row in x_s]
+    avar = np.array([d.dev**2 for d in per_trial])
+    ok = np.isfinite(avar)
+    count = ok.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dev = np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
+    edf = count * np.asarray(per_trial[0].edf)
     lo, hi = chi2_interval(dev, edf, ci)
     return dataclasses.replace(
         per_trial[0], dev=dev, edf=edf, lo=lo, hi=hi, n=np.sum([d.n for d in per_trial], axis=0)
@@ -44,7 +50,7 @@ def pooled_oadev(x_s: np.ndarray, rate_hz: float, ci: float = 0.683) -> st.Devia
 
 
 def gdop_over_5_fraction(gdop: np.ndarray) -> float:
-    """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (SPEC 3.1's usability limit)."""
+    """Fraction of the epochs with a fix (finite GDOP) whose GDOP exceeds 5 (source qualification's usability limit)."""
     with_fix = gdop[np.isfinite(gdop)]
     return float(np.mean(with_fix > 5)) if with_fix.size else float("nan")
 

@@ -1,4 +1,4 @@
-"""Theoretical Allan variance of power-law oscillator noise and linear drift (SPEC 2.1).
+"""Theoretical Allan variance of power-law oscillator noise and linear drift.
 
 NIST SP 1065 (Riley 2008), Table 3 / section 5.2.10, with the measurement bandwidth ``f_h`` taken as
 the Nyquist frequency ``rate_hz / 2`` of the sampled phase:

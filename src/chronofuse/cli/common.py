@@ -1,4 +1,11 @@
-"""What every subcommand shares: JSON output, one-line errors with exit code 2, the console."""
+"""What every subcommand shares: JSON output, one-line errors with exit code 2, the console.
+
+Exit status 2 means bad input, and only the library's own errors (:class:`~chronofuse.validation.ChronofuseError`:
+a bad value, file, model file or address), the operating system's refusal of a path the user named, and a
+config's validation error say so; their fields are written as the options that set them
+(:func:`chronofuse.cli.flags.label`). Anything else is a bug, reported as one by the program
+(:mod:`chronofuse.cli.main`).
+"""
 
 from __future__ import annotations
 
@@ -10,12 +17,15 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
+from chronofuse.cli.flags import FLAG_OF_FIELD, label
 from chronofuse.report.jsonio import dumps
-from chronofuse.validation import ChronofuseError
+from chronofuse.validation import ChronofuseError, InputError, InputWarning
 
-# Human output goes to stderr when --json owns stdout; otherwise to stdout.
+# Human output goes to stderr when --json owns stdout; otherwise to stdout. Errors have their own console, which
+# --quiet leaves alone.
 console = Console(highlight=False)
 err_console = Console(stderr=True, highlight=False)
+_errors = Console(stderr=True, highlight=False)
 
 EXIT_BAD_INPUT = 2
 
@@ -26,20 +36,60 @@ def print_json(doc: dict) -> None:
     sys.stdout.flush()
 
 
+def quiet_output(enabled: bool) -> None:
+    """``--quiet``: tables, notes, warnings and progress displays print nothing; errors, the ``--json``
+    document and ``--json-lines`` still do (every command calls this first, with its option's value)."""
+    console.quiet = err_console.quiet = bool(enabled)
+
+
 def fail(message: str) -> None:
     """Print a one-line error on stderr and exit with code 2."""
-    err_console.print(f"error: {message}", markup=False, soft_wrap=True)
+    _errors.print(f"error: {message}", markup=False, soft_wrap=True)
     raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def _offered() -> set[str] | None:
+    """The options of the command running now (None outside a command)."""
+    from typer._click.globals import get_current_context  # typer's click; the version is pinned
+
+    ctx = get_current_context(silent=True)
+    return None if ctx is None else {name for p in ctx.command.params for name in getattr(p, "opts", ())}
+
+
+def _label(field: str) -> str:
+    """A config field written as the running command's option that sets it; the field itself where this
+    command has no such option (a field of the same name set by another command's option is not this one's)."""
+    offered = _offered()
+    if offered is not None and FLAG_OF_FIELD.get(field) not in offered:
+        return field
+    return label(field)
+
+
+def describe(exc: BaseException) -> str | None:
+    """The one-line message of a user's error, options named as on the command line; None for a bug."""
+    if isinstance(exc, InputError):
+        return exc.render(_label).splitlines()[0]
+    if isinstance(exc, ChronofuseError):
+        return (str(exc) or type(exc).__name__).splitlines()[0]
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror or type(exc).__name__}"
+    if type(exc).__name__ == "ValidationError" and type(exc).__module__.startswith("pydantic"):
+        first = exc.errors()[0]
+        where = ".".join(str(part) for part in first.get("loc", ()))
+        return f"{_label(where) if where else type(exc).__name__}: {first.get('msg', exc)} (got {first.get('input')!r})"
+    return None
 
 
 @contextmanager
 def user_errors():
-    """Turn the library's input errors (and ValueError from validation) into one-line errors, exit 2."""
+    """Turn the library's input errors (and a path the system refuses) into one-line errors, exit 2."""
     try:
         yield
-    except (ChronofuseError, ValueError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        fail(text)
+    except Exception as exc:
+        message = describe(exc)
+        if message is None:
+            raise
+        fail(message)
 
 
 def human_console(json_mode: bool) -> Console:
@@ -65,13 +115,13 @@ def progress_reporter(label: str):
         yield say
 
 
-def run_reproduction(label: str, reproduce, out, *, quick: bool, json_out: bool) -> dict | None:
-    """Run a ``chronofuse reproduce`` experiment, ``reproduce(out, quick=quick, progress=say)``, with one-line
-    errors and a progress display; with ``json_out`` print ``{"out": ..., **summary}`` and return None, else
-    return the summary for the human tables."""
+def run_reproduction(label: str, reproduce, out, *, quick: bool, json_out: bool, seed: int | None = None) -> dict | None:
+    """Run a ``chronofuse reproduce`` experiment, ``reproduce(out, quick=quick, progress=say[, seed=seed])``, with
+    one-line errors and a progress display (``seed`` None: the experiment's published seed); with ``json_out``
+    print ``{"out": ..., **summary}`` and return None, else return the summary for the human tables."""
     with user_errors():
         with progress_reporter(label) as say:
-            summary = reproduce(out, quick=quick, progress=say)
+            summary = reproduce(out, quick=quick, progress=say, **({} if seed is None else {"seed": seed}))
     if json_out:
         print_json({"out": str(out), **summary})
         return None
@@ -86,4 +136,5 @@ def collected_warnings():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         yield messages
-    messages.extend(str(w.message).splitlines()[0] for w in caught)
+    messages.extend((w.message.render(_label) if isinstance(w.message, InputWarning) else str(w.message)).splitlines()[0]
+                    for w in caught)

@@ -1,4 +1,4 @@
-"""``chronofuse detect FILE``: clock-bias anomaly detection (SPEC 4) on a CSV, UBX or RINEX record.
+"""``chronofuse detect FILE``: clock-bias anomaly detection on a CSV, UBX or RINEX record.
 
 The work is :func:`chronofuse.integrity.modes.detect_file` (its docstring says how the mode is chosen, how
 the noise model is set, what the states mean and how missing data are counted); this command parses the
@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 
 # The library (numpy, scipy, georinex), chronofuse.cli.common (numpy through report.jsonio) and rich's table
-# are imported inside the command, so that `detect --help` pays only for typer (issue 10.6: under 0.5 s).
+# are imported inside the command, so that `detect --help` pays only for typer (under 0.5 s).
 
 _EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.modes.EXIT_CODES (a test checks)
 
@@ -35,7 +35,7 @@ def detect(
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
     hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
     sigma_rho: float | None = typer.Option(None, "--sigma-rho", help="Mean pseudorange noise (m)."),
-    train: float | None = typer.Option(None, "--train", help="Estimate missing noise parameters from the first SECONDS."),
+    train: float | None = typer.Option(None, "--train", help="Learn the missing noise parameters from the first stretch of this length (s)."),
     window: int | None = typer.Option(None, "--window", help="Window length n (epochs; default 20) of a windowed detector."),
     pfa: float = typer.Option(1e-3, "--pfa", help="False-alarm probability per epoch."),
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
@@ -44,16 +44,19 @@ def detect(
     max_tacc_ns: float = typer.Option(_DEFAULT_MAX_TACC_NS, "--max-tacc-ns", help="UBX: epochs whose receiver time accuracy (NAV-CLOCK tAcc) is over this many ns are not tested (unavailable); 0: not used."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
-    follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after SECONDS without any."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
+    follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after this long without any (s)."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it is decided (FILE may be - for stdin, a pipe or a FIFO)."),
     detector: str = typer.Option("chi-square", "--detector", help="Detector: chi-square (default), single-epoch, cusum, or one a plugin registers (group chronofuse.detectors)."),
 ) -> None:
-    """Detect clock-bias anomalies with the high-order-difference chi-square test (SPEC 4).
+    """Detect clock-bias anomalies with the high-order-difference chi-square test.
 
     Exit status: 0 integrity ok (tested, no alarm), 1 alarm, 3 integrity unavailable (too little could be
     tested, training failed, or the position is off), 2 bad input.
     """
-    from chronofuse.cli.common import fail, print_json, user_errors
+    from chronofuse.cli.common import fail, print_json, quiet_output, user_errors
+
+    quiet_output(quiet)
 
     if rate is not None and (rate <= 0 or not math.isfinite(rate)):
         fail(f"--rate {rate:g}: must be a positive number of Hz")

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -25,15 +25,18 @@ def _given(ctx: typer.Context, name: str) -> bool:
 
 def gnssdo(
     ctx: typer.Context,
-    scenario: str = typer.Option("open-sky", "--scenario", help="open-sky, urban-canyon, outage, jumps or spoofing."),
-    controller: str = typer.Option("gated", "--controller",
-                                   help="Servo: null, pi, kf, wakf, gated, huber, or one a plugin registers (group "
-                                        "chronofuse.servos); default gated, picked by measurement."),
+    scenario: str = typer.Option("open-sky", "--environment",
+                                 help="Receiver environment: open-sky, urban-canyon, outage, outliers, spoofing, "
+                                      "paper-canyon, jamming or tunnel."),
+    controller: str = typer.Option("gated-kalman", "--controller",
+                                   help="Servo: null, pi, kalman, adaptive-kalman, gated-kalman, huber-kalman, or one "
+                                        "a plugin registers (group chronofuse.servos); default gated-kalman, picked "
+                                        "by measurement."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers fused."),
-    duration: int = typer.Option(86_400, "--duration", help="Run length in seconds (>= 3600)."),
+    duration: int = typer.Option(86_400, "--duration", help="Run length (s, >= 3600)."),
     trials: int = typer.Option(1, "--trials", help="Monte Carlo trials (vectorized)."),
     seed: int = typer.Option(0, "--seed", help="Root seed (>= 0)."),
-    rate: float = typer.Option(1.0, "--rate", help="Loop rate in Hz (the 1PPS: 1)."),
+    rate: float = typer.Option(1.0, "--rate", help="Loop rate (Hz; the 1PPS: 1)."),
     gdop_max: float = typer.Option(5.0, "--gdop-max", help="A receiver is usable only with GDOP below this (>= 1)."),
     dac_bits: int | None = typer.Option(None, "--dac-bits", help="DAC resolution (default: the oscillator's)."),
     loop_bandwidth: float | None = typer.Option(None, "--loop-bandwidth",
@@ -49,8 +52,10 @@ def gnssdo(
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """GNSS-disciplined oscillator (seed 000): time error, convergence, holdover, states and ADEV."""
+    """GNSS-disciplined oscillator (the GNSSDO paper): time error, convergence, holdover, states and ADEV."""
+    quiet_output(quiet)
     from chronofuse.experiments.gnssdo import GnssdoSetup, run_gnssdo, run_reference
 
     if not rate > 0:
@@ -58,7 +63,7 @@ def gnssdo(
     if rate != 1.0:
         fail(f"--rate == {rate}, must be 1 (the loop runs on the 1PPS, one sample per second)")
     if reference is not None:
-        given = [f"--{name.replace('_', '-')}" for name in SIMULATION_ONLY if _given(ctx, name)]
+        given = [p.opts[0] for p in ctx.command.params if p.name in SIMULATION_ONLY and _given(ctx, p.name)]
         if given:
             fail(f"{', '.join(given)}: not used with --reference (the record is the receiver; its length the run's)")
     with user_errors():

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, quiet_output, user_errors
 from chronofuse.io.inspect import read_capture, summarize
 
 
@@ -17,40 +17,42 @@ def register(app: typer.Typer) -> None:
 
 def inspect(
     file: Path = typer.Argument(..., help="NMEA / UBX recording (mixed with RTCM or noise is fine, .gz ok), or RINEX obs/clock."),
-    export: Path | None = typer.Option(None, "--export", help="Write the per-epoch table to OUT.csv or OUT.parquet."),
-    receiver: str | None = typer.Option(None, "--receiver", help="A RINEX clock file's station to export (default: the first)."),
+    out: Path | None = typer.Option(None, "--out", help="Write the per-epoch table to this file: OUT.csv or OUT.parquet."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to export (default: the first)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Receivers, message counts per type, time span, gaps, checksum failures, unknown talkers."""
-    if export is not None and export.suffix.lower() not in (".csv", ".parquet"):
-        fail(f"--export {export}: the name must end in .csv or .parquet")
+    quiet_output(quiet)
+    if out is not None and out.suffix.lower() not in (".csv", ".parquet"):
+        fail(f"--out {out}: the name must end in .csv or .parquet")
     with user_errors():
-        capture = read_capture(file, receiver=receiver)
+        capture = read_capture(file, receiver=station)
         doc = summarize(capture)
-        if export is not None:
+        if out is not None:
             table = capture.to_frame()
-            export.parent.mkdir(parents=True, exist_ok=True)
-            if export.suffix.lower() == ".csv":
-                table.to_csv(export, index=False)
+            out.parent.mkdir(parents=True, exist_ok=True)
+            if out.suffix.lower() == ".csv":
+                table.to_csv(out, index=False)
             else:
-                table.to_parquet(export, index=False)
-            doc["export"] = {"file": str(export), "rows": int(len(table))}
+                table.to_parquet(out, index=False)
+            doc["export"] = {"file": str(out), "rows": int(len(table))}
     if json_out:
         print_json(doc)
         return
-    out = human_console(False)
-    out.print(f"[bold]{file}[/bold]: {doc['bytes']:,} bytes, {', '.join(doc['protocols']) or 'no NMEA/UBX'}, "
+    con = human_console(False)
+    con.print(f"[bold]{file}[/bold]: {doc['bytes']:,} bytes, {', '.join(doc['protocols']) or 'no NMEA/UBX'}, "
               f"{doc['epochs']:,} epochs")
     if doc["epochs"]:
-        out.print(f"  {doc['start_utc']} .. {doc['end_utc']} ({doc['span_s']:.3f} s, every {doc['interval_s']} s), "
+        con.print(f"  {doc['start_utc']} .. {doc['end_utc']} ({doc['span_s']:.3f} s, every {doc['interval_s']} s), "
                   f"{doc['gaps']['count']} gap(s); leap {doc['leap_s']}; fix modes {doc['fix_modes']}")
     messages = Table("message", "count", title="messages")
     for name, count in doc["messages"].items():
         messages.add_row(name, f"{count:,}")
-    out.print(messages)
+    con.print(messages)
     damage = {k: v for k, v in doc["damage"].items() if v}
-    out.print(f"  damage: {damage or 'none'}")
+    con.print(f"  damage: {damage or 'none'}")
     if doc["unknown_talkers"]:
-        out.print(f"  unknown talkers: {doc['unknown_talkers']}")
-    if export is not None:
-        out.print(f"  wrote {doc['export']['rows']:,} rows to {export}")
+        con.print(f"  unknown talkers: {doc['unknown_talkers']}")
+    if out is not None:
+        con.print(f"  wrote {doc['export']['rows']:,} rows to {out}")

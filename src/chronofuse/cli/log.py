@@ -6,8 +6,8 @@
 ``alarms``, ``dissent``, ``jumps``, ``unusable``   runs of consecutive epochs with that flag
 ``summary``       per receiver: epochs, usable, alarm and dissent epochs, jumps, outages and their time
 
-Every query takes ``--from``/``--to`` (ISO 8601 UTC) and ``--receiver`` where they apply, ``--export
-OUT.csv|OUT.parquet`` and ``--json``.
+Every query takes ``--from``/``--to`` (ISO 8601 UTC) and ``--station`` (one receiver, by its name in the
+log) where they apply, ``--out OUT.csv|OUT.parquet``, ``--json`` and ``--quiet``.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import typer
 
-from chronofuse.cli.common import console, err_console, print_json, user_errors
+from chronofuse.cli.common import console, err_console, print_json, quiet_output, user_errors
 
 log_app = typer.Typer(help="Query a monitor log: epochs, availability, outages, alarms, dissent; export CSV/Parquet.",
                       no_args_is_help=True)
@@ -29,9 +29,10 @@ def register(app: typer.Typer) -> None:
 _DB = typer.Argument(..., help="The monitor's SQLite log (monitor --db).")
 _FROM = typer.Option(None, "--from", help="Start (ISO 8601 UTC, inclusive).")
 _TO = typer.Option(None, "--to", help="End (ISO 8601 UTC, exclusive).")
-_RECEIVER = typer.Option(None, "--receiver", help="Only this receiver.")
-_EXPORT = typer.Option(None, "--export", help="Write the table to OUT.csv or OUT.parquet.")
+_RECEIVER = typer.Option(None, "--station", help="Only this receiver (its name in the log; a clock product's station).")
+_EXPORT = typer.Option(None, "--out", help="Write the table to OUT.csv or OUT.parquet.")
 _JSON = typer.Option(False, "--json", help="Print the table as one JSON document on stdout.")
+_QUIET = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document).")
 
 
 def _range(start: str | None, end: str | None) -> tuple[int | None, int | None]:
@@ -62,8 +63,9 @@ def _emit(frame, export: Path | None, json_out: bool, title: str) -> None:
 
 @log_app.command("epochs")
 def epochs_cmd(db: Path = _DB, start: str | None = _FROM, end: str | None = _TO, receiver: str | None = _RECEIVER,
-               export: Path | None = _EXPORT, json_out: bool = _JSON) -> None:
+               export: Path | None = _EXPORT, json_out: bool = _JSON, quiet: bool = _QUIET) -> None:
     """The logged epochs, by receiver and epoch, every column of the log."""
+    quiet_output(quiet)
     from chronofuse.monitor.logquery import epochs
 
     with user_errors():
@@ -72,10 +74,11 @@ def epochs_cmd(db: Path = _DB, start: str | None = _FROM, end: str | None = _TO,
 
 
 @log_app.command("availability")
-def availability_cmd(db: Path = _DB, interval_s: float = typer.Option(3600.0, "--interval-s", help="Interval length, s."),
+def availability_cmd(db: Path = _DB, interval_s: float = typer.Option(3600.0, "--bin", help="Length of each row's time bin (s)."),
                      start: str | None = _FROM, end: str | None = _TO, receiver: str | None = _RECEIVER,
-                     export: Path | None = _EXPORT, json_out: bool = _JSON) -> None:
-    """Per receiver and interval: epochs logged, usable, expected at its epoch rate, and usable / expected."""
+                     export: Path | None = _EXPORT, json_out: bool = _JSON, quiet: bool = _QUIET) -> None:
+    """Per receiver and time bin: epochs logged, usable, expected at its epoch rate, and usable / expected."""
+    quiet_output(quiet)
     from chronofuse.monitor.logquery import availability
 
     with user_errors():
@@ -85,8 +88,9 @@ def availability_cmd(db: Path = _DB, interval_s: float = typer.Option(3600.0, "-
 
 @log_app.command("outages")
 def outages_cmd(db: Path = _DB, receiver: str | None = _RECEIVER, export: Path | None = _EXPORT,
-                json_out: bool = _JSON) -> None:
+                json_out: bool = _JSON, quiet: bool = _QUIET) -> None:
     """One row per outage (link down to link up), with its duration, its first reason and the attempts."""
+    quiet_output(quiet)
     from chronofuse.monitor.logquery import outages
 
     with user_errors():
@@ -96,9 +100,10 @@ def outages_cmd(db: Path = _DB, receiver: str | None = _RECEIVER, export: Path |
 
 def _runs(flag: str, doc: str):
     def command(db: Path = _DB, start: str | None = _FROM, end: str | None = _TO, receiver: str | None = _RECEIVER,
-                export: Path | None = _EXPORT, json_out: bool = _JSON) -> None:
+                export: Path | None = _EXPORT, json_out: bool = _JSON, quiet: bool = _QUIET) -> None:
         from chronofuse.monitor.logquery import intervals
 
+        quiet_output(quiet)
         with user_errors():
             frame = intervals(db, flag, receiver, *_range(start, end))
         _emit(frame, export, json_out, flag)
@@ -115,8 +120,9 @@ log_app.command("unusable")(_runs("unusable", "Runs of consecutive unusable epoc
 
 @log_app.command("summary")
 def summary_cmd(db: Path = _DB, start: str | None = _FROM, end: str | None = _TO, export: Path | None = _EXPORT,
-                json_out: bool = _JSON) -> None:
+                json_out: bool = _JSON, quiet: bool = _QUIET) -> None:
     """Per receiver: epochs, usable, alarm and dissent epochs, jumps, outages and their total time."""
+    quiet_output(quiet)
     import pandas as pd
 
     from chronofuse.monitor.logquery import epochs, outages

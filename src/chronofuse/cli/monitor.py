@@ -14,7 +14,7 @@ from pathlib import Path
 
 import typer
 
-from chronofuse.cli.common import err_console, fail, print_json, user_errors
+from chronofuse.cli.common import err_console, fail, print_json, quiet_output, user_errors
 
 
 def register(app: typer.Typer) -> None:
@@ -44,18 +44,18 @@ def monitor(
     json_lines: bool = typer.Option(False, "--json-lines", help="Print each epoch on stdout as a JSON line once it is committed."),
     json_lines_file: Path | None = typer.Option(None, "--json-lines-file", help="Append each committed epoch as a JSON line to this file."),
     replay: list[Path] = typer.Option(None, "--replay", help="Replay a recording as a receiver (repeatable)."),
-    speed: float = typer.Option(1.0, "--speed", help="Replay pace, x real time."),
-    duration: float | None = typer.Option(None, "--duration", help="Stop after this many seconds."),
+    replay_speed: float = typer.Option(1.0, "--replay-speed", help="Replay pace, a factor of real time (2: twice as fast)."),
+    duration: float | None = typer.Option(None, "--duration", help="Stop after this long (s)."),
     report: Path | None = typer.Option(None, "--report", help="Summarize the log DB instead of monitoring."),
     out: Path | None = typer.Option(None, "--out", help="With --report: folder for the plots and summary."),
     gdop_max: float = typer.Option(5.0, "--gdop-max", help="A 1PPS is usable only with GDOP below this."),
-    window: int = typer.Option(20, "--window", help="HOD detector window (differences)."),
+    window: int = typer.Option(20, "--window", help="HOD detector window (epochs)."),
     pfa: float = typer.Option(1e-3, "--pfa", help="HOD detector false-alarm probability per epoch."),
-    training: int = typer.Option(120, "--training", help="Clock-bias epochs that fit each receiver's noise model."),
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s) of the receivers' clocks (with --hm2 and --sigma-rho: no training)."),
     hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
     sigma_rho: float | None = typer.Option(None, "--sigma-rho", help="Mean pseudorange noise (m)."),
-    train: float | None = typer.Option(None, "--train", help="Fit each receiver's noise model on its first SECONDS of clock bias instead (as detect --train)."),
+    train: float = typer.Option(120.0, "--train", help="Learn each receiver's missing noise parameters from its first clock biases "
+                                "over this long (s), as detect --train does."),
     jump_ns: float = typer.Option(100.0, "--jump-ns", help="Offset jump between receivers flagged above this (ns)."),
     stale_s: float = typer.Option(5.0, "--stale-s", help="A receiver silent for longer than this (s) is stale: not usable, an event."),
     connect_timeout_s: float = typer.Option(0.0, "--connect-timeout-s", help="Retry a source that cannot be opened at the start for this long (s; inf: for ever); then exit 2 naming it. 0: the first failure."),
@@ -66,16 +66,18 @@ def monitor(
     chrony_sock: Path | None = typer.Option(None, "--chrony-sock", help="Feed integrity-gated samples to chronyd's 'refclock SOCK' at this path."),
     no_table: bool = typer.Option(False, "--no-table", help="No live table on stderr, even on a terminal (event lines only)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON summary document on stdout at the end."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document or --json-lines)."),
 ) -> None:
     """Live table per receiver (fix, satellites, GDOP, usable and why not, UTC, leap, clock bias/drift, qErr,
     alarms, age), events on stderr, the log, a web dashboard, metrics, alert hooks and a chrony feed."""
+    quiet_output(quiet)
     if report is not None:
         _report(report, out, json_out)
         return
     if json_out and json_lines:
         fail("--json and --json-lines both want stdout: choose one")
-    if speed <= 0:
-        fail(f"--speed {speed}: must be > 0")
+    if not replay_speed > 0:
+        fail(f"--replay-speed == {replay_speed}, must be > 0")
     if not stale_s > 0:
         fail(f"--stale-s {stale_s}: must be > 0 s")
     connect = _timeout(connect_timeout_s, "--connect-timeout-s")
@@ -91,11 +93,11 @@ def monitor(
         from chronofuse.io.replay import SharedStart
 
         start_at = SharedStart()  # the replays' first epochs together (GPS-locked receivers are)
-        chosen += [_replay_source(p, speed, i, start_at) for i, p in enumerate(replay or [])]
+        chosen += [_replay_source(p, replay_speed, i, start_at) for i, p in enumerate(replay or [])]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
-        if train is not None and train <= 0:
-            fail(f"--train {train:g}: must be > 0 seconds")
+        if not train > 0:
+            fail(f"--train {train:g}: must be > 0 s")
         names = [s.name for s in chosen]
         if len(set(names)) != len(names):
             fail(f"two sources share the name {next(n for n in names if names.count(n) > 1)!r}")
@@ -103,9 +105,9 @@ def monitor(
         from chronofuse.monitor.log import EpochLog
         from chronofuse.monitor.web import parse_address
 
-        address = parse_address(http) if http is not None else None
-        settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, training_epochs=training,
-                                   jump_s=jump_ns * 1e-9, train_s=train, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho)
+        address = parse_address(http, "--http") if http is not None else None
+        settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, train_s=train,
+                                   jump_s=jump_ns * 1e-9, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho)
         log = EpochLog(db) if db is not None else None
     try:
         lines_file = open(json_lines_file, "a", encoding="utf-8") if json_lines_file is not None else None
@@ -115,7 +117,7 @@ def monitor(
 
     outputs = LiveOutputs(json_lines=json_lines, lines_file=lines_file, http_address=address, on_alarm=on_alarm,
                           webhook=webhook, chrony_sock=chrony_sock, replayed=bool(replay),
-                          table=err_console.is_terminal and not json_out and not no_table, console=err_console)
+                          table=err_console.is_terminal and not (json_out or no_table or quiet), console=err_console)
     from chronofuse.monitor.engine import Monitor, SourceUnavailable
 
     mon = Monitor(chosen, settings, log=log, on_ack=outputs.records, on_event=outputs.event, stale_s=stale_s,

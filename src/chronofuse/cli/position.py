@@ -7,7 +7,15 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, run_reproduction, user_errors
+from chronofuse.cli.common import (
+    fail,
+    human_console,
+    print_json,
+    progress_reporter,
+    quiet_output,
+    run_reproduction,
+    user_errors,
+)
 from chronofuse.cli.reproduce import reproduce_app
 from chronofuse.gnss.simulate import ENVIRONMENTS
 from chronofuse.positioning.scenario import MAX_SPEED_M_PER_S, SYSTEMS
@@ -34,7 +42,7 @@ def _xyz(text: str) -> list[float]:
     except ValueError:
         values = []
     if len(values) != 3:
-        fail(f"--reference-position {text!r}: must be X,Y,Z (ECEF metres)")
+        fail(f"--position {text!r}: must be X,Y,Z (ECEF metres)")
     return values
 
 
@@ -85,31 +93,35 @@ def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start
 def position(
     obs: Path | None = typer.Option(None, "--obs", help="RINEX 2/3 observation file (plain, .gz, Hatanaka .crx/.crx.gz): "
                                     "single-point fixes from it instead of a simulated drive."),
-    scenario: str = typer.Option("urban-canyon", "--scenario", help=f"One of {sorted(ENVIRONMENTS)}."),
+    scenario: str = typer.Option("urban-canyon", "--environment",
+                                 help=f"Signal environment of the simulated drive, one of {sorted(ENVIRONMENTS)}."),
     systems: str = typer.Option("gps+bds", "--systems", help=f"Simulation: one of {sorted(SYSTEMS)}. With --obs: gps, gal, "
                                 "bds, qzss joined by + (e.g. gps+bds)."),
     ins: str = typer.Option("industrial", "--ins", help="IMU grade: none, consumer, industrial or tactical."),
     smooth: bool = typer.Option(False, "--smooth", help="Add the RTS-smoothed GNSS/INS solution."),
-    duration: float = typer.Option(600.0, "--duration", help="Drive length in seconds (1 Hz GNSS)."),
+    duration: float = typer.Option(600.0, "--duration", help="Drive length (s; 1 Hz GNSS)."),
     trials: int = typer.Option(10, "--trials", help="Monte Carlo trials."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run."),
-    imu_rate: float = typer.Option(100.0, "--imu-rate", help="IMU rate in Hz (at least 10)."),
-    speed: float = typer.Option(12.0, "--speed", help=f"Vehicle speed in m/s (at most {MAX_SPEED_M_PER_S:g})."),
+    imu_rate: float = typer.Option(100.0, "--imu-rate", help="IMU sample rate (Hz, at least 10)."),
+    speed: float = typer.Option(12.0, "--speed", help=f"Vehicle speed (m/s, at most {MAX_SPEED_M_PER_S:g})."),
     nav: list[Path] | None = typer.Option(None, "--nav", help="RINEX navigation file (repeat for several). With --obs: "
-                                          "the ephemerides of the fixes. Without: GPS orbits of the simulated drive."),
-    reference: str | None = typer.Option(None, "--reference-position", help="With --obs: the receiver's known "
-                                         "position X,Y,Z (ECEF m); statistics against it."),
-    start: float | None = typer.Option(None, "--start", help="With --obs: first epoch, seconds from the file's first."),
-    end: float | None = typer.Option(None, "--end", help="With --obs: last epoch, seconds from the file's first."),
+                                          "the ephemerides of the fixes. Without: GPS orbits of the simulated drive "
+                                          "from its broadcast ephemeris (the drive starts at its first record)."),
+    reference: str | None = typer.Option(None, "--position", help="With --obs: the receiver's known antenna position "
+                                         "X,Y,Z (m, ECEF); statistics against it."),
+    start: float | None = typer.Option(None, "--start", help="With --obs: first epoch, after the file's first (s)."),
+    end: float | None = typer.Option(None, "--end", help="With --obs: last epoch, after the file's first (s)."),
     mask_deg: float = typer.Option(10.0, "--elevation-mask-deg", help="With --obs: elevation mask (deg)."),
     ionosphere: str = typer.Option("klobuchar", "--ionosphere", help="With --obs: klobuchar or none."),
     troposphere: str = typer.Option("saastamoinen", "--troposphere", help="With --obs: saastamoinen or none."),
     out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json and PNG figures (with --obs: "
                                     "positions.csv and summary.json)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Single-point fixes from a RINEX file (--obs), or a simulated drive comparing GNSS-only, GNSS/INS and
     (with --smooth) RTS-smoothed positions."""
+    quiet_output(quiet)
     from chronofuse.experiments.positioning import PositioningConfig, run_positioning, write_report
 
     if obs is not None:
@@ -142,24 +154,28 @@ def position(
 @reproduce_app.command("positioning")
 def reproduce_positioning(
     quick: bool = typer.Option(False, "--quick", help="Fewer, shorter drives (about a minute)."),
-    out: Path = typer.Option(Path("docs/positioning"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/positioning"), "--out",
+                             help="Report folder (created; docs/positioning holds the published run)."),
+    seed: int = typer.Option(6300, "--seed", help="Root seed of every drive (6300: the published run)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """The source's positioning claims (GPS+BDS+INS with smoothing) on the calibrated error budget, with
+    """The GNSSDO paper's positioning claims (GPS+BDS+INS with smoothing) on the calibrated error budget, with
     intervals, beside ours and RTKLIB's fixes of the real stations."""
+    quiet_output(quiet)
     from chronofuse.experiments.positioning_claims import reproduce_positioning_claims
 
     summary = run_reproduction("reproduce positioning", reproduce_positioning_claims, out, quick=quick,
-                               json_out=json_out)
+                               json_out=json_out, seed=seed)
     if summary is None:
         return
     con = human_console(False)
-    table = Table("claim", "source", "ours [95 % CI]", "floor [95 % CI]", "verdict",
-                  title="The source's positioning claims, measured")
+    table = Table("claim", "the paper", "ours [95 % CI]", "floor [95 % CI]", "verdict",
+                  title="The GNSSDO paper's positioning claims, measured")
     ci = lambda v, lo_hi: f"{v:.2f} [{lo_hi[0]:.2f}, {lo_hi[1]:.2f}]"  # noqa: E731
     for row in summary["claims"]:
         floor = row["floor"]
-        table.add_row(row["claim"], f"{row['seed']:g}", ci(row["ours"], row["ci95"]),
+        table.add_row(row["claim"], f"{row['claimed']:g}", ci(row["ours"], row["ci95"]),
                       "-" if floor is None else ci(floor["value"], floor["ci95"]), row["verdict"])
     con.print(table)
     con.print(f"report -> {out}/")

@@ -1,4 +1,4 @@
-"""``chronofuse reproduce ...``: the seed documents' experiments, one subcommand each."""
+"""``chronofuse reproduce ...``: the source papers' experiments, one subcommand each."""
 
 from __future__ import annotations
 
@@ -7,10 +7,10 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import human_console, run_reproduction
+from chronofuse.cli.common import human_console, quiet_output, run_reproduction
 from chronofuse.cli.swarm import reproduce_swarm_command
 
-reproduce_app = typer.Typer(help="Reproduce the seed documents' experiments and write their reports.",
+reproduce_app = typer.Typer(help="Reproduce the source papers' experiments and write their reports.",
                             no_args_is_help=True)
 
 
@@ -24,13 +24,17 @@ reproduce_app.command("swarm")(reproduce_swarm_command)
 @reproduce_app.command("integrity")
 def integrity(
     quick: bool = typer.Option(False, "--quick", help="Fewer trials (under a minute)."),
-    out: Path = typer.Option(Path("docs/integrity"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/integrity"), "--out",
+                             help="Report folder (created; docs/integrity holds the published run)."),
+    seed: int | None = typer.Option(None, "--seed", help="Root seed (default: the published run's, 20260402)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Seed 002: false-alarm rate, training effect, and detection of steps, ramps, drag-off and bursts (SPEC 4)."""
+    """The detection patent: false-alarm rate, training effect, and detection of steps, ramps, drag-off and bursts."""
+    quiet_output(quiet)
     from chronofuse.experiments.integrity import DETECTORS, run_integrity
 
-    summary = run_reproduction("reproduce integrity", run_integrity, out, quick=quick, json_out=json_out)
+    summary = run_reproduction("reproduce integrity", run_integrity, out, quick=quick, json_out=json_out, seed=seed)
     if summary is None:
         return
     con = human_console(False)
@@ -49,13 +53,17 @@ def integrity(
 @reproduce_app.command("gnssdo")
 def gnssdo(
     quick: bool = typer.Option(False, "--quick", help="Shorter runs and fewer trials (a few minutes)."),
-    out: Path = typer.Option(Path("docs/gnssdo"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/gnssdo"), "--out",
+                             help="Report folder (created; docs/gnssdo holds the published run)."),
+    seed: int = typer.Option(0, "--seed", help="Root seed (0: the published run)."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Seed 000 section 6: time error, convergence, ADEV, holdover and smoothing against the seed's claims (SPEC 3)."""
+    """The GNSSDO paper section 6: time error, convergence, ADEV, holdover and smoothing against the source paper's claims."""
+    quiet_output(quiet)
     from chronofuse.experiments.gnssdo_reproduce import reproduce_gnssdo
 
-    summary = run_reproduction("reproduce gnssdo", reproduce_gnssdo, out, quick=quick, json_out=json_out)
+    summary = run_reproduction("reproduce gnssdo", reproduce_gnssdo, out, quick=quick, json_out=json_out, seed=seed)
     if summary is None:
         return
     human_console(False).print(f"report -> {out}/ ({', '.join(summary['files'])})")

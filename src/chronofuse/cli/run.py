@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.experiments.main_job import run_scenario
 from chronofuse.experiments.scenario import load_scenario
 
@@ -19,12 +19,17 @@ def register(app: typer.Typer) -> None:
 def run(
     scenario: Path | None = typer.Argument(None, help="Scenario TOML file (default: the built-in default scenario)."),
     out: Path = typer.Option(Path("out/run"), "--out", help="Report folder (created)."),
+    seed: int | None = typer.Option(None, "--seed", help="Root seed, replacing the scenario's own."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a scenario and write its report (JSON, CSV, PNG): the free-running OCXO and the receivers, the
     OCXO disciplined to them through a GNSS outage, and followers keeping its time over two-way links."""
+    quiet_output(quiet)
     with user_errors():
         scn = load_scenario(scenario)
+        if seed is not None:
+            scn = type(scn).model_validate({**scn.model_dump(), "seed": seed})
         with progress_reporter(f"run {scn.name}") as say:
             report = run_scenario(scn, out, progress=say)
     if json_out:

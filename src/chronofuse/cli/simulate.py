@@ -11,7 +11,7 @@ from rich.table import Table
 
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.theory import adev_theory
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.io.tables import write_table
 from chronofuse.models.oscillator import simulate_oscillator
@@ -29,20 +29,22 @@ def register(app: typer.Typer) -> None:
 
 @simulate_app.command("oscillator")
 def oscillator(
-    preset_name: str = typer.Option("ocxo", "--preset", help=f"One of {sorted(PRESETS)}."),
-    duration: float = typer.Option(3600.0, "--duration", help="Duration in seconds."),
-    rate: float = typer.Option(1.0, "--rate", help="Sample rate in Hz."),
+    preset_name: str = typer.Option("ocxo", "--oscillator", help=f"Oscillator preset, one of {sorted(PRESETS)}."),
+    duration: float = typer.Option(3600.0, "--duration", help="Duration (s)."),
+    rate: float = typer.Option(1.0, "--rate", help="Sample rate (Hz)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
     out: Path = typer.Option(Path("oscillator.csv"), "--out", help="Output file: CSV (t_s,x_s) or .parquet."),
-    h2: float | None = typer.Option(None, "--h2", help="White PM coefficient h2 (overrides the preset)."),
-    h1: float | None = typer.Option(None, "--h1", help="Flicker PM coefficient h1."),
-    h0: float | None = typer.Option(None, "--h0", help="White FM coefficient h0."),
-    hm1: float | None = typer.Option(None, "--hm1", help="Flicker FM coefficient h-1."),
-    hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM coefficient h-2."),
-    drift: float | None = typer.Option(None, "--drift", help="Linear frequency drift (aging), 1/s."),
+    h2: float | None = typer.Option(None, "--h2", help="White PM level h2 (s^3); each level given overrides the preset's."),
+    h1: float | None = typer.Option(None, "--h1", help="Flicker PM level h1 (s^2)."),
+    h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
+    hm1: float | None = typer.Option(None, "--hm1", help="Flicker FM level h-1 (dimensionless)."),
+    hm2: float | None = typer.Option(None, "--hm2", help="Random-walk FM level h-2 (1/s)."),
+    drift: float | None = typer.Option(None, "--drift", help="Linear frequency drift, aging (1/s)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Simulate a free-running oscillator's phase x(t) in seconds (SPEC 2.1)."""
+    """Simulate a free-running oscillator's phase x(t) in seconds."""
+    quiet_output(quiet)
     with user_errors():
         model = preset(preset_name)
         overrides = {k: v for k, v in dict(h2=h2, h1=h1, h0=h0, hm1=hm1, hm2=hm2).items() if v is not None}
@@ -72,14 +74,16 @@ def oscillator(
 
 @simulate_app.command("receiver")
 def receiver(
-    scenario: str = typer.Option("open-sky", "--scenario", help=f"Receiver environment, one of {sorted(ENVIRONMENTS)}."),
-    duration: int = typer.Option(3600, "--duration", help="Duration in seconds."),
+    scenario: str = typer.Option("open-sky", "--environment", help=f"Receiver environment, one of {sorted(ENVIRONMENTS)}."),
+    duration: int = typer.Option(3600, "--duration", help="Duration (s)."),
     receivers: int = typer.Option(3, "--receivers", help="Number of receivers (independent errors)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run (numpy SeedSequence)."),
     out: Path = typer.Option(Path("receivers.csv"), "--out", help="Output file: CSV or .parquet, one row per receiver and second."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Simulate GNSS timing receivers: 1PPS error, qErr, fix, satellites, GDOP, UTC and leap seconds (SPEC 2.2)."""
+    """Simulate GNSS timing receivers: 1PPS error, qErr, fix, satellites, GDOP, UTC and leap seconds."""
+    quiet_output(quiet)
     with user_errors():
         with progress_reporter("simulate receiver") as say:
             say(f"{receivers} x {duration:,} s")

@@ -17,10 +17,18 @@ from pathlib import Path
 import numpy as np
 import typer
 
-from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import (
+    collected_warnings,
+    fail,
+    human_console,
+    print_json,
+    progress_reporter,
+    quiet_output,
+    user_errors,
+)
 from chronofuse.cli.loading import loading
 from chronofuse.io.records import read_record
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputError
 
 #: The engine's statistics (``chronofuse.analysis.stability.STATISTICS``) and ITU-T masks
 #: (``chronofuse.analysis.masks.MASKS``), named here for the options' help without importing them.
@@ -64,10 +72,10 @@ def stability(
                                 "a header block, units in the header, .gz ok."),
     kind: str | None = typer.Option(None, "--kind", help="phase (seconds) or freq (fractional frequency); default: from "
                                     "the value column's unit or name, phase without either."),
-    rate: float | None = typer.Option(None, "--rate", help="Sample rate in Hz (required without a time column or a "
+    rate: float | None = typer.Option(None, "--rate", help="Sample rate (Hz; required without a time column or a "
                                       "stated interval; overrides a time column that disagrees, with a warning)."),
     dev: str = typer.Option("adev,mdev,tdev", "--dev", help=f"Comma list of: {', '.join(STATISTIC_NAMES)}."),
-    taus: str = typer.Option("octave", "--taus", help="octave, decade, all, or comma-separated seconds."),
+    taus: str = typer.Option("octave", "--taus", help="Averaging times: octave, decade, all, or a comma-separated list (s)."),
     mask: str | None = typer.Option(None, "--mask", help=f"ITU-T masks to check, comma list of: {', '.join(MASK_NAMES)}."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of every statistic, the masks and the verdict."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
@@ -86,8 +94,10 @@ def stability(
                                   "integrated phase (TIE rms and MTIE see the offset) or remove it first (allantools' "
                                   "convention)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TheoBR, TheoH, TIE rms and MTIE, with confidence intervals."""
+    quiet_output(quiet)
     names = [d.strip().lower() for d in dev.split(",") if d.strip()]
     unknown = [d for d in names if d not in STATISTIC_NAMES]
     if unknown or not names:
@@ -213,10 +223,10 @@ def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bia
         spec = st.STATISTICS[name]
         return st.compute(name, x, rate_hz, tau_s, ci=ci, bias_correction=bias,
                           gap_rule=rule if rule in spec.gap_rules else None)
-    except ValueError as exc:
-        if "taus ==" in str(exc):
+    except InputError as exc:
+        if "taus" in exc.fields:
             raise
-        raise InputDataError(f"{name}: {exc}", str(file)) from None
+        raise InputError(f"{name}: {exc.message}", str(file), fields=exc.fields) from None
 
 
 def verdict_details(verdict) -> str:

@@ -1,4 +1,4 @@
-"""``chronofuse swarm ...``: two-way clock synchronization over radio links (SPEC 5, seed 001)."""
+"""``chronofuse swarm ...``: two-way clock synchronization over radio links (the swarm paper)."""
 
 from __future__ import annotations
 
@@ -8,19 +8,18 @@ from pathlib import Path
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.cli.swarm_options import (
     algorithm_names,
     build_scenario,
     load_models,
     model_files,
-    option_errors,
     quiet_dask,
     scenario_options,
     trial_progress,
 )
 
-swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (seed 001).", no_args_is_help=True)
+swarm_app = typer.Typer(help="Swarm clock synchronization over two-way radio links (the swarm paper).", no_args_is_help=True)
 
 
 def register(app: typer.Typer) -> None:
@@ -30,11 +29,21 @@ def register(app: typer.Typer) -> None:
 _S = scenario_options()
 
 
+def _write_summary(out: Path, doc: dict) -> list[str]:
+    """``out``/summary.json holding ``doc`` (the --json document); returns the file written."""
+    from chronofuse.report.jsonio import dumps
+
+    with user_errors():
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "summary.json").write_text(dumps(doc) + "\n")
+    return [str(out / "summary.json")]
+
+
 @swarm_app.command("run")
 def run(
     algorithm: str = typer.Option("all", "--algorithm",
                                   help="Comma-separated algorithm names, or 'all' (see chronofuse.sync.registry)."),
-    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper (the seed as written) or calibrated."),
+    urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper (the source paper as written) or calibrated."),
     velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
     reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
     snr: float = _S["snr"], toa_model: str = _S["toa_model"], exchanges: int = _S["exchanges"],
@@ -42,13 +51,16 @@ def run(
     interval: float = _S["interval"],
     trials: int = typer.Option(20, "--trials", help="Monte Carlo trials."),
     seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
-    threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K*, s."),
+    threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K* (s)."),
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed' (chronofuse swarm train)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     outage: str = typer.Option(None, "--outage", help="K0:K1: also lose exchanges K0..K1-1 (robustness)."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a two-node link and run the algorithms: RMSE, K*, overhead and the PCRB beside them."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm import run_link
     from chronofuse.experiments.swarm_documents import link_report
 
@@ -72,10 +84,12 @@ def run(
                 fail(f"--outage == {outage!r}, must be K0:K1 (two exchange numbers)")
         if trials < 1:
             fail(f"--trials == {trials}, must be >= 1")
-        with option_errors(), progress_reporter("swarm run"):
+        with progress_reporter("swarm run"):
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
                            networks=networks, outage=window)
     doc = link_report(res)
+    if out is not None:
+        doc["files"] = _write_summary(out, doc)
     if json_out:
         print_json(doc)
         return
@@ -93,8 +107,8 @@ def run(
 def sweep(
     param: str = typer.Option(..., "--param", help="velocity | distance | reply-delay | urt | snr."),
     values: str = typer.Option(..., "--values", help="Comma-separated values, SI units (m/s, m, s, s, dB)."),
-    algorithms: str = typer.Option("ptp-mls,rtt-rvc,proposed-no-nn,ours-doppler", "--algorithms",
-                                   help="Comma-separated algorithm names."),
+    algorithm: str = typer.Option("ptp-mls,rtt-rvc,proposed-no-nn,ours-doppler", "--algorithm",
+                                  help="Comma-separated algorithm names."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
     velocity: float = _S["velocity"], distance: float = _S["distance"], acceleration: float = _S["acceleration"],
     reply_delay: float = _S["reply_delay"], urt: float = _S["urt"], urt_jitter: float = _S["urt_jitter"],
@@ -104,15 +118,17 @@ def sweep(
     trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
     chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
-    scheduler: str = typer.Option(None, "--scheduler",
-                                  help="tcp://HOST:PORT of a Dask scheduler; 'serial' for this process; "
-                                       "default a LocalCluster of processes."),
+    scheduler: str = typer.Option("local", "--scheduler",
+                                  help="Where the trials run: 'local' (a Dask LocalCluster of processes), 'serial' "
+                                       "(this process) or tcp://HOST:PORT of a Dask scheduler."),
     out: Path = typer.Option(Path("swarm-sweep"), "--out", help="Folder for the table, summary and figure."),
     model: Path = typer.Option(None, "--model", help="BP model file for 'proposed'."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file for 'lstm'."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Sweep one parameter over values: a tidy table (CSV and Parquet), a summary and a figure."""
+    quiet_output(quiet)
     from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
     from chronofuse.report.swarm import plot_sweep, write_sweep
 
@@ -128,7 +144,7 @@ def sweep(
         if urt_mode not in ("paper", "calibrated"):
             fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
         files = model_files(model, lstm_model)
-        names = algorithm_names(algorithms, files, option="--algorithms")
+        names = algorithm_names(algorithm, files)
         load_models(files, urt_mode)
         if trials < 1 or chunk_trials < 1:
             fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
@@ -138,14 +154,14 @@ def sweep(
                                   true_skew=true_skew, oscillator=oscillator, interval=interval)
         from chronofuse.experiments.sweep import scenario_at
 
-        with option_errors():
-            for v in value_list:
-                scenario_at(scenario, param, v)
+        for v in value_list:
+            scenario_at(scenario, param, v)
         start = time.perf_counter()
         quiet_dask()
-        with option_errors(), trial_progress(f"swarm sweep {param}") as advance:
+        with trial_progress(f"swarm sweep {param}") as advance:
             table = run_sweep(scenario, param, value_list, names, trials=trials, seed=seed,
-                              chunk_trials=chunk_trials, urt_mode=urt_mode, scheduler=scheduler, progress=advance,
+                              chunk_trials=chunk_trials, urt_mode=urt_mode,
+                              scheduler=None if scheduler == "local" else scheduler, progress=advance,
                               model_files={k: str(v) for k, v in files.items()})
         summary = summarize(table)
         files = write_sweep(table, summary, out)
@@ -173,9 +189,11 @@ def train(
     device: str = typer.Option("cpu", "--device", help="cpu, cuda, or auto (the GPU when present)."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="The chain the networks serve: paper or calibrated."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Train the BP 9-32-1 residual network and the LSTM baseline (seed data set: 1e5 samples,
     v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure the ablation."""
+    quiet_output(quiet)
     import json
 
     from chronofuse.experiments.swarm import train_networks
@@ -205,18 +223,21 @@ def train(
 def network(
     followers: int = typer.Option(3, "--followers", help="Followers of the leader."),
     topology: str = typer.Option("tree", "--topology", help="tree (star: all follow the leader), chain, or consensus."),
-    duration: float = typer.Option(7200.0, "--duration", help="Run length, s."),
-    interval: float = typer.Option(1.0, "--interval", help="Exchange interval, s."),
-    gnss_loss_at: float = typer.Option(1800.0, "--gnss-loss-at", help="When the leader loses GNSS, s (< 0: never)."),
-    gnss_loss_for: float = typer.Option(3600.0, "--gnss-loss-for", help="How long the leader stays in holdover, s."),
-    mean_up: float = typer.Option(float("inf"), "--mean-up", help="Mean time a link stays up, s (inf: always up)."),
-    mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down, s."),
+    duration: float = typer.Option(7200.0, "--duration", help="Run length (s)."),
+    interval: float = typer.Option(1.0, "--interval", help="Exchange interval (s)."),
+    gnss_loss_at: float = typer.Option(1800.0, "--gnss-loss-at", help="When the leader loses GNSS (s; < 0: never)."),
+    gnss_loss_for: float = typer.Option(3600.0, "--gnss-loss-for", help="How long the leader stays in holdover (s)."),
+    mean_up: float = typer.Option(float("inf"), "--mean-up", help="Mean time a link stays up (s; inf: always up)."),
+    mean_down: float = typer.Option(30.0, "--mean-down", help="Mean time a link stays down (s)."),
     snr: float = _S["snr"], oscillator: str = _S["oscillator"],
     seed: int = typer.Option(0, "--seed", help="Root seed."),
+    out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json, the JSON document (created)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """A leader and followers: each follower's time error to the leader and to true time (RMS, ns),
     through the leader's GNSS loss and links that come and go."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm_documents import network_document
 
     with user_errors():
@@ -226,11 +247,13 @@ def network(
             fail(f"--topology == {topology!r}, must be tree, chain or consensus")
         if duration <= 2 * interval or interval <= 0:
             fail(f"--duration == {duration} and --interval == {interval}: need interval > 0 and at least 3 exchanges")
-        with option_errors(), progress_reporter("swarm network"):
+        with progress_reporter("swarm network"):
             doc = network_document(followers=followers, topology=topology, duration_s=duration, interval_s=interval,
                                    gnss_loss_at_s=gnss_loss_at, gnss_loss_for_s=gnss_loss_for, mean_up_s=mean_up,
                                    mean_down_s=mean_down, snr_db=snr, oscillator=oscillator, seed=seed)
     steps = doc["steps"]
+    if out is not None:
+        doc["files"] = _write_summary(out, doc)
     if json_out:
         print_json(doc)
         return
@@ -249,15 +272,18 @@ def network(
 def reproduce_swarm_command(
     figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
     quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
-    out: Path = typer.Option(Path("docs/sync"), "--out", help="Report folder (created)."),
+    out: Path = typer.Option(Path("out/reproduce/swarm"), "--out",
+                             help="Report folder (created; docs/sync holds the published run)."),
     model: Path = typer.Option(None, "--model", help="BP model file ('proposed' curves)."),
     lstm_model: Path = typer.Option(None, "--lstm-model", help="LSTM model file (figure 10)."),
     scheduler: str = typer.Option("serial", "--scheduler",
                                   help="'serial', 'local' (a LocalCluster) or tcp://HOST:PORT."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     json_out: bool = typer.Option(False, "--json", help="Print the summary as one JSON document on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
-    """Seed 001: figures 6-10 with the PCRB line and the seed's numbers beside ours, written to --out."""
+    """The swarm paper: figures 6-10 with the PCRB line and the source paper's numbers beside ours, written to --out."""
+    quiet_output(quiet)
     from chronofuse.experiments.swarm_reproduce import FIGURES, reproduce_swarm
 
     with user_errors():
@@ -267,7 +293,7 @@ def reproduce_swarm_command(
         files = model_files(model, lstm_model)
         load_models(files, "calibrated")
         quiet_dask()
-        with option_errors(), progress_reporter("reproduce swarm") as say:
+        with progress_reporter("reproduce swarm") as say:
             doc = reproduce_swarm(out, figures=figures, quick=quick, seed=seed,
                                   model_files={k: str(v) for k, v in files.items()},
                                   scheduler=None if scheduler == "local" else scheduler, progress=say)

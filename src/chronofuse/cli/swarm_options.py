@@ -1,30 +1,18 @@
 """The options the ``chronofuse swarm`` commands share, and their checks: the link scenario the options
-describe, the algorithms and network model files asked for, errors that name the option rather than the
-library parameter, and the progress bar over trials (SPEC 5, seed 001). Light to import: the library
+describe, the algorithms and network model files asked for, and the progress bar over trials (the swarm paper). Light to import: the library
 modules are imported inside the functions, so ``chronofuse swarm --help`` stays fast.
 """
 
 from __future__ import annotations
 
-import re
 from contextlib import contextmanager
 
 import typer
 
 from chronofuse.cli.common import fail
 
-__all__ = ["algorithm_names", "build_scenario", "load_models", "model_files", "option_errors", "quiet_dask",
+__all__ = ["algorithm_names", "build_scenario", "load_models", "model_files", "quiet_dask",
            "scenario_options", "trial_progress"]
-
-# Library parameter names -> the options that set them, so a one-line error names the option.
-_OPTION_OF = {
-    "distance": "--distance", "distance_m": "--distance", "velocity": "--velocity", "reply_delay_s": "--reply-delay",
-    "urt_fixed_s": "--urt", "urt_jitter_s": "--urt-jitter", "snr_db": "--snr", "toa_model": "--toa-model",
-    "steps": "--exchanges", "exchanges": "--exchanges", "trials": "--trials", "true_offset": "--true-offset",
-    "true_skew": "--true-skew", "algorithm": "--algorithm", "urt_mode": "--urt-mode", "name": "--oscillator",
-    "acceleration_m_s2": "--acceleration", "interval_s": "--interval", "outage": "--outage",
-}
-
 
 def quiet_dask() -> None:
     """Dask's shutdown chatter (worker-kill warnings) would break the one-line/stdout contract."""
@@ -34,48 +22,35 @@ def quiet_dask() -> None:
         logging.getLogger(name).setLevel(logging.ERROR)
 
 
-@contextmanager
-def option_errors():
-    """``user_errors`` whose message starts with the option's name instead of the library parameter's."""
-    try:
-        yield
-    except ValueError as exc:
-        text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        match = re.match(r"^(\w+) ==", text)
-        if match and match.group(1) in _OPTION_OF:
-            text = _OPTION_OF[match.group(1)] + text[len(match.group(1)):]
-        raise ValueError(text) from None
-
-
 def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_jitter, snr, toa_model, exchanges,
                    true_offset, true_skew, oscillator, interval):
-    """The :class:`LinkScenario` the options describe (validated; errors name the options)."""
+    """The :class:`LinkScenario` the options describe (validated; its errors name the config fields, which
+    the command line writes as these options, :mod:`chronofuse.cli.flags`)."""
     from chronofuse.experiments.swarm import LinkScenario
     from chronofuse.models.link import LinkModel
 
-    with option_errors():
-        link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
-                         snr_db=snr, toa_model=toa_model)
-        return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
-                            exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
-                            oscillator=oscillator, link=link)
+    link = LinkModel(interval_s=interval, reply_delay_s=reply_delay, urt_fixed_s=urt, urt_jitter_s=urt_jitter,
+                     snr_db=snr, toa_model=toa_model)
+    return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
+                        exchanges=exchanges, true_offset_s=true_offset, true_skew=true_skew,
+                        oscillator=oscillator, link=link)
 
 
 def scenario_options():
     return dict(
-        velocity=typer.Option(800.0, "--velocity", help="Radial velocity, m/s (opening > 0)."),
-        distance=typer.Option(80e3, "--distance", help="Initial distance, m."),
-        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration, m/s^2."),
-        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B, s."),
-        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time, s."),
-        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma, s."),
-        snr=typer.Option(10.0, "--snr", help="SNR, dB (4..20 with the seed's table)."),
+        velocity=typer.Option(800.0, "--velocity", help="Radial velocity (m/s; opening > 0)."),
+        distance=typer.Option(80e3, "--distance", help="Initial distance (m)."),
+        acceleration=typer.Option(0.0, "--acceleration", help="Radial acceleration (m/s^2)."),
+        reply_delay=typer.Option(4e-3, "--reply-delay", help="Reply slot T_B (s)."),
+        urt=typer.Option(20e-9, "--urt", help="Fixed unequal reply time (s)."),
+        urt_jitter=typer.Option(2e-9, "--urt-jitter", help="URT jitter sigma (s)."),
+        snr=typer.Option(10.0, "--snr", help="Link SNR (dB; 4..20 with the source paper's TOA table)."),
         toa_model=typer.Option("table", "--toa-model", help="TOA noise: table (seed) or crb (Cramér-Rao form)."),
         exchanges=typer.Option(2000, "--exchanges", help="Exchanges per run."),
-        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start, s."),
+        true_offset=typer.Option(0.0, "--true-offset", help="True clock offset B - A at the start (s)."),
         true_skew=typer.Option(0.0, "--true-skew", help="True fractional frequency offset B - A."),
         oscillator=typer.Option("ocxo", "--oscillator", help="Oscillator preset of both nodes."),
-        interval=typer.Option(0.01, "--interval", help="Exchange interval, s."),
+        interval=typer.Option(0.01, "--interval", help="Exchange interval (s)."),
     )
 
 
@@ -83,7 +58,7 @@ def model_files(model, lstm_model) -> dict:
     return {kind: path for kind, path in (("bp", model), ("lstm", lstm_model)) if path is not None}
 
 
-def algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tuple:
+def algorithm_names(text: str, files: dict) -> tuple:
     """The algorithms asked for; 'all' takes those whose models were given."""
     from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK
 
@@ -92,11 +67,11 @@ def algorithm_names(text: str, files: dict, option: str = "--algorithm") -> tupl
     names = tuple(a.strip() for a in text.split(","))
     for name in names:
         if name not in ALGORITHM_NAMES:
-            fail(f"{option} == {name!r}, must be among {list(ALGORITHM_NAMES)}")
+            fail(f"--algorithm == {name!r}, must be among {list(ALGORITHM_NAMES)}")
         kind = NEEDS_NETWORK.get(name)
         if kind is not None and kind not in files:
             flag = "--model" if kind == "bp" else "--lstm-model"
-            fail(f"{option} == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
+            fail(f"--algorithm == {name!r} needs a trained {kind} network: give {flag} FILE (chronofuse swarm train)")
     return names
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, user_errors
+from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.experiments.validation import SEED, write_validation_figures
 
 
@@ -18,16 +18,19 @@ def register(app: typer.Typer) -> None:
 
 def validate(
     data: Path = typer.Option(..., "--data", help="Real data folder holding stability/ (the project's shared/data, or tests/data)."),
-    out: Path = typer.Option(Path("docs/figures"), "--out", help="Folder for the figures and validation.json."),
+    out: Path = typer.Option(Path("out/validate"), "--out",
+                             help="Folder for the figures and validation.json (docs/figures holds the published run)."),
     quick: bool = typer.Option(False, "--quick", help="Short simulations (a smoke run)."),
     seed: int = typer.Option(SEED, "--seed", help="Seed of the simulations."),
     json_out: bool = typer.Option(False, "--json", help="Print validation.json's numbers on stdout."),
+    quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Figures and numbers: our statistics on real records against Stable32, the receiver calibration,
     each oscillator preset against theory, and the Cs 5071A record against the ITU-T masks."""
+    quiet_output(quiet)
+    if not (data / "stability").is_dir():
+        fail(f"{data}: no stability/ folder (give the real data folder with --data)")
     with user_errors():
-        if not (data / "stability").is_dir():
-            raise FileNotFoundError(f"{data}: no stability/ folder (give the real data folder with --data)")
         start = time.perf_counter()
         with progress_reporter("validate"):
             paths = write_validation_figures(out, data, quick=quick, seed=seed)

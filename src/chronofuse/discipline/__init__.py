@@ -1,4 +1,4 @@
-"""GNSS-disciplined oscillator (SPEC section 3, seed 000): one idea per module.
+"""GNSS-disciplined oscillator (the GNSSDO paper): one idea per module.
 
 qualification (is a receiver's 1PPS usable) -> counter (multi-phase interval counter) -> dac (EFC
 actuation) -> servo (one controller interface: servo, servo_kernel; the servos null, pi, kalman,

@@ -1,6 +1,6 @@
-"""UTC-second and leap-second consensus across receivers (SPEC 3.3; seed 000 section 3.2 (1) ②).
+"""UTC-second and leap-second consensus across receivers (the GNSSDO paper section 3.2 (1) ②).
 
-The seed: "compare the UTC times from several modules to make sure UTC is right, and combine and
+The source paper: "compare the UTC times from several modules to make sure UTC is right, and combine and
 compare their leap-second information so that the leap second is handled in time". Per second:
 
 * the UTC label (POSIX-style seconds, ``gps_s - leap_s``), the leap count (GPS - UTC, s) and the

@@ -1,4 +1,4 @@
-"""Multi-phase interval counter (MP-PLL, SPEC 3.4, seed 000 section 5.1, eqs. (4-1)-(4-2)).
+"""Multi-phase interval counter (MP-PLL, the GNSSDO paper section 5.1, eqs. (4-1)-(4-2)).
 
 The 10 MHz OCXO is multiplied (x20) to ``f_clk = 200 MHz`` and split into ``N`` clocks ``360/N``
 degrees apart; each counts its rising edges between two corrected 1PPS edges. With the interval
@@ -6,7 +6,7 @@ degrees apart; each counts its rising edges between two corrected 1PPS edges. Wi
 (in periods, ``0 <= u < 1``) after a tick of phase 1, clock ``i`` (ticks at ``(n + i/N) / f_clk``,
 ``i = 0 .. N-1``) counts
 
-    C_i = floor(u + L - i/N) - floor(u - i/N)                        (the seed's eq. (4-1), made exact)
+    C_i = floor(u + L - i/N) - floor(u - i/N)                        (the source paper's eq. (4-1), made exact)
 
 and the mean count ``C_bar = (1/N) sum C_i`` estimates ``L``. Its error is the count error of one clock
 of frequency ``N f_clk`` divided by ``N``: with ``phi = frac(N L)`` it takes the values

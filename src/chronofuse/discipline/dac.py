@@ -1,4 +1,4 @@
-"""EFC actuation through a DAC (SPEC 3.5, 2.1): a frequency command becomes a code, a voltage, a frequency.
+"""EFC actuation through a DAC (2.1): a frequency command becomes a code, a voltage, a frequency.
 
 A controller asks for a fractional-frequency correction ``y_cmd``. The EFC moves the oscillator by
 ``efc_gain_per_V`` per volt around its centre, so the voltage asked for is ``V = y_cmd / efc_gain``;

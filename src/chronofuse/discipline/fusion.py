@@ -1,4 +1,4 @@
-"""Multi-receiver fusion of 1PPS offsets, not selection (SPEC 3.2; seed 000 section 3.2 (1)).
+"""Multi-receiver fusion of 1PPS offsets, not selection (the GNSSDO paper section 3.2 (1)).
 
 Each second, receiver ``j`` gives the offset ``z_j = x - e_j`` of the local oscillator against its
 1PPS (``e_j``: that receiver's error, independent across receivers). The minimum-variance unbiased

@@ -1,6 +1,6 @@
-"""A graph model of the receivers that outputs fusion weights (SPEC 3.9, seed 000 section 4): an option.
+"""A graph model of the receivers that outputs fusion weights (the GNSSDO paper section 4): an option.
 
-The seed's "graph neural network" weighs sensors by their learnt relations. Here the receivers are the
+The source paper's "graph neural network" weighs sensors by their learnt relations. Here the receivers are the
 nodes of a complete graph; each second, node ``j`` carries features of what it reports and how it
 agrees with the others: ``ln GDOP``, satellites / 10, the usable flag, its residual against the mean of
 the other usable receivers (ns / 10) and the log of that residual's exponentially weighted mean square

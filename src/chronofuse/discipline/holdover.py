@@ -1,4 +1,4 @@
-"""Holdover: the time error a GPSDO accumulates without a reference, and the physical limit (SPEC 3.6).
+"""Holdover: the time error a GPSDO accumulates without a reference, and the physical limit.
 
 In holdover the Kalman servos keep steering with their last frequency and drift estimates (the update
 is skipped, the prediction runs on), so the error after a horizon ``h`` grows from three sources: the

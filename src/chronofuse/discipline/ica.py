@@ -1,6 +1,6 @@
-"""FastICA preprocessing of the multi-receiver offsets (SPEC 3.8, seed 000 section 3.1, eq. (2-1)): an option.
+"""FastICA preprocessing of the multi-receiver offsets (the GNSSDO paper section 3.1, eq. (2-1)): an option.
 
-The seed separates the receivers' observations ``X = A S`` into independent sources by maximising the
+The source paper separates the receivers' observations ``X = A S`` into independent sources by maximising the
 kurtosis ``K(u) = E{u^4} / E{u^2}^2 - 3`` of ``U = W X``. Here ``X`` is the (receivers, steps) matrix of
 offsets ``z_j = x - e_j``; the oscillator's phase ``x`` is common to every row, the receivers' errors
 ``e_j`` are not. FastICA (scikit-learn, ``fun="cube"``: the kurtosis contrast of Hyvarinen and Oja 2000)
@@ -14,8 +14,11 @@ inverse-variance fusion is measured (``tests/discipline/test_learned_fusion.py``
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from sklearn.decomposition import FastICA
+from sklearn.exceptions import ConvergenceWarning
 
 from chronofuse.validation import check_array
 
@@ -25,7 +28,9 @@ __all__ = ["IcaFusion"]
 class IcaFusion:
     """Fusion weights from FastICA: ``fit(z)`` on training offsets (receivers, steps), ``fuse(z)`` applies them.
 
-    Learnt: ``weights_`` (receivers,), ``unmixing_`` (receivers, receivers), ``common_index_``.
+    Learnt: ``weights_`` (receivers,), ``unmixing_`` (receivers, receivers), ``common_index_``, ``n_iter_`` and
+    ``converged_`` (whether FastICA met ``tol`` within ``max_iter``: with more sources than observations it
+    may not, which a user cannot act on, so it is recorded here instead of warned about).
     """
 
     def __init__(self, random_state: int = 0, max_iter: int = 2000, tol: float = 1e-3):
@@ -41,7 +46,11 @@ class IcaFusion:
         d = np.diff(z, axis=1).T
         ica = FastICA(n_components=receivers, fun="cube", whiten="unit-variance", random_state=self.random_state,
                       max_iter=self.max_iter, tol=self.tol)
-        ica.fit(d)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            ica.fit(d)
+        self.n_iter_ = int(ica.n_iter_)
+        self.converged_ = self.n_iter_ < self.max_iter
         mixing = ica.mixing_
         align = np.abs(mixing.sum(axis=0)) / (np.sqrt(receivers) * np.linalg.norm(mixing, axis=0))
         c = int(np.argmax(align))

@@ -207,7 +207,7 @@ class KalmanServo(Servo):
     given), ``gauss_markov_`` (with ``learn_gauss_markov``), ``n_fit_differences_``.
     """
 
-    name = "kf"
+    name = "kalman"
     kernel = sample_kf
 
     def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *,

@@ -71,7 +71,7 @@ class AdaptiveKalmanServo(KalmanServo):
     (>= lambda_min > 0).
     """
 
-    name = "wakf"
+    name = "adaptive-kalman"
     kernel = sample_wakf
 
     def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *, window: int = 10,

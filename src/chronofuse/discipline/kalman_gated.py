@@ -51,7 +51,7 @@ class GatedKalmanServo(KalmanServo):
     """KF with chi-square innovation gating: reject ``e^2 / S > chi2_1.isf(gate_pfa)``; accept again after
     ``max_rejects`` consecutive rejections."""
 
-    name = "gated"
+    name = "gated-kalman"
     kernel = sample_gated
 
     def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *,

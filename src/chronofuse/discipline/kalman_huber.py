@@ -41,7 +41,7 @@ class HuberKalmanServoConfig(KalmanServoConfig):
 class HuberKalmanServo(KalmanServo):
     """KF with a Huber-weighted update: ``R / min(1, c / |e / sqrt(S)|)``, ``c = huber_c`` (default 1.345)."""
 
-    name = "huber"
+    name = "huber-kalman"
     kernel = sample_huber
 
     def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *,

@@ -1,4 +1,4 @@
-"""PI servo on the phase offset (the source paper's eq. (4-3); linuxptp ``pi.c``).
+"""PI servo on the phase offset (the GNSSDO paper eq. (4-3); linuxptp ``pi.c``).
 
 Per second (``dt`` = interval), with measured offset ``z_k`` (s) and the integral ``I`` (a fractional
 frequency)::
@@ -14,7 +14,7 @@ Closed loop (phase ``x_{k+1} = x_k + dt (y_osc + y_k)``): the error obeys
 ``0 < ki``, ``0 < kp < 2``, ``2 kp + ki < 4``). Matching the continuous type-2 loop
 ``s^2 + 2 zeta w_n s + w_n^2`` (F. M. Gardner, *Phaselock Techniques*, 3rd ed., ch. 2) for
 ``w_n dt << 1`` gives ``kp = 2 zeta w_n dt``, ``ki = (w_n dt)^2`` (:meth:`PiServo.from_bandwidth`,
-``w_n = 2 pi f_n``). The seed's preset ``kp = 0.5``, ``ki = 0.1`` is ``w_n dt = 0.316``,
+``w_n = 2 pi f_n``). The source paper's preset ``kp = 0.5``, ``ki = 0.1`` is ``w_n dt = 0.316``,
 ``zeta = 0.79``: a loop time constant ``1 / w_n`` of about 3 s, which passes the GNSS 1PPS noise
 straight to the output (the measured consequence is in docs/gnssdo).
 """

@@ -1,12 +1,12 @@
-"""Source qualification (SPEC 3.1, seed 000 section 3.2 (1) ①): is a receiver's 1PPS usable this second?
+"""Source qualification (the GNSSDO paper section 3.2 (1) ①): is a receiver's 1PPS usable this second?
 
-The seed: "judge from the receiver's NMEA messages whether it has received enough satellites and
+The source paper: "judge from the receiver's NMEA messages whether it has received enough satellites and
 completed positioning and timing; if it has, and the GDOP of the satellites used is below 5, the 1PPS
 is usable, otherwise not." Here, per receiver epoch:
 
     usable = fix  and  time_valid  and  n_sats >= min_sats  and  GDOP < gdop_max  and  1PPS present
 
-``GDOP < gdop_max`` is strict as in the seed ("小于 5"); a missing GDOP (NaN) is never usable. The
+``GDOP < gdop_max`` is strict as in the source paper ("小于 5"); a missing GDOP (NaN) is never usable. The
 threshold is configurable (>= 1: GDOP is never below 1, so a smaller threshold would refuse every
 epoch and is rejected as a configuration error).
 """

@@ -1,13 +1,13 @@
 """The servos by name: :data:`SERVOS`, the one registry of loop controllers (:mod:`chronofuse.registry`).
 
-============ ===============================================================================
-null         the do-nothing baseline: the free-running oscillator (:mod:`.null`)
-pi           PI on the phase offset, gains or a loop bandwidth (:mod:`.pi`)
-kf           Kalman servo on [phase, frequency, drift] (:mod:`.kalman`)
-wakf         the weighted adaptive Kalman servo of the GNSSDO paper (:mod:`.kalman_adaptive`)
-gated        Kalman servo behind a chi-square innovation gate (:mod:`.kalman_gated`)
-huber        Kalman servo with a Huber-weighted update (:mod:`.kalman_huber`)
-============ ===============================================================================
+=============== ============================================================================
+null            the do-nothing baseline: the free-running oscillator (:mod:`.null`)
+pi              PI on the phase offset, gains or a loop bandwidth (:mod:`.pi`)
+kalman          Kalman servo on [phase, frequency, drift] (:mod:`.kalman`)
+adaptive-kalman the weighted adaptive Kalman servo of the GNSSDO paper (:mod:`.kalman_adaptive`)
+gated-kalman    Kalman servo behind a chi-square innovation gate (:mod:`.kalman_gated`)
+huber-kalman    Kalman servo with a Huber-weighted update (:mod:`.kalman_huber`)
+=============== ============================================================================
 
 ``SERVOS.create(name, context={...}, **settings)`` builds an unfitted servo. The context is what the
 caller knows about the loop, offered to every member: ``interval_s`` (the sample interval, s) and ``dac``
@@ -37,12 +37,12 @@ __all__ = ["SERVOS"]
 SERVOS = Registry("servos", shared=("interval_s", "dac"))
 SERVOS.add("null", Entry(NullServo, NullServoConfig, "never corrects: the free-running oscillator"))
 SERVOS.add("pi", Entry(PiServo, PiServoConfig, "PI on the phase offset (gains, or a loop bandwidth)", build_pi))
-SERVOS.add("kf", Entry(KalmanServo, KalmanServoConfig, "Kalman servo on [phase, frequency, drift]",
-                       build_kalman(KalmanServo)))
-SERVOS.add("wakf", Entry(AdaptiveKalmanServo, AdaptiveKalmanServoConfig,
-                         "weighted adaptive Kalman servo (R scaled by the innovations' spread)",
-                         build_kalman(AdaptiveKalmanServo)))
-SERVOS.add("gated", Entry(GatedKalmanServo, GatedKalmanServoConfig,
-                          "Kalman servo behind a chi-square innovation gate", build_kalman(GatedKalmanServo)))
-SERVOS.add("huber", Entry(HuberKalmanServo, HuberKalmanServoConfig, "Kalman servo with a Huber-weighted update",
-                          build_kalman(HuberKalmanServo)))
+SERVOS.add("kalman", Entry(KalmanServo, KalmanServoConfig, "Kalman servo on [phase, frequency, drift]",
+                           build_kalman(KalmanServo)))
+SERVOS.add("adaptive-kalman", Entry(AdaptiveKalmanServo, AdaptiveKalmanServoConfig,
+                                    "weighted adaptive Kalman servo (R scaled by the innovations' spread)",
+                                    build_kalman(AdaptiveKalmanServo)))
+SERVOS.add("gated-kalman", Entry(GatedKalmanServo, GatedKalmanServoConfig,
+                                 "Kalman servo behind a chi-square innovation gate", build_kalman(GatedKalmanServo)))
+SERVOS.add("huber-kalman", Entry(HuberKalmanServo, HuberKalmanServoConfig,
+                                 "Kalman servo with a Huber-weighted update", build_kalman(HuberKalmanServo)))

@@ -1,4 +1,4 @@
-"""Offline fixed-interval smoothing of a recorded disciplined run (SPEC 3.7, seed 000 eqs. (3-3)-(3-7)).
+"""Offline fixed-interval smoothing of a recorded disciplined run (the GNSSDO paper eqs. (3-3)-(3-7)).
 
 A recorded run holds the measured offsets ``z_k`` and what the servo did (corrections ``u_k``, phase
 steps ``s_k``). Those are known inputs, so the offsets the free-running oscillator would have given are
@@ -6,9 +6,9 @@ steps ``s_k``). Those are known inputs, so the offsets the free-running oscillat
 forward over them (``estimation.filter.KalmanFilter``) and the one Rauch-Tung-Striebel smoother
 (``estimation.rts.rts_smooth``) backward; adding ``c_k`` back gives the filtered and the smoothed
 estimates of the disciplined 1PPS's time error. The smoother uses the measurements after ``k`` too and
-so removes the filter's lag (the seed's 40 ns -> 10 ns claim; our measurement is in docs/gnssdo).
-The seed's three-state model [t, f, phi] carries an unobservable phase state; this uses the servo's
-[phase, frequency, drift] (+ Gauss-Markov) model, as SPEC 3.7 says.
+so removes the filter's lag (the source paper's 40 ns -> 10 ns claim; our measurement is in docs/gnssdo).
+The source paper's three-state model [t, f, phi] carries an unobservable phase state; this uses the servo's
+[phase, frequency, drift] (+ Gauss-Markov) model, which is observable.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The GPSDO's operating state, reported every second with the reason for each change.
 
-States (the GNSSDO paper: once disciplined "the system tells the outside that time-keeping may start";
-with every receiver blocked or jammed it "enters time-keeping mode and says so")::
+States (the GNSSDO paper section 3.2 (3): once disciplined "the system tells the outside that time-keeping may
+start"; with every receiver blocked or jammed it "enters time-keeping mode and says so")::
 
     FREE_RUN --usable reference--> ACQUIRING --criteria met for lock_hold_s--> LOCKED
     ACQUIRING --no usable reference--> FREE_RUN

@@ -1,4 +1,4 @@
-"""The one interface of every filter, servo, detector and sync algorithm (STYLE 4; the filterpy and linuxptp lessons).
+"""The one interface of every filter, servo, detector and sync algorithm (the filterpy and linuxptp lessons).
 
 An estimator is built in four moves, scikit-learn style:
 

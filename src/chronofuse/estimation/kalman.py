@@ -1,6 +1,6 @@
 """The pure Kalman core: ``predict`` and ``update`` on batches of trials, returning new arrays.
 
-Shapes (STYLE 5, never reshaped): states ``x`` (N, n), covariances ``P`` (N, n, n), measurements ``z``
+Shapes (never reshaped): states ``x`` (N, n), covariances ``P`` (N, n, n), measurements ``z``
 (N, m); the model matrices ``F`` (n, n), ``Q`` (n, n), ``H`` (m, n), ``R`` (m, m) are shared by all trials,
 or given per trial with a leading N axis. Equations (R. E. Kalman, "A new approach to linear filtering
 and prediction problems", 1960; the covariance update in Joseph's form, Bucy and Joseph 1968, as in

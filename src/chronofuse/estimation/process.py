@@ -4,7 +4,7 @@ The clock model (phase, frequency[, drift]) from its h-coefficients lives with t
 :mod:`chronofuse.models.clock` (Van Dierendonck, McGraw and Brown 1984; Brown and Hwang sec. 9.3), because
 the simulators there sample it and ``models/`` sits above ``estimation/`` in the layer order; this
 module gives it to the filters as one ``(F, Q)`` pair. The second difference is the operator that removes
-a clock's phase and frequency (SPEC 4, seed 002)::
+a clock's phase and frequency (the detection patent)::
 
     d2x(k) = (x(k) - 2 x(k-1) + x(k-2)) / t_s
 

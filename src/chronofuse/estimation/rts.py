@@ -1,4 +1,4 @@
-"""The fixed-interval Rauch–Tung–Striebel smoother over a batch of filter results (SPEC 7, seed eq. 3-7).
+"""The fixed-interval Rauch–Tung–Striebel smoother over a batch of filter results (the GNSSDO paper's eq. (3-7)).
 
 H. E. Rauch, F. Tung and C. T. Striebel, "Maximum likelihood estimates of linear dynamic systems", AIAA
 Journal 3(8), 1965. With the filter's posteriors ``x(k), P(k)`` and the next step's priors

@@ -1,1 +1,1 @@
-"""Scenarios, the main job, Monte Carlo runs and the reproductions of the seed documents."""
+"""Scenarios, the main job, Monte Carlo runs and the reproductions of the source papers."""

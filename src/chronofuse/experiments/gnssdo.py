@@ -8,7 +8,7 @@ on the trial count.
 Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys):
 
 * time error (TE) of the disciplined 1PPS against true time, over the seconds from ``SETTLE_S`` (30 min,
-  the seed's convergence bound) on that have a usable reference (holdover is reported apart):
+  the source paper's convergence bound) on that have a usable reference (holdover is reported apart):
   ``time_error_rms_ns`` (rms over trials and seconds), ``time_error_pp_ns`` (mean over trials of the
   peak-to-peak);
 * ``convergence_s``: the first second after which ``|TE| < CONVERGENCE_THRESHOLD_S`` (100 ns) holds at
@@ -47,12 +47,13 @@ from pathlib import Path
 
 import numpy as np
 
-import chronofuse.analysis.stability as st
+from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.montecarlo import mean_square_per_trial, ratio_ci, rms_ci
-from chronofuse.discipline.bound import ClairvoyantServo, clairvoyant_servo, time_error_bound
+from chronofuse.discipline.bound import ClairvoyantServo, time_error_bound
 from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
 from chronofuse.discipline.dac import Dac
+from chronofuse.discipline.design import clairvoyant_controller, design_measurement_sigma_s, equivalent_white_sigma_s
 from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.registry import SERVOS
@@ -60,30 +61,31 @@ from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.stages import LoopStage, StateStage
 from chronofuse.discipline.states import HoldoverModel, State, StateConfig, StateRun
 from chronofuse.estimation.pipeline import Pipeline
-from chronofuse.io.records import read_record
+from chronofuse.io.pps_reference import read_pps_reference
 from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
 from chronofuse.models.oscillator_presets import PRESETS, preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.seeding import child_rng, child_seed, root_seed
-from chronofuse.validation import InputDataError, check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar, invalid
 
-__all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller", "clairvoyant_controller",
-           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "read_reference",
-           "equivalent_white_sigma_s", "is_gaussian", "DESIGN_STEER_S"]
+__all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
+           "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
+           "DESIGN_STEER_S"]
 
 Progress = Callable[[str], None]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
-SCENARIOS = ("open-sky", "urban-canyon", "outage", "jumps", "spoofing",
+SCENARIOS = ("open-sky", "urban-canyon", "outage", "outliers", "spoofing",
              *(name for name in ENVIRONMENTS if name not in ("open-sky", "urban-canyon", "spoofing")))
-#: The built-in controllers the reproductions compare (any name of the servo registry,
-#: :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen).
-CONTROLLERS = ("pi", "kf", "wakf", "gated", "huber")
+#: The built-in controllers the reproductions compare: the PI servo and four Kalman servos (plain; weighted
+#: adaptive, the GNSSDO paper's; with chi-square innovation gating; with a Huber robust update). Any name of
+#: the servo registry, :data:`chronofuse.discipline.registry.SERVOS`, plugins included, can be chosen.
+CONTROLLERS = ("pi", "kalman", "adaptive-kalman", "gated-kalman", "huber-kalman")
 #: Picked by measurement: the lowest mean ratio to the clairvoyant time-error rms over open sky, urban
 #: canyon and jump outliers in ``chronofuse reproduce gnssdo`` (docs/gnssdo/README.md shows the table).
-DEFAULT_CONTROLLER = "gated"
+DEFAULT_CONTROLLER = "gated-kalman"
 SETTLE_S = 1800.0
 #: The phase steering time constant the Kalman controllers are designed with (s): a trade between time
 #: error (least with the steering as fast as the interval, the bound's unconstrained steering) and the
@@ -132,26 +134,27 @@ class GnssdoSetup:
     outage_s: float = 0.0
 
     def __post_init__(self):
-        check_choice(self.scenario, "--scenario", SCENARIOS)
+        check_choice(self.scenario, "scenario", SCENARIOS)
         _check_controller(self.controller)
-        check_scalar(self.receivers, "--receivers", min_val=1, integer=True)
-        check_scalar(self.duration_s, "--duration", min_val=2 * SETTLE_S, integer=True)
-        check_scalar(self.trials, "--trials", min_val=1, integer=True)
-        check_scalar(self.seed, "--seed", min_val=0, integer=True)
-        check_scalar(self.gdop_max, "--gdop-max", min_val=1.0)
+        check_scalar(self.receivers, "receivers", min_val=1, integer=True)
+        check_scalar(self.duration_s, "duration_s", min_val=2 * SETTLE_S, integer=True)
+        check_scalar(self.trials, "trials", min_val=1, integer=True)
+        check_scalar(self.seed, "seed", min_val=0, integer=True)
+        check_scalar(self.gdop_max, "gdop_max", min_val=1.0)
         if self.oscillator_model is None:
-            check_choice(self.oscillator, "--oscillator", tuple(PRESETS))
+            check_choice(self.oscillator, "oscillator", tuple(PRESETS))
         if self.dac_bits is not None:
-            check_scalar(self.dac_bits, "--dac-bits", min_val=1, max_val=32, integer=True)
+            check_scalar(self.dac_bits, "dac_bits", min_val=1, max_val=32, integer=True)
         if self.loop_bandwidth_hz is not None:
-            check_scalar(self.loop_bandwidth_hz, "--loop-bandwidth", min_val=0.0, max_val=0.5, include_min=False)
+            check_scalar(self.loop_bandwidth_hz, "loop_bandwidth_hz", min_val=0.0, max_val=0.5, include_min=False)
             if "natural_hz" not in SERVOS.entry(self.controller).config.model_fields:
-                raise ValueError(f"--loop-bandwidth == {self.loop_bandwidth_hz}: --controller {self.controller!r} has "
-                                 "no loop-bandwidth setting (pi has)")
-        check_choice(self.fusion, "--fusion", ("fusion", "selection"))
-        check_choice(self.design, "--design", ("fit", "datasheet"))
+                raise InputError(f"{{loop_bandwidth_hz}} == {self.loop_bandwidth_hz}: {{controller}} "
+                                 f"{self.controller!r} has no loop-bandwidth setting (pi has)",
+                                 fields=("loop_bandwidth_hz", "controller"))
+        check_choice(self.fusion, "fusion", ("fusion", "selection"))
+        check_choice(self.design, "design", ("fit", "datasheet"))
         if self.integrity_pfa is not None:
-            check_scalar(self.integrity_pfa, "--integrity-pfa", min_val=0.0, max_val=1.0, include_min=False,
+            check_scalar(self.integrity_pfa, "integrity_pfa", min_val=0.0, max_val=1.0, include_min=False,
                          include_max=False)
         if self.outage_start_s is not None:
             check_scalar(self.outage_start_s, "outage_start_s", min_val=0.0, max_val=self.duration_s)
@@ -160,27 +163,27 @@ class GnssdoSetup:
 
 def _check_controller(name: str) -> None:
     if name not in SERVOS:
-        raise ValueError(f"--controller == {name!r}, must be one of {list(SERVOS.names())}")
+        raise invalid("controller", name, f"one of {list(SERVOS.names())}")
 
 
 def scenario_environment(name: str, duration_s: float) -> ReceiverEnvironment:
     """The receiver environment of a gnssdo scenario (events placed relative to the run's length).
 
     ``outage``: open sky, every receiver jammed for the third quarter of the run (holdover);
-    ``jumps``: open sky plus 2 % single-pulse outliers of rms 300 ns, the seed's "GPS jump outliers"
+    ``outliers``: open sky plus 2 % single-pulse outliers of rms 300 ns, the source paper's "GPS jump outliers"
     (跳变野值; persistent steps of the receivers' time are left out: they move the reference itself, and
     no controller can tell them from the truth); ``spoofing``: the preset drag-off (2 ns/s) from mid-run.
     """
-    check_choice(name, "--scenario", SCENARIOS)
-    if name not in ("outage", "jumps", "spoofing"):
+    check_choice(name, "scenario", SCENARIOS)
+    if name not in ("outage", "outliers", "spoofing"):
         return receiver_environment(name)
     sky = receiver_environment("open-sky")
     if name == "outage":
         return dataclasses.replace(sky, name="outage", description="open sky, all receivers jammed for the third quarter",
                                    jamming_start_s=0.5 * duration_s, jamming_duration_s=0.25 * duration_s)
-    if name == "jumps":
+    if name == "outliers":
         model = dataclasses.replace(sky.model, outlier_prob=0.02, outlier_sigma_s=300e-9)
-        return dataclasses.replace(sky, name="jumps", model=model, description="open sky with outliers and steps")
+        return dataclasses.replace(sky, name="outliers", model=model, description="open sky with 1PPS outliers")
     return dataclasses.replace(receiver_environment("spoofing"), spoof_start_s=0.5 * duration_s)
 
 
@@ -214,16 +217,6 @@ def plausibility_monitors(osc: OscillatorModel, env: ReceiverEnvironment, receiv
     return DragMonitor.for_oscillator(osc, reference_noise(env)), None
 
 
-def _design_sigma_s(env: ReceiverEnvironment, receivers: int, interval_s: float = 1.0) -> float:
-    """The designer's white measurement noise for the fused reference: white noise plus the multipath
-    as the white noise it looks like to a loop much slower than its correlation time (a Gauss-Markov
-    process has zero-frequency spectral density ``2 sigma^2 tau``, Brown and Hwang ch. 2, i.e. a
-    per-sample variance ``2 sigma^2 tau / dt``), divided by the number of receivers. The slow wander
-    is left out: no loop can tell it from the oscillator."""
-    m = env.model
-    return math.sqrt((m.white_sigma_s**2 + 2.0 * m.multipath_sigma_s**2 * m.multipath_tau_s / interval_s) / receivers)
-
-
 def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None,
                     loop_bandwidth_hz: float | None = None, measurement_sigma_s: float | None = None,
                     steer_s: float = DESIGN_STEER_S) -> Servo:
@@ -236,19 +229,12 @@ def make_controller(name: str, osc: OscillatorModel, env: ReceiverEnvironment, r
     loop-bandwidth setting refuses ``loop_bandwidth_hz`` by name.
     """
     _check_controller(name)
-    sigma = _design_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
+    sigma = design_measurement_sigma_s(env, receivers) if measurement_sigma_s is None else measurement_sigma_s
     settings = {} if loop_bandwidth_hz is None else {"natural_hz": loop_bandwidth_hz}
     if "steer_s" in SERVOS.entry(name).config.model_fields:
         settings["steer_s"] = steer_s
     context = {"interval_s": 1.0, "dac": dac, "h": osc.h, "measurement_sigma_s": sigma}
     return SERVOS.create(name, context=context, **settings)
-
-
-def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int,
-                           dac: Dac | None) -> ClairvoyantServo:
-    """The optimality yardstick, :func:`chronofuse.discipline.bound.clairvoyant_servo`: the true models of
-    the oscillator and of the fused reference's noise, unconstrained steering."""
-    return clairvoyant_servo(osc, env, receivers, dac)
 
 
 def is_gaussian(env: ReceiverEnvironment) -> bool:
@@ -267,7 +253,7 @@ def initial_frequency_max(osc: OscillatorModel, duration_s: float) -> float:
     lo, hi = Dac.for_oscillator(osc).frequency_range
     room = min(-lo, hi) - abs(osc.drift_per_s) * duration_s
     if room <= 0:
-        raise ValueError(f"oscillator {osc.name!r}: its aging over {duration_s:g} s ({abs(osc.drift_per_s) * duration_s:.3g}) "
+        raise InputError(f"oscillator {osc.name!r}: its aging over {duration_s:g} s ({abs(osc.drift_per_s) * duration_s:.3g}) "
                          f"exceeds its EFC range ({min(-lo, hi):.3g}); no loop can hold it")
     return min(INITIAL_FREQUENCY_MAX, INITIAL_FREQUENCY_FRACTION * room)
 
@@ -318,14 +304,6 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
             "receivers": rx, "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick, "design": design}
 
 
-def _oadev_pooled(x: np.ndarray, taus: np.ndarray) -> np.ndarray:
-    """sqrt of the mean over rows of the overlapping Allan variance at ``taus`` (1 Hz phase, NaN = gap)."""
-    avar = np.array([st.oadev(row, 1.0, taus).dev ** 2 for row in x])
-    ok = np.isfinite(avar)
-    count = ok.sum(axis=0)
-    return np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
-
-
 def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s: np.ndarray,
                 start: int = int(SETTLE_S)) -> dict:
     """``{"free_run": {"tau", "dev"}, "gnss": ..., "disciplined": ...}`` on one octave grid up to a quarter
@@ -336,10 +314,10 @@ def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s
     if np.isnan(gnss).mean() > 0.5:
         gnss_dev = np.full(taus.shape, np.nan)
     else:
-        gnss_dev = _oadev_pooled(gnss, taus)
-    return {"free_run": {"tau": taus, "dev": _oadev_pooled(free_phase_s, taus)},
+        gnss_dev = pooled_oadev(gnss, 1.0, taus).dev
+    return {"free_run": {"tau": taus, "dev": pooled_oadev(free_phase_s, 1.0, taus).dev},
             "gnss": {"tau": taus, "dev": gnss_dev},
-            "disciplined": {"tau": taus, "dev": _oadev_pooled(phase_s, taus)}}
+            "disciplined": {"tau": taus, "dev": pooled_oadev(phase_s, 1.0, taus).dev}}
 
 
 def te_window(has_reference: np.ndarray) -> np.ndarray:
@@ -460,101 +438,16 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
     return summary
 
 
-def equivalent_white_sigma_s(e: np.ndarray, block_s: int = 100) -> float:
-    """The white noise a slow loop sees in a 1PPS error record ``e`` (1 Hz): ``sqrt(B var(dm) / 2)`` with
-    ``dm`` the differences of consecutive ``B``-second block means (for white noise of variance
-    ``sigma^2`` that is ``sigma``; for short-correlated noise it is its zero-frequency level, the
-    ``2 sigma^2 tau`` of :func:`_design_sigma_s`; differencing removes the slow wander)."""
-    n = e.size // block_s * block_s
-    means = e[:n].reshape(-1, block_s).mean(axis=1)
-    return float(np.sqrt(block_s * np.var(np.diff(means)) / 2.0))
-
-
-def _data_line(path: Path, index: int) -> int:
-    """1-based file line of the ``index``-th data line (0-based) of a text record, for error messages."""
-    import gzip
-
-    opener = gzip.open if path.suffix == ".gz" else open
-    count = -1
-    with opener(path, "rt") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            text = line.split("#")[0].strip()
-            if text and (text[0].isdigit() or text[0] in "+-.n"):
-                count += 1
-                if count == index:
-                    return lineno
-    return lineno
-
-
-def read_reference(path: Path) -> np.ndarray:
-    """A real receiver's 1PPS phase against a reference clock (truth), 1 Hz, no gaps; seconds (N,).
-
-    Refused, naming the file and line: another rate than 1 Hz (from a time column), any gap, and values that
-    cannot be a 1PPS phase in seconds (:func:`_check_pps_phase`: a frequency, another unit, a ramp).
-    """
-    path = Path(path)
-    try:  # the time column, when there is one, says the rate (a rate given here would override it)
-        rec = read_record(path, kind="phase")
-    except InputDataError:
-        rec = read_record(path, kind="phase", rate_hz=1.0)
-    if not math.isclose(rec.rate_hz, 1.0, rel_tol=1e-6):
-        raise InputDataError(f"the time column gives a rate of {rec.rate_hz:g} Hz; the reference record must be "
-                             "sampled at 1 Hz", str(path), _data_line(path, 1))
-    if rec.n_gaps:
-        first = int(np.flatnonzero(np.isnan(rec.values))[0])
-        raise InputDataError(f"gap in the reference record ({rec.n_gaps} missing samples, the first at sample "
-                             f"{first}); the loop needs one sample every second", str(path), _data_line(path, first))
-    if rec.values.size < 2 * SETTLE_S:
-        raise InputDataError(f"{rec.values.size} samples, need at least {int(2 * SETTLE_S)}", str(path))
-    _check_pps_phase(rec.values, path)
-    return rec.values
-
-
-#: What a receiver's 1PPS against a reference clock can look like (in seconds, once read): within this of its
-#: median (antenna and cable offsets are constant; a GNSS 1PPS wanders by tens of ns), drifting by at most
-#: this fractional frequency (the reference is a clock, the 1PPS steered to GNSS time), and moving by at least
-#: this rms from second to second (a timing receiver's 1PPS jitters by a nanosecond or more, the real GPS
-#: record in tests/data by 5.1 ns; a fractional-frequency record read as phase moves by 1e-11).
-REFERENCE_MAX_SPREAD_S = 10e-6
-REFERENCE_MAX_SLOPE = 1e-9
-REFERENCE_MIN_JITTER_S = 1e-10
-
-
-def _check_pps_phase(x: np.ndarray, path: Path) -> None:
-    """Refuse, naming the file and line, a record that is not a 1PPS phase against a reference clock in
-    seconds: a frequency (in Hz, or fractional), another unit read as seconds, or a ramp."""
-    median = float(np.median(x))
-    if abs(median) > 1.0:
-        raise InputDataError(f"values of order {median:.6g}: not a 1PPS phase in seconds (a frequency in Hz, or a phase "
-                             "in ns or us without a unit in the header?)", str(path), _data_line(path, 0))
-    far = np.flatnonzero(np.abs(x - median) > REFERENCE_MAX_SPREAD_S)
-    if far.size:
-        k = int(far[0])
-        raise InputDataError(f"{x[k]:.6g} s is {x[k] - median:+.3g} s from the record's median; a 1PPS against a reference "
-                             f"stays within {REFERENCE_MAX_SPREAD_S:g} s (values in ns or us without a unit header? a "
-                             "free-running clock?)", str(path), _data_line(path, k))
-    t = np.arange(x.size, dtype=np.float64)
-    slope = float(np.polyfit(t, x, 1)[0])
-    if abs(slope) > REFERENCE_MAX_SLOPE:
-        raise InputDataError(f"the record drifts by {slope:.3g} s/s over its {x.size} samples; a 1PPS against a "
-                             f"reference clock drifts by less than {REFERENCE_MAX_SLOPE:g} (a ramp: the reference is "
-                             "not a clock, or the record is not a 1PPS)", str(path), _data_line(path, x.size - 1))
-    jitter = float(np.sqrt(np.mean(np.diff(x) ** 2)))
-    if jitter < REFERENCE_MIN_JITTER_S:
-        raise InputDataError(f"consecutive values differ by {jitter:.3g} s rms; a receiver's 1PPS jitters by far more "
-                             "(a fractional-frequency record read as phase?)", str(path), _data_line(path, 1))
-
-
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
                   progress: Progress = lambda s: None, oscillator: str = "ocxo") -> dict:
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
     The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
     oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
-    first four hours by :func:`equivalent_white_sigma_s` (what a user with a reference would do once).
+    first four hours by :func:`~chronofuse.discipline.design.equivalent_white_sigma_s` (what a user with a reference would do once).
     """
     _check_controller(controller)
-    e = read_reference(path)
+    e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
     e = e - np.mean(e)
     steps = e.size
     osc = preset(oscillator)

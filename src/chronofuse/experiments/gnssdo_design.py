@@ -66,7 +66,7 @@ def calibration_run(osc: OscillatorModel, env: ReceiverEnvironment, receivers: i
     quiet = _quiet(env)
     free, _ = _free_phase(osc, calibration_s, 1, child_seed(root, 3))
     rx = simulate_receivers(quiet, calibration_s, receivers, child_seed(root, 4), trials=1)
-    datasheet = make_controller("kf", design_osc or osc, design_env or env, receivers, dac)
+    datasheet = make_controller("kalman", design_osc or osc, design_env or env, receivers, dac)
     return discipline_run(datasheet, free, rx.pps_error_s, rx.epochs, config)
 
 

@@ -1,5 +1,5 @@
 """The main job's second half: the scenario's OCXO disciplined to its receivers through a GNSS outage, and
-a small swarm that keeps the disciplined leader's time over two-way links (SPEC section 0's story).
+a small swarm that keeps the disciplined leader's time over two-way links.
 
 Orchestration only: the disciplined oscillator is :func:`chronofuse.experiments.gnssdo.simulate_gnssdo`
 (the default controller, picked by measurement), the swarm

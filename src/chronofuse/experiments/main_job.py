@@ -1,6 +1,6 @@
 """The main job behind ``chronofuse run``: simulate a scenario and write its report folder.
 
-For now the scenario is a free-running oscillator and a set of GNSS timing receivers (SPEC 2.1, 2.2).
+For now the scenario is a free-running oscillator and a set of GNSS timing receivers (2.2).
 The report holds the receivers' 1PPS time error (after the qErr correction the receiver reports), the
 oscillator's free-running phase, their stability with the oscillator's theoretical ADEV, and the
 receivers' MTIE/TDEV against an ITU-T mask. Later capabilities (disciplining, integrity, sync) extend

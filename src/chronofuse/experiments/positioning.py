@@ -1,4 +1,4 @@
-"""GNSS-only, GNSS/INS and smoothed solutions of the same simulated drive, side by side (seed 000 section 6.3).
+"""GNSS-only, GNSS/INS and smoothed solutions of the same simulated drive, side by side (the GNSSDO paper section 6.3).
 
 Orchestration only: the drive (:mod:`chronofuse.positioning.scenario`), the filter and smoother
 (:mod:`chronofuse.positioning.loose`), the metrics (:mod:`chronofuse.analysis.metrics`) and the figures
@@ -23,13 +23,13 @@ from chronofuse.positioning.loose import LooselyCoupled, smooth
 from chronofuse.positioning.scenario import SYSTEMS, simulate_drive
 from chronofuse.validation import check_choice, check_scalar
 
-__all__ = ["PositioningConfig", "run_positioning", "INS_CHOICES", "SEED_CLAIMS", "solution_metrics"]
+__all__ = ["PositioningConfig", "run_positioning", "INS_CHOICES", "PAPER_CLAIMS", "solution_metrics"]
 
 INS_CHOICES = ("none", *IMU_GRADES)
 _CHUNK_TRIALS = 10
 
-#: Seed 000 section 6.3's positioning claims (GPS+BDS+INS with fixed-interval smoothing).
-SEED_CLAIMS = {"cep95_before_m": 4.2, "cep95_after_m": 0.9, "vertical95_before_m": 6.1, "vertical95_after_m": 1.5,
+#: The GNSSDO paper section 6.3's positioning claims (GPS+BDS+INS with fixed-interval smoothing).
+PAPER_CLAIMS = {"cep95_before_m": 4.2, "cep95_after_m": 0.9, "vertical95_before_m": 6.1, "vertical95_after_m": 1.5,
                "error_at_gdop4_m": 2.0}
 
 
@@ -57,9 +57,9 @@ class PositioningConfig:
         check_choice(self.scenario, "scenario", ENVIRONMENTS)
         check_choice(self.systems, "systems", SYSTEMS)
         check_choice(self.ins, "ins", INS_CHOICES)
-        check_scalar(self.duration_s, "duration", min_val=10.0)
+        check_scalar(self.duration_s, "duration_s", min_val=10.0)
         check_scalar(self.trials, "trials", min_val=1, integer=True)
-        check_scalar(self.imu_rate_hz, "imu-rate", min_val=10.0)
+        check_scalar(self.imu_rate_hz, "imu_rate_hz", min_val=10.0)
 
 
 def solution_metrics(errors_ned_m: np.ndarray, gdop: np.ndarray, outage: np.ndarray) -> dict:

@@ -87,9 +87,10 @@ def position_from_files(obs_path, nav_paths, systems, *, options: SppOptions | N
         hi = first + int(round(end_s * NS_PER_S)) if end_s is not None else int(obs.gps_ns[-1])
         rows = (obs.gps_ns >= lo) & (obs.gps_ns <= hi)
         if not rows.any():
-            from chronofuse.validation import InputDataError
+            from chronofuse.validation import InputError
 
-            raise InputDataError(f"no epoch between --start {start_s} s and --end {end_s} s of the file", str(obs_path))
+            raise InputError(f"no epoch between {{start_s}} == {start_s} s and {{end_s}} == {end_s} s of the file",
+                             str(obs_path), fields=("start_s", "end_s"))
         obs = obs.select(rows)
     nav = merge_navigation([read_navigation(p) for p in nav_paths])
     fixes = point_positions(obs, nav, systems, options)

@@ -41,7 +41,7 @@ StatisticName = Literal[tuple(STATISTICS)]
 MaskName = Literal[tuple(MASKS)]
 SpacingName = Literal[tuple(s for s in SPACINGS if s != "all")]
 ControllerName = Literal[tuple(CONTROLLERS)]
-#: Followers run an algorithm that needs no trained network (the seed's "proposed" and the LSTM do).
+#: Followers run an algorithm that needs no trained network (the swarm paper's "proposed" chain and the LSTM do).
 SyncName = Literal[tuple(a for a in ALGORITHM_NAMES if a not in ("proposed", "lstm"))]
 
 

@@ -25,7 +25,7 @@ from chronofuse.sync.pcrb import link_pcrb
 from chronofuse.sync.registry import ALGORITHM_NAMES, make_algorithm
 from chronofuse.sync.rvc import rvc_offset_exact_s
 from chronofuse.sync.urt import calibrate_urt
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 __all__ = ["LinkScenario", "simulate_scenario", "calibrated_urt_s", "run_link", "residual_dataset", "split_by_group",
            "ablation", "train_networks"]
@@ -51,11 +51,11 @@ class LinkScenario:
     link: LinkModel = LinkModel()
 
     def __post_init__(self):
-        check_scalar(self.distance_m, "distance", min_val=0.0)
-        check_scalar(self.velocity_m_s, "velocity", min_val=-1e5, max_val=1e5)
+        check_scalar(self.distance_m, "distance_m", min_val=0.0)
+        check_scalar(self.velocity_m_s, "velocity_m_s", min_val=-1e5, max_val=1e5)
         check_scalar(self.acceleration_m_s2, "acceleration_m_s2")
         check_scalar(self.exchanges, "exchanges", min_val=2, integer=True)
-        check_scalar(self.true_offset_s, "true_offset")
+        check_scalar(self.true_offset_s, "true_offset_s")
         check_scalar(self.true_skew, "true_skew", min_val=-1e-3, max_val=1e-3)
         preset(self.oscillator)
         if not isinstance(self.link, LinkModel):
@@ -114,7 +114,8 @@ def run_link(scenario: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int 
     if outage is not None:
         k0, k1 = (int(k) for k in outage)
         if not 1 <= k0 < k1 <= scenario.exchanges:
-            raise ValueError(f"outage == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= exchanges ({scenario.exchanges})")
+            raise InputError(f"{{outage}} == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= {{exchanges}} ({scenario.exchanges})",
+                             fields=("outage", "exchanges"))
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
     base = root_seed(seed)
     ex = simulate_scenario(scenario, trials, child_seed(base, 0))

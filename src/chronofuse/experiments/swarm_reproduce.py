@@ -90,7 +90,7 @@ def _report(doc: dict) -> str:
     lines = [
         "# Seed 001 reproduced: two-way sync over moving radio links",
         "",
-        f"Written by `chronofuse reproduce swarm{' --quick' if doc['quick'] else ''}` "
+        f"Written by `chronofuse reproduce swarm`{' (the quick run)' if doc['quick'] else ''} "
         f"({doc['trials']} trials x {doc['exchanges']} exchanges per point, seed {doc['seed']}; models: "
         f"{', '.join(f'{k} = {v}' for k, v in doc['models'].items()) or 'none, so no proposed/lstm curves'}).",
         "Our runs: exact light-time truth, URT calibrated (fixed part learnt under GNSS, kept), SNR 10 dB "

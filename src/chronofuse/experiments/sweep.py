@@ -1,4 +1,4 @@
-"""Parameter sweeps of the two-node link on Dask (orchestration only; SPEC 6 "sweeps scale out on Dask").
+"""Parameter sweeps of the two-node link on Dask (orchestration only).
 
 A sweep is a list of tasks, one per (parameter value, chunk of ``chunk_trials`` trials). Task
 ``(value, c)`` simulates its trials from ``child_seed(root, key(value), c)``, ``key`` the value's
@@ -26,7 +26,7 @@ from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
 from chronofuse.sync.pcrb import link_pcrb
 from chronofuse.sync.registry import make_algorithm
-from chronofuse.validation import ChronofuseError, check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 __all__ = ["SWEEP_PARAMS", "scenario_at", "sweep_tasks", "run_task", "run_sweep", "summarize"]
 
@@ -107,7 +107,7 @@ def _load_networks(files: dict, urt_mode: str) -> dict:
 
 
 def _client(scheduler: str | None, n_tasks: int):
-    """(client, cluster) for ``scheduler``; raises ChronofuseError naming an unreachable address."""
+    """(client, cluster) for ``scheduler``; raises InputError naming an unreachable address."""
     from distributed import Client, LocalCluster
 
     if scheduler is None:
@@ -116,11 +116,12 @@ def _client(scheduler: str | None, n_tasks: int):
                                host="127.0.0.1")
         return Client(cluster), cluster
     if not scheduler.startswith("tcp://"):
-        raise ChronofuseError(f"--scheduler == {scheduler!r}, must be tcp://HOST:PORT or 'serial'")
+        raise InputError(f"{{scheduler}} == {scheduler!r}, must be tcp://HOST:PORT or 'serial'", fields=("scheduler",))
     try:
         return Client(scheduler, timeout="5s"), None
     except (OSError, TimeoutError) as exc:
-        raise ChronofuseError(f"--scheduler == {scheduler!r}: no Dask scheduler answers there ({type(exc).__name__})") from None
+        raise InputError(f"{{scheduler}} == {scheduler!r}: no Dask scheduler answers there ({type(exc).__name__})",
+                         fields=("scheduler",)) from None
 
 
 def run_sweep(base: LinkScenario, param: str, values, algorithms, *, trials: int = 100, seed=0, chunk_trials: int = 25,

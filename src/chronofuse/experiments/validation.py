@@ -34,6 +34,7 @@ import chronofuse.analysis.stability as st
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.theory import adev_theory
+from chronofuse.io.records import read_record
 from chronofuse.io.stable32 import read_stable32_table
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import PRESETS
@@ -42,7 +43,7 @@ from chronofuse.models.environment import receiver_environment
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.report import validation_figures as figures
 from chronofuse.report.jsonio import dumps
-from chronofuse.validation import check_scalar
+from chronofuse.validation import InputError, check_scalar
 
 __all__ = [
     "ValidationSettings",
@@ -52,7 +53,7 @@ __all__ = [
     "record_statistics",
 ]
 
-#: Root seed of every simulation here (one SeedSequence per experiment, SPEC section 1).
+#: Root seed of every simulation here (one SeedSequence per experiment).
 SEED = 20261124
 
 
@@ -92,11 +93,6 @@ FULL = ValidationSettings(
 QUICK = ValidationSettings(
     receiver_duration_s=20_000, oscillator_duration_s=20_000.0, oscillator_trials=2, mtotdev_max_tau_s=256.0
 )
-
-
-def _load_phase(path: Path) -> np.ndarray:
-    """Phase record (N,) in seconds, one value per line, '#' comments."""
-    return np.loadtxt(path, comments="#", dtype=np.float64)
 
 
 def _max_rel_diff(ours: np.ndarray, table: np.ndarray) -> float:
@@ -217,7 +213,7 @@ def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) 
 
 
 def _cs_figures(out_dir: Path, stab: Path) -> tuple[list[Path], dict]:
-    x = _load_phase(stab / "Cs5071A" / "5071A_phase.txt.gz")
+    x = read_record(stab / "Cs5071A" / "5071A_phase.txt.gz", kind="phase", rate_hz=1.0).values
     paths, numbers = [], {"n_points": int(x.size)}
     cases = (("mtie", "mtie_decade.txt", "MTIE (s)"), ("tdev", "tdev_decade.txt", "TDEV (s)"))
     for metric, table_name, ylabel in cases:
@@ -255,12 +251,13 @@ def write_validation_figures(out_dir, data_dir, *, quick: bool = False, seed: in
     out_dir, data_dir = Path(out_dir), Path(data_dir)
     stab = data_dir / "stability"
     if not (stab / "gps").is_dir() or not (stab / "Cs5071A").is_dir():
-        raise FileNotFoundError(f"data_dir == {str(data_dir)!r}, must hold stability/gps and stability/Cs5071A")
+        raise InputError(f"{{data_dir}} == {str(data_dir)!r}, must hold stability/gps and stability/Cs5071A",
+                         fields=("data_dir",))
     check_scalar(seed, "seed", min_val=0, integer=True)
     out_dir.mkdir(parents=True, exist_ok=True)
     settings = QUICK if quick else FULL
     timings, paths, numbers = {}, [], {"settings": settings.__dict__, "quick": bool(quick), "seed": seed}
-    gps_x = _load_phase(stab / "gps" / "gps_1pps_phase_data.txt.gz")
+    gps_x = read_record(stab / "gps" / "gps_1pps_phase_data.txt.gz", kind="phase", rate_hz=1.0).values
     for key, run in (
         ("gps", lambda: _gps_figures(out_dir, stab, gps_x, settings)),
         ("receiver", lambda: _receiver_figure(out_dir, stab, gps_x, settings, seed)),

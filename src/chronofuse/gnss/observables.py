@@ -1,6 +1,6 @@
 """Observables: L1 pseudoranges of a static receiver at a known position -> per-satellite receiver clock biases.
 
-For a receiver at ``r_rx`` every satellite ``n`` gives its own estimate of the receiver clock bias (SPEC 4)::
+For a receiver at ``r_rx`` every satellite ``n`` gives its own estimate of the receiver clock bias::
 
     b_n(k) = (rho_n - |r_sat,n - r_rx| + c dt_sat,n - I_n - T_n) / c
 

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from chronofuse.validation import InputError
+
 __all__ = ["SystemConstants", "SYSTEM_CONSTANTS", "SYSTEM_NAMES", "parse_systems"]
 
 
@@ -44,11 +46,12 @@ SYSTEM_NAMES = {c.name: c.letter for c in SYSTEM_CONSTANTS.values()}
 
 def parse_systems(text: str) -> tuple[str, ...]:
     """``"gps+bds"`` -> ``("G", "C")``: system names joined by ``+`` (gps, gal, bds, qzss), GPS first when
-    present (its clock is the reference). Raises ValueError naming the unknown name."""
+    present (its clock is the reference). Raises :class:`~chronofuse.validation.InputError` naming the field."""
     names = [t.strip().lower() for t in str(text).split("+") if t.strip()]
     unknown = [n for n in names if n not in SYSTEM_NAMES]
     if unknown or not names:
-        raise ValueError(f"systems == {text!r}, must be names among {sorted(SYSTEM_NAMES)} joined by '+'")
+        raise InputError(f"{{systems}} == {text!r}, must be names among {sorted(SYSTEM_NAMES)} joined by '+'",
+                         fields=("systems",))
     letters = []
     for n in names:
         if SYSTEM_NAMES[n] not in letters:

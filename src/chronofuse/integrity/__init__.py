@@ -1,1 +1,1 @@
-"""Receiver clock-bias integrity: anomaly detection and faulty-channel identification (SPEC section 4)."""
+"""Receiver clock-bias integrity: anomaly detection and faulty-channel identification."""

@@ -1,5 +1,5 @@
 """When integrity is available: the per-epoch and overall states of :mod:`chronofuse.integrity.modes`, the
-untested stretches, the exit codes, and the screen of a training stretch (issue 10.2 and 10.4).
+untested stretches, the exit codes, and the screen of a training stretch.
 
 ``ok``: tested, no fault; ``alarm``: a fault (latched); ``unavailable``: integrity could not be tested.
 The rules are in :mod:`chronofuse.integrity.modes`' docstring; the numbers here are their parameters.
@@ -77,7 +77,7 @@ def overall_state(states: np.ndarray, training: int, reasons: list[str], present
 
     ``present`` (bool per epoch): epochs with data; the share tested is counted over those after training,
     so a long gap (missing epochs, reported in ``unavailable``) does not make the rest of the record
-    unavailable (issue 10.7: a 1 h 45 min gap made a whole GRG clock file unusable)."""
+    unavailable (a 1 h 45 min gap made a whole GRG clock file unusable)."""
     after = states[training:]
     if present is not None:
         after = after[np.asarray(present, dtype=bool)[training:]]

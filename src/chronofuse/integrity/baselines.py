@@ -1,4 +1,4 @@
-"""Simple detectors to beat (SPEC 4): single-epoch threshold, CUSUM, comparison with a reference clock.
+"""Simple detectors to beat: single-epoch threshold, CUSUM, comparison with a reference clock.
 
 All implement the :mod:`chronofuse.estimation.interface` contract, as the
 :class:`~chronofuse.integrity.detector.HodDetector` does: ``__init__`` stores its arguments, ``fit`` learns

@@ -1,4 +1,4 @@
-"""Latched channel faults with raise and clear events, one epoch at a time (issue 10.5).
+"""Latched channel faults with raise and clear events, one epoch at a time.
 
 A channel (satellite, or satellite and code) named faulty by identification
 (:func:`chronofuse.integrity.identification.identify`) is *raised* at the epoch it is named and stays faulty
@@ -13,7 +13,7 @@ channel's residual against the other channels' clock (:func:`chronofuse.integrit
     changes: a step that persists looks quiet after one window while the channel stays off by the step
     (a ramp, by a growing amount), so (b) keeps it raised until the offset is gone. The standard deviation
     is that of the difference of two window means ``L`` epochs apart (``L``: from the reference window to
-    now), the smaller of (i) the SPEC 4 model with the channel's fitted noise (inflation included),
+    now), the smaller of (i) the detector's noise model with the channel's fitted noise (inflation included),
     ``2 s2 / n + q1 L t_s + q2 (L t_s)^3 / 3`` (white phase noise averaged over ``n`` epochs; white FM and
     random-walk FM over ``L`` intervals, Brown & Hwang sec. 9.3), and (ii) the rms of that difference
     measured one window apart on the channel's residual over the ``3 n`` epochs before the raise, grown as

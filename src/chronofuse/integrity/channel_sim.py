@@ -1,4 +1,4 @@
-"""Simulated per-satellite clock biases of a static receiver, for identification (SPEC 4).
+"""Simulated per-satellite clock biases of a static receiver, for identification.
 
 A common receiver clock (offset + drift, optionally a millisecond-style jump as receivers that steer
 their clock make) plus white pseudorange noise per channel, and an anomaly

@@ -3,7 +3,7 @@
 Many GNSS receivers with a free-running oscillator keep their clock within +-0.5 ms of GPS time by
 jumping it a whole millisecond whenever it drifts out (the IGS stations MANA, URUM and TIXJ in
 ``igs15904.clk`` do, every 5-min epoch or two; pseudoranges then jump by ``c x 1 ms`` = 299.79 km). To the
-HOD test (SPEC 4) such a jump is a huge anomaly; it is not a fault of the signal in space but the
+HOD test such a jump is a huge anomaly; it is not a fault of the signal in space but the
 receiver's documented behaviour, so it is recognised and taken out before the test:
 
 * at epoch ``k`` with three consecutive valid biases, the second difference of the repaired series

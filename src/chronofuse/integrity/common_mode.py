@@ -1,4 +1,4 @@
-"""Common-mode removal for identification (SPEC 4): per-satellite clock biases with the receiver clock taken out.
+"""Common-mode removal for identification: per-satellite clock biases with the receiver clock taken out.
 
 Why (the choice made for :func:`chronofuse.integrity.identification.identify`). Every ``b_n`` holds the same
 receiver clock; a clock jump or steering of the receiver would alarm every channel at once (measured in

@@ -1,6 +1,6 @@
-"""High-order-difference (HOD) chi-square detector of receiver clock-bias anomalies (SPEC section 4).
+"""High-order-difference (HOD) chi-square detector of receiver clock-bias anomalies.
 
-The reconstruction of seed 002 (a patent whose formulas were lost in extraction), as SPEC 4 gives it:
+The reconstruction of the detection patent (its formulas are lost from the text we have; docs/sources.md):
 
 * second difference of the clock bias ``t_u`` sampled every ``t_s``::
 
@@ -125,7 +125,7 @@ def training_inflation(m: int, r, n_free: int, confidence: float) -> float:
 
 
 class HodDetector:
-    """High-order-difference chi-square detector (SPEC 4), scikit-learn style.
+    """High-order-difference chi-square detector, scikit-learn style.
 
     Parameters
     ----------
@@ -140,7 +140,7 @@ class HodDetector:
         estimated by :meth:`fit` from an anomaly-free training stretch.
     confidence : float or None
         When the noise is fitted from training data: keep the false-alarm rate at or below ``pfa`` with
-        this probability over trainings (issue 10.4). The fitted covariance ``C`` is scaled up by
+        this probability over trainings. The fitted covariance ``C`` is scaled up by
         :func:`training_inflation`: the upper ``confidence`` bound of a variance estimated from the
         training's effective number of independent squares (its ``m`` correlated differences, less the
         parameters fitted), so an underestimated noise level (the cause of the excess false alarms after
@@ -193,7 +193,7 @@ class HodDetector:
         ``clock_bias_s``: anomaly-free training clock biases (s), shape (steps,) or (trials, steps), NaN =
         missing; not needed (None) when ``h0``, ``hm2`` and ``sigma_rho_m`` are all given. ``method``:
         ``"whittle"`` (default, :func:`fit_noise_whittle`, the spectrum of ``df``) or ``"autocorrelation"``
-        (:func:`fit_noise`, the SPEC 4 ``r(0..2)`` formulas solved for the empirical ``r(0..2)``, clipped >= 0).
+        (:func:`fit_noise`, the ``r(0..2)`` formulas of :mod:`~chronofuse.integrity.noise_model` solved for the empirical ``r(0..2)``, clipped >= 0).
         ``robust`` (default): epochs with an outlying second difference are left out of the fit
         (:func:`chronofuse.integrity.noise_model.training_outliers`: one spike or step in training would
         otherwise inflate the fitted noise and blind the detector); ``training_outliers_`` marks them (bool,

@@ -1,7 +1,7 @@
-"""Identification mode (SPEC 4): per-satellite clock biases of a static receiver and the faulty channel named.
+"""Identification mode: per-satellite clock biases of a static receiver and the faulty channel named.
 
 Channel clock bias. For a receiver at a known position every satellite ``n`` gives its own estimate
-``b_n(k)`` of the receiver clock bias (SPEC 4; :mod:`chronofuse.gnss.observables` computes them,
+``b_n(k)`` of the receiver clock bias (:mod:`chronofuse.gnss.observables` computes them,
 :func:`chronofuse.io.rinex.channel_clock_biases` from RINEX files).
 
 Common-mode removal. Every ``b_n`` holds the same receiver clock, so each channel is tested on its residual

@@ -1,4 +1,4 @@
-"""Anomalies injected into clock biases for evaluation (SPEC 2.2 spoofing, SPEC 4 "must show").
+"""Anomalies injected into clock biases for evaluation (steps, ramps, a spoofer's drag-off, noise bursts).
 
 Kinds, with ``tau = t - start_s`` (s) for ``t >= start_s`` and nothing before; each kind's size is its own
 field, named with its unit:

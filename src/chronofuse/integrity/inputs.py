@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 __all__ = ["EARTH_SURFACE_M", "parse_position", "read_noise_file"]
 
@@ -30,21 +30,22 @@ def parse_position(position) -> np.ndarray:
     try:
         xyz = np.array([float(v) for v in text.split(",")])
     except ValueError:
-        raise InputDataError(f"--position {text!r}: expected X,Y,Z in ECEF metres") from None
+        raise InputError(f"{{position_m}} == {text!r}, must be X,Y,Z in ECEF metres", fields=("position_m",)) from None
     if xyz.shape != (3,) or not np.isfinite(xyz).all():
-        raise InputDataError(f"--position {text!r}: expected three finite numbers X,Y,Z (ECEF metres)")
+        raise InputError(f"{{position_m}} == {text!r}, must be three finite numbers X,Y,Z (ECEF metres)",
+                         fields=("position_m",))
     radius_m = float(np.linalg.norm(xyz))
     lo_m, hi_m = EARTH_SURFACE_M
     if not lo_m <= radius_m <= hi_m:
-        raise InputDataError(f"--position {text!r}: {radius_m / 1e3:.1f} km from the Earth's centre, must be a static "
-                             f"receiver near the surface ({lo_m / 1e3:.0f}..{hi_m / 1e3:.0f} km; "
-                             "ECEF metres, not degrees or km)")
+        raise InputError(f"{{position_m}} == {text!r}: {radius_m / 1e3:.1f} km from the Earth's centre, must be a "
+                         f"static receiver near the surface ({lo_m / 1e3:.0f}..{hi_m / 1e3:.0f} km; "
+                         "ECEF metres, not degrees or km)", fields=("position_m",))
     return xyz
 
 
 def read_noise_file(path: str | Path) -> dict:
-    """``{"h0", "hm2", "sigma_rho_m"}`` from a JSON file: a ``detect --json`` document (its ``noise``) or the
-    three numbers at the top level, so a model trained once is used on the next run (issue 10.4).
+    """``{"h0", "hm2", "sigma_rho_m"}`` from a JSON file: a detection document (:func:`detect_file`'s, its
+    ``noise``) or the three numbers at the top level, so a model trained once is used on the next run.
     Raises :class:`InputDataError` naming the file when they are not there."""
     import json
 
@@ -56,5 +57,5 @@ def read_noise_file(path: str | Path) -> dict:
     try:
         return {name: float(model[name]) for name in ("h0", "hm2", "sigma_rho_m")}
     except (TypeError, KeyError, ValueError):
-        raise InputDataError("expected a JSON object with h0, hm2 and sigma_rho_m (or a detect --json document "
+        raise InputDataError("expected a JSON object with h0, hm2 and sigma_rho_m (or a detection document "
                              "with its noise)", str(path)) from None

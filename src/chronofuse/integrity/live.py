@@ -30,7 +30,7 @@ from chronofuse.io.grid import GridPlacer
 from chronofuse.io.record_streams import ClockProductLines, ReceiverBytes, TextLines, open_stream
 from chronofuse.io.rinex_clock import CLOCK_TOLERANCE
 from chronofuse.record import EpochRecord
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 __all__ = ["StreamDetection", "stream_verdicts", "follow_lines"]
 
@@ -81,7 +81,7 @@ class StreamDetection:
         self.settings, self.source, self.rate_hz, self.station = settings, source, rate_hz, station
         self.reader, self._chunks = open_stream(chunks, source, column=column, rate_hz=rate_hz)
         if station is not None and not isinstance(self.reader, ClockProductLines):
-            raise InputDataError("--station needs a RINEX clock product (.clk)", source)
+            raise InputError("{station} needs a RINEX clock product (.clk)", source, fields=("station",))
         self.clocks: dict[str | None, _Clock] = {}
         self._done = False
 
@@ -143,8 +143,8 @@ class StreamDetection:
         if self.station is not None:
             clock = self.clocks.get(self.station)
             if clock is None:
-                raise InputDataError(f"station {self.station!r} (--station) not in the stream "
-                                     f"({len(self.reader.stations)} stations)", self.source)
+                raise InputError(f"{{station}} == {self.station!r} is not in the stream "
+                                 f"({len(self.reader.stations)} stations)", self.source, fields=("station",))
             record = clock.record()
             check_length(record.n_epochs, self.settings.window, self.source)
             doc = detection_document(clock.watch.result(), self.settings, n_skipped=int(record.info["n_gaps"]),

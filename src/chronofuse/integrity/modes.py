@@ -1,4 +1,4 @@
-"""Clock-bias integrity on a data file: the mode chosen from what the file provides (SPEC 4).
+"""Clock-bias integrity on a data file: the mode chosen from what the file provides.
 
 :func:`detect_file` is what ``chronofuse detect FILE`` does, as a library call that returns the same
 document the command prints with ``--json``:
@@ -38,8 +38,8 @@ missing ones, with the covariance scaled so that P_fa stays at or below nominal 
 and can be given back as ``h0``/``hm2``/``sigma_rho_m`` on the next run. ``n_skipped`` counts missing epochs and corrupt
 frames.
 
-Errors name the command-line option beside the parameter (``train_s (--train)``) so the one message serves
-the library and the command.
+Errors name the parameter (the config field, e.g. ``train_s``), which the command line writes as its
+option, so the one message serves the library and the command.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S
 from chronofuse.integrity.watch import TRAINING_CONFIDENCE, DetectionSettings, watch_record
 from chronofuse.io.clockbias import n_skipped, read_clock_bias
 from chronofuse.io.formats import sniff_format
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputDataError, InputError, check_scalar
 
 #: The modes of :func:`detect_file`.
 MODES = ("detection", "identification")
@@ -117,7 +117,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
                             train_s: float | None = None) -> dict:
     """Identification mode on a RINEX observation file with its navigation file and antenna position.
 
-    Every code observable of the file is tested (issue 10.7: a fault on P2 was invisible when only C1
+    Every code observable of the file is tested (a fault on P2 was invisible when only C1
     was): with one code, channels are named by satellite (``G20``); with several, by satellite and code
     (``G20 C1``, ``G20 P2``). Per epoch, the state is ``ok`` when at least :data:`MIN_TESTED_CHANNELS`
     channels of the L1 code (the one a position/time solution uses) are tested and the position check
@@ -141,7 +141,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
         biases = channel_clock_biases(obs, nav, position, code=code, observations=observations, navigation=navigation)
         if not runs:
             interval_s = float(biases.interval_s)
-            detector.interval_s = interval_s  # the file's own interval (issue 10.7)
+            detector.interval_s = interval_s  # the file's own interval
             n_epochs = int(np.asarray(biases.t_s).size)
             check_length(n_epochs, detector.window, str(obs))
             options = {}
@@ -277,22 +277,25 @@ def detect_file(
     if train_s is not None:
         check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     elif None in (h0, hm2, sigma_rho_m):
-        raise ValueError("give the noise model (h0, hm2 and sigma_rho_m) or a training stretch (train_s)")
+        raise InputError("give the noise model ({h0}, {hm2} and {sigma_rho_m}) or a training stretch ({train_s})",
+                         fields=("h0", "hm2", "sigma_rho_m", "train_s"))
     kind = sniff_format(path)
     if kind == "rinex-nav":
-        raise InputDataError("this is a RINEX navigation file: give the observation file and --nav NAVFILE", str(path))
+        raise InputError("this is a RINEX navigation file: give the observation file, and this one as {nav}", str(path),
+                         fields=("nav",))
     if kind == "rinex-obs":
         _only_chi_square(detector, "identification mode (a RINEX observation file)")
         if nav is None or position_m is None:
-            raise InputDataError("a RINEX observation file needs --nav NAVFILE and --position X,Y,Z (identification "
-                                 "mode: nav and position_m)", str(path))
+            raise InputError("a RINEX observation file needs a navigation file ({nav}) and the antenna position "
+                             "({position_m}, ECEF X,Y,Z) for identification mode", str(path), fields=("nav", "position_m"))
         params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                       confidence=TRAINING_CONFIDENCE if train_s is not None else None)
         return identification_document(path, nav, position_m, HodDetector(interval_s=1.0, **params), train_s)
     if nav is not None or position_m is not None:
-        raise InputDataError("--nav/--position need a RINEX observation file (identification mode)", str(path))
+        raise InputError("{nav} and {position_m} need a RINEX observation file (identification mode)", str(path),
+                         fields=("nav", "position_m"))
     if max_time_acc_s is not None:
-        check_scalar(max_time_acc_s, "max_time_acc_s (--max-tacc-ns)", min_val=0.0, include_min=False)
+        check_scalar(max_time_acc_s, "max_time_acc_s", min_val=0.0, include_min=False)
     settings = detection_settings(detector, window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                                   train_s=train_s, max_time_acc_s=max_time_acc_s)
     if kind == "rinex-clock":
@@ -300,19 +303,20 @@ def detect_file(
 
         clocks = read_station_clocks(path)
         if station is None:
-            _only_chi_square(detector, "the table of every station of a clock product (give --station)")
+            _only_chi_square(detector, "the table of every station of a clock product (give {station})", ("station",))
             return clock_product_document(clocks, settings)
         doc = detect_record(station_clock_bias(clocks, station), settings)
         doc["station"] = station
         return doc
     if station is not None:
-        raise InputDataError("--station needs a RINEX clock product (.clk)", str(path))
+        raise InputError("{station} needs a RINEX clock product (.clk)", str(path), fields=("station",))
     return detect_record(read_clock_bias(path, rate_hz, column), settings)
 
 
-def _only_chi_square(detector: str, where: str) -> None:
+def _only_chi_square(detector: str, where: str, fields: tuple[str, ...] = ()) -> None:
     if detector != "chi-square":
-        raise InputDataError(f"detector (--detector) {detector!r}: {where} runs the chi-square test only")
+        raise InputError(f"{{detector}} == {detector!r}: {where} runs the chi-square test only",
+                         fields=("detector", *fields))
 
 
 def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidence):
@@ -323,8 +327,8 @@ def _detector_factory(name: str, *, window, pfa, h0, hm2, sigma_rho_m, confidenc
     entry = DETECTORS.entry(name)
     needs = tuple(getattr(entry.target, "inputs", ()))
     if needs:
-        raise InputDataError(f"detector (--detector) {name!r} needs the input(s) {list(needs)}; a clock-bias file "
-                             "gives one clock bias")
+        raise InputError(f"{{detector}} == {name!r} needs the input(s) {list(needs)}; a clock-bias file "
+                         "gives one clock bias", fields=("detector",))
     fields = entry.config.model_fields
     settings = {"pfa": pfa}
     for key, value in (("window", window), ("confidence", confidence)):

@@ -1,4 +1,4 @@
-"""The HOD detector's noise model (SPEC 4): the autocorrelation of the clock bias's second difference, and
+"""The HOD detector's noise model: the autocorrelation of the clock bias's second difference, and
 its fit to training data.
 
 White FM ``h0``, random-walk FM ``h_-2`` and white measurement noise from the mean pseudorange noise
@@ -23,10 +23,11 @@ from scipy import optimize
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S
 from chronofuse.models.clock import clock_intensities
+from chronofuse.validation import InputError
 
 
 def noise_intensities(h0: float, hm2: float, sigma_rho_m: float) -> tuple[float, float, float]:
-    """``(q1, q2, s2)`` of SPEC 4: ``q1 = h0/2`` (s), ``q2 = 2 pi^2 h_-2`` (1/s), ``s2 = sigma_rho^2/c^2`` (s^2)."""
+    """``(q1, q2, s2)`` of the model: ``q1 = h0/2`` (s), ``q2 = 2 pi^2 h_-2`` (1/s), ``s2 = sigma_rho^2/c^2`` (s^2)."""
     return (*clock_intensities(h0, hm2), (sigma_rho_m / SPEED_OF_LIGHT_M_PER_S) ** 2)
 
 
@@ -41,7 +42,7 @@ def _parameters_from_intensities(q, h0, hm2, sigma_rho_m) -> tuple[float, float,
 
 
 def difference_autocorrelation(h0: float, hm2: float, sigma_rho_m: float, interval_s: float) -> np.ndarray:
-    """Autocorrelation ``[r(0), r(1), r(2)]`` of ``df`` (dimensionless^2), SPEC 4; ``r(tau >= 3) = 0``.
+    """Autocorrelation ``[r(0), r(1), r(2)]`` of ``df`` (dimensionless^2); ``r(tau >= 3) = 0``.
 
     ``h0`` (s, white FM), ``hm2`` (1/s, random-walk FM), ``sigma_rho_m`` (m), ``interval_s`` (s).
     """
@@ -50,7 +51,7 @@ def difference_autocorrelation(h0: float, hm2: float, sigma_rho_m: float, interv
 
 
 def _design_matrix(interval_s: float) -> np.ndarray:
-    """``A`` with ``[r(0), r(1), r(2)] = A [q1, q2, s2]`` (SPEC 4 formulas), shape (3, 3)."""
+    """``A`` with ``[r(0), r(1), r(2)] = A [q1, q2, s2]`` (the formulas of :func:`difference_autocorrelation`), shape (3, 3)."""
     ts = interval_s
     return np.array(
         [
@@ -72,7 +73,7 @@ def empirical_autocorrelation(df: np.ndarray, max_lag: int = 2) -> np.ndarray:
         prod = df[..., lag:] * df[..., : df.shape[-1] - lag]
         ok = np.isfinite(prod)
         if not ok.any():
-            raise ValueError(f"no pair of valid differences at lag {lag}: the training data are too short or too gappy")
+            raise InputError(f"no pair of valid differences at lag {lag}: the training data are too short or too gappy")
         out[lag] = prod[ok].mean()
     return out
 
@@ -87,7 +88,7 @@ def fit_noise(
 ) -> tuple[float, float, float]:
     """Noise parameters ``(h0, hm2, sigma_rho_m)`` from a measured ``r(0..2)`` of ``df``.
 
-    The SPEC 4 formulas are linear in ``(q1, q2, s2)``: three equations, three unknowns. The given
+    The model's formulas are linear in ``(q1, q2, s2)``: three equations, three unknowns. The given
     parameters are held fixed (their contribution is subtracted), and the missing ones are the
     non-negative least-squares solution (``scipy.optimize.nnls`` on unit-norm columns), which is the exact
     solution when that is non-negative and otherwise the closest one with intensities clipped to >= 0.
@@ -193,7 +194,7 @@ def fit_noise_whittle(
     """
     runs = contiguous_runs(df, 8)
     if not runs:
-        raise ValueError("no run of at least 8 consecutive valid differences in the training data")
+        raise InputError("no run of at least 8 consecutive valid differences in the training data")
     freqs, pgram = [], []
     for run in runs:
         if taper:
@@ -237,7 +238,7 @@ def fit_noise_whittle(
         if np.isfinite(res.fun) and (best is None or res.fun < best.fun):
             best = res
     if best is None:
-        raise ValueError("the Whittle fit found no noise model for the training data")
+        raise InputError("the Whittle fit found no noise model for the training data")
     q = q_fixed.copy()
     q[free] = np.exp(best.x) / share
     return _parameters_from_intensities(q, h0, hm2, sigma_rho_m)

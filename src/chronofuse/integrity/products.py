@@ -1,6 +1,6 @@
 """A RINEX clock product in detection mode: one row of verdicts per station, and the false-alarm summary over
 the stations with no event (:mod:`chronofuse.integrity.stationarity`). ``chronofuse detect FILE.clk``
-without ``--station``. Each station's clock runs through the same detection pipeline as any other clock
+without a station. Each station's clock runs through the same detection pipeline as any other clock
 (:func:`chronofuse.integrity.watch.watch_record`)."""
 
 from __future__ import annotations

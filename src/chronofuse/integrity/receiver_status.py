@@ -1,4 +1,4 @@
-"""The receiver's own status per epoch: its fix flags and its time accuracy estimate (issue 10.5).
+"""The receiver's own status per epoch: its fix flags and its time accuracy estimate.
 
 A receiver that loses its fix keeps reporting a clock bias: it extrapolates its clock with the last
 frequency (the Navisys GR-701W in ``tests/data/receivers/gpsd/navisys-gr701w.log`` for 29 s, its bias
@@ -14,7 +14,7 @@ with a fix (GR-701W, GR-8013, ZED-F9P/F9R/F9T, NEO-F9V, LEA-4T, AEK-4T) tAcc is 
 GR-701W's first epoch after it regained its fix), so 100 ns leaves healthy epochs of these receivers alone
 and is about where the GR-701W's oscillator, free-running at 426 ns/s of drift, had drifted 19 s from its
 last fix. It is a limit on the receiver's own claim, not on the detector's statistic; a timing
-application with a tighter budget sets its own (``--max-tacc-ns``).
+application with a tighter budget sets its own (``max_time_acc_s``).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Receiver clock-bias truth under H0 from the detector's own noise model (SPEC 4), batched and seeded.
+"""Receiver clock-bias truth under H0 from the detector's own noise model, batched and seeded.
 
 The receiver clock is the two-state model (phase ``x``, fractional frequency ``y``) driven by white FM
 and random-walk FM, discretised exactly: its ``Phi`` and ``Q`` are those of

@@ -1,4 +1,4 @@
-"""The HOD chi-square statistic (SPEC 4): second differences, their unbroken chains, the whitened window.
+"""The HOD chi-square statistic: second differences, their unbroken chains, the whitened window.
 
 ``C = toeplitz(r(0) .. r(n-1))`` (:mod:`chronofuse.integrity.noise_model`) and the whitening filter
 ``D = L^-1`` (``C = L L^T``, Cholesky), so ``D C D^T = I``; over the last ``n`` differences ``v``,
@@ -24,7 +24,7 @@ _CHUNK_WINDOWS = 1 << 15
 
 
 def high_order_difference(clock_bias_s: np.ndarray, interval_s: float) -> np.ndarray:
-    """``df(k) = (t_u(k) - 2 t_u(k-1) + t_u(k-2)) / t_s`` along the last axis (SPEC 4).
+    """``df(k) = (t_u(k) - 2 t_u(k-1) + t_u(k-2)) / t_s`` along the last axis.
 
     Shape is kept: (..., steps) -> (..., steps); the first two epochs are NaN, and any difference that
     touches a NaN epoch is NaN.
@@ -67,7 +67,7 @@ def toeplitz_whitener(r: np.ndarray, window: int) -> np.ndarray:
 
 
 def window_statistic(df: np.ndarray, dof: np.ndarray, whitener: np.ndarray) -> np.ndarray:
-    """``T(k) = |D_k v_k|^2`` for every epoch, ``v_k`` the last ``dof[k]`` differences (SPEC 4).
+    """``T(k) = |D_k v_k|^2`` for every epoch, ``v_k`` the last ``dof[k]`` differences.
 
     ``df`` and ``dof`` have shape (..., steps) (from :func:`high_order_difference` and :func:`chain_dof`);
     ``whitener`` is (n, n). Full windows (``dof == n``) go through one chunked matrix product over a

@@ -1,4 +1,4 @@
-"""The streaming clock-bias monitor: one epoch in, one frozen verdict out (issue 10.5 and 10.6).
+"""The streaming clock-bias monitor: one epoch in, one frozen verdict out.
 
 This is the per-epoch API the live monitor calls, and what ``chronofuse detect --json-lines`` runs::
 
@@ -24,7 +24,7 @@ Per epoch, causally (epochs ``<= k`` only):
    alarm; then it is *cleared*. The second difference sees only changes: a ramp (a frequency step)
    alarms for a window after its onset and then looks quiet while the range error grows, so (b)
    keeps it raised until the frequency returns. The standard deviation of the difference of the two
-   means is that of the model of SPEC 4: ``2 (2 s2 + n q1 t_s + n^3 q2 t_s^3 / 3) / (n t_s)^2``
+   means is that of the detector's noise model (:mod:`chronofuse.integrity.noise_model`): ``2 (2 s2 + n q1 t_s + n^3 q2 t_s^3 / 3) / (n t_s)^2``
    (white phase, white FM and random-walk FM over one window, for two independent windows). Each raise
    and clear is an event with its reason.
 

@@ -152,7 +152,7 @@ def _fit(pipeline: Pipeline, train: dict, settings: DetectionSettings) -> tuple[
     valid = int(np.isfinite(train["repaired_bias_s"]).sum())
     need = int(settings.window) + 3
     if valid < need:
-        stretch = f"train_s (--train) {settings.train_s:g} s" if settings.train_s is not None else \
+        stretch = f"the training stretch (train_s) of {settings.train_s:g} s" if settings.train_s is not None else \
             f"train_epochs {settings.train_epochs}"
         return False, (f"training failed: {stretch} holds {valid} valid epochs; need at least window + 3 = {need}",)
     try:

@@ -26,7 +26,7 @@ import numpy as np
 from chronofuse.io.grid import GridPlacer
 from chronofuse.io.inspect import Capture, read_capture
 from chronofuse.record import EpochRecord
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputDataError, InputError, check_scalar
 
 __all__ = ["TIME_TOLERANCE", "CLOCK_COLUMNS", "capture_clock_series", "clock_grid", "clock_epochs",
            "no_bias_reason", "read_clock_series"]
@@ -44,8 +44,9 @@ _CLOCK_MESSAGE = "UBX NAV-CLOCK"
 def no_bias_reason(protocols: tuple, decoded=()) -> str:
     """Why a recording gives no clock bias, naming what it holds and what would carry one."""
     if "rinex-obs" in protocols:
-        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: test it with "
-                "chronofuse detect FILE --nav NAVFILE --position X,Y,Z (identification mode)")
+        return ("a RINEX observation file holds pseudoranges, not one receiver clock bias: its satellites' clock "
+                "biases are tested by clock-bias detection in identification mode, given a navigation file ({nav}) "
+                "and the antenna position ({position_m})")
     if "ubx" in protocols:
         held = ", ".join(sorted(decoded)) or "no decodable UBX navigation message"
         return (f"no {_CLOCK_MESSAGE} message, so no receiver clock bias (the recording holds {held}); enable "
@@ -88,7 +89,8 @@ def capture_clock_series(capture: Capture, rate_hz: float | None = None) -> Epoc
     """
     epochs = clock_epochs(capture.record())
     if epochs is None:
-        raise InputDataError(no_bias_reason(capture.protocols, capture.ubx.decoded), capture.source)
+        raise InputError(no_bias_reason(capture.protocols, capture.ubx.decoded), capture.source,
+                         fields=("nav", "position_m"))
     placer = clock_grid(rate_hz)
     return EpochRecord.concat([placer.push(epochs), placer.close()])
 

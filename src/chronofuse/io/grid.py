@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 
 def grid_slots(offsets: np.ndarray, interval: float, tolerance: float) -> tuple[np.ndarray, int]:
@@ -50,9 +50,8 @@ def regular_grid(t_s: np.ndarray, values: np.ndarray, interval_s: float, source:
     if bad >= 0:
         raise InputDataError(
             f"epoch {bad + 1}: time step {steps[bad - 1]:g} s is not a whole number of {interval_s:g} s intervals "
-            "(the sampling interval changed: a new interval needs a new detector, check --rate)",
-            source,
-        )
+            "(the sampling interval changed: a new interval needs a new detector, check {rate_hz})",
+            source, fields=("rate_hz",))
     grid = place_on_grid(slots, values)
     return t_s[0] + np.arange(grid.size) * interval_s, grid
 
@@ -148,7 +147,8 @@ class GridPlacer:
         waiting = EpochRecord.concat(self._waiting)
         steps = np.diff(waiting.t_ns)[: self.learn_steps]
         if steps.size == 0:
-            raise InputDataError("one epoch and no sampling rate (--rate): the interval is unknown", waiting.source)
+            raise InputError("one epoch and no sampling rate ({rate_hz}): the interval is unknown", waiting.source,
+                             fields=("rate_hz",))
         lower_median = int(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])
         self.interval_ns = snap_interval_ns(lower_median, self.resolution_ns)
 
@@ -174,7 +174,8 @@ class GridPlacer:
             k = int(bad[0])
             step_ns = int(t[k]) - (int(t[k - 1]) if k else self._t0 + self._last_slot * interval)
             raise self._error(record, k, f"time step {step_ns / 1e9:g} s is not a whole number of {interval / 1e9:g} s "
-                                         "intervals (the sampling interval changed; check --rate)")
+                                         "intervals (the sampling interval changed; check {rate_hz})",
+                              fields=("rate_hz",))
         r = resid / 1e9
         self._sum_sq += float(np.sum(r * r))
         self._max = max(self._max, float(np.abs(r).max()))
@@ -220,13 +221,13 @@ class GridPlacer:
         return 0
 
     @staticmethod
-    def _error(record, k: int, message: str) -> InputDataError:
+    def _error(record, k: int, message: str, fields: tuple[str, ...] = ()) -> InputDataError:
         prov = record.provenance
         p = int(prov.position[k])
         if prov.unit == "line" and p >= 0:
-            return InputDataError(message, prov.source, p)
+            return InputDataError(message, prov.source, p, fields=fields)
         where = {"byte": f"byte {p}", "index": f"epoch {p + 1}"}.get(prov.unit, "")
-        return InputDataError(f"{where}: {message}" if p >= 0 else message, prov.source)
+        return InputDataError(f"{where}: {message}" if p >= 0 else message, prov.source, fields=fields)
 
 
 __all__ = ["GridPlacer", "grid_slots", "place_on_grid", "regular_grid", "snap_interval_ns"]

@@ -25,7 +25,7 @@ from chronofuse.io.units import INDEX_NAMES, ColumnUnit, HeaderFacts, column_uni
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
 import numpy as np
 
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.validation import InputDataError, InputError, InputWarning, check_scalar
 
 __all__ = ["ColumnChoice", "choose_columns", "base_name", "time_ns_per_unit", "TIME_NAMES", "to_si", "check_frequency",
            "check_phase_steps", "record_notes", "PLAUSIBLE_Y"]
@@ -116,8 +116,8 @@ def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | N
     else:
         left = [i for i in range(logical) if i != time_idx and i not in index]
         if len(left) != 1:
-            raise InputDataError(f"{logical} columns {names}: choose the value column with --column", str(path),
-                                 layout.first_data_line)
+            raise InputError(f"{logical} columns {names}: choose the value column ({{column}})", str(path),
+                             layout.first_data_line, fields=("column",))
         value_idx = left[0]
     if value_idx == time_idx:
         time_idx = None
@@ -131,8 +131,9 @@ def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | N
     if kind is not None and by_unit is not None and kind != by_unit:
         what = {"time": "a time unit: the values are phase", "fraction": "a fractional-frequency unit",
                 "hertz": "a frequency unit (Hz)"}[unit.quantity]
-        raise InputDataError(f"column {value_name!r} is in {unit.text}, {what}; use --kind {by_unit} (or --column "
-                             "another column)", str(path), layout.header_line or facts.unit_line or layout.first_data_line)
+        raise InputError(f"column {value_name!r} is in {unit.text}, {what}; use {{kind}} {by_unit} (or {{column}} "
+                         "another column)", str(path), layout.header_line or facts.unit_line or layout.first_data_line,
+                         fields=("kind", "column"))
     resolved = kind or by_unit or by_name or "phase"
     time_name = names[time_idx] if time_idx is not None else ""
     return ColumnChoice(None if time_idx is None else _field(layout, time_idx), _field(layout, value_idx), time_name,
@@ -154,13 +155,14 @@ def check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) ->
     spread = float(np.std(finite))
     one_sign = bool(np.all(finite > 0) or np.all(finite < 0))
     if one_sign and abs(mean) > PLAUSIBLE_Y and spread < PLAUSIBLE_Y * abs(mean):
-        raise InputDataError(
+        raise InputError(
             f"frequency values of mean {mean:.9g} with a relative spread of {spread / abs(mean):.1e} look like an "
-            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency (--nominal-hz)",
-            str(path))
-    warnings.warn(
+            "absolute (or normalised) frequency, not a fractional one: give the nominal frequency ({nominal_hz})",
+            str(path), fields=("nominal_hz",))
+    warnings.warn(InputWarning(
         f"{path}: fractional frequency up to {largest:.3g} in magnitude is implausible for a clock (|y| > "
-        f"{PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give --nominal-hz)", stacklevel=3)
+        f"{PLAUSIBLE_Y:g}); analysed as given (for absolute frequency in Hz give {{nominal_hz}})",
+        fields=("nominal_hz",)), stacklevel=3)
     return values
 
 
@@ -183,9 +185,9 @@ def to_si(values: np.ndarray, choice: ColumnChoice, nominal_hz: float | None, pa
         return values
     if unit.quantity == "hertz":
         if nominal_hz is None:
-            raise InputDataError(f"column {choice.value_name!r} is in {unit.text}: give the nominal frequency "
-                                 "(--nominal-hz) to make fractional frequency of it", str(path),
-                                 layout.header_line or layout.first_data_line)
+            raise InputError(f"column {choice.value_name!r} is in {unit.text}: give the nominal frequency "
+                             "({nominal_hz}) to make fractional frequency of it", str(path),
+                             layout.header_line or layout.first_data_line, fields=("nominal_hz",))
         check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
         hz = values * unit.scale
         finite = hz[np.isfinite(hz)]

@@ -35,7 +35,7 @@ from chronofuse.io.units import column_unit
 from chronofuse.io.rinex_clock import is_rinex_clock, parse_ar_line
 from chronofuse.io.sources_decode import StreamDecoder
 from chronofuse.record import EpochRecord
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 __all__ = ["ReceiverBytes", "ClockProductLines", "ClockProductReceivers", "TextLines", "open_stream", "read_chunks",
            "decoder_for", "SNIFF_BYTES"]
@@ -223,12 +223,13 @@ class TextLines(_Lines):
                 elif width == 2:
                     value_idx = 1 - time_idx
                 else:
-                    raise InputDataError(f"{width} columns {names}: choose the value column with --column",
-                                         self.source, number)
+                    raise InputError(f"{width} columns {names}: choose the value column ({{column}})",
+                                     self.source, number, fields=("column",))
         if value_idx == time_idx:
             time_idx = None
         if time_idx is None and self.rate_hz is None:
-            raise InputDataError("one-column stream: give the sample rate (--rate HZ)", self.source, number)
+            raise InputError("one-column stream: give the sample rate ({rate_hz}, Hz)", self.source, number,
+                             fields=("rate_hz",))
         unit = column_unit(names[value_idx]) if header is not None else None
         scale = unit.scale if unit is not None and unit.quantity == "time" else 1.0
         per_unit = time_ns_per_unit(names[time_idx]) if (header is not None and time_idx is not None) else None

@@ -50,7 +50,7 @@ from chronofuse.io.timestamps import date_time_to_ns, infer_time_unit, is_date_t
 from chronofuse.io.units import header_facts
 from chronofuse.record import EpochRecord
 from chronofuse.timescale import NS_PER_S, SECONDS_PER_DAY
-from chronofuse.validation import InputDataError, check_choice, check_scalar
+from chronofuse.validation import InputDataError, InputError, InputWarning, check_choice, check_scalar
 
 __all__ = ["ClockRecord", "read_record", "capture_record", "epoch_record", "KINDS"]
 
@@ -58,7 +58,7 @@ KINDS = ("phase", "freq")
 
 # A sample further than this fraction of the interval from its grid slot is not on a regular grid.
 _SLOT_TOLERANCE = 0.25
-# --rate and the time column agree when their intervals differ by less than this (relative).
+# rate_hz and the time column agree when their intervals differ by less than this (relative).
 _RATE_AGREEMENT = 1e-3
 
 
@@ -157,9 +157,10 @@ def _overridden(first_guess: float, rate_hz: float | None, path: Path) -> float 
         return first_guess
     given = 1e9 / rate_hz
     if abs(given - first_guess) > _RATE_AGREEMENT * first_guess:
-        warnings.warn(
-            f"{path}: --rate {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
-            f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", stacklevel=4)
+        warnings.warn(InputWarning(
+            f"{path}: {{rate_hz}} {rate_hz:g} Hz overrides the time column (median step {first_guess / 1e9:.9g} s, "
+            f"i.e. {1e9 / first_guess:.9g} Hz): samples taken as consecutive at {rate_hz:g} Hz", fields=("rate_hz",)),
+            stacklevel=4)
         return None
     return given
 
@@ -287,8 +288,8 @@ def read_record(
     if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
         return capture_record(path, kind=kind or "phase", rate_hz=rate_hz, station=station)
     if station is not None:
-        raise InputDataError("--station picks a station of a RINEX clock product (.clk), not of a text record",
-                             str(path))
+        raise InputError("{station} picks a station of a RINEX clock product (.clk), not of a text record",
+                         str(path), fields=("station",))
     layout = sniff(path)
     facts = header_facts(list(layout.comments) + list(layout.preamble))
     first_row = list(layout.rows[0])
@@ -348,10 +349,11 @@ def read_record(
             rate_hz = stated
             notes.append(f"sample interval {facts.interval_s:g} s from header line {facts.interval_line}")
         elif abs(rate_hz / stated - 1.0) > _RATE_AGREEMENT:
-            warnings.warn(f"{path}: --rate {rate_hz:g} Hz where header line {facts.interval_line} states a sample "
-                          f"interval of {facts.interval_s:g} s ({stated:g} Hz); --rate used", stacklevel=2)
+            warnings.warn(InputWarning(f"{path}: {{rate_hz}} {rate_hz:g} Hz where header line {facts.interval_line} "
+                                       f"states a sample interval of {facts.interval_s:g} s ({stated:g} Hz); "
+                                       "{rate_hz} used", fields=("rate_hz",)), stacklevel=2)
     if rate_hz is None:
-        raise InputDataError("one-column file: give the sample rate (--rate HZ)", str(path))
+        raise InputError("one-column file: give the sample rate ({rate_hz}, Hz)", str(path), fields=("rate_hz",))
 
     if choice.kind == "freq" and (choice.unit is None or choice.unit.quantity != "hertz"):
         values = check_frequency(values, path, nominal_hz)
@@ -427,11 +429,12 @@ def capture_record(path: str | Path, kind: str = "phase", rate_hz: float | None 
     check_choice(kind, "kind", KINDS)
     capture = read_capture(path, receiver=station)
     if station is not None and "rinex-clock" not in capture.protocols:
-        raise InputDataError("--station picks a station of a RINEX clock product (.clk); this recording has "
-                             "one receiver", str(path))
+        raise InputError("{station} picks a station of a RINEX clock product (.clk); this recording has "
+                         "one receiver", str(path), fields=("station",))
     if station is None and len(capture.receivers) > 1:
-        warnings.warn(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
-                      f"{capture.receivers[0]}, is analysed (--station picks any)", stacklevel=2)
+        warnings.warn(InputWarning(f"{path}: a RINEX clock product of {len(capture.receivers)} stations: the first, "
+                                   f"{capture.receivers[0]}, is analysed ({{station}} picks any)", fields=("station",)),
+                      stacklevel=2)
     series = capture_clock_series(capture, rate_hz)
     column = "clock_bias_s" if kind == "phase" else "clock_drift_s_per_s"
     values = np.asarray(series.column(column, np.nan), dtype=np.float64)

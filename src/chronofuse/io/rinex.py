@@ -338,7 +338,7 @@ def channel_clock_biases(
     obs_path, nav_path, position_ecef_m, *, elevation_mask_deg: float = 15.0, epoch_time: str = "grid",
     code: str | None = None, observations: GpsObservations | None = None, navigation: GpsNavigation | None = None,
 ) -> ChannelClockBiases:
-    """Per-satellite clock biases ``b_n(k)`` (SPEC 4, :func:`chronofuse.gnss.observables.channel_biases`) from a
+    """Per-satellite clock biases ``b_n(k)`` (:func:`chronofuse.gnss.observables.channel_biases`) from a
     RINEX observation file and a GPS navigation file for a static receiver at ``position_ecef_m`` (3,) (m, ECEF).
 
     Epochs are put on the grid of the header's ``INTERVAL`` (else the smallest epoch spacing), within 1 % of

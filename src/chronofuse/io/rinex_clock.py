@@ -26,7 +26,7 @@ import numpy as np
 
 from chronofuse.record import EpochRecord
 from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 
 @dataclass(frozen=True)
@@ -121,8 +121,8 @@ def station_record(clocks: StationClocks, station: str) -> EpochRecord:
     in the file (the message lists the first names that are)."""
     if station not in clocks.gps_ns:
         known = ", ".join(clocks.stations[:8])
-        raise InputDataError(f"station {station!r} (--station) not in the file ({len(clocks.stations)} stations: "
-                             f"{known}{', ...' if len(clocks.stations) > 8 else ''})", clocks.source)
+        raise InputError(f"{{station}} == {station!r} is not in the file ({len(clocks.stations)} stations: "
+                         f"{known}{', ...' if len(clocks.stations) > 8 else ''})", clocks.source, fields=("station",))
     lines = None if clocks.lines is None else clocks.lines[station]
     return EpochRecord.from_arrays(clocks.gps_ns[station], {"clock_bias_s": clocks.bias_s[station]},
                                    {"clock_bias_s": "s"}, source=clocks.source, position=lines,

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from chronofuse.io.formats import open_data
+from chronofuse.validation import InputError
 
 __all__ = ["Backoff", "SourceEvent", "FileSource", "SerialSource", "TcpSource", "GpsdSource", "SourceGroup",
            "parse_source"]
@@ -273,5 +274,5 @@ def parse_source(spec: str):
         if kind == "file":
             return FileSource(rest)
     except ValueError as err:
-        raise ValueError(f"source {spec!r}: {err}") from err
+        raise InputError(f"source {spec!r}: {err}") from err
     return FileSource(spec)

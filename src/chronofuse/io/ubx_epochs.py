@@ -45,6 +45,7 @@ from chronofuse.timescale import (
     datetime64_to_gps_ns,
     gps_minus_utc_s,
 )
+from chronofuse.validation import InputError
 
 __all__ = ["UBX_TYPES", "UbxDecodeStats", "UbxEpochBuilder", "decode_ubx", "GPSD_FIX_MODE"]
 
@@ -461,7 +462,7 @@ def nav_sat_used(raw: bytes) -> int:
     the costliest message of a timing receiver's stream. Raises ValueError for a frame shorter than it says."""
     n_svs = raw[11] if len(raw) >= 16 else -1
     if n_svs < 0 or len(raw) < 6 + 8 + 12 * n_svs + 2:
-        raise ValueError(f"NAV-SAT frame of {len(raw)} bytes is shorter than its satellite count says")
+        raise InputError(f"NAV-SAT frame of {len(raw)} bytes is shorter than its satellite count says")
     return sum((raw[22 + 12 * k] >> 3) & 1 for k in range(n_svs))
 
 

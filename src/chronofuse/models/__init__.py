@@ -1,1 +1,1 @@
-"""Physical truth models (SPEC section 2): oscillators and their noise."""
+"""Physical truth models: oscillators and their noise."""

@@ -19,7 +19,7 @@ with them.
 be zero): per step the white-FM phase increment is ``N(0, q1 dt)``, the random-walk frequency increment is
 ``dy ~ N(0, q2 dt)``, and the phase that ``dy`` adds within the step is ``dy dt / 2 + N(0, q2 dt^3 / 12)``,
 so that the (phase, frequency) increments have covariance ``Q`` above. The second difference of the phase
-then has SPEC section 4's autocorrelation exactly.
+then has exactly the autocorrelation the HOD detector assumes (:mod:`chronofuse.integrity.noise_model`).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ oscillators (1 ms resets, or frequency offsets above 1e-7), the rms second diffe
 median of 0.075 us, against 0.060 us for ``h-2 = 1e-23`` (with ``h0 = 2e-19``) and 0.46 us for 6e-22
 (``tests/models/test_environment.py``). So 1e-23 it is, in both views.
 
-The drag-off of a spoofer that starts at ``t0`` (SPEC section 2.2) is a polynomial in ``t - t0``::
+The drag-off of a spoofer that starts at ``t0`` is a polynomial in ``t - t0``::
 
     s(t) = spoof_rate_s_per_s (t - t0) + spoof_accel_s_per_s2 (t - t0)^2 / 2,   zero before t0,
 
@@ -44,7 +44,7 @@ from pydantic import Field
 
 from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.registry import Config, Entry, Registry
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 __all__ = ["ReceiverEnvironment", "SignalEnvironment", "ENVIRONMENTS", "ENVIRONMENT_REGISTRY", "EnvironmentConfig",
            "environment_entry", "receiver_environment", "signal_environments"]
@@ -204,7 +204,8 @@ class ReceiverEnvironment:
         if self.affected_receivers is None:
             return affected
         if any(i >= n_receivers for i in self.affected_receivers):
-            raise ValueError(f"affected_receivers == {self.affected_receivers}, must be < n_receivers == {n_receivers}")
+            raise InputError(f"affected_receivers == {self.affected_receivers}, must be < {{n_receivers}} == {n_receivers}",
+                             fields=("n_receivers",))
         affected[:] = False
         affected[list(self.affected_receivers)] = True
         return affected

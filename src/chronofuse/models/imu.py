@@ -34,7 +34,7 @@ import numpy as np
 from chronofuse.models.clock import two_state_clock_phase_s
 from chronofuse.models.noise import KasdinWalterFilter, flicker_fm_gain, tabulated_gain
 from chronofuse.seeding import child_rng, root_seed
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = [
     "SensorErrors",
@@ -258,7 +258,8 @@ def simulate_imu(model: ImuModel, angular_rate_rad_per_s, specific_force_m_per_s
     steps, dt = omega.shape[-2], 1.0 / rate_hz
     hold = 1 if bias_rate_hz is None else int(round(rate_hz / bias_rate_hz))
     if bias_rate_hz is not None and (hold < 1 or abs(hold * bias_rate_hz - rate_hz) > 1e-9 * rate_hz):
-        raise ValueError(f"bias_rate_hz == {bias_rate_hz}, must divide rate_hz == {rate_hz} a whole number of times")
+        raise InputError(f"bias_rate_hz == {bias_rate_hz}, must divide {{rate_hz}} == {rate_hz} a whole number of times",
+                         fields=("rate_hz",))
     base = root_seed(seed)
     sensors = []
     for k, (err, truth) in enumerate(((model.gyro, omega), (model.accel, force))):

@@ -1,4 +1,4 @@
-"""Node kinematics in 3-D (SPEC 2.3): piecewise constant-acceleration trajectories.
+"""Node kinematics in 3-D: piecewise constant-acceleration trajectories.
 
 One model serves every use: constant velocity (one segment, zero acceleration), constant acceleration
 (one segment) and manoeuvres (several segments, each with its own acceleration; position and velocity
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from chronofuse.validation import check_array, check_scalar
+from chronofuse.validation import InputError, check_array, check_scalar
 
 __all__ = ["Trajectory", "constant_velocity", "constant_acceleration", "manoeuvre", "radial_geometry"]
 
@@ -139,7 +139,7 @@ def manoeuvre(position_m, velocity_m_s, segment_start_s, acceleration_m_s2) -> T
 
 
 def radial_geometry(distance_m, radial_velocity_m_s, radial_acceleration_m_s2=0.0) -> tuple[Trajectory, Trajectory]:
-    """The seed's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
+    """The swarm paper's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
     away at ``radial_velocity_m_s`` (negative: closing) with ``radial_acceleration_m_s2``.
 
     Each argument is a scalar or an array of shape (trials,). Returns ``(a, b)``.
@@ -151,9 +151,9 @@ def radial_geometry(distance_m, radial_velocity_m_s, radial_acceleration_m_s2=0.
         if arr.ndim != 1:
             raise ValueError(f"{name} has shape {arr.shape}, must be a scalar or (trials,)")
         if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} contains non-finite values")
+            raise InputError(f"{name} contains non-finite values")
     if np.any(d < 0.0):
-        raise ValueError(f"distance_m == {d.min()}, must be >= 0")
+        raise InputError(f"{{distance_m}} == {d.min()}, must be >= 0", fields=("distance_m",))
     n = max(d.size, v.size, acc.size)
     for name, arr in (("distance_m", d), ("radial_velocity_m_s", v), ("radial_acceleration_m_s2", acc)):
         check_scalar(arr.size, f"len({name})", min_val=1)

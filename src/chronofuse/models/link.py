@@ -1,4 +1,4 @@
-"""Two-way radio link truth (SPEC 2.3 and 5; seed 001 section 1 and Table 1).
+"""Two-way radio link truth (the swarm paper section 1 and Table 1).
 
 The exchange (seed Fig. 1), in node clocks, every ``interval_s`` (slot ``k`` starts at ``s_k = k
 interval_s`` on each node's own clock):
@@ -6,16 +6,16 @@ interval_s`` on each node's own clock):
 1. A transmits when its clock reads ``s_k`` (timestamp ``t1 = 0`` relative to the slot);
 2. B stamps the arrival on its clock: ``T_i = h_B(t2) - s_k + delta_i`` (TOA noise ``delta_i``);
 3. B stamps its reply at ``T_B`` (the reply delay, B's clock) but really transmits ``t_p`` later
-   (the unequal reply time, URT: a fixed part plus Gaussian jitter, seed eqs. 14-16);
+   (the unequal reply time, URT: a fixed part plus Gaussian jitter, the source paper's eqs. 14-16);
 4. A stamps the arrival: ``T_r = h_A(t4) - s_k + delta_r``.
 
 A node clock reads ``h(t) = t + x(t)`` with ``x`` its time error against true time; the offset to be
 estimated is ``eps_k = x_B(t1) - x_A(t1)`` (B minus A at A's transmission). Without motion, URT and
-noise, ``eps = (T_i - T_r + T_B) / 2`` (seed eq. 1).
+noise, ``eps = (T_i - T_r + T_B) / 2`` (the source paper's eq. 1).
 
 Propagation is the exact light-time between moving endpoints in the truth frame of
 :mod:`chronofuse.models.kinematics`: the reception instant solves ``c (t_r - t_e) = |r_R(t_r) -
-r_E(t_e)|`` (Newton's method to machine precision). The seed's model (eqs. 6 and 8) is its
+r_E(t_e)|`` (Newton's method to machine precision). The source paper's model (eqs. 6 and 8) is its
 first-order case: it takes the uplink delay as ``S1/c``, while a receiver receding at ``v`` makes it
 ``S1 / (c - v)``; the difference, ``S1 v / c^2`` to first order (0.89 ns at 80 km and 2000 m/s; 2.2 ns
 at 100 km), depends on the frame and is kept here (see :func:`seed_first_order_timestamps`).
@@ -26,7 +26,7 @@ alternative is ``sigma_TOA = 1 / (2 pi beta sqrt(2 SNR))`` for RMS bandwidth ``b
 *Fundamentals of Statistical Signal Processing: Estimation*, 1993, example 3.13, with ``2E/N0 = 2
 SNR``). Doppler velocity: each one-way carrier-frequency estimate has the table's sigma; the two
 shifts carry the clocks' frequency offset with opposite signs, so ``v = -c (f_up + f_down) / (2 f0)``
-(seed eq. 12) has sigma ``c sigma_f / (sqrt(2) f0)``.
+(the source paper's eq. 12) has sigma ``c sigma_f / (sqrt(2) f0)``.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.models.kinematics import Trajectory
 from chronofuse.models.oscillator import OscillatorModel, simulate_oscillator
 from chronofuse.seeding import child_rng, root_seed
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = [
     "SNR_TABLE_DB",
@@ -56,11 +56,11 @@ __all__ = [
     "node_clock_error_s",
 ]
 
-#: Seed 001 Table 1: SNR grid, dB.
+#: The swarm paper Table 1: SNR grid, dB.
 SNR_TABLE_DB = np.array([4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0, 18.0, 20.0])
-#: Seed 001 Table 1: TOA estimation error sigma at each SNR, s.
+#: The swarm paper Table 1: TOA estimation error sigma at each SNR, s.
 TOA_SIGMA_TABLE_S = np.array([2.5, 2.0, 1.6, 1.25, 1.0, 0.8, 0.6, 0.5, 0.45]) * 1e-9
-#: Seed 001 Table 1: carrier-frequency (Doppler) noise n_i, n_r at each SNR, Hz.
+#: The swarm paper Table 1: carrier-frequency (Doppler) noise n_i, n_r at each SNR, Hz.
 DOPPLER_SIGMA_TABLE_HZ = np.array([190.0, 152.0, 121.0, 96.0, 76.0, 61.0, 48.0, 36.0, 30.0])
 
 _TOA_MODELS = ("table", "crb", "none")
@@ -71,15 +71,14 @@ _KEY_TOA_UP, _KEY_TOA_DOWN, _KEY_URT, _KEY_DOPPLER = 0, 1, 2, 3
 def _in_table(snr_db: float, what: str) -> float:
     check_scalar(snr_db, "snr_db")
     if not SNR_TABLE_DB[0] <= snr_db <= SNR_TABLE_DB[-1]:
-        raise ValueError(
-            f"snr_db == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the seed's {what} "
-            "table (use the Cramér-Rao TOA model for other SNRs)"
-        )
+        raise InputError(
+            f"{{snr_db}} == {snr_db}, must be within [{SNR_TABLE_DB[0]:g}, {SNR_TABLE_DB[-1]:g}] dB for the source paper's {what} "
+            "table (use the Cramér-Rao TOA model for other SNRs)", fields=("snr_db",))
     return float(snr_db)
 
 
 def toa_sigma_s(snr_db: float, model: str = "table", rms_bandwidth_hz: float = 28.47e6) -> float:
-    """TOA noise sigma, s, at ``snr_db``: the seed's table (interpolated), the Cramér–Rao form, or
+    """TOA noise sigma, s, at ``snr_db``: the source paper's table (interpolated), the Cramér–Rao form, or
     ``"none"`` (noiseless timestamps, for truth checks).
 
     The default RMS bandwidth makes the Cramér–Rao form give the table's 1.25 ns at 10 dB.
@@ -102,7 +101,7 @@ def doppler_sigma_hz(snr_db: float) -> float:
 
 @dataclass(frozen=True)
 class LinkModel:
-    """Parameters of one two-way link (SPEC 2.3; defaults are the seed's section 4 conditions).
+    """Parameters of one two-way link (defaults are the source paper's section 4 conditions).
 
     Attributes
     ----------
@@ -117,12 +116,12 @@ class LinkModel:
     snr_db : float
         Signal-to-noise ratio, dB.
     toa_model : {"table", "crb", "none"}
-        TOA noise from the seed's table, from the Cramér–Rao form, or none (truth checks).
+        TOA noise from the source paper's table, from the Cramér–Rao form, or none (truth checks).
     rms_bandwidth_hz : float
         RMS signal bandwidth of the Cramér–Rao form, Hz.
     carrier_hz : float
         Carrier frequency of the Doppler measurement, Hz. Default 1 GHz: the L-band tactical datalink
-        band (960-1215 MHz); the seed does not state it (assumed).
+        band (960-1215 MHz); the source paper does not state it (assumed).
     """
 
     interval_s: float = 0.01
@@ -138,7 +137,8 @@ class LinkModel:
         check_scalar(self.interval_s, "interval_s", min_val=0.0, include_min=False)
         check_scalar(self.reply_delay_s, "reply_delay_s", min_val=0.0, include_min=False)
         if self.reply_delay_s >= self.interval_s:
-            raise ValueError(f"reply_delay_s == {self.reply_delay_s}, must be < interval_s ({self.interval_s})")
+            raise InputError(f"{{reply_delay_s}} == {self.reply_delay_s}, must be < {{interval_s}} ({self.interval_s})",
+                             fields=("reply_delay_s", "interval_s"))
         check_scalar(self.urt_fixed_s, "urt_fixed_s")
         check_scalar(self.urt_jitter_s, "urt_jitter_s", min_val=0.0)
         check_scalar(self.carrier_hz, "carrier_hz", min_val=0.0, include_min=False)
@@ -152,7 +152,7 @@ class LinkModel:
     @property
     def velocity_sigma_m_s(self) -> float:
         """Sigma of the two-way Doppler radial velocity, m/s: ``c sigma_f / (sqrt(2) f0)``; outside the
-        seed's 4..20 dB table (Cramér–Rao TOA model) ``sigma_f`` is held at the table's end value."""
+        source paper's 4..20 dB table (Cramér–Rao TOA model) ``sigma_f`` is held at the table's end value."""
         sigma_f = doppler_sigma_hz(min(max(self.snr_db, SNR_TABLE_DB[0]), SNR_TABLE_DB[-1]))
         return C * sigma_f / (math.sqrt(2.0) * self.carrier_hz)
 
@@ -301,10 +301,9 @@ def simulate_exchanges(
     # 2. B's arrival stamp; 3. B's reply leaves t_p after its stamp T_B.
     t_i_true = t1_rel + tau_up + _interp_clock(xb, dt, t2)
     if np.any(t_i_true >= link.reply_delay_s):
-        raise ValueError(
-            f"reply_delay_s == {link.reply_delay_s}, must exceed the propagation time plus the offset "
-            f"(the request arrives {float(t_i_true.max()):.6g} s into B's slot)"
-        )
+        raise InputError(
+            f"{{reply_delay_s}} == {link.reply_delay_s}, must exceed the propagation time plus the offset "
+            f"(the request arrives {float(t_i_true.max()):.6g} s into B's slot)", fields=("reply_delay_s",))
     noise = np.empty((4, trials, steps))
     for i in range(trials):
         for key in (_KEY_TOA_UP, _KEY_TOA_DOWN, _KEY_URT, _KEY_DOPPLER):
@@ -340,7 +339,7 @@ def simulate_exchanges(
 
 
 def seed_first_order_timestamps(distance_m, radial_velocity_m_s, offset_s, reply_delay_s):
-    """The seed's noiseless model (eqs. 6 and 8, no URT): ``T_i = eps + S1/c`` and
+    """The source paper's noiseless model (eqs. 6 and 8, no URT): ``T_i = eps + S1/c`` and
     ``T_r = T_B - eps + S1/c + v (T_B - eps)/c``. Returns ``(T_i, T_r)``, s."""
     s1 = np.asarray(distance_m, dtype=np.float64)
     v = np.asarray(radial_velocity_m_s, dtype=np.float64)

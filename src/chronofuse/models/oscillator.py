@@ -1,4 +1,4 @@
-"""Oscillator truth model (SPEC 2.1): power-law noise, aging, temperature and EFC through a DAC.
+"""Oscillator truth model: power-law noise, aging, temperature and EFC through a DAC.
 
 The parameters (:class:`PowerLaw`, :class:`OscillatorModel`) and their simulation live here; the
 data-sheet presets (``preset("ocxo")``, ``PRESETS``) in :mod:`chronofuse.models.oscillator_presets`.
@@ -54,7 +54,7 @@ import numpy as np
 
 from chronofuse.models.noise import KasdinWalterFilter, flicker_fm_gain, flicker_pm_gain, tabulated_gain
 from chronofuse.seeding import child_rng, root_seed
-from chronofuse.validation import check_array, check_scalar
+from chronofuse.validation import InputError, check_array, check_scalar
 
 __all__ = [
     "PowerLaw",
@@ -93,7 +93,7 @@ class PowerLaw:
 
 @dataclass(frozen=True)
 class OscillatorModel:
-    """Physical parameters of a free-running oscillator (SPEC 2.1).
+    """Physical parameters of a free-running oscillator.
 
     Attributes
     ----------
@@ -242,7 +242,8 @@ def simulate_oscillator(
     trials = int(trials)
     steps = int(round(duration_s * rate_hz))
     if steps < 2:
-        raise ValueError(f"duration_s * rate_hz == {duration_s * rate_hz}, must round to at least 2 steps")
+        raise InputError(f"{{duration_s}} * {{rate_hz}} == {duration_s * rate_hz}, must round to at least 2 steps",
+                         fields=("duration_s", "rate_hz"))
     base = root_seed(seed)
     temperature = None if temperature_K is None else _per_trial_profile(temperature_K, "temperature_K", trials, steps)
     efc = None if efc_V is None else _per_trial_profile(efc_V, "efc_V", trials, steps)

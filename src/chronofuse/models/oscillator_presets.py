@@ -1,4 +1,4 @@
-"""Preset oscillators (SPEC 2.1): TCXO, OCXO, rubidium and CSAC parameters from their data sheets.
+"""Preset oscillators: TCXO, OCXO, rubidium and CSAC parameters from their data sheets.
 
 One idea: turn published figures (ADEV at 1 s, phase-noise floor and flicker point, aging,
 temperature coefficient, EFC pull and DAC) into :class:`~chronofuse.models.oscillator.OscillatorModel`
@@ -20,6 +20,7 @@ from pydantic import Field
 
 from chronofuse.models.oscillator import OscillatorModel, PowerLaw
 from chronofuse.registry import Config, Entry, Registry
+from chronofuse.validation import InputError
 
 __all__ = ["PRESETS", "PRESET_ADEV_1S", "preset", "OSCILLATORS", "OscillatorConfig", "oscillator_entry"]
 
@@ -85,11 +86,11 @@ PRESETS: dict[str, OscillatorModel] = {
         dac_range_V=3.3,
         source="Vig, Quartz Crystal Resonators and Oscillators tutorial (CECOM), comparison table; EFC/DAC assumed",
     ),
-    # OCXO (MTI-260 class): sigma_y(1 s) = 5e-12 from seed 000 ("MTI-260, 5e-12/s"); split at 1 s into
+    # OCXO (MTI-260 class): sigma_y(1 s) = 5e-12 from the GNSSDO paper ("MTI-260, 5e-12/s"); split at 1 s into
     # white FM 1e-12 and flicker floor; random walk meeting the floor at 1000 s (assumed). Aging
     # 1e-10/day (typical after-30-days OCXO spec, assumed); temperature 1e-9 over -55..+85 degC (Vig
     # table, OCXO column). Phase noise floor -155 dBc/Hz, L(100 Hz) = -140 dBc/Hz (typical 10 MHz
-    # SC-cut OCXO, assumed). EFC: +-2e-7 over +-2.5 V (8e-8/V) through a 20-bit DAC (the seed's
+    # SC-cut OCXO, assumed). EFC: +-2e-7 over +-2.5 V (8e-8/V) through a 20-bit DAC (the source paper's
     # "high-precision DA"; e.g. AD5791, 20 bits over 5 V).
     "ocxo": OscillatorModel(
         name="ocxo",
@@ -106,7 +107,7 @@ PRESETS: dict[str, OscillatorModel] = {
         efc_gain_per_V=8.0e-8,
         dac_bits=20,
         dac_range_V=5.0,
-        source="seed 000 (MTI-260, ADEV 5e-12 at 1 s); Vig tutorial comparison table; aging/EFC/DAC assumed",
+        source="the GNSSDO paper (MTI-260, ADEV 5e-12 at 1 s); Vig tutorial comparison table; aging/EFC/DAC assumed",
     ),
     # Rubidium (SRS PRS10 class): PRS10 data sheet ADEV < 2e-11 at 1 s, aging < 5e-11/month, phase
     # noise < -130 dBc/Hz at 10 Hz; white FM ~2e-11/sqrt(tau) (time-nuts, PRS10 measurements 2006).
@@ -187,4 +188,4 @@ def preset(name: str) -> OscillatorModel:
         return PRESETS[name]
     if isinstance(name, str) and name in OSCILLATORS:
         return OSCILLATORS.create(name)
-    raise ValueError(f"name == {name!r}, must be one of {sorted(OSCILLATORS.names())}")
+    raise InputError(f"{{oscillator}} == {name!r}, must be one of {sorted(OSCILLATORS.names())}", fields=("oscillator",))

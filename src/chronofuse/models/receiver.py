@@ -1,4 +1,4 @@
-"""GNSS timing-receiver truth model (SPEC section 2.2): :func:`simulate_receivers`.
+"""GNSS timing-receiver truth model: :func:`simulate_receivers`.
 
 The receiver's parameters are a :class:`~chronofuse.models.receiver_model.ReceiverModel` (whose
 docstring holds the open-sky calibration); where it stands, a
@@ -35,7 +35,7 @@ receiver aims at local time ``L* = t_k + b_hat_k`` and emits on the nearest tick
   a + sign to the measured time-interval"). So ``pps_error_s + qerr_s = e + s`` to within 0.5 ps;
 - ``clock_bias_s = b_hat`` (what NAV-CLOCK reports and an integrity monitor watches), NaN without a fix.
   ``b`` is a free-running TCXO: a constant frequency offset (uniform within ``+-clock_freq_offset_max``),
-  white FM (``h0``) and random-walk FM (``h_-2``), as the clock model of SPEC section 4
+  white FM (``h0``) and random-walk FM (``h_-2``), as the HOD detector's clock model
   (phase increments of variance ``h0 dt / 2``; frequency increments of variance ``2 pi^2 h_-2 dt``).
 
 Geometry: a unit-variance Gauss-Markov latent ``z_k`` (time constant ``gdop_tau_s``) gives
@@ -75,7 +75,7 @@ from chronofuse.models.noise import gauss_markov
 from chronofuse.models.receiver_model import ReceiverModel
 from chronofuse.seeding import SeedLike, child_rng, root_seed
 from chronofuse.timescale import NS_PER_S, gps_minus_utc_s, utc_to_gps_ns
-from chronofuse.validation import check_scalar
+from chronofuse.validation import InputError, check_scalar
 
 __all__ = [
     "DEFAULT_START_GPS_S",
@@ -240,8 +240,8 @@ def _oscillator_bias_s(model: ReceiverModel, draw: dict[str, np.ndarray], t_s: n
     """True bias ``b`` of the free-running receiver oscillator, shape (trials, receivers, steps), seconds.
 
     ``b = b0 + y0 t`` plus white FM and random-walk FM, sampled exactly by
-    :func:`~chronofuse.models.clock.two_state_clock_phase_s`, so that its second difference has SPEC
-    section 4's autocorrelation. Pops its noise entries of ``draw``.
+    :func:`~chronofuse.models.clock.two_state_clock_phase_s`, so that its second difference has the
+    autocorrelation the HOD detector assumes. Pops its noise entries of ``draw``.
     """
     const = draw["clock_const"]
     y0 = model.clock_freq_offset_max * (2.0 * const[..., 0] - 1.0)
@@ -272,11 +272,12 @@ def _epoch_grid(duration_s: int, rate_hz: float, start_gps_s: int) -> tuple[int,
     check_scalar(rate_hz, "rate_hz", min_val=0.0, max_val=1.0, include_min=False)
     period_s = int(round(1.0 / rate_hz))
     if abs(period_s * rate_hz - 1.0) > 1e-9:
-        raise ValueError(f"rate_hz == {rate_hz}, must be 1 / (whole number of seconds)")
+        raise InputError(f"{{rate_hz}} == {rate_hz}, must be 1 / (whole number of seconds)", fields=("rate_hz",))
     check_scalar(start_gps_s, "start_gps_s", min_val=0, integer=True)
     steps = int(duration_s) // period_s
     if steps < 1:
-        raise ValueError(f"duration_s == {duration_s}, must hold at least one pulse at rate_hz == {rate_hz}")
+        raise InputError(f"{{duration_s}} == {duration_s}, must hold at least one pulse at {{rate_hz}} == {rate_hz}",
+                         fields=("duration_s", "rate_hz"))
     return period_s, np.int64(start_gps_s) + np.arange(steps, dtype=np.int64) * period_s
 
 

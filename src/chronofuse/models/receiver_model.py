@@ -1,4 +1,4 @@
-"""Physical parameters of a GNSS timing receiver (SPEC section 2.2): :class:`ReceiverModel`.
+"""Physical parameters of a GNSS timing receiver: :class:`ReceiverModel`.
 
 The model itself (what the parameters do) is in :mod:`chronofuse.models.receiver`; named environments
 (open sky, urban canyon, jamming, spoofing) in :mod:`chronofuse.models.environment`. The defaults are

@@ -72,11 +72,11 @@ class AlertHooks:
             done = subprocess.run(self.command, shell=True, input=body, env=env, timeout=self.timeout_s,
                                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         except subprocess.TimeoutExpired:
-            self._failed(event, f"--on-alarm command timed out after {self.timeout_s:g} s")
+            self._failed(event, f"the alarm command timed out after {self.timeout_s:g} s")
             return
         if done.returncode != 0:
             tail = done.stderr.decode(errors="replace").strip().splitlines()[-1:] or [""]
-            self._failed(event, f"--on-alarm command exited {done.returncode} {tail[0]}".strip())
+            self._failed(event, f"the alarm command exited {done.returncode} {tail[0]}".strip())
             return
         self.fired += 1
 

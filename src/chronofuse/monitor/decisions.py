@@ -2,7 +2,7 @@
 qualification, :mod:`chronofuse.discipline.qualification`), the clock-bias integrity verdict (the detection
 pipeline's live driver, :class:`chronofuse.integrity.watch.ClockWatch`, on the receiver's clock bias placed on
 its grid as ``detect`` places it: status gate, millisecond repair, detector, latch, with the training stretch
-of ``training_epochs`` grid epochs), the UTC/leap consensus across receivers
+of the first ``train_s`` seconds), the UTC/leap consensus across receivers
 (:func:`chronofuse.discipline.consensus.utc_consensus`) and offset jumps between receivers.
 
 A receiver's epochs are held until their integrity verdict is decided (the grid learns its interval from
@@ -37,8 +37,8 @@ __all__ = ["MonitorSettings", "ReceiverMonitor", "decide_second"]
 @dataclass(frozen=True)
 class MonitorSettings:
     """``gdop_max``/``min_sats``: qualification; ``window``, ``pfa`` and the noise model (``h0``, ``hm2``,
-    ``sigma_rho_m``; any None is learnt from the first ``training_epochs`` epochs of the clock-bias grid, or
-    its first ``train_s`` seconds when given, as ``detect --train`` does) of the detector, ``max_time_acc_s``
+    ``sigma_rho_m``; any None is learnt from the clock biases of the grid's first ``train_s`` seconds, as
+    ``detect`` learns them) of the detector, ``max_time_acc_s``
     of the status gate (s; None: not used); ``jump_s``: offset-jump threshold between receivers."""
 
     gdop_max: float = 5.0
@@ -48,17 +48,15 @@ class MonitorSettings:
     h0: float | None = None
     hm2: float | None = None
     sigma_rho_m: float | None = None
-    training_epochs: int = 120
     jump_s: float = 100e-9
     max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S
-    train_s: float | None = None
+    train_s: float = 120.0
 
     def detection(self) -> DetectionSettings:
         """The clock watch's settings (a complete noise model needs no training stretch)."""
         complete = None not in (self.h0, self.hm2, self.sigma_rho_m)
-        epochs = None if complete or self.train_s is not None else self.training_epochs
         return DetectionSettings(window=self.window, pfa=self.pfa, h0=self.h0, hm2=self.hm2,
-                                 sigma_rho_m=self.sigma_rho_m, train_epochs=epochs, train_s=self.train_s,
+                                 sigma_rho_m=self.sigma_rho_m, train_s=None if complete else self.train_s,
                                  max_time_acc_s=self.max_time_acc_s)
 
 

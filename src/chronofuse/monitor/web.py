@@ -31,7 +31,7 @@ __all__ = ["StatusServer", "parse_address"]
 _PAGE = Path(__file__).with_name("dashboard.html")
 
 
-def parse_address(text: str, name: str = "--http") -> tuple[str, int]:
+def parse_address(text: str, name: str = "address") -> tuple[str, int]:
     """``HOST:PORT`` or ``:PORT`` (loopback) or ``PORT``; port 0 picks a free one."""
     host, sep, port = text.rpartition(":")
     if not sep:

@@ -22,7 +22,7 @@ from chronofuse.models.imu import ImuModel, imu_grade, simulate_imu
 from chronofuse.models.kinematics import Trajectory, manoeuvre
 from chronofuse.positioning.truth import NavigationTruth, imu_truth, navigation_truth
 from chronofuse.seeding import child_seed, root_seed
-from chronofuse.validation import InputDataError, check_choice, check_scalar
+from chronofuse.validation import InputDataError, InputError, check_choice, check_scalar
 
 __all__ = ["DriveData", "city_loop", "simulate_drive", "DEFAULT_ORIGIN", "SYSTEMS", "MAX_SPEED_M_PER_S"]
 
@@ -119,9 +119,9 @@ def simulate_drive(scenario: str, systems: str, imu: str | ImuModel, duration_s:
     if nav is None:
         satellites = model_satellites(SYSTEMS[systems], t)
     elif systems != "gps":
-        raise InputDataError(f"no {' or '.join(s.upper() for s in SYSTEMS[systems][1:])} satellite in the "
-                             f"navigation file (only its GPS records are read); use --systems gps or no --nav",
-                             nav.source)
+        raise InputError(f"no {' or '.join(s.upper() for s in SYSTEMS[systems][1:])} satellite in the "
+                         "navigation file (only its GPS records are read): set {systems} to gps, or give no {nav}",
+                         nav.source, fields=("systems", "nav"))
     else:
         satellites = broadcast_satellites(nav, int(nav.toc_gps_ns.min()), t)
     fixes = np.empty((trials, epochs, 3))

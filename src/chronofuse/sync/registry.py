@@ -31,7 +31,7 @@ from chronofuse.sync.mls import PtpMls
 from chronofuse.sync.ptp import PtpPiServo
 from chronofuse.sync.regression import ChronyRegression, PtpLinreg
 from chronofuse.sync.rvc import RttRvc
-from chronofuse.validation import check_choice
+from chronofuse.validation import InputError, check_choice
 
 __all__ = ["ALGORITHM_NAMES", "NEEDS_NETWORK", "make_algorithm", "chain_noise"]
 
@@ -80,12 +80,12 @@ def make_algorithm(name: str, link: LinkModel, *, steps: int = 2000, urt_mode: s
         if name in NEEDS_NETWORK:
             net = (networks or {}).get(NEEDS_NETWORK[name])
             if net is None:
-                raise ValueError(f"algorithm == {name!r} needs a trained {NEEDS_NETWORK[name]} network "
-                                 "(chronofuse swarm train writes one)")
+                raise InputError(f"{{algorithm}} == {name!r} needs a trained {NEEDS_NETWORK[name]} network "
+                                 "(chronofuse swarm train writes one)", fields=("algorithm",))
             want = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
             if dict(net.config.chain) != want:
-                raise ValueError(f"algorithm == {name!r}: its network was trained behind chain {net.config.chain}, "
-                                 f"this run is {want}")
+                raise InputError(f"{{algorithm}} == {name!r}: its network was trained behind chain {net.config.chain}, "
+                                 f"this run is {want}", fields=("algorithm",))
         return ProposedChain(filter="seed", light_time="seed", urt_mode=urt_mode, urt_fixed_s=urt_fixed_s,
                              residual_model=net, **noise)
     filt = "doppler" if name == "ours-doppler" else "doppler-accel"

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 
 #: How the mean frequency of a frequency record enters the phase it is integrated to: ``"keep"`` (the
@@ -59,7 +59,7 @@ def fill_gaps(x: np.ndarray) -> tuple[np.ndarray, int]:
         return x, 0
     valid = np.flatnonzero(~nan)
     if valid.size == 0:
-        raise ValueError("x contains only NaN")
+        raise InputError("x contains only NaN")
     trimmed = x[valid[0] : valid[-1] + 1]
     nan_t = np.isnan(trimmed)
     idx = np.arange(trimmed.size)

@@ -38,8 +38,8 @@ from chronofuse.analysis.stability.noise_id import identify_noise_methods
 from chronofuse.analysis.stability.registry import EDF_FAMILIES, GAP_POLICIES, STATISTICS, StatisticSpec
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.analysis.stability.taus import taus_to_factors
+from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 from chronofuse.registry import Config, Entry, Registry
-from chronofuse.validation import check_array, check_scalar
 
 __all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM",
            "STATISTIC_REGISTRY", "Statistic", "StatisticConfig", "statistic_entry", "statistic_spec"]
@@ -59,18 +59,18 @@ def _factors(spec: StatisticSpec, tau_s, rate_hz: float, n_points: int) -> np.nd
             f"tau_grid({tau_s!r}, n_points, rate_hz, statistic) builds the standard grids"
         )
     if max_m < 1:
-        raise ValueError(f"x_s has {n_points} samples, too few for {spec.name}")
+        raise InputError(f"x_s has {n_points} samples, too few for {spec.name}")
     taus = np.asarray(tau_s, dtype=float)
     if taus.ndim != 1 or taus.size == 0:
         raise ValueError(f"tau_s has shape {taus.shape}, must be a non-empty 1-D array of seconds")
     if not (np.isfinite(taus).all() and (taus > 0).all()):
-        raise ValueError(f"tau_s == {taus.tolist()}, must be positive finite seconds")
+        raise InputError(f"{{tau_s}} == {taus.tolist()}, must be positive finite seconds", fields=("tau_s",))
     m = taus_to_factors(taus, rate_hz, tau_factor=spec.tau_factor)  # its errors name tau_s
     if spec.m_step > 1 and (m % spec.m_step).any():
         bad = taus[m % spec.m_step != 0]
-        raise ValueError(
-            f"tau_s == {bad.tolist()}, must be {spec.tau_factor} x even multiples of 1/rate_hz for {spec.name}"
-        )
+        raise InputError(
+            f"{{tau_s}} == {bad.tolist()}, must be {spec.tau_factor} x even multiples of 1/rate_hz for {spec.name}",
+            fields=("tau_s",))
     keep = m <= max_m
     if not keep.all():
         warnings.warn(
@@ -80,7 +80,8 @@ def _factors(spec: StatisticSpec, tau_s, rate_hz: float, n_points: int) -> np.nd
         )
     m = m[keep]
     if m.size == 0:
-        raise ValueError(f"tau_s == {taus.tolist()}, no averaging time within the record's range for {spec.name}")
+        raise InputError(f"{{tau_s}} == {taus.tolist()}, no averaging time within the record's range for {spec.name}",
+                         fields=("tau_s",))
     return m
 
 
@@ -206,7 +207,7 @@ def compute(
         raise ValueError(f"gap_rule == {gap_rule!r}, must be one of {list(spec.gap_rules)} for {statistic}")
 
     if n_missing == x.size:
-        raise ValueError(f"x_s has {x.size} samples, all NaN")
+        raise InputError(f"x_s has {x.size} samples, all NaN")
     skipped = filled = 0
     if spec.gaps == "fill":
         x, filled = fill_gaps(x)

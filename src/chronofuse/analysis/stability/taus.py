@@ -11,7 +11,7 @@ import numpy as np
 
 from chronofuse.analysis.stability.factors import SPACINGS, averaging_factors  # noqa: F401 (re-exported)
 from chronofuse.analysis.stability.registry import STATISTICS
-from chronofuse.validation import check_choice, check_scalar
+from chronofuse.validation import InputError, check_choice, check_scalar
 
 def tau_grid(kind: str, n_points: int, rate_hz: float, statistic: str = "oadev") -> np.ndarray:
     """Averaging times (s) of a standard grid within ``statistic``'s range, shape (k,).
@@ -30,7 +30,7 @@ def tau_grid(kind: str, n_points: int, rate_hz: float, statistic: str = "oadev")
 
     Raises
     ------
-    ValueError
+    InputError
         When the record is too short for a single averaging time of the statistic.
     """
     check_choice(kind, "kind", SPACINGS)
@@ -41,13 +41,13 @@ def tau_grid(kind: str, n_points: int, rate_hz: float, statistic: str = "oadev")
     if spec.grid is not None:  # TheoH: two grids, one either side of its split
         taus = spec.grid(kind, int(n_points), rate_hz)
         if taus.size == 0:
-            raise ValueError(f"the record has {n_points} samples, too few for {statistic}")
+            raise InputError(f"the record has {n_points} samples, too few for {statistic}")
         return taus
     m = averaging_factors(int(spec.max_m(int(n_points))), kind)
     if spec.m_step > 1:
         m = m[m % spec.m_step == 0]
     if m.size == 0:
-        raise ValueError(f"the record has {n_points} samples, too few for {statistic}")
+        raise InputError(f"the record has {n_points} samples, too few for {statistic}")
     return spec.tau_factor * m / rate_hz
 
 
@@ -60,9 +60,10 @@ def parse_taus(spec: str, n_points: int, rate_hz: float, statistic: str) -> np.n
     try:
         taus = np.array([float(t) for t in spec.split(",") if t.strip()], dtype=float)
     except ValueError as exc:
-        raise ValueError(f"taus == {spec!r}, must be 'octave', 'decade', 'all' or comma-separated seconds") from exc
+        raise InputError(f"{{taus}} == {spec!r}, must be 'octave', 'decade', 'all' or comma-separated seconds",
+                         fields=("taus",)) from exc
     if taus.size == 0 or np.any(taus <= 0) or not np.all(np.isfinite(taus)):
-        raise ValueError(f"taus == {spec!r}, must be positive finite seconds")
+        raise InputError(f"{{taus}} == {spec!r}, must be positive finite seconds", fields=("taus",))
     return taus
 
 
@@ -77,7 +78,7 @@ def taus_to_factors(tau_s: np.ndarray, rate_hz: float, *, tau_factor: float = 1.
     m = np.rint(m_float).astype(np.int64)
     bad = (m < 1) | (np.abs(m_float - m) > 1e-6 * np.maximum(m_float, 1.0))
     if bad.any():
-        raise ValueError(
+        raise InputError(
             f"tau_s == {tau_s[bad].tolist()}, must be whole multiples of {tau_factor}/rate_hz = {tau_factor / rate_hz} s"
         )
     return m
