@@ -2,7 +2,6 @@
 
 import math
 
-import numpy as np
 import pytest
 
 from chronofuse.experiments.gnssdo_holdover import holdover_floor_s, holdover_study
