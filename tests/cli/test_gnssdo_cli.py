@@ -50,6 +50,7 @@ def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_t
     (["--dac-bits", "0"], "--dac-bits"),
     (["--environment", "moon"], "--environment"),
     (["--duration", "-5"], "--duration"),
+    (["--design", "guess"], "--design"),
 ])
 def test_a_bad_configuration_is_refused_with_one_line_naming_the_option(args, needle):
     res = _run(*args)
@@ -106,3 +107,61 @@ def test_the_real_gps_record_disciplines_a_simulated_ocxo_within_twice_the_adev_
     envelope = np.fmin(np.array(a["free_run"]["dev"]), np.array(a["gnss"]["dev"]))
     assert np.all(np.array(a["disciplined"]["dev"]) < 2.0 * envelope)
     assert doc["duration_s"] == 241_218
+
+
+def _refusal(res, name: str, line: int | None = None) -> str:
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and name in lines[0], lines
+    if line is not None:
+        assert f"{name}:{line}" in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.mark.parametrize("case, values, line, words", [
+    # line numbers in the file: a header line, then sample k on line k + 2
+    ("hz", lambda t, n: 10e6 + 1e-3 * n, 2, "order 1e+07"),
+    ("ns", lambda t, n: 5.0 + n, 2, "ns or us"),
+    ("us", lambda t, n: 0.3 + 0.005 * n, None, "from the record's median"),
+    ("ramp-1ppm", lambda t, n: 1e-6 * t + 5e-9 * n, 2, "from the record's median"),
+    ("ramp-2e-9", lambda t, n: 2e-9 * t + 5e-9 * n, 4001, "drifts by 2"),
+    ("fractional-frequency", lambda t, n: 1e-11 * n, 3, "fractional-frequency"),
+])
+def test_a_reference_that_is_not_a_1pps_phase_in_seconds_is_refused_naming_file_and_line(tmp_path, case, values, line,
+                                                                                          words):
+    t = np.arange(4000, dtype=float)
+    n = np.random.default_rng(1).standard_normal(4000)
+    path = _write(tmp_path / f"{case}.txt.gz", values(t, n))
+    message = _refusal(_run("--reference", str(path), "--json"), f"{case}.txt.gz", line)
+    assert words in message
+
+
+def test_a_1pps_phase_with_a_ns_unit_header_is_read_as_such_and_accepted(tmp_path):
+    n = np.random.default_rng(2).standard_normal(4000)
+    path = tmp_path / "ns.csv"
+    path.write_text("t_s,phase_ns\n" + "".join(f"{i},{280.0 + 5.0 * v}\n" for i, v in enumerate(n)))
+    res = _run("--reference", str(path), "--json")
+    assert res.exit_code == 0, res.output
+    assert json.loads(res.stdout)["duration_s"] == 4000
+
+
+@pytest.mark.parametrize("option", [["--receivers", "2"], ["--environment", "urban-canyon"], ["--dac-bits", "12"],
+                                    ["--gdop-max", "3"], ["--fusion", "selection"], ["--design", "datasheet"],
+                                    ["--integrity-pfa", "1e-4"],
+                                    ["--duration", "7200"]])
+def test_options_that_do_not_apply_to_a_reference_record_are_refused_naming_them(tmp_path, option):
+    path = _write(tmp_path / "ref.txt.gz", 5e-9 * np.random.default_rng(0).standard_normal(4000))
+    message = _refusal(_run("--reference", str(path), *option), option[0])
+    assert "not used with --reference" in message
+
+
+@pytest.mark.parametrize("oscillator", ["tcxo", "rb", "csac"])
+def test_every_oscillator_preset_runs_on_the_command_line(oscillator):
+    res = _run("--oscillator", oscillator, "--duration", "3600", "--json")
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert doc["oscillator"] == oscillator and doc["locked_over_threshold_seconds"] == 0
+
+
+def test_an_unknown_oscillator_is_refused_naming_the_option():
+    _refusal(_run("--oscillator", "maser", "--duration", "3600"), "--oscillator")

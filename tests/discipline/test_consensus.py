@@ -3,8 +3,8 @@
 import numpy as np
 
 from chronofuse.discipline.consensus import apply_leap, utc_consensus
-from chronofuse.models.receiver import DEFAULT_START_GPS_S, GPS_MINUS_UTC_S, simulate_receivers
-from chronofuse.timescale import NS_PER_S
+from chronofuse.models.receiver import GPS_MINUS_UTC_S, simulate_receivers
+from chronofuse.timescale import NS_PER_S, utc_to_gps_ns
 
 
 class _Run:
@@ -17,9 +17,18 @@ class _Run:
         self.leap_pending = ep.leap_pending[0, 0].astype(np.int64)
 
 
+def _gps_s(utc: str) -> int:
+    """GPS seconds of a UTC instant of 2025 or later (GPS - UTC = 18 s until a leap)."""
+    return int(utc_to_gps_ns(np.datetime64(utc)) // NS_PER_S)
+
+
+#: The end of a month a leap second may close (ITU-R TF.460-6 prefers June and December).
+MIDNIGHT = "2025-07-01T00:00:00"
+
+
 def _receivers_around_a_leap():
-    start = DEFAULT_START_GPS_S + 86_400 - 300  # 23:55:00 UTC on 2025-01-01
-    event = DEFAULT_START_GPS_S + 86_400 + 1  # first GPS second with GPS - UTC = 19 s
+    start = _gps_s("2025-06-30T23:55:00")
+    event = _gps_s(MIDNIGHT) + 1  # first GPS second with GPS - UTC = 19 s
     rx = simulate_receivers("open-sky", 600, 1, seed=0, start_gps_s=start, leap_event_gps_s=event, leap_announce_s=3600)
     return _Run(rx.epochs), start, event
 
@@ -56,7 +65,7 @@ def test_the_pending_leap_second_is_inserted_after_235959_utc():
     k = int(np.flatnonzero(sched.leap_second)[0])
     assert rx.gps_s[k] == event - 1 and sched.leap_second.sum() == 1
     # 23:59:60 repeats the label of the next midnight (UTC seconds counted from the GPS epoch, as the receivers do):
-    midnight = (np.datetime64("2025-01-02T00:00:00", "s") - np.datetime64("1980-01-06T00:00:00", "s")).astype(np.int64)
+    midnight = (np.datetime64(MIDNIGHT, "s") - np.datetime64("1980-01-06T00:00:00", "s")).astype(np.int64)
     assert sched.utc_s[k] == midnight
     assert sched.utc_s[k] == sched.utc_s[k + 1] and sched.utc_s[k] % 86_400 == 0
 
@@ -71,7 +80,7 @@ def test_the_leap_is_applied_on_time_even_when_receivers_update_their_count_late
 
 
 def test_a_pending_negative_leap_skips_235959():
-    start = DEFAULT_START_GPS_S + 86_400 - 10
+    start = _gps_s(MIDNIGHT) - 10
     gps = np.arange(start, start + 20)
     pending = np.full(20, -1)
     sched = apply_leap(gps, GPS_MINUS_UTC_S, pending)

@@ -68,3 +68,28 @@ def test_the_fusion_kernel_equals_its_numpy_twin(mode):
     np.testing.assert_allclose(fast.offset_s, slow.offset_s, rtol=1e-9, atol=1e-20)
     np.testing.assert_allclose(fast.weights, slow.weights, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(fast.variance_s2, slow.variance_s2, rtol=1e-9)
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_receiver_back_from_an_exclusion_earns_its_weight_anew(fast):
+    from chronofuse.discipline.fusion import InverseVarianceFusion
+
+    rng = np.random.default_rng(4)
+    steps = 2000
+    z = np.stack([2e-9 * rng.standard_normal(steps), 2e-9 * rng.standard_normal(steps),
+                  2e-9 * rng.standard_normal(steps)])[None]
+    usable = np.ones(z.shape, bool)
+    usable[0, 2, 1000:1500] = False  # excluded for 500 s
+    fresh = np.zeros(z.shape, bool)
+    fresh[0, 2, 1500] = True
+    # A 300 s memory, so that the others' estimates have settled from the initial 20 ns within the 1000 s
+    # before the exclusion (the default 3600 s memory would need most of a day).
+    fusion = InverseVarianceFusion(fast=fast, memory_s=300.0)
+    old = fusion.run(z, usable)
+    new = fusion.run(z, usable, fresh)
+    # Without the restart it returns with the weight it had (a third); with it, from the initial 20 ns.
+    assert abs(old.weights[0, 2, 1500] - 1 / 3) < 0.1
+    assert new.weights[0, 2, 1500] < 0.05
+    assert np.allclose(new.weights[0, :, :1500], old.weights[0, :, :1500])
+    # ... and earned back over several of its 300 s memories (the variance estimate decays from 20 ns).
+    assert new.weights[0, 2, -1] > 3 * new.weights[0, 2, 1500]

@@ -63,7 +63,7 @@ def test_graph_weights_sum_to_one_over_usable_receivers_and_ignore_the_others():
 
 
 @pytest.mark.slow
-def test_the_graph_model_trained_on_simulated_runs_is_no_worse_than_inverse_variance_fusion_held_out():
+def test_the_graph_model_trained_on_simulated_runs_stays_near_but_does_not_beat_inverse_variance_fusion_held_out():
     train = [_data(env, s) for env in ("open-sky", "urban-canyon") for s in (11, 12)]
     f = np.concatenate([d[3] for d in train])
     u = np.concatenate([d[2].T for d in train])
@@ -76,5 +76,8 @@ def test_the_graph_model_trained_on_simulated_runs_is_no_worse_than_inverse_vari
         iv = InverseVarianceFusion().run(z[None], uu[None]).offset_s[0] - x
         ok = np.isfinite(fg) & np.isfinite(iv)
         ratios.append(_rms(fg[ok]) / _rms(iv[ok]))
-    # measured (20000 s held-out runs): 0.87-0.96 in open sky, 0.96-0.98 in urban canyon
-    assert max(ratios) < 1.05
+    # Measured (seed 21, 20000 s held out): 1.08 in open sky, 1.03 in urban canyon against the default 3600 s
+    # memory. Against the former 300 s memory, whose weights wandered with the receivers' slow errors, the
+    # graph model was ahead (0.93 and 1.01 on the same runs): what it learnt was mostly steadier weights.
+    assert max(ratios) < 1.12
+    assert min(ratios) > 0.98

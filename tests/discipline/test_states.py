@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from chronofuse.discipline.states import Reason, State, StateConfig, StateMachine, run_states
+from chronofuse.discipline.states import HoldoverModel, Reason, State, StateConfig, StateMachine, run_states
 
-CFG = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0)
+CFG = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, te_filter_s=1.0)
 
 
 def _scenario():
@@ -67,8 +67,76 @@ def test_the_compiled_state_machine_equals_its_numpy_twin():
     usable[:, 1000:1400] = False
     alarm = np.zeros_like(usable)
     alarm[1, 2000:2100] = True
-    offset = np.where(usable, 150e-9 * rng.standard_normal((3, 3000)), np.nan)
-    fast = run_states(usable, offset, CFG, alarm=alarm, fast=True)
-    slow = run_states(usable, offset, CFG, alarm=alarm, fast=False)
+    implausible = np.zeros_like(usable)
+    implausible[2, 2500:2600] = True
+    near = np.zeros_like(usable)
+    near[0, 1700:1720] = True
+    offset = np.where(usable, 30e-9 * rng.standard_normal((3, 3000)), np.nan)
+    offset[:, 2200:2230] += 200e-9
+    u = 1e-11 * rng.standard_normal((3, 3000))
+    u[1, 2800:] += 5e-9
+    cfg = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, freq_threshold=1e-9, ready_s=100.0,
+                      holdover=HoldoverModel(2e-24, 1e-24, 1e-30, 1e-15))
+    kw = dict(alarm=alarm, implausible=implausible, near_rail=near, freq_adj=u)
+    fast = run_states(usable, offset, cfg, fast=True, **kw)
+    slow = run_states(usable, offset, cfg, fast=False, **kw)
     assert np.array_equal(fast.state, slow.state) and np.array_equal(fast.reason, slow.reason)
-    assert len(set(fast.state.ravel().tolist())) == 5  # every state visited
+    assert np.array_equal(fast.holdover_ready, slow.holdover_ready)
+    for name in ("filtered_offset_s", "holdover_sigma_s"):
+        assert np.allclose(getattr(fast, name), getattr(slow, name), rtol=1e-12, atol=0, equal_nan=True)
+    assert len(set(fast.state.ravel().tolist())) == 6  # every state visited
+    assert set(fast.reason.ravel().tolist()) == set(range(9))  # and every reason given
+
+
+def _locked_then(**changes):
+    """40 s of a clean reference (locked from second 5), then ``changes`` from second 20 on."""
+    n = 40
+    inputs = {"usable": np.ones(n, bool), "offset_s": np.full(n, 5e-9), "alarm": np.zeros(n, bool),
+              "implausible": np.zeros(n, bool), "near_rail": np.zeros(n, bool), "freq_adj": np.full(n, 1e-9)}
+    for name, value in changes.items():
+        inputs[name] = inputs[name].copy()
+        inputs[name][20:] = value
+    cfg = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, te_filter_s=1.0, freq_threshold=1e-10)
+    return run_states(*(v[None] for v in (inputs.pop("usable"), inputs.pop("offset_s"))), cfg,
+                      **{k: v[None] for k, v in inputs.items()})
+
+
+@pytest.mark.parametrize("change, state, reason", [
+    ({"offset_s": 80e-9}, State.ALARM, Reason.TIME_ERROR_EXCURSION),
+    ({"near_rail": True}, State.ALARM, Reason.DAC_RAIL),
+    ({"freq_adj": 2e-9}, State.ALARM, Reason.FREQUENCY_EXCURSION),
+    ({"implausible": True}, State.HOLDOVER, Reason.IMPLAUSIBLE_REFERENCE),
+    ({"usable": False}, State.HOLDOVER, Reason.REFERENCE_LOST),
+])
+def test_locked_is_left_at_once_when_a_criterion_fails_and_says_which(change, state, reason):
+    run = _locked_then(**change)
+    assert (run.state[0, 10:20] == State.LOCKED).all()
+    assert run.state[0, 20] == state and run.reason[0, 20] == reason
+    assert not (run.state[0, 20:] == State.LOCKED).any() or "freq_adj" in change
+
+
+def test_after_a_frequency_step_settles_the_loop_locks_again():
+    run = _locked_then(freq_adj=2e-9)
+    # The correction's average catches up with the step (600 s filter): |u - mean| falls under 1e-10 only
+    # after ~1800 s, so within this 40 s record the state stays in ALARM.
+    assert (run.state[0, 20:] == State.ALARM).all()
+
+
+def test_a_time_error_inside_the_threshold_but_beyond_the_criteria_fraction_is_not_locked():
+    usable = np.ones(60, bool)
+    run = run_states(usable[None], np.full((1, 60), 60e-9), StateConfig(lock_hold_s=5.0, te_filter_s=1.0))
+    assert not (run.state == State.LOCKED).any()
+
+
+def test_holdover_is_ready_after_ready_s_locked_and_its_sigma_follows_the_oscillator_model():
+    model = HoldoverModel(h0=2e-24, hm1=3e-25, hm2=1e-31, drift_per_s=1e-15)
+    cfg = StateConfig(lock_hold_s=5.0, te_filter_s=1.0, ready_s=20.0, horizon_s=3600.0, holdover=model)
+    usable = np.ones(60, bool)
+    run = run_states(usable[None], np.full((1, 60), 4e-9), cfg, freq_adj=np.full((1, 60), 1e-9))
+    first_locked = int(np.flatnonzero(run.state[0] == State.LOCKED)[0])
+    assert not run.holdover_ready[0, : first_locked + 19].any() and run.holdover_ready[0, first_locked + 19 :].all()
+    h = 3600.0
+    expected = np.sqrt(4e-9**2 + 2e-24 * h / 2 + 2 * np.log(2) * 3e-25 * h**2 + 2 * np.pi**2 / 3 * 1e-31 * h**3
+                       + (1e-15 * h**2 / 2) ** 2)
+    assert np.allclose(run.holdover_sigma_s[0, first_locked:], expected, rtol=1e-12)
+    assert np.isnan(run.holdover_sigma_s[0, :first_locked]).all()

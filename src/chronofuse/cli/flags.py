@@ -124,6 +124,8 @@ FLAGS: dict[str, Flag] = {
     "--dac-bits": Flag("DAC resolution", "count", "bits", fields=("dac_bits",)),
     "--loop-bandwidth": Flag("PI loop natural frequency", "number", _HZ, fields=("loop_bandwidth_hz",)),
     "--fusion": Flag("fusion (inverse-variance) or selection (best source)", "text", fields=("fusion",)),
+    "--design": Flag("how the Kalman controllers are designed: fit (learnt from a calibration record) or datasheet",
+                     "text", fields=("design",)),
     "--integrity-pfa": Flag("exclude receivers on clock-bias HOD alarms at this false-alarm probability",
                             "number", fields=("integrity_pfa",)),
     "--reference": Flag("a real 1PPS phase record against a reference clock", "path", fields=("reference",)),

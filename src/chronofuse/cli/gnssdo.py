@@ -14,9 +14,20 @@ def register(app: typer.Typer) -> None:
     app.command("gnssdo")(gnssdo)
 
 
+#: Options that say how the simulated receivers are made and fused; a real reference record replaces all that.
+SIMULATION_ONLY = ("scenario", "receivers", "gdop_max", "dac_bits", "fusion", "design", "integrity_pfa", "duration")
+
+
+def _given(ctx: typer.Context, name: str) -> bool:
+    """Whether option ``name`` was given on the command line (its source's name: typer has its own enum)."""
+    return getattr(ctx.get_parameter_source(name), "name", None) == "COMMANDLINE"
+
+
 def gnssdo(
+    ctx: typer.Context,
     scenario: str = typer.Option("open-sky", "--environment",
-                                 help="Receiver environment: open-sky, urban-canyon, outage, outliers or spoofing."),
+                                 help="Receiver environment: open-sky, urban-canyon, outage, outliers, spoofing, "
+                                      "paper-canyon, jamming or tunnel."),
     controller: str = typer.Option("gated-kalman", "--controller",
                                    help="Servo: null, pi, kalman, adaptive-kalman, gated-kalman, huber-kalman, or one "
                                         "a plugin registers (group chronofuse.servos); default gated-kalman, picked "
@@ -31,8 +42,12 @@ def gnssdo(
     loop_bandwidth: float | None = typer.Option(None, "--loop-bandwidth",
                                                 help="pi only: design the PI from this natural frequency (Hz)."),
     fusion: str = typer.Option("fusion", "--fusion", help="fusion (inverse-variance) or selection (best source)."),
+    design: str = typer.Option("fit", "--design",
+                               help="fit (the Kalman controllers learn the noise from a day's calibration record) or "
+                                    "datasheet (designed from the oscillator preset and the receivers' figures)."),
     integrity_pfa: float | None = typer.Option(None, "--integrity-pfa",
                                                help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
+    oscillator: str = typer.Option("ocxo", "--oscillator", help="Oscillator preset: tcxo, ocxo, rb or csac."),
     reference: Path | None = typer.Option(None, "--reference",
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps): a "
                                           "phase file, or a field log's first clock (a ts2phc or phc2sys offset)."),
@@ -48,13 +63,19 @@ def gnssdo(
         fail(f"--rate == {rate}, must be > 0")
     if rate != 1.0:
         fail(f"--rate == {rate}, must be 1 (the loop runs on the 1PPS, one sample per second)")
+    if reference is not None:
+        given = [p.opts[0] for p in ctx.command.params if p.name in SIMULATION_ONLY and _given(ctx, p.name)]
+        if given:
+            fail(f"{', '.join(given)}: not used with --reference (the record is the receiver; its length the run's)")
     with user_errors():
         setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
-                            trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits,
-                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa)
+                            trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits, oscillator=oscillator,
+                            loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa,
+                            design=design)
         with progress_reporter("gnssdo") as say:
             if reference is not None:
-                summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say)
+                summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say,
+                                        oscillator=oscillator)
                 if out is not None:
                     from chronofuse.report.gnssdo import plot_adev
                     from chronofuse.report.jsonio import dumps
@@ -72,14 +93,18 @@ def gnssdo(
         return
     con = human_console(False)
     table = Table("metric", "value", title=f"GNSSDO: {summary.get('scenario', 'reference')}, {controller}")
-    for key in ("time_error_rms_ns", "time_error_pp_ns", "convergence_s", "optimal_rms_ns", "holdover_error_ns",
-                "holdover_s"):
+    for key in ("time_error_rms_ns", "time_error_pp_ns", "convergence_s", "optimal_rms_ns", "ratio_to_optimal",
+                "holdover_error_ns", "holdover_s"):
         if key in summary:
             value = summary[key]
-            table.add_row(key, "never" if value is None else f"{value:.4g}")
+            ci = summary.get(f"{key}_ci_ns" if key.endswith("_ns") else f"{key}_ci")
+            text = "never" if value is None else f"{value:.4g}"
+            table.add_row(key, text if not ci else f"{text} (95 % CI {ci[0]:.4g}..{ci[1]:.4g})")
     for state, seconds in summary["state_seconds"].items():
         table.add_row(f"seconds {state}", f"{seconds:.0f}")
     con.print(table)
+    if summary.get("optimal_note"):
+        con.print(f"optimal_rms_ns: {summary['optimal_note']}")
     if summary.get("no_usable_receiver"):
         con.print("no usable receiver at any second: the oscillator stayed in free-run")
     if out is not None:

@@ -25,6 +25,7 @@ import numpy as np
 from chronofuse.discipline.counter import MultiPhaseCounter
 from chronofuse.discipline.fusion import FusionRun
 from chronofuse.discipline.loop import LoopRun
+from chronofuse.discipline.plausibility import DragMonitor
 from chronofuse.discipline.qualification import Qualification
 from chronofuse.discipline.servo import Servo, freeze
 from chronofuse.discipline.stages import IntegrityStage, corrected_pps_error, gnssdo_pipeline
@@ -50,6 +51,10 @@ class ChainConfig:
     alarm_hold_s : a receiver stays excluded this long after its last alarm.
     counter : measure offsets with this multi-phase counter (None: exact).
     fast : compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
+    receiver_monitor, reference_monitor : the oscillator's plausibility test
+        (:class:`~chronofuse.discipline.plausibility.DragMonitor`) of each receiver (a refused one is excluded
+        from fusion and comes back with its weight earned anew) and of the fused reference (refused: the loop
+        holds over); None: off.
     """
 
     qualification: Qualification = field(default_factory=Qualification)
@@ -62,6 +67,8 @@ class ChainConfig:
     alarm_hold_s: float = 600.0
     counter: MultiPhaseCounter | None = None
     fast: bool = True
+    receiver_monitor: DragMonitor | None = None
+    reference_monitor: DragMonitor | None = None
 
     def __post_init__(self):
         check_choice(self.fusion, "fusion", ("fusion", "selection"))
@@ -79,9 +86,12 @@ class GnssdoRun:
     """The result of :func:`discipline_run`; arrays read-only.
 
     ``phase_s`` (trials, steps): time error of the disciplined 1PPS; ``reference_error_s``: the fused
-    reference's error ``e_f`` (NaN when none); ``usable`` (trials, receivers, steps) after qualification
-    and integrity exclusion; ``alarm`` (trials, receivers, steps): integrity alarms; ``loop``, ``fusion``
-    and ``states``: each stage's own result.
+    reference's error ``e_f`` the loop used (NaN when none, or refused as implausible); ``usable`` (trials,
+    receivers, steps) after qualification, integrity exclusion and the plausibility test; ``alarm`` (trials,
+    receivers, steps): integrity exclusions; ``implausible`` (trials, steps): the reference refused by the
+    oscillator's prediction (the fused one, or every offered receiver); ``loop``, ``fusion`` and ``states``:
+    each stage's own result; ``leap``: the UTC label stage's columns (``utc_label_s``, ``utc_leap_s``,
+    ``leap_second``, ``leap_dissent``; :mod:`.utc_stage`).
     """
 
     phase_s: np.ndarray
@@ -92,6 +102,8 @@ class GnssdoRun:
     fusion: FusionRun
     states: StateRun
     interval_s: float
+    implausible: np.ndarray | None = None
+    leap: dict | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -140,5 +152,8 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     loop = LoopRun(r["phase_s"], r["offset_s"], r["freq_adj"], r["phase_step_s"], r["offset_estimate_s"],
                    r["innovation_s"], r["used"], r["near_rail"], interval_s=dt)
     fusion = FusionRun(r["reference_error_s"] * -1.0, r["reference_variance_s2"], r["weights"])
-    states = StateRun(r["gnssdo_state"], r["gnssdo_reason"], r["rail_alarm"])
-    return GnssdoRun(loop.phase_s, r["reference_error_s"], r["usable"], r["excluded"], loop, fusion, states, dt)
+    states = StateRun(r["gnssdo_state"], r["gnssdo_reason"], r["rail_alarm"], r["filtered_offset_s"],
+                      r["holdover_ready"], r["holdover_sigma_s"])
+    leap = {name: r[name] for name in ("utc_label_s", "utc_leap_s", "leap_second", "leap_dissent") if name in r}
+    return GnssdoRun(loop.phase_s, r["loop_reference_s"], r["usable"], r["excluded"], loop, fusion, states, dt,
+                     r["implausible"], leap or None)

@@ -11,8 +11,8 @@ import math
 
 import numpy as np
 
+from chronofuse.discipline.bound import ClairvoyantServo, clairvoyant_servo
 from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.kalman import KalmanServo
 from chronofuse.models.environment import ReceiverEnvironment
 from chronofuse.models.oscillator import OscillatorModel
 
@@ -29,15 +29,11 @@ def design_measurement_sigma_s(env: ReceiverEnvironment, receivers: int, interva
     return math.sqrt((m.white_sigma_s**2 + 2.0 * m.multipath_sigma_s**2 * m.multipath_tau_s / interval_s) / receivers)
 
 
-def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int, dac: Dac | None) -> KalmanServo:
-    """The optimality yardstick: a Kalman servo given the true model of the oscillator and of the fused
-    reference's noise (white noise inflated by the mean log-normal GDOP gain, multipath and wander as
-    Gauss-Markov states, each divided by the number of equal, independent receivers)."""
-    m = env.model
-    white = m.white_sigma_s * math.exp(m.gdop_log_sigma**2) / math.sqrt(receivers)
-    gm = ((m.multipath_sigma_s / math.sqrt(receivers), m.multipath_tau_s),
-          (m.wander_sigma_s / math.sqrt(receivers), m.wander_tau_s))
-    return KalmanServo(osc.h, white, gauss_markov=gm, dac=dac)
+def clairvoyant_controller(osc: OscillatorModel, env: ReceiverEnvironment, receivers: int,
+                           dac: Dac | None) -> ClairvoyantServo:
+    """The optimality yardstick, :func:`chronofuse.discipline.bound.clairvoyant_servo`: the true models of
+    the oscillator (flicker FM included) and of the fused reference's noise, unconstrained steering."""
+    return clairvoyant_servo(osc, env, receivers, dac)
 
 
 def equivalent_white_sigma_s(e: np.ndarray, block_s: int = 100) -> float:

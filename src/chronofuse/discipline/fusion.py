@@ -13,6 +13,12 @@ phase cancels): ``r_j = z_j - z_f(-j)`` has variance ``sigma_j^2 + var(z_f(-j))`
 ``sigma_j^2 ~ EWMA(r_j^2) - var(z_f(-j))`` (exponentially weighted over ``memory_s``, floored at
 ``floor_sigma_s``). Receivers start at ``initial_sigma_s``. Only qualified receivers vote.
 
+The memory (default 3600 s) must be long against the receivers' slowest error (the open-sky wander has
+a 1530 s correlation time): with 300 s the weights of three equal receivers wandered with a standard
+deviation of 0.24 and the clairvoyant servo behind the fusion lost 12 % of time-error rms against the
+equal-weight mean (3.95 against 3.53 ns, 8 trials of 20,000 s); with 3600 s the weights' spread is
+0.10 and nothing is lost (3.48 ns).
+
 Best-source selection, the comparison: each second the usable receiver with the smallest estimated
 variance (the same estimator) is the reference.
 
@@ -52,7 +58,7 @@ class FusionRun:
 class InverseVarianceFusion:
     """Online inverse-variance fusion (``mode="fusion"``) or best-source selection (``mode="selection"``)."""
 
-    def __init__(self, mode: str = "fusion", *, memory_s: float = 300.0, initial_sigma_s: float = 20e-9,
+    def __init__(self, mode: str = "fusion", *, memory_s: float = 3600.0, initial_sigma_s: float = 20e-9,
                  floor_sigma_s: float = 0.5e-9, interval_s: float = 1.0, fast: bool = True):
         self.mode = mode
         self.memory_s = memory_s
@@ -71,10 +77,11 @@ class InverseVarianceFusion:
         self._check()
         return {"ms": np.full((trials, receivers), np.nan)}
 
-    def update(self, state: dict, z: np.ndarray, usable: np.ndarray):
-        """One second: ``z``, ``usable`` (N, R) -> ``(state', fused (N,), variance (N,), weights (N, R))``."""
+    def update(self, state: dict, z: np.ndarray, usable: np.ndarray, fresh=None):
+        """One second: ``z``, ``usable`` (N, R) -> ``(state', fused (N,), variance (N,), weights (N, R))``;
+        ``fresh`` (N, R): receivers whose variance estimate restarts this second (re-admitted: weight earned anew)."""
         alpha = self.interval_s / self.memory_s
-        ms = state["ms"]
+        ms = state["ms"] if fresh is None else np.where(fresh, np.nan, state["ms"])
         var = np.where(np.isfinite(ms), ms, self.initial_sigma_s**2)
         var = np.maximum(var, self.floor_sigma_s**2)
         w = np.where(usable, 1.0 / var, 0.0)
@@ -100,19 +107,21 @@ class InverseVarianceFusion:
         weights = w / np.where(has, total, 1.0)[:, None]
         return {"ms": new_ms}, fused, variance, weights
 
-    def run(self, z, usable) -> FusionRun:
-        """Fuse ``z`` (trials, receivers, steps) where ``usable`` (same shape); the object is unchanged."""
+    def run(self, z, usable, fresh=None) -> FusionRun:
+        """Fuse ``z`` (trials, receivers, steps) where ``usable`` (same shape); ``fresh`` (same shape): a receiver's
+        variance estimate restarts that second (see :meth:`update`); the object is unchanged."""
         z = check_array(z, "z", ndim=3, allow_nan=True)
         usable = np.asarray(usable, dtype=bool) & np.isfinite(z)
+        fresh = np.zeros(z.shape, bool) if fresh is None else np.ascontiguousarray(np.asarray(fresh, dtype=bool))
         trials, receivers, steps = z.shape
         state = self.initial_state(trials, receivers)
         if self.fast:
             out = fusion_kernel(z, usable, self.mode == "selection", self.interval_s / self.memory_s,
-                                self.initial_sigma_s**2, self.floor_sigma_s**2)
+                                self.initial_sigma_s**2, self.floor_sigma_s**2, fresh)
             return FusionRun(*out)
         fused = np.empty((trials, steps))
         var = np.empty((trials, steps))
         weights = np.empty((trials, receivers, steps))
         for k in range(steps):
-            state, fused[:, k], var[:, k], weights[:, :, k] = self.update(state, z[:, :, k], usable[:, :, k])
+            state, fused[:, k], var[:, k], weights[:, :, k] = self.update(state, z[:, :, k], usable[:, :, k], fresh[:, :, k])
         return FusionRun(fused, var, weights)

@@ -32,7 +32,11 @@ differences' spectrum by Whittle's likelihood with a tapered periodogram
 measurement noise leaks into the lowest frequencies and a weak ``h-2`` comes out many times too large;
 the model is the clock-bias detector's ``r(0..2)`` of the second difference); epochs of an outlying
 difference are left out first. Given values are held fixed. The fitted ``h_`` has no flicker term (the
-three-parameter model has none; flicker is seen as a mix of the two).
+three-parameter model has none; flicker is seen as a mix of the two). With ``learn_gauss_markov`` (1 or
+2) and nothing given, the reference's correlated errors are learnt too, as that many Gauss-Markov states
+(``gauss_markov_``), with the oscillator's noise and the white noise, by the fuller Whittle fit of
+:func:`chronofuse.discipline.noise_fit.fit_loop_noise`: a designer who fits only white noise takes the
+multipath for oscillator noise and lets the loop follow it.
 
 Numbers: per loop the compiled backend and the numpy core (:meth:`KalmanServo._control` on
 :mod:`chronofuse.estimation.kalman`) do the same arithmetic in the same order
@@ -156,6 +160,8 @@ class KalmanServoConfig(Config):
         (), description="correlated measurement errors modelled as states, each (sigma_s, tau_s) (s, s)")
     steer_s: float = Field(300.0, gt=0.0, description="phase steering time constant (s)")
     tau_match_s: float = Field(1000.0, gt=0.0, description="where flicker FM is folded into white and random-walk FM (s)")
+    learn_gauss_markov: int = Field(0, ge=0, le=2, description="Gauss-Markov measurement errors fit() learns when "
+                                                               "nothing is given (count)")
     sigma_phase0_s: float = Field(1e-7, ge=0.0, description="prior standard deviation of the phase after the jam sync (s)")
     sigma_freq0: float = Field(1e-8, ge=0.0, description="prior standard deviation of the frequency (dimensionless)")
     sigma_drift0_per_s: float = Field(1e-14, ge=0.0, description="prior standard deviation of the drift (1/s)")
@@ -195,8 +201,10 @@ class KalmanServo(Servo):
     sigma_phase0_s, sigma_freq0, sigma_drift0_per_s : prior standard deviations (after the jam sync).
     drift_ar1 : AR(1) coefficient of the drift (1 = random walk), in (0, 1].
 
+    learn_gauss_markov : Gauss-Markov measurement errors :meth:`fit` learns when nothing is given (0, 1, 2).
+
     Learnt by :meth:`fit` (module docstring): ``h_`` and ``measurement_sigma_s_`` (the given values when
-    given), ``n_fit_differences_``.
+    given), ``gauss_markov_`` (with ``learn_gauss_markov``), ``n_fit_differences_``.
     """
 
     name = "kalman"
@@ -206,8 +214,10 @@ class KalmanServo(Servo):
                  drift_psd_per_s3: float = 1e-40, gauss_markov: tuple = (), steer_s: float = 300.0,
                  tau_match_s: float = 1000.0, sigma_phase0_s: float = 1e-7, sigma_freq0: float = 1e-8,
                  sigma_drift0_per_s: float = 1e-14, drift_ar1: float = 1.0, interval_s: float = 1.0,
-                 dac: Dac | None = None, step_threshold_s: float | None = 1e-6, fast: bool = True):
+                 dac: Dac | None = None, step_threshold_s: float | None = 1e-6, fast: bool = True,
+                 learn_gauss_markov: int = 0):
         super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s, fast=fast)
+        self.learn_gauss_markov = learn_gauss_markov
         self.h = h
         self.measurement_sigma_s = measurement_sigma_s
         self.drift_psd_per_s3 = drift_psd_per_s3
@@ -231,6 +241,11 @@ class KalmanServo(Servo):
                              "to learn it")
         return h, sigma
 
+    def _gm(self) -> tuple:
+        """The Gauss-Markov measurement errors in use: what :meth:`fit` learnt, else the given ones."""
+        learnt = getattr(self, "gauss_markov_", None)
+        return tuple(learnt) if learnt is not None else tuple(self.gauss_markov)
+
     def _learn(self, z_open, interval_s):
         from chronofuse.estimation.process import second_difference_series
         from chronofuse.integrity.noise_model import contiguous_runs, fit_noise, empirical_autocorrelation
@@ -239,6 +254,15 @@ class KalmanServo(Servo):
         if self.h is not None and self.measurement_sigma_s is not None:
             self.h_, self.measurement_sigma_s_ = self.h, self.measurement_sigma_s
             self.n_fit_differences_ = 0
+            return
+        if self.learn_gauss_markov and self.h is None and self.measurement_sigma_s is None and not self.gauss_markov:
+            from chronofuse.discipline.noise_fit import fit_loop_noise
+
+            fitted = fit_loop_noise(z_open, interval_s, gauss_markov=int(self.learn_gauss_markov))
+            self.h_ = PowerLaw(h0=fitted.h0, hm2=fitted.hm2)
+            self.measurement_sigma_s_ = fitted.sigma_s
+            self.gauss_markov_ = fitted.gauss_markov
+            self.n_fit_differences_ = fitted.n_differences
             return
         known = {}
         if self.h is not None:
@@ -271,7 +295,8 @@ class KalmanServo(Servo):
         check_scalar(self.drift_ar1, "drift_ar1", min_val=0.0, max_val=1.0, include_min=False)
         for name in ("sigma_phase0_s", "sigma_freq0", "sigma_drift0_per_s"):
             check_scalar(getattr(self, name), name, min_val=0.0)
-        for sigma_gm, tau in self.gauss_markov:
+        check_scalar(self.learn_gauss_markov, "learn_gauss_markov", min_val=0, max_val=2, integer=True)
+        for sigma_gm, tau in self._gm():
             check_scalar(sigma_gm, "gauss_markov sigma_s", min_val=0.0)
             check_scalar(tau, "gauss_markov tau_s", min_val=0.0, include_min=False)
 
@@ -279,7 +304,7 @@ class KalmanServo(Servo):
         """``(F, Q, H)`` of the (augmented) state over one interval."""
         dt = float(self.interval_s)
         h0, hm2 = effective_clock_noise(self.design()[0], self.tau_match_s)
-        n = 3 + len(self.gauss_markov)
+        n = 3 + len(self._gm())
         F = np.zeros((n, n))
         Q = np.zeros((n, n))
         F[:3, :3] = clock_transition(dt, 3)
@@ -287,7 +312,7 @@ class KalmanServo(Servo):
         Q[:3, :3] = clock_process_noise(dt, h0=h0, hm2=hm2, drift_psd_per_s3=self.drift_psd_per_s3, states=3)
         H = np.zeros((1, n))
         H[0, 0] = 1.0
-        for i, (sigma, tau) in enumerate(self.gauss_markov):
+        for i, (sigma, tau) in enumerate(self._gm()):
             phi = math.exp(-dt / tau)
             F[3 + i, 3 + i] = phi
             Q[3 + i, 3 + i] = sigma**2 * (1.0 - phi * phi)
@@ -296,10 +321,10 @@ class KalmanServo(Servo):
 
     def prior_covariance(self) -> np.ndarray:
         """``P0`` (n, n): the prior after the jam sync (phase, frequency, drift, then the Gauss-Markov states)."""
-        n = 3 + len(self.gauss_markov)
+        n = 3 + len(self._gm())
         P0 = np.zeros((n, n))
         P0[0, 0], P0[1, 1], P0[2, 2] = self.sigma_phase0_s**2, self.sigma_freq0**2, self.sigma_drift0_per_s**2
-        for i, (sigma, _) in enumerate(self.gauss_markov):
+        for i, (sigma, _) in enumerate(self._gm()):
             P0[3 + i, 3 + i] = sigma**2
         return P0
 

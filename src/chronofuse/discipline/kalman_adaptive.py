@@ -109,7 +109,7 @@ class AdaptiveKalmanServo(KalmanServo):
 
     def _kernel_initial(self, n_loops):
         state = super()._kernel_initial(n_loops)
-        n = 3 + len(self.gauss_markov)
+        n = 3 + len(self._gm())
         state[:, n + n * n:n + n * n + int(self.window)] = np.nan  # the window: no innovation yet
         return state
 

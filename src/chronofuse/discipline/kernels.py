@@ -12,12 +12,13 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["fusion_kernel", "states_kernel"]
+__all__ = ["fusion_kernel", "states_kernel", "plausibility_kernel"]
 
 
 @numba.njit(cache=True)
-def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
-    """Online inverse-variance fusion (:mod:`.fusion`) over (trials, receivers, steps); returns
+def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var, fresh):
+    """Online inverse-variance fusion (:mod:`.fusion`) over (trials, receivers, steps); ``fresh`` (same shape):
+    a receiver's variance estimate restarts that second (its weight earned anew); returns
     fused (trials, steps), variance (trials, steps), weights (trials, receivers, steps)."""
     trials, receivers, steps = z.shape
     fused = np.empty((trials, steps))
@@ -32,6 +33,8 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
         ms[:] = np.nan
         for k in range(steps):
             for j in range(receivers):
+                if fresh[i, j, k]:
+                    ms[j] = np.nan
                 v = ms[j] if not math.isnan(ms[j]) else initial_var
                 var[j] = max(v, floor_var)
                 w_all[j] = 1.0 / var[j] if usable[i, j, k] else 0.0
@@ -71,36 +74,207 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var):
 
 
 @numba.njit(cache=True)
-def states_kernel(usable, alarm, offset, threshold_s, hold):
-    """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps); returns
-    state and reason, int8 (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2, HOLDOVER 3,
-    RECOVERY 4; reasons NONE 0, REFERENCE_USABLE 1, REFERENCE_LOST 2, LOCK_ACHIEVED 3, INTEGRITY_ALARM 4."""
+def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
+    """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps), ``params`` from
+    :meth:`~.states.StateConfig.kernel_params`; returns state and reason (int8), filtered offset, holdover
+    ready (int8) and holdover sigma, each (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2,
+    HOLDOVER 3, RECOVERY 4, ALARM 5; reasons NONE 0, REFERENCE_USABLE 1, REFERENCE_LOST 2, LOCK_ACHIEVED 3,
+    INTEGRITY_ALARM 4, TIME_ERROR_EXCURSION 5, FREQUENCY_EXCURSION 6, DAC_RAIL 7, IMPLAUSIBLE_REFERENCE 8."""
+    limit, hold, a_te, f_thr, a_u, ready, model_var, horizon = (params[0], params[1], params[2], params[3],
+                                                                 params[4], params[5], params[6], params[7])
     trials, steps = usable.shape
     states = np.empty((trials, steps), dtype=np.int8)
     reasons = np.zeros((trials, steps), dtype=np.int8)
+    te_out = np.empty((trials, steps))
+    ready_out = np.zeros((trials, steps), dtype=np.int8)
+    sigma_out = np.empty((trials, steps))
     for i in range(trials):
         s = 0
         run = 0
+        locked = 0
+        te_f = np.nan
+        u_f = np.nan
+        u_var = 0.0
         for k in range(steps):
-            ok = usable[i, k] and not alarm[i, k]
-            settled = ok and abs(offset[i, k]) < threshold_s
+            z = offset[i, k]
+            ok = usable[i, k] and not alarm[i, k] and not implausible[i, k] and math.isfinite(z)
+            if ok:
+                te_f = te_f + a_te * (z - te_f) if math.isfinite(te_f) else z
+            else:
+                te_f = np.nan
+            u = freq_adj[i, k]
+            if math.isfinite(u_f):
+                dev = u - u_f
+                u_var = (1.0 - a_u) * u_var + a_u * dev * dev
+                u_f = u_f + a_u * dev
+            else:
+                dev = 0.0
+                u_var = 0.0
+                u_f = u
+            te_ok = ok and abs(te_f) < limit
+            f_ok = abs(dev) < f_thr
+            settled = ok and te_ok and f_ok and not near[i, k]
             run = run + 1 if settled else 0
-            lost = 4 if alarm[i, k] else 2
+            lost = 8 if implausible[i, k] else (4 if alarm[i, k] else 2)
+            broken = 7 if near[i, k] else (5 if not te_ok else 6)
             new = s
             why = 0
             if s == 0 and ok:
                 new, why = 1, 1
             elif s == 1 and not ok:
                 new, why = 0, lost
-            elif s == 2 and not ok:
+            elif (s == 2 or s == 5 or s == 4) and not ok:
                 new, why = 3, lost
             elif s == 3 and ok:
                 new, why = 4, 1
-            elif s == 4 and not ok:
-                new, why = 3, lost
-            if (s == 1 or s == 4) and run >= hold:
+            elif s == 2 and not settled:
+                new, why = 5, broken
+            if (s == 1 or s == 4 or s == 5) and run >= hold:
                 new, why = 2, 3
             s = new
+            locked = locked + 1 if s == 2 else 0
             states[i, k] = s
             reasons[i, k] = why
-    return states, reasons
+            te_out[i, k] = te_f
+            ready_out[i, k] = 1 if locked >= ready else 0
+            if s == 2:
+                t0 = te_f if ok else 0.0
+                sigma_out[i, k] = math.sqrt(t0 * t0 + horizon * horizon * u_var + model_var)
+            else:
+                sigma_out[i, k] = np.nan
+    return states, reasons, te_out, ready_out, sigma_out
+
+
+@numba.njit(cache=True)
+def _block(csum, tsum, count, start, end, m, L):
+    """Block mean over (end - m, end] of one series' cumulative rings, and the mean time of the samples in
+    it (NaN, NaN: too early or half missing)."""
+    if end - m < start - 1 or end - m < -1:
+        return np.nan, np.nan
+    c1 = csum[end % L]
+    t1 = tsum[end % L]
+    n1 = count[end % L]
+    c0 = 0.0
+    t0 = 0.0
+    n0 = 0
+    if end - m >= 0:
+        c0 = csum[(end - m) % L]
+        t0 = tsum[(end - m) % L]
+        n0 = count[(end - m) % L]
+    n = n1 - n0
+    if n <= 0 or 2 * n < m:
+        return np.nan, np.nan
+    return (c1 - c0) / n, (t1 - t0) / n
+
+
+@numba.njit(cache=True)
+def _avar(h0, hm1, hm2, tau):
+    return h0 / (2.0 * tau) + 2.0 * math.log(2.0) * hm1 + 2.0 * math.pi**2 / 3.0 * hm2 * tau
+
+
+@numba.njit(cache=True)
+def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, scalars):
+    """The drag monitor (:mod:`.plausibility`, :meth:`~.plausibility.DragMonitor.update`) over (series, steps);
+    returns plausible (int8), readmitted (int8) and the statistic, each (series, steps)."""
+    h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
+    persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
+    check_var, readmit_k = scalars[9], scalars[10]
+    n_series, steps = y.shape
+    nh = horizons.size
+    plausible = np.empty((n_series, steps), dtype=np.int8)
+    readmitted = np.zeros((n_series, steps), dtype=np.int8)
+    stat = np.empty((n_series, steps))
+    csum = np.zeros(L)
+    tsum = np.zeros(L)
+    count = np.zeros(L, dtype=np.int64)
+    for i in range(n_series):
+        csum[:] = 0.0
+        tsum[:] = 0.0
+        count[:] = 0
+        start = 0
+        trusted = True
+        streak = 0
+        agree = 0
+        anchor = 0.0
+        anchor_f = 0.0
+        anchor_t = 0.0
+        anchor_w = 1
+        anchor_j = -1
+        anchor_m = 1
+        for k in range(steps):
+            have = admitted[i, k] and math.isfinite(y[i, k])
+            c_prev = csum[(k - 1) % L] if k > 0 else 0.0
+            n_prev = count[(k - 1) % L] if k > 0 else 0
+            t_prev = tsum[(k - 1) % L] if k > 0 else 0.0
+            csum[k % L] = c_prev + (y[i, k] if have else 0.0)
+            tsum[k % L] = t_prev + (float(k) if have else 0.0)
+            count[k % L] = n_prev + (1 if have else 0)
+            worst = np.nan
+            first_w = 0
+            for j in range(nh):
+                w = horizons[j]
+                m = max(1, w // 4)
+                b0, t0 = _block(csum, tsum, count, start, k, m, L)
+                b1, t1 = _block(csum, tsum, count, start, k - w, m, L)
+                b2, t2 = _block(csum, tsum, count, start, k - 2 * w, m, L)
+                ratio = abs(b0 - b1 - (b1 - b2) * (t0 - t1) / (t1 - t2)) / thresholds[j]
+                if math.isfinite(ratio):
+                    if not math.isfinite(worst) or ratio > worst:
+                        worst = ratio
+                    if ratio > 1.0:
+                        first_w = w
+            if have:
+                streak = streak + 1 if (trusted and first_w > 0) else 0
+            refuse = trusted and streak >= persist
+            if refuse:
+                w = first_w
+                m = max(1, w // 4)
+                b1, c1 = _block(csum, tsum, count, start, k - 2 * w, m, L)
+                f = np.nan
+                span = 0
+                for j in range(nh - 1, -1, -1):
+                    wl = horizons[j]
+                    ml = max(1, wl // 4)
+                    b0, c0 = _block(csum, tsum, count, start, k - 2 * w - wl, ml, L)
+                    if math.isnan(f) and math.isfinite(b0):
+                        f = (b1 - b0) / (c1 - c0)
+                        span = wl
+                if math.isnan(f):
+                    f = 0.0
+                anchor, anchor_f, anchor_t, anchor_w, anchor_m = b1, f, c1, max(span, 1), m
+                anchor_j = -1
+                for j in range(nh):
+                    if horizons[j] == anchor_w:
+                        anchor_j = j
+            bs, ts = _block(csum, tsum, count, start, k, ms, L)
+            h = ts - anchor_t if math.isfinite(ts) else k - (ms - 1) / 2.0 - anchor_t
+            wa = float(anchor_w)
+            he = max(h, wa)
+            h1 = max(h, 1.0)
+            lever = lever_var[anchor_j] if anchor_j >= 0 else 0.0
+            ablock = 0.0
+            for j in range(nh):
+                if max(1, horizons[j] // 4) == anchor_m:
+                    ablock = block_var[j]
+            var = (2.0 * h1 * h1 * _avar(h0, hm1, hm2, h1) + h1 * h1 * _avar(h0, hm1, hm2, wa) + check_var + ablock
+                   + lever * (h1 / wa) ** 2)
+            tol = readmit_k * math.sqrt(var) + drift * he * he
+            judged = have and math.isfinite(bs)
+            agree_now = judged and abs(bs - (anchor + anchor_f * h)) < tol
+            refused = not trusted
+            if not refused:
+                agree = 0
+            elif judged:
+                agree = agree + 1 if agree_now else 0
+            readmit = refused and agree >= max(readmit_s, 4 * anchor_m)
+            if readmit:
+                start = k + 1
+            trusted = (trusted and not refuse) or readmit
+            if refuse or readmit:
+                streak = 0
+            if readmit:
+                agree = 0
+            plausible[i, k] = 1 if trusted else 0
+            readmitted[i, k] = 1 if readmit else 0
+            stat[i, k] = worst
+    return plausible, readmitted, stat

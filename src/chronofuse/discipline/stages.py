@@ -8,17 +8,23 @@ Per second, with ``trials`` and ``receivers`` as the lead axes of the receiver c
 2. :class:`IntegrityStage`: each receiver's clock bias through the detection pipeline
    (:class:`chronofuse.integrity.watch.ClockWatch`: status gate, millisecond repair, detector, latch, its
    own training stretch); a receiver in a raised alarm, and for ``hold_s`` after it clears, is excluded;
-3. :class:`FusionStage`: the qualified, not excluded receivers fused
+3. :class:`~.guard_stages.ReceiverPlausibilityStage`: each qualified receiver against the free oscillator's
+   prediction (:mod:`.plausibility`); a refused one is left out of fusion, and one back from any exclusion is
+   ``fresh`` (its weight earned anew);
+4. :class:`FusionStage`: the qualified, not excluded, plausible receivers fused
    (:class:`~chronofuse.discipline.fusion.InverseVarianceFusion`): the reference's 1PPS error;
-4. :class:`LoopStage`: the servo closes the loop on the oscillator (:func:`chronofuse.discipline.loop.close_loop`,
+5. :class:`~.guard_stages.ReferencePlausibilityStage`: the fused reference against the same prediction; the
+   reference the loop closes on (``loop_reference_s``, NaN while refused: holdover); then
+   :class:`~.utc_stage.LeapStage`: the receivers' UTC and leap-second consensus, the output's UTC label;
+6. :class:`LoopStage`: the servo closes the loop on the oscillator (:func:`chronofuse.discipline.loop.close_loop`,
    through the servo's public ``initial_state``/``update``);
-5. :class:`StateStage`: the operating state and its reason (:mod:`chronofuse.discipline.states`).
+7. :class:`StateStage`: the operating state and its reason, the filtered time error and the holdover report
+   (:mod:`chronofuse.discipline.states`).
 
 :func:`gnssdo_pipeline` chains them; :func:`chronofuse.discipline.chain.discipline_run` (simulated runs and
 the main job) runs it in batch, and it streams second by second with the same result
 (``compare_streaming_to_batch``). A recorded 1PPS (:func:`chronofuse.experiments.gnssdo.run_reference`) runs
-the last two. A later stage (the oscillator's plausibility check of the reference, leap-second consensus
-feeding the output's UTC label) is one more entry between fusion and the loop.
+the last two.
 """
 
 from __future__ import annotations
@@ -29,10 +35,13 @@ import numpy as np
 
 from chronofuse.discipline.counter import MultiPhaseCounter
 from chronofuse.discipline.fusion import InverseVarianceFusion
+from chronofuse.discipline.guard_stages import (NoReceiverPlausibility, NoReferencePlausibility,
+                                                ReceiverPlausibilityStage, ReferencePlausibilityStage)
 from chronofuse.discipline.loop import close_loop
 from chronofuse.discipline.qualification import Qualification
+from chronofuse.discipline.utc_stage import LeapStage
 from chronofuse.discipline.servo import Servo
-from chronofuse.discipline.states import StateConfig, advance, run_states
+from chronofuse.discipline.states import StateConfig, advance, initial_memory, run_states
 from chronofuse.estimation.pipeline import Pipeline
 from chronofuse.integrity.watch import ClockWatch, DetectionSettings, watch_record
 from chronofuse.record import EpochRecord
@@ -150,13 +159,14 @@ class IntegrityStage:
 
 
 class FusionStage:
-    """Qualified, not excluded receivers fused into the reference (module docstring, step 3).
+    """Qualified, not excluded, plausible receivers fused into the reference (module docstring, step 3).
 
     ``reference_error_s`` (trials,): the fused reference's 1PPS error (NaN: no usable receiver); ``usable``
-    (trials, receivers); ``reference_variance_s2``; ``weights`` (trials, receivers).
+    (trials, receivers); ``reference_variance_s2``; ``weights`` (trials, receivers). A receiver ``fresh`` this
+    second (back from an exclusion) restarts its variance estimate: its weight is earned anew.
     """
 
-    needs: ClassVar[tuple[str, ...]] = ("pps_corrected_s", "qualified", "excluded")
+    needs: ClassVar[tuple[str, ...]] = ("pps_corrected_s", "qualified", "excluded", "receiver_plausible", "fresh")
     gives: ClassVar[tuple[str, ...]] = ("usable", "reference_error_s", "reference_variance_s2", "weights")
 
     def __init__(self, fusion: InverseVarianceFusion):
@@ -170,19 +180,25 @@ class FusionStage:
     def reset(self) -> None:
         self._state = None
 
+    @staticmethod
+    def _usable(values) -> np.ndarray:
+        return (np.asarray(values["qualified"], dtype=bool) & ~np.asarray(values["excluded"], dtype=bool)
+                & np.asarray(values["receiver_plausible"], dtype=bool))
+
     def step(self, epoch) -> dict:
         e = np.asarray(epoch["pps_corrected_s"], dtype=np.float64)
-        usable = np.asarray(epoch["qualified"], dtype=bool) & ~np.asarray(epoch["excluded"], dtype=bool)
+        usable = self._usable(epoch)
         z = np.where(usable, -e, np.nan)
         if self._state is None:
             self._state = self.fusion.initial_state(*z.shape)
-        self._state, fused, variance, weights = self.fusion.update(self._state, z, usable & np.isfinite(z))
+        self._state, fused, variance, weights = self.fusion.update(self._state, z, usable & np.isfinite(z),
+                                                                   np.asarray(epoch["fresh"], dtype=bool))
         return {"usable": usable, "reference_error_s": -fused, "reference_variance_s2": variance, "weights": weights}
 
     def run(self, frame) -> dict:
         e = np.asarray(frame["pps_corrected_s"], dtype=np.float64)
-        usable = np.asarray(frame["qualified"], dtype=bool) & ~np.asarray(frame["excluded"], dtype=bool)
-        out = self.fusion.run(np.where(usable, -e, np.nan), usable)
+        usable = self._usable(frame)
+        out = self.fusion.run(np.where(usable, -e, np.nan), usable, np.asarray(frame["fresh"], dtype=bool))
         return {"usable": usable, "reference_error_s": -out.offset_s, "reference_variance_s2": out.variance_s2,
                 "weights": out.weights}
 
@@ -195,10 +211,14 @@ class LoopStage:
     free-running oscillator's time error, ``reference_error_s`` the reference's; gives the disciplined
     ``phase_s``, the measured ``offset_s`` and the servo's outputs (:class:`~chronofuse.discipline.loop.LoopRun`)."""
 
-    needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "reference_error_s")
     gives: ClassVar[tuple[str, ...]] = ("phase_s", "offset_s", *_LOOP_OUTPUTS)
 
-    def __init__(self, servo: Servo, *, counter: MultiPhaseCounter | None = None, seed=None):
+    def __init__(self, servo: Servo, *, counter: MultiPhaseCounter | None = None, seed=None,
+                 reference: str = "reference_error_s"):
+        #: ``reference``: the column of the reference's 1PPS error the loop closes on (the GNSSDO pipeline's is
+        #: ``loop_reference_s``, the fused reference after the plausibility test).
+        self.reference = reference
+        self.needs = ("free_phase_s", reference)
         self.servo = servo
         self.counter = counter
         self.seed = seed
@@ -215,7 +235,7 @@ class LoopStage:
 
     def step(self, epoch) -> dict:
         free = np.atleast_1d(np.asarray(epoch["free_phase_s"], dtype=np.float64))
-        ref = np.broadcast_to(np.asarray(epoch["reference_error_s"], dtype=np.float64), free.shape)
+        ref = np.broadcast_to(np.asarray(epoch[self.reference], dtype=np.float64), free.shape)
         if self._state is None:
             self._state = self.servo.initial_state(free.size)
             self._c = np.zeros(free.size)
@@ -230,7 +250,7 @@ class LoopStage:
         return {"phase_s": x, "offset_s": z, **dict(zip(_LOOP_OUTPUTS, out))}
 
     def run(self, frame) -> dict:
-        loop = close_loop(self.servo, frame["free_phase_s"], frame["reference_error_s"], counter=self.counter,
+        loop = close_loop(self.servo, frame["free_phase_s"], frame[self.reference], counter=self.counter,
                           seed=self.seed)
         return {"phase_s": loop.phase_s, "offset_s": loop.offset_s,
                 **{name: getattr(loop, name) for name in _LOOP_OUTPUTS}}
@@ -238,12 +258,15 @@ class LoopStage:
 
 class StateStage:
     """The operating state each second (module docstring, step 5): ``gnssdo_state`` and ``gnssdo_reason``
-    (:class:`~chronofuse.discipline.states.State`, ``Reason``), ``rail_alarm`` the DAC near a rail. The
-    reference is usable when fused (finite); integrity counts as an alarm when receivers are excluded by it and
-    none is left usable."""
+    (:class:`~chronofuse.discipline.states.State`, ``Reason``), ``rail_alarm`` the DAC near a rail, the
+    filtered time error and the holdover report (``holdover_ready``, ``holdover_sigma_s``). The reference is
+    usable when the loop has one (``loop_reference_s`` finite); ``implausible`` when the plausibility test
+    refused it; integrity counts as an alarm when receivers are excluded by it and none is left usable."""
 
-    needs: ClassVar[tuple[str, ...]] = ("reference_error_s", "offset_s", "excluded", "usable", "near_rail")
-    gives: ClassVar[tuple[str, ...]] = ("gnssdo_state", "gnssdo_reason", "rail_alarm")
+    needs: ClassVar[tuple[str, ...]] = ("loop_reference_s", "offset_s", "excluded", "usable", "near_rail", "freq_adj",
+                                        "implausible")
+    gives: ClassVar[tuple[str, ...]] = ("gnssdo_state", "gnssdo_reason", "rail_alarm", "filtered_offset_s",
+                                        "holdover_ready", "holdover_sigma_s")
 
     def __init__(self, config: StateConfig = StateConfig(), *, fast: bool = True):
         self.config = config
@@ -255,36 +278,41 @@ class StateStage:
         return self
 
     def reset(self) -> None:
-        self._state = None
-        self._run = None
+        self._memory = None
 
     @staticmethod
-    def _inputs(values):
+    def _inputs(values, axis: int):
         usable = np.asarray(values["usable"], dtype=bool)
         alarm = np.asarray(values["excluded"], dtype=bool)
-        all_alarmed = alarm.any(axis=1) & ~usable.any(axis=1)
-        return np.isfinite(np.asarray(values["reference_error_s"])), all_alarmed
+        implausible = np.asarray(values["implausible"], dtype=bool)
+        all_alarmed = alarm.any(axis=axis) & ~usable.any(axis=axis) & ~implausible
+        return np.isfinite(np.asarray(values["loop_reference_s"])), all_alarmed, implausible
 
     def step(self, epoch) -> dict:
-        any_usable, all_alarmed = self._inputs(epoch)
-        if self._state is None:
-            self._state = np.zeros(any_usable.shape, dtype=np.int8)
-            self._run = np.zeros(any_usable.shape, dtype=np.int64)
-        self._state, self._run, reason = advance(self._state, self._run, any_usable, all_alarmed,
-                                                 np.asarray(epoch["offset_s"], dtype=np.float64), self.config)
-        return {"gnssdo_state": self._state.copy(), "gnssdo_reason": reason,
-                "rail_alarm": np.asarray(epoch["near_rail"], dtype=bool)}
+        any_usable, all_alarmed, implausible = self._inputs(epoch, -1)
+        if self._memory is None:
+            self._memory = initial_memory(any_usable.size)
+        self._memory, reason, report = advance(self._memory, any_usable, np.asarray(epoch["offset_s"], dtype=np.float64),
+                                               self.config, alarm=all_alarmed, implausible=implausible,
+                                               near_rail=np.asarray(epoch["near_rail"], dtype=bool),
+                                               freq_adj=np.asarray(epoch["freq_adj"], dtype=np.float64))
+        return {"gnssdo_state": self._memory["state"].copy(), "gnssdo_reason": reason,
+                "rail_alarm": np.asarray(epoch["near_rail"], dtype=bool), **report}
 
     def run(self, frame) -> dict:
-        any_usable, all_alarmed = self._inputs(frame)
-        states = run_states(any_usable, frame["offset_s"], self.config, alarm=all_alarmed,
-                            near_rail=frame["near_rail"], fast=self.fast)
-        return {"gnssdo_state": states.state, "gnssdo_reason": states.reason, "rail_alarm": states.rail_alarm}
+        any_usable, all_alarmed, implausible = self._inputs(frame, -2)
+        states = run_states(any_usable, frame["offset_s"], self.config, alarm=all_alarmed, near_rail=frame["near_rail"],
+                            implausible=implausible, freq_adj=frame["freq_adj"], fast=self.fast)
+        return {"gnssdo_state": states.state, "gnssdo_reason": states.reason, "rail_alarm": states.rail_alarm,
+                "filtered_offset_s": states.filtered_offset_s, "holdover_ready": states.holdover_ready,
+                "holdover_sigma_s": states.holdover_sigma_s}
 
 
 def gnssdo_pipeline(servo: Servo, config, interval_ns: int, *, seed=None) -> Pipeline:
-    """The five stages (module docstring) for a :class:`~chronofuse.discipline.chain.ChainConfig` and a
-    ``servo``; integrity runs only when ``config.integrity_pfa`` is set (else no receiver is excluded)."""
+    """The stages (module docstring) for a :class:`~chronofuse.discipline.chain.ChainConfig` and a ``servo``:
+    qualify, integrity, the receivers' plausibility test, fusion, the fused reference's plausibility test,
+    the loop and the states (:mod:`.guard_stages`); integrity runs only when ``config.integrity_pfa`` is set
+    (else no receiver is excluded), each plausibility test only with its monitor in ``config``."""
     stages = [("qualify", QualifyStage(config.qualification, config.qerr_sign, config.qerr_lag))]
     if config.integrity_pfa is not None:
         settings = DetectionSettings(pfa=config.integrity_pfa, train_s=config.integrity_train_s, max_time_acc_s=None)
@@ -292,8 +320,15 @@ def gnssdo_pipeline(servo: Servo, config, interval_ns: int, *, seed=None) -> Pip
     else:
         stages.append(("integrity", _NoIntegrity()))
     dt = interval_ns / 1e9
-    stages += [("fusion", FusionStage(InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast))),
-               ("loop", LoopStage(servo, counter=config.counter, seed=seed)),
+    receiver_check = (NoReceiverPlausibility() if config.receiver_monitor is None
+                      else ReceiverPlausibilityStage(config.receiver_monitor, fast=config.fast))
+    reference_check = (NoReferencePlausibility() if config.reference_monitor is None
+                       else ReferencePlausibilityStage(config.reference_monitor, fast=config.fast))
+    stages += [("receiver_plausibility", receiver_check),
+               ("fusion", FusionStage(InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast))),
+               ("reference_plausibility", reference_check),
+               ("utc", LeapStage()),
+               ("loop", LoopStage(servo, counter=config.counter, seed=seed, reference="loop_reference_s")),
                ("states", StateStage(config.states, fast=config.fast))]
     return Pipeline(stages)
 

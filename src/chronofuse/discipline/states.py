@@ -3,22 +3,49 @@
 States (the GNSSDO paper section 3.2 (3): once disciplined "the system tells the outside that time-keeping may
 start"; with every receiver blocked or jammed it "enters time-keeping mode and says so")::
 
-    FREE_RUN --usable reference--> ACQUIRING --|offset| < lock_threshold for lock_hold_s--> LOCKED
+    FREE_RUN --usable reference--> ACQUIRING --criteria met for lock_hold_s--> LOCKED
     ACQUIRING --no usable reference--> FREE_RUN
-    LOCKED --no usable reference / integrity alarm--> HOLDOVER --usable again--> RECOVERY
-    RECOVERY --|offset| < lock_threshold for lock_hold_s--> LOCKED;  RECOVERY --lost again--> HOLDOVER
+    LOCKED --no usable reference / integrity alarm / implausible reference--> HOLDOVER --usable again--> RECOVERY
+    LOCKED --time-error or frequency excursion, DAC near a rail--> ALARM --criteria met for lock_hold_s--> LOCKED
+    ALARM --no usable reference ...--> HOLDOVER;  RECOVERY --criteria met for lock_hold_s--> LOCKED
+    RECOVERY --lost again--> HOLDOVER
 
-"usable" is the qualified, fused reference of this second with no integrity alarm. The lock test uses
-the measured offset ``|z_k|`` of the second (the servo's input), so locking needs ``lock_hold_s``
-consecutive seconds under the threshold. A DAC near a rail is an alarm reported beside the state
-(it does not change the state: the loop still works, but its tuning range is about to run out).
+LOCKED is a claim: the disciplined 1PPS is within ``lock_threshold_s`` of the reference. It is made, and
+kept, only while every lock criterion holds each second:
+
+* the reference is usable: qualified, fused, no integrity alarm, and found plausible by the oscillator's
+  own prediction (``implausible`` says it is not);
+* the *filtered* time error, an exponential average of the measured offset over ``te_filter_s`` (restarted
+  at every re-acquisition), is within ``criteria_fraction x lock_threshold_s`` (the rest of the threshold
+  is the margin for the filter's lag and the reference's noise);
+* the frequency correction ``u_k`` the servo applies stays within ``freq_threshold`` of its own exponential
+  average over ``freq_filter_s`` (a loop being dragged, or still pulling in, moves it);
+* the DAC is away from its rails (``near_rail`` False): a loop at the end of its tuning range no longer
+  follows the reference.
+
+A criterion lost in LOCKED moves to ALARM (the loop still steers; the output is not claimed locked) with
+the criterion as reason; a reference lost or refused moves to HOLDOVER. ``lock_hold_s`` consecutive seconds
+with every criterion met lock again.
+
+Every second also reports holdover readiness and a predicted holdover error (:class:`HoldoverModel`):
+``holdover_ready`` after ``ready_s`` seconds LOCKED without a break (enough locked time for the servo's
+frequency and drift estimates); ``holdover_sigma_s``, the standard deviation of the time error after
+``horizon_s`` seconds of holdover started now, from the oscillator's noise model and the scatter of the
+frequency correction (the uncertainty of the frequency the holdover would keep)::
+
+    sigma^2(H) = te_f^2 + H^2 s_u^2 + h0 H / 2 + 2 ln2 h_-1 H^2 + (2 pi^2 / 3) h_-2 H^3 + (D H^2 / 2)^2
+
+(white, flicker and random-walk FM: NIST SP 1065 Table 3's Allan variances times ``H^2``, the random walk's
+exact integral; ``s_u^2`` the exponential variance of ``u - mean(u)``; ``D`` the aging bound of the data
+sheet, an allowance for a drift the servo has not estimated).
 
 Functional core :func:`advance` on (N,) arrays; :class:`StateMachine` streams one loop; :func:`run_states`
-runs (trials, steps) with the same core.
+runs (trials, steps) with the same core, or its compiled twin :func:`~.kernels.states_kernel`.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -28,7 +55,7 @@ from chronofuse.discipline.kernels import states_kernel
 from chronofuse.discipline.servo import freeze
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["State", "Reason", "StateConfig", "StateRun", "StateMachine", "advance", "run_states"]
+__all__ = ["State", "Reason", "StateConfig", "HoldoverModel", "StateRun", "StateMachine", "advance", "run_states"]
 
 
 class State(IntEnum):
@@ -37,6 +64,7 @@ class State(IntEnum):
     LOCKED = 2
     HOLDOVER = 3
     RECOVERY = 4
+    ALARM = 5
 
 
 class Reason(IntEnum):
@@ -47,59 +75,156 @@ class Reason(IntEnum):
     REFERENCE_LOST = 2
     LOCK_ACHIEVED = 3
     INTEGRITY_ALARM = 4
+    TIME_ERROR_EXCURSION = 5
+    FREQUENCY_EXCURSION = 6
+    DAC_RAIL = 7
+    IMPLAUSIBLE_REFERENCE = 8
+
+
+@dataclass(frozen=True)
+class HoldoverModel:
+    """The oscillator's noise for the holdover prediction: h-coefficients of white, flicker and random-walk
+    FM (``h0`` s, ``hm1`` dimensionless, ``hm2`` 1/s) and the data sheet's aging bound ``drift_per_s`` (1/s)."""
+
+    h0: float
+    hm1: float
+    hm2: float
+    drift_per_s: float = 0.0
+
+    @classmethod
+    def of(cls, osc) -> HoldoverModel:
+        """From an :class:`~chronofuse.models.oscillator.OscillatorModel` (its h and aging)."""
+        return cls(osc.h.h0, osc.h.hm1, osc.h.hm2, abs(osc.drift_per_s))
+
+    def variance_s2(self, horizon_s: float) -> float:
+        """The free oscillator's time-error variance after ``horizon_s`` from a perfect start (module docstring)."""
+        h = float(horizon_s)
+        return (self.h0 * h / 2.0 + 2.0 * math.log(2.0) * self.hm1 * h * h
+                + 2.0 * math.pi**2 / 3.0 * self.hm2 * h**3 + (self.drift_per_s * h * h / 2.0) ** 2)
 
 
 @dataclass(frozen=True)
 class StateConfig:
-    """``lock_threshold_s`` (> 0): |offset| below which the loop counts as settled; ``lock_hold_s``
-    (>= 1 sample): how long it must stay there; ``interval_s``: seconds per sample."""
+    """Lock criteria (module docstring).
+
+    ``lock_threshold_s`` (> 0): the |time error| LOCKED claims; ``criteria_fraction`` (0, 1]: the filtered
+    time error must stay within this fraction of it; ``lock_hold_s`` (>= 1 sample): seconds with every
+    criterion met before LOCKED; ``te_filter_s`` (>= 1 sample): the filtered time error's averaging time;
+    ``freq_threshold`` (fractional frequency, > 0; None: no frequency criterion) and ``freq_filter_s``;
+    ``ready_s``: seconds locked before holdover is ready; ``horizon_s``: the predicted holdover's horizon;
+    ``holdover``: the oscillator's :class:`HoldoverModel` (None: no prediction); ``interval_s``.
+    """
 
     lock_threshold_s: float = 100e-9
     lock_hold_s: float = 60.0
     interval_s: float = 1.0
+    criteria_fraction: float = 0.5
+    te_filter_s: float = 10.0
+    freq_threshold: float | None = None
+    freq_filter_s: float = 600.0
+    ready_s: float = 3600.0
+    horizon_s: float = 3600.0
+    holdover: HoldoverModel | None = None
 
     def __post_init__(self):
         check_scalar(self.lock_threshold_s, "lock_threshold_s", min_val=0.0, include_min=False)
         check_scalar(self.interval_s, "interval_s", min_val=0.0, include_min=False)
         check_scalar(self.lock_hold_s, "lock_hold_s", min_val=self.interval_s)
+        check_scalar(self.criteria_fraction, "criteria_fraction", min_val=0.0, max_val=1.0, include_min=False)
+        check_scalar(self.te_filter_s, "te_filter_s", min_val=self.interval_s)
+        if self.freq_threshold is not None:
+            check_scalar(self.freq_threshold, "freq_threshold", min_val=0.0, include_min=False)
+        check_scalar(self.freq_filter_s, "freq_filter_s", min_val=self.interval_s)
+        check_scalar(self.ready_s, "ready_s", min_val=0.0)
+        check_scalar(self.horizon_s, "horizon_s", min_val=0.0, include_min=False)
 
     @property
     def hold_samples(self) -> int:
         return int(round(self.lock_hold_s / self.interval_s))
 
+    def kernel_params(self) -> np.ndarray:
+        """(te limit, hold samples, te alpha, freq threshold (inf: none), freq alpha, ready samples,
+        model variance at the horizon (NaN: none), horizon) as float64 for the compiled twin."""
+        model = math.nan if self.holdover is None else self.holdover.variance_s2(self.horizon_s)
+        return np.array([self.criteria_fraction * self.lock_threshold_s, self.hold_samples,
+                         self.interval_s / self.te_filter_s,
+                         math.inf if self.freq_threshold is None else self.freq_threshold,
+                         self.interval_s / self.freq_filter_s, round(self.ready_s / self.interval_s), model,
+                         self.horizon_s])
 
-def advance(state, settled_run, usable, alarm, offset_s, config: StateConfig):
-    """One second for N loops: ``(state (N,) int, settled_run (N,) int, usable, alarm (bool), offset_s)``
-    -> ``(state', settled_run', reason)``; returns new arrays."""
-    s = np.asarray(state)
-    ok = usable & ~alarm
-    settled = ok & (np.abs(np.where(ok, offset_s, np.inf)) < config.lock_threshold_s)
-    run = np.where(settled, settled_run + 1, 0)
+
+def initial_memory(n: int) -> dict[str, np.ndarray]:
+    """The state machine's memory for ``n`` loops: FREE_RUN, nothing filtered yet."""
+    return {"state": np.zeros(n, np.int8), "run": np.zeros(n, np.int64), "te_f": np.full(n, np.nan),
+            "u_f": np.full(n, np.nan), "u_var": np.zeros(n), "locked": np.zeros(n, np.int64)}
+
+
+def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, implausible=None, near_rail=None,
+            freq_adj=None) -> tuple[dict, np.ndarray, dict]:
+    """One second for N loops -> ``(memory', reason (N,) int8, report)``; ``report``: ``filtered_offset_s``,
+    ``holdover_ready``, ``holdover_sigma_s`` (N,). Inputs (N,): ``usable`` (a fused reference this second),
+    ``offset_s`` (the measured offset), ``alarm`` (integrity), ``implausible`` (refused by the oscillator's
+    prediction), ``near_rail``, ``freq_adj`` (the applied frequency correction); new arrays returned."""
+    p = config.kernel_params()
+    limit, hold, a_te, f_thr, a_u, ready, model_var, horizon = p
+    s = np.asarray(memory["state"])
+    n = s.shape
+    usable = np.asarray(usable, dtype=bool)
+    alarm = np.zeros(n, bool) if alarm is None else np.asarray(alarm, dtype=bool)
+    implausible = np.zeros(n, bool) if implausible is None else np.asarray(implausible, dtype=bool)
+    near = np.zeros(n, bool) if near_rail is None else np.asarray(near_rail, dtype=bool)
+    u = np.zeros(n) if freq_adj is None else np.asarray(freq_adj, dtype=np.float64)
+    z = np.asarray(offset_s, dtype=np.float64)
+    ok = usable & ~alarm & ~implausible & np.isfinite(z)
+    # Filters: restarted on the first usable second after a loss (the time error), or the first at all (u).
+    te_f = np.where(ok, np.where(np.isfinite(memory["te_f"]), memory["te_f"] + a_te * (np.where(ok, z, 0.0)
+                                                                                        - memory["te_f"]), z), np.nan)
+    u_prev = memory["u_f"]
+    u_f = np.where(np.isfinite(u_prev), u_prev + a_u * (u - u_prev), u)
+    dev = u - np.where(np.isfinite(u_prev), u_prev, u)
+    u_var = np.where(np.isfinite(u_prev), (1.0 - a_u) * memory["u_var"] + a_u * dev * dev, 0.0)
+    te_ok = np.abs(np.where(ok, te_f, np.inf)) < limit
+    f_ok = np.abs(dev) < f_thr
+    settled = ok & te_ok & f_ok & ~near
+    run = np.where(settled, memory["run"] + 1, 0)
     new = s.copy()
-    reason = np.zeros(s.shape, dtype=np.int8)
-    lost_reason = np.where(alarm, Reason.INTEGRITY_ALARM, Reason.REFERENCE_LOST)
+    reason = np.zeros(n, dtype=np.int8)
+    lost = np.where(implausible, Reason.IMPLAUSIBLE_REFERENCE,
+                    np.where(alarm, Reason.INTEGRITY_ALARM, Reason.REFERENCE_LOST)).astype(np.int8)
+    broken = np.where(near, Reason.DAC_RAIL, np.where(~te_ok, Reason.TIME_ERROR_EXCURSION,
+                                                        Reason.FREQUENCY_EXCURSION)).astype(np.int8)
 
     def move(mask, to, why):
         new[mask] = to
-        reason[mask] = np.broadcast_to(why, mask.shape)[mask]
+        reason[mask] = np.broadcast_to(why, n)[mask]
 
     move((s == State.FREE_RUN) & ok, State.ACQUIRING, Reason.REFERENCE_USABLE)
-    move((s == State.ACQUIRING) & ~ok, State.FREE_RUN, lost_reason)
-    move((s == State.LOCKED) & ~ok, State.HOLDOVER, lost_reason)
+    move((s == State.ACQUIRING) & ~ok, State.FREE_RUN, lost)
+    move(((s == State.LOCKED) | (s == State.ALARM) | (s == State.RECOVERY)) & ~ok, State.HOLDOVER, lost)
     move((s == State.HOLDOVER) & ok, State.RECOVERY, Reason.REFERENCE_USABLE)
-    move((s == State.RECOVERY) & ~ok, State.HOLDOVER, lost_reason)
-    locking = ((s == State.ACQUIRING) | (s == State.RECOVERY)) & (run >= config.hold_samples)
+    move((s == State.LOCKED) & ok & ~settled, State.ALARM, broken)
+    locking = ((s == State.ACQUIRING) | (s == State.RECOVERY) | (s == State.ALARM)) & (run >= hold)
     move(locking, State.LOCKED, Reason.LOCK_ACHIEVED)
-    return new, run, reason
+    locked = np.where(new == State.LOCKED, memory["locked"] + 1, 0)
+    sigma = np.sqrt(np.where(ok, te_f, 0.0) ** 2 + horizon**2 * u_var + model_var)
+    report = {"filtered_offset_s": te_f, "holdover_ready": locked >= ready,
+              "holdover_sigma_s": np.where(new == State.LOCKED, sigma, np.nan)}
+    memory = {"state": new, "run": run, "te_f": te_f, "u_f": u_f, "u_var": u_var, "locked": locked}
+    return memory, reason, report
 
 
 @dataclass(frozen=True)
 class StateRun:
-    """States and reasons per second, (trials, steps) int8, and the DAC-rail alarm (bool), read-only."""
+    """Per second (trials, steps), read-only: ``state`` and ``reason`` (int8), ``rail_alarm`` (the DAC near a
+    rail), ``filtered_offset_s``, ``holdover_ready`` and ``holdover_sigma_s`` (NaN outside LOCKED or without a
+    :class:`HoldoverModel`)."""
 
     state: np.ndarray
     reason: np.ndarray
     rail_alarm: np.ndarray
+    filtered_offset_s: np.ndarray | None = None
+    holdover_ready: np.ndarray | None = None
+    holdover_sigma_s: np.ndarray | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -116,9 +241,10 @@ class StateRun:
                  "reason": Reason(self.reason[trial, k]).name.lower()} for k in steps]
 
 
-def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=None, near_rail=None,
-               fast: bool = True) -> StateRun:
-    """States of (trials, steps) loops from their usable mask, measured offsets and alarms.
+def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=None, near_rail=None, implausible=None,
+               freq_adj=None, fast: bool = True) -> StateRun:
+    """States of (trials, steps) loops from their usable mask, measured offsets, alarms, refusals, DAC rails
+    and frequency corrections (each (trials, steps), optional but the first two).
 
     ``fast``: the compiled :func:`~.kernels.states_kernel`; otherwise :func:`advance` second by second
     (its readable twin; tested equal)."""
@@ -126,35 +252,46 @@ def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=N
     if usable.ndim != 2:
         raise ValueError(f"usable has shape {usable.shape}, must have 2 dimension(s)")
     offset = check_array(offset_s, "offset_s", ndim=2, allow_nan=True)
-    alarm = np.zeros(usable.shape, bool) if alarm is None else np.asarray(alarm, dtype=bool)
-    near = np.zeros(usable.shape, bool) if near_rail is None else np.asarray(near_rail, dtype=bool)
-    trials, steps = usable.shape
+    shape = usable.shape
+
+    def mask(a):
+        return np.zeros(shape, bool) if a is None else np.ascontiguousarray(np.broadcast_to(np.asarray(a, bool), shape))
+
+    alarm, near, implausible = mask(alarm), mask(near_rail), mask(implausible)
+    u = np.zeros(shape) if freq_adj is None else np.ascontiguousarray(np.broadcast_to(np.asarray(freq_adj, float), shape))
+    trials, steps = shape
     if fast:
-        states, reasons = states_kernel(usable, alarm, np.where(np.isnan(offset), np.inf, offset),
-                                        float(config.lock_threshold_s), config.hold_samples)
-        return StateRun(states, reasons, near.copy())
-    state = np.full(trials, State.FREE_RUN, dtype=np.int8)
-    run = np.zeros(trials, dtype=np.int64)
-    states = np.empty((trials, steps), dtype=np.int8)
-    reasons = np.empty((trials, steps), dtype=np.int8)
+        out = states_kernel(usable, alarm, implausible, near, np.ascontiguousarray(offset), u, config.kernel_params())
+        return StateRun(out[0], out[1], near.copy(), out[2], out[3] != 0, out[4])
+    memory = initial_memory(trials)
+    states = np.empty(shape, dtype=np.int8)
+    reasons = np.empty(shape, dtype=np.int8)
+    te_f, ready, sigma = np.empty(shape), np.empty(shape, bool), np.empty(shape)
     for k in range(steps):
-        state, run, reasons[:, k] = advance(state, run, usable[:, k], alarm[:, k], offset[:, k], config)
-        states[:, k] = state
-    return StateRun(states, reasons, near.copy())
+        memory, reasons[:, k], rep = advance(memory, usable[:, k], offset[:, k], config, alarm=alarm[:, k],
+                                             implausible=implausible[:, k], near_rail=near[:, k], freq_adj=u[:, k])
+        states[:, k] = memory["state"]
+        te_f[:, k], ready[:, k], sigma[:, k] = rep["filtered_offset_s"], rep["holdover_ready"], rep["holdover_sigma_s"]
+    return StateRun(states, reasons, near.copy(), te_f, ready, sigma)
 
 
 class StateMachine:
-    """Streaming state of one GPSDO; :meth:`step` returns ``(State, Reason)`` for the second."""
+    """Streaming state of one GPSDO; :meth:`step` returns ``(State, Reason)`` for the second (the filtered
+    time error and holdover report of the second in :attr:`report`)."""
 
     def __init__(self, config: StateConfig = StateConfig()):
         self.config = config
         self.reset()
 
     def reset(self) -> None:
-        self._state = np.array([State.FREE_RUN], dtype=np.int8)
-        self._run = np.zeros(1, dtype=np.int64)
+        self._memory = initial_memory(1)
+        self.report: dict = {}
 
-    def step(self, usable: bool, offset_s: float, alarm: bool = False) -> tuple[State, Reason]:
-        self._state, self._run, reason = advance(self._state, self._run, np.array([bool(usable)]),
-                                                 np.array([bool(alarm)]), np.array([float(offset_s)]), self.config)
-        return State(int(self._state[0])), Reason(int(reason[0]))
+    def step(self, usable: bool, offset_s: float, alarm: bool = False, *, implausible: bool = False,
+             near_rail: bool = False, freq_adj: float = 0.0) -> tuple[State, Reason]:
+        self._memory, reason, rep = advance(self._memory, np.array([bool(usable)]), np.array([float(offset_s)]),
+                                            self.config, alarm=np.array([bool(alarm)]),
+                                            implausible=np.array([bool(implausible)]),
+                                            near_rail=np.array([bool(near_rail)]), freq_adj=np.array([float(freq_adj)]))
+        self.report = {k: v[0].item() for k, v in rep.items()}
+        return State(int(self._memory["state"][0])), Reason(int(reason[0]))

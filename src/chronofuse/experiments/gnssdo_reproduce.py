@@ -19,25 +19,20 @@ from pathlib import Path
 import numpy as np
 
 from chronofuse.analysis.metrics import pooled_oadev
-from chronofuse.discipline.dac import Dac
-from chronofuse.discipline.holdover import HOLDOVER_HORIZONS_S, clairvoyant_holdover_error, holdover_error
-from chronofuse.discipline.loop import close_loop
+from chronofuse.discipline.holdover import HOLDOVER_HORIZONS_S
 from chronofuse.discipline.smoothing import smooth_run
+from chronofuse.experiments.gnssdo_holdover import holdover_study
 from chronofuse.experiments.gnssdo import (
     CONTROLLERS,
     DEFAULT_CONTROLLER,
     GnssdoSetup,
-    _free_phase,
     evaluate,
     make_controller,
-    scenario_environment,
     simulate_gnssdo,
 )
-from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
 from chronofuse.report.gnssdo import plot_adev, plot_time_error
 from chronofuse.report.jsonio import dumps
-from chronofuse.seeding import child_seed, root_seed
 from chronofuse.validation import check_scalar
 
 __all__ = ["reproduce_gnssdo", "DEFAULT_CONTROLLER"]
@@ -64,9 +59,11 @@ def _controller_table(duration: int, trials: int, say: Progress, seed: int = 0) 
             summary = evaluate(sim)
             sims[(scenario, controller)] = (sim, summary)
             rows.append({"scenario": scenario, "controller": controller,
-                         "rms_ns": summary["time_error_rms_ns"], "pp_ns": summary["time_error_pp_ns"],
-                         "optimal_rms_ns": summary["optimal_rms_ns"],
-                         "ratio": summary["time_error_rms_ns"] / summary["optimal_rms_ns"],
+                         "rms_ns": summary["time_error_rms_ns"], "rms_ci_ns": summary["time_error_rms_ci_ns"],
+                         "pp_ns": summary["time_error_pp_ns"],
+                         "optimal_rms_ns": summary["optimal_rms_ns"], "optimal_kind": summary["optimal_kind"],
+                         "clairvoyant_rms_ns": summary["clairvoyant_rms_ns"],
+                         "ratio": summary["ratio_to_optimal"], "ratio_ci": summary["ratio_to_optimal_ci"],
                          "convergence_s": summary["convergence_s"]})
     return rows, sims
 
@@ -85,30 +82,14 @@ def _before_after(duration: int, trials: int, say: Progress, seed: int = 0) -> d
 
 
 def _holdover(locked_stretches_s, trials: int, say: Progress, seed: int = 0) -> list[dict]:
-    """Holdover error at 1, 4, 24 h after locked stretches of the given lengths, against the clairvoyant
-    predictor on the same oscillator realisations."""
-    osc = preset("ocxo")
-    dac = Dac.for_oscillator(osc)
-    env = scenario_environment("open-sky", 1.0)
+    """Holdover at 1, 4, 24 h after locked stretches of the given lengths: ours beside the causal optimal
+    predictor and the analytic floor (:func:`chronofuse.experiments.gnssdo_holdover.holdover_study`)."""
     rows = []
     for locked in locked_stretches_s:
         say(f"holdover after {locked / 3600:g} h locked")
-        steps = int(locked + HOLDOVER_HORIZONS_S[-1] + 1)
-        root = root_seed(_stream(seed, 3))
-        free, noise_only = _free_phase(osc, steps, trials, root)
-        rx = simulate_receivers(env, int(locked), RECEIVERS, child_seed(root, 1), trials=trials)
-        e = rx.pps_error_s + rx.epochs.qerr_s
-        fused = np.nanmean(e, axis=1)  # equal receivers: the fused reference
-        ref = np.full((trials, steps), np.nan)
-        ref[:, : int(locked)] = fused
-        servo = make_controller(DEFAULT_CONTROLLER, osc, env, RECEIVERS, dac)
-        run = close_loop(servo, free, ref)
-        ours = holdover_error(run.phase_s, int(locked), HOLDOVER_HORIZONS_S)
-        limit, windows = clairvoyant_holdover_error(free, int(locked), HOLDOVER_HORIZONS_S, osc.drift_per_s)
-        rows.append({"locked_s": float(locked), "horizons_s": HOLDOVER_HORIZONS_S.tolist(),
-                     "ours_rms_ns": (np.sqrt(np.mean(ours**2, axis=0)) * 1e9).tolist(),
-                     "clairvoyant_rms_ns": (np.sqrt(np.mean(limit**2, axis=0)) * 1e9).tolist(),
-                     "clairvoyant_window_s": windows.tolist()})
+        study = holdover_study(int(locked), HOLDOVER_HORIZONS_S, trials, receivers=RECEIVERS,
+                               seed=_stream(seed, 3), chunk=max(trials // 2, 1))
+        rows.append({"locked_s": float(locked), "trials": trials, "rows": study["rows"]})
     return rows
 
 
@@ -195,7 +176,7 @@ def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = la
     trials = 2 if quick else 4
     table, sims = _controller_table(duration, trials, progress, seed)
     ba = _before_after(duration, trials, progress, seed)
-    hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 8, progress,
+    hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 16, progress,
                      seed)
     smooth = _smoothing(sims[("open-sky", "kalman")][0])
     fusion = _fusion_gain(duration // 2, trials, progress, seed)
@@ -236,6 +217,10 @@ def _fmt(v, digits=3, unit: str = "") -> str:
     return f"{v:.{digits}g}{unit}"
 
 
+def _ci(ci, digits=3) -> str:
+    return "" if ci is None else f"[{ci[0]:.{digits}g}, {ci[1]:.{digits}g}]"
+
+
 def _note(s: dict) -> str:
     ba = s["before_after"]
     lines = [
@@ -245,8 +230,11 @@ def _note(s: dict) -> str:
         f"trials of {s['duration_s']} s at 1 Hz, OCXO preset (ADEV 5e-12 at 1 s), {s['receivers']} receivers as the "
         "source paper's dual-mode receiver). \"Before\" = best-source selection with the source paper's PI preset (Kp 0.5, "
         f"Ki 0.1); \"after\" = inverse-variance fusion with the default controller (`{s['default_controller']}`). "
-        "Physical limit: the clairvoyant Kalman servo (true models) for time error, the lower envelope of "
-        "oscillator and GNSS ADEV for stability, the clairvoyant predictor for holdover. Time error is the "
+        "Physical limit: for time error in open sky the causal lower bound (the clairvoyant filter's covariance), "
+        "elsewhere the clairvoyant Kalman servo's time error (not a bound); for stability the lower envelope of "
+        "oscillator and GNSS ADEV (a reference, not a limit: the disciplined output can fall below it at long tau); "
+        "for holdover the causal optimal predictor and the analytic floor. Brackets: 95 % Monte Carlo intervals "
+        "over trials. Time error is the "
         "disciplined 1PPS against true time from 30 min on, with a usable reference; convergence is the first "
         "second after which |TE| stays below 100 ns whenever a reference is usable (the jam sync of the first "
         "sample puts it there at once in open sky; persistent receiver steps in the urban canyon keep moving "
@@ -259,8 +247,10 @@ def _note(s: dict) -> str:
     ]
     for env in ("open-sky", "urban-canyon"):
         b, a = ba[f"{env}/before"], ba[f"{env}/after"]
-        lines.append(f"| TE rms 35 -> 8 ns | {env} | {_fmt(b['time_error_rms_ns'])} ns | {_fmt(a['time_error_rms_ns'])} ns "
-                     f"| {_fmt(a['optimal_rms_ns'])} ns | {_verdict(a['time_error_rms_ns'], 8.0, a['optimal_rms_ns'])} |")
+        kind = "bound" if a["optimal_kind"] == "bound" else "clairvoyant servo, not a bound"
+        lines.append(f"| TE rms 35 -> 8 ns | {env} | {_fmt(b['time_error_rms_ns'])} ns {_ci(b['time_error_rms_ci_ns'])} | "
+                     f"{_fmt(a['time_error_rms_ns'])} ns {_ci(a['time_error_rms_ci_ns'])} "
+                     f"| {_fmt(a['optimal_rms_ns'])} ns ({kind}) | {_verdict(a['time_error_rms_ns'], 8.0, a['optimal_rms_ns'])} |")
         lines.append(f"| TE peak-to-peak 80 -> 20 ns | {env} | {_fmt(b['time_error_pp_ns'])} ns | "
                      f"{_fmt(a['time_error_pp_ns'])} ns | - | {_verdict(a['time_error_pp_ns'], 20.0, None)} |")
         conv = a["convergence_s"]
@@ -275,11 +265,16 @@ def _note(s: dict) -> str:
         lines.append(f"| ADEV({tau} s): {seed_before[i]:.2g} -> {seed_after[i]:.2g} | open-sky | "
                      f"{ad['free_run'][i]:.3g} (free run) | {ad['disciplined'][i]:.3g} | {limit:.3g} | {verdict} |")
     for h in s["holdover"]:
-        if abs(h["horizons_s"][-1] - 86400) < 1 and h is s["holdover"][-1]:
-            ours, lim = h["ours_rms_ns"][-1] / 1e3, h["clairvoyant_rms_ns"][-1] / 1e3
-            verdict = "not reachable: below the clairvoyant limit" if 0.1 < 0.9 * lim else _verdict(ours, 0.1, lim)
+        last = h["rows"][-1]
+        if abs(last["horizon_s"] - 86400) < 1 and h is s["holdover"][-1]:
+            ours, lim, floor = last["ours_ns"] / 1e3, last["clairvoyant_ns"] / 1e3, last["floor_ns"] / 1e3
+            verdict = ("not reachable: below the analytic floor" if 0.1 < 0.9 * floor else
+                       "not reachable: below the causal optimal predictor" if 0.1 < 0.9 * lim else _verdict(ours, 0.1, lim))
+            ci = last["ours_ci_ns"]
+            ci_text = "" if ci is None else f" (95 % CI {ci[0] / 1e3:.3g}..{ci[1] / 1e3:.3g})"
             lines.append(f"| holdover 1 -> 0.1 us/day | after {h['locked_s'] / 3600:g} h locked | - | "
-                         f"{ours:.3g} us at 24 h | {lim:.3g} us | {verdict} |")
+                         f"{ours:.3g} us at 24 h{ci_text} | {lim:.3g} us (causal optimal), floor {floor:.3g} us | "
+                         f"{verdict} |")
     sm = s["smoothing"]
     lines.append(f"| RTS smoothing 40 -> 10 ns | open-sky | {_fmt(sm['filtered_rms_ns'])} ns (filter) | "
                  f"{_fmt(sm['smoothed_rms_ns'])} ns (smoother) | - | "
@@ -292,19 +287,29 @@ def _note(s: dict) -> str:
     lines += ["", "Stability in the source paper's table is ADEV (x1e-12 before, x1e-13 after). Disciplining cannot improve an "
               "oscillator at tau = 1 s, far inside any GNSS loop; at 10 and 100 s the source paper's values lie below both "
               "the OCXO and the GNSS reference, i.e. below what any controller can reach.", "",
-              "## Controller table (time-error rms, ns; ratio to the clairvoyant servo)", "",
-              "| scenario | " + " | ".join(CONTROLLERS) + " | clairvoyant |", "|---|" + "---|" * (len(CONTROLLERS) + 1)]
+              "## Controller table (time-error rms, ns; ratio to the optimum with its 95 % interval)", "",
+              "In open sky the optimum is the causal lower bound (the clairvoyant filter's phase-error covariance "
+              "with unconstrained steering); the ratio is paired with the clairvoyant servo on the same trials, "
+              "which attains the bound. Urban canyon and outliers are not Gaussian: the optimum is the clairvoyant "
+              "servo's time error, not a bound (a robust servo may beat it).", "",
+              "| scenario | " + " | ".join(CONTROLLERS) + " | optimum |", "|---|" + "---|" * (len(CONTROLLERS) + 1)]
     for env in ("open-sky", "urban-canyon", "outliers"):
-        cells = [f"{rows[(env, c)]['rms_ns']:.3g} ({rows[(env, c)]['ratio']:.2f})" for c in CONTROLLERS]
-        lines.append(f"| {env} | " + " | ".join(cells) + f" | {rows[(env, 'kalman')]['optimal_rms_ns']:.3g} |")
+        cells = [f"{rows[(env, c)]['rms_ns']:.3g} ({rows[(env, c)]['ratio']:.2f} {_ci(rows[(env, c)]['ratio_ci'], 2)})"
+                 for c in CONTROLLERS]
+        kind = "bound" if rows[(env, "kalman")]["optimal_kind"] == "bound" else "clairvoyant, not a bound"
+        lines.append(f"| {env} | " + " | ".join(cells) + f" | {rows[(env, 'kalman')]['optimal_rms_ns']:.3g} ({kind}) |")
     means = {c: float(np.mean([rows[(e, c)]["ratio"] for e in ("open-sky", "urban-canyon", "outliers")])) for c in CONTROLLERS}
     lines += ["", "Mean ratio to the clairvoyant servo: " + ", ".join(f"{c} {v:.3f}" for c, v in means.items())
               + f". Lowest: `{min(means, key=means.get)}`; the default is `{s['default_controller']}`.", "",
               "## Holdover (OCXO preset, rms over trials)", "",
-              "| locked before (h) | 1 h: ours / limit (ns) | 4 h | 24 h |", "|---|---|---|---|"]
+              "Ours / the causal optimal predictor (the clairvoyant servo on the same locked data) / the analytic "
+              "floor (random-walk and white FM after entry), ns, with the paired ratio and its 95 % interval. "
+              "The 200-trial figure after a day locked is in [holdover.md](holdover.md).", "",
+              "| locked before (h) | trials | 1 h | 4 h | 24 h |", "|---|---|---|---|---|"]
     for h in s["holdover"]:
-        cells = [f"{o:.3g} / {c:.3g}" for o, c in zip(h["ours_rms_ns"], h["clairvoyant_rms_ns"])]
-        lines.append(f"| {h['locked_s'] / 3600:g} | " + " | ".join(cells) + " |")
+        cells = [f"{r['ours_ns']:.3g} / {r['clairvoyant_ns']:.3g} / {r['floor_ns']:.3g} ({r['ratio']:.2f} "
+                 f"{_ci(r['ratio_ci'], 2)})" for r in h["rows"]]
+        lines.append(f"| {h['locked_s'] / 3600:g} | {h['trials']} | " + " | ".join(cells) + " |")
     lines += ["", "Anchors: vendor OCXO GPSDOs quote 10-25 us after 24 h, rubidium about 1 us, a measured Thunderbolt "
               "4.5 us; the source paper claims 0.1 us/day.", "",
               "## Fusion against best-source selection (urban canyon, 4 receivers)", "",

@@ -9,16 +9,20 @@ Orchestration only: the disciplined oscillator is :func:`chronofuse.experiments.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from chronofuse.experiments.gnssdo import SETTLE_S, GnssdoSetup, evaluate, simulate_gnssdo
+from chronofuse.experiments.gnssdo import SETTLE_S, GnssdoSetup, evaluate, scenario_environment, simulate_gnssdo
 from chronofuse.experiments.scenario import Scenario, ScenarioError
 from chronofuse.experiments.swarm_network import follow_leader
+from chronofuse.models.environment import ReceiverEnvironment
+from chronofuse.models.oscillator import OscillatorModel
 
-__all__ = ["discipline_and_swarm", "outage_window_s", "MIN_DURATION_S"]
+__all__ = ["discipline_and_swarm", "outage_window_s", "discipline_environment", "check_disciplinable",
+           "MIN_DURATION_S"]
 
 #: The shortest run the disciplining stage takes (the controller's settling time, twice).
 MIN_DURATION_S = 2 * SETTLE_S
@@ -40,10 +44,47 @@ def outage_window_s(scn: Scenario) -> tuple[float, float]:
     return start, length
 
 
-def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None]) -> tuple[dict, list[Path]]:
+#: The followers' radial speeds (m/s) for runs up to a day; a longer run flies them slower, so that the
+#: farthest one (80 km + 11 m/s x 1 day = 1,030 km, 3.4 ms of light time) stays inside the link's 4 ms reply slot.
+FOLLOWER_SPEED_DAY_S = 86_400.0
+
+
+def _follower_velocities_m_s(n: int, duration_s: float) -> tuple[float, ...]:
+    scale = min(1.0, FOLLOWER_SPEED_DAY_S / float(duration_s))
+    return tuple((-1) ** i * (5.0 + 3.0 * i) * scale for i in range(n))
+
+
+def check_disciplinable(scn: Scenario) -> None:
+    """Refuse, naming the key, what the disciplining stage cannot honour: a rate other than the 1PPS's 1 Hz
+    and an outage outside the run (called before anything is simulated or written)."""
+    if not scn.discipline.enabled or scn.duration_s < MIN_DURATION_S:
+        return
+    if scn.rate_hz != 1.0:
+        raise ScenarioError(f"rate_hz: {scn.rate_hz:g} Hz with discipline enabled; the loop runs on the 1PPS, one "
+                            "sample per second (set rate_hz = 1, or discipline.enabled = false)")
+    outage_window_s(scn)
+
+
+def discipline_environment(scn: Scenario) -> ReceiverEnvironment:
+    """The receivers' environment of a scenario: its ``receivers.scenario`` with the discipline's GNSS outage
+    (every receiver jammed) when disciplining is on and the outage has a length. The report's receivers and
+    the disciplined ones are this one realisation (the same seeds, :func:`~chronofuse.experiments.gnssdo.simulate_gnssdo`)."""
+    env = scenario_environment(scn.receivers.scenario, float(scn.duration_s))
+    if not scn.discipline.enabled or scn.duration_s < MIN_DURATION_S:
+        return env
+    start, length = outage_window_s(scn)
+    if length <= 0:
+        return env
+    return dataclasses.replace(env, jamming_start_s=start, jamming_duration_s=length)
+
+
+def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
+                         oscillator: OscillatorModel | None = None) -> tuple[dict, list[Path]]:
     """Run both stages for ``scn``; returns the summary sections and the files written into ``out``.
 
     A run shorter than :data:`MIN_DURATION_S` has no room for the loop to settle: the section then says so.
+    ``oscillator``: the scenario's oscillator with its overrides (default: the preset). The loop runs on the
+    1PPS: a scenario at another rate is refused naming ``rate_hz``.
     """
     from chronofuse.report.gnssdo import write_report
     from chronofuse.report.swarm_follow import plot_followers
@@ -51,11 +92,12 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None]) -
     if scn.duration_s < MIN_DURATION_S:
         return {"discipline": {"skipped": f"the run ({scn.duration_s:g} s) is shorter than the {MIN_DURATION_S:g} s "
                                           "a disciplined oscillator needs to settle"}}, []
+    check_disciplinable(scn)
     d = scn.discipline
     start, length = outage_window_s(scn)
     setup = GnssdoSetup(scenario=scn.receivers.scenario, controller=d.controller, receivers=scn.receivers.count,
                         duration_s=int(round(scn.duration_s)), seed=scn.seed, oscillator=scn.oscillator.preset,
-                        outage_start_s=start if length > 0 else None, outage_s=length)
+                        oscillator_model=oscillator, outage_start_s=start if length > 0 else None, outage_s=length)
     say(f"disciplining the {setup.oscillator} ({setup.controller}) through a {length:g} s GNSS outage")
     sim = simulate_gnssdo(setup, say)
     summary = evaluate(sim)
@@ -69,7 +111,7 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None]) -
         n = scn.swarm.followers
         swarm = follow_leader(np.r_[leader, leader[-1], leader[-1]], interval_s=1.0, parents=(0,) * n,
                               distances_m=tuple(20e3 + 30e3 * i for i in range(n)),
-                              velocities_m_s=tuple((-1) ** i * (5.0 + 3.0 * i) for i in range(n)),
+                              velocities_m_s=_follower_velocities_m_s(n, scn.duration_s),
                               algorithm=scn.swarm.algorithm, topology=scn.swarm.topology, seed=scn.seed + 1)
         outage = (swarm.t_s >= start - 1) & (swarm.t_s < start + length - 1)
         sections["swarm"] = {

@@ -21,7 +21,7 @@ from chronofuse.analysis import stability
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.metrics import gdop_over_5_fraction
 from chronofuse.analysis.theory import adev_theory
-from chronofuse.experiments.main_chain import discipline_and_swarm
+from chronofuse.experiments.main_chain import check_disciplinable, discipline_and_swarm, discipline_environment
 from chronofuse.experiments.scenario import Scenario
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
@@ -70,9 +70,10 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     Returns the summary that is also written as ``summary.json``.
     """
     say = progress or (lambda _msg: None)
+    check_disciplinable(scn)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    seeds = np.random.SeedSequence(scn.seed).spawn(2)
+    seeds = np.random.SeedSequence(scn.seed).spawn(2)  # the children simulate_gnssdo draws the same run from
 
     say("simulating the oscillator")
     model = _oscillator_model(scn)
@@ -81,7 +82,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     osc_x = osc.x_s[0]
 
     say(f"simulating {scn.receivers.count} receivers ({scn.receivers.scenario})")
-    rx = simulate_receivers(scn.receivers.scenario, int(round(scn.duration_s)), scn.receivers.count, seeds[1],
+    rx = simulate_receivers(discipline_environment(scn), int(round(scn.duration_s)), scn.receivers.count, seeds[1],
                             rate_hz=scn.rate_hz)
     pps = rx.pps_error_s[0] + rx.epochs.qerr_s[0]  # (receivers, steps): qErr-corrected 1PPS time error (u-blox sign)
     labels = [f"rx{i + 1}" for i in range(scn.receivers.count)]
@@ -133,7 +134,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
 
     chain: dict = {}
     if scn.discipline.enabled:
-        chain, chain_files = discipline_and_swarm(scn, out, say)
+        chain, chain_files = discipline_and_swarm(scn, out, say, oscillator=model)
         files += chain_files
 
     summary = {

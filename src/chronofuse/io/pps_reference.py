@@ -1,6 +1,7 @@
 """A real receiver's 1PPS phase record against a reference clock: the truth a disciplined oscillator is
 run against (``chronofuse gnssdo --reference``). One value column (or time and value), or a field log's
-clock (a ts2phc or phc2sys offset, a TSIP receiver's PPS offset), 1 Hz, no gaps."""
+clock (a ts2phc or phc2sys offset, a TSIP receiver's PPS offset), 1 Hz, no gaps, and values that can be a
+1PPS phase in seconds (not a frequency, another unit, or a ramp)."""
 
 from __future__ import annotations
 
@@ -35,8 +36,9 @@ def read_pps_reference(path: str | Path, *, min_samples: int = 2) -> np.ndarray:
     """The 1PPS phase (s, shape (N,)) of the record at ``path``, sampled at 1 Hz without gaps: any record
     :func:`~chronofuse.io.records.read_record` reads, a field log's first clock among them.
 
-    Refused, naming the file and line: another rate than 1 Hz (from a time column), any gap, and fewer
-    than ``min_samples`` samples.
+    Refused, naming the file and line: another rate than 1 Hz (from a time column), any gap, fewer
+    than ``min_samples`` samples, and values that cannot be a 1PPS phase in seconds
+    (:func:`_check_pps_phase`: a frequency, another unit, a ramp).
     """
     path = Path(path)
     try:  # the time column, when there is one, says the rate (a rate given here would override it)
@@ -54,4 +56,45 @@ def read_pps_reference(path: str | Path, *, min_samples: int = 2) -> np.ndarray:
                          f"{first}); the loop needs one sample every second", str(path), line)
     if rec.values.size < min_samples:
         raise InputError(f"{rec.values.size} samples, need at least {min_samples}", str(path))
+    _check_pps_phase(rec.values, path)
     return rec.values
+
+
+#: What a receiver's 1PPS against a reference clock can look like (in seconds, once read): within this of its
+#: median (antenna and cable offsets are constant; a GNSS 1PPS wanders by tens of ns), drifting by at most
+#: this fractional frequency (the reference is a clock, the 1PPS steered to GNSS time), and moving by at least
+#: this rms from second to second (a timing receiver's 1PPS jitters by a nanosecond or more, the real GPS
+#: record in tests/data by 5.1 ns; a fractional-frequency record read as phase moves by 1e-11).
+REFERENCE_MAX_SPREAD_S = 10e-6
+REFERENCE_MAX_SLOPE = 1e-9
+REFERENCE_MIN_JITTER_S = 1e-10
+
+
+def _check_pps_phase(x: np.ndarray, path: Path) -> None:
+    """Refuse, naming the file and line, a record that is not a 1PPS phase against a reference clock in
+    seconds: a frequency (in Hz, or fractional), another unit read as seconds, or a ramp."""
+    median = float(np.median(x))
+    if abs(median) > 1.0:
+        raise InputError(f"values of order {median:.6g}: not a 1PPS phase in seconds (a frequency in Hz, or a phase "
+                             "in ns or us without a unit in the header?)", str(path), _line(path, 0))
+    far = np.flatnonzero(np.abs(x - median) > REFERENCE_MAX_SPREAD_S)
+    if far.size:
+        k = int(far[0])
+        raise InputError(f"{x[k]:.6g} s is {x[k] - median:+.3g} s from the record's median; a 1PPS against a reference "
+                             f"stays within {REFERENCE_MAX_SPREAD_S:g} s (values in ns or us without a unit header? a "
+                             "free-running clock?)", str(path), _line(path, k))
+    t = np.arange(x.size, dtype=np.float64)
+    slope = float(np.polyfit(t, x, 1)[0])
+    if abs(slope) > REFERENCE_MAX_SLOPE:
+        raise InputError(f"the record drifts by {slope:.3g} s/s over its {x.size} samples; a 1PPS against a "
+                             f"reference clock drifts by less than {REFERENCE_MAX_SLOPE:g} (a ramp: the reference is "
+                             "not a clock, or the record is not a 1PPS)", str(path), _line(path, x.size - 1))
+    jitter = float(np.sqrt(np.mean(np.diff(x) ** 2)))
+    if jitter < REFERENCE_MIN_JITTER_S:
+        raise InputError(f"consecutive values differ by {jitter:.3g} s rms; a receiver's 1PPS jitters by far more "
+                             "(a fractional-frequency record read as phase?)", str(path), _line(path, 1))
+
+
+def _line(path: Path, index: int) -> int | None:
+    """The file line of sample ``index``; None for a field log, whose lines are not one sample each."""
+    return None if log_format(path) else _data_line(path, index)

@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from chronofuse.discipline.states import State
 
 _STATE_COLOURS = {State.FREE_RUN: "#dddddd", State.ACQUIRING: "#fde9b0", State.LOCKED: "#d8f0d8",
-                  State.HOLDOVER: "#f7c6c6", State.RECOVERY: "#cfe0fb"}
+                  State.HOLDOVER: "#f7c6c6", State.RECOVERY: "#cfe0fb", State.ALARM: "#f4a259"}
 
 
 def _decimated(t: np.ndarray, v: np.ndarray, keep: int = 20_000):

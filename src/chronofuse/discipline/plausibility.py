@@ -1,0 +1,320 @@
+"""Is the reference plausible? The disciplined oscillator's own prediction against each receiver and the fused reference.
+
+A spoofer that drags every receiver together is invisible to cross-checks between receivers; the oscillator
+sees it. The GPSDO knows the corrections it applied (``c_k``, the integral of its DAC steps), so from the
+measured offset ``z_k = x_k - e_k`` it has ``y_k = z_k - c_k = x_free_k - e_k``: the free-running oscillator
+against the reference, a series that does not depend on the loop. The free oscillator's phase is
+predictable from its own past to within its noise (its Allan variance), so an ``e`` that moves faster
+than that allows is implausible.
+
+The test, per series (one per receiver, and the fused reference's), every second and at horizons
+``W = 4, 8, ..., max_horizon_s``: block means ``B(k)`` of ``y`` over the last ``m = max(1, W / 4)`` seconds,
+and their second difference ``D_W(k) = B(k) - 2 B(k - W) + B(k - 2 W)``, taken at the blocks' actual mean
+times ``t_i`` (``B0 - B1 - (B1 - B2) (t0 - t1) / (t1 - t2)``: a block with gaps has its centre elsewhere,
+and the free oscillator's frequency offset, up to 5e-9, would turn a 64 s shift into 320 ns). For the oscillator alone
+``var D_W ~ 2 W^2 sigma_y^2(W)`` (the Allan variance's definition; NIST SP 1065 eq. 8, with
+``sigma_y^2(W) = h0 / (2 W) + 2 ln2 h_-1 + (2 pi^2 / 3) h_-2 W``); the reference's own noise adds the
+variance of the second difference of its block means (white: ``6 sigma_w^2 / m``; each Gauss-Markov term
+exactly, from its autocovariance ``sigma^2 rho^|l|``), for a block half filled (the fewest samples the test
+accepts; gaps are common where geometry disqualifies a receiver). The aging bound ``D`` adds a bias ``D W^2``. The series
+is refused when ``|D_W| > k_sigma sqrt(var D_W) + D W^2`` at some horizon for ``persist`` consecutive
+seconds. A drag of rate ``r`` starting at ``t0`` gives ``D_W = r (k - t0)`` until ``k - t0 = W``: the slowest
+rate caught before the time error reaches a budget ``b`` is about ``min_W threshold(W) / W`` over the
+horizons with ``threshold(W) < b`` (:meth:`DragMonitor.slowest_rate`).
+
+Once refused, the series is compared with the holdover prediction made from before the excursion (the
+block mean at ``k - 2W`` and the frequency to it over the longest horizon before it); it is admitted again only after
+``readmit_s`` consecutive seconds (and at least the horizon it was refused at) within ``readmit_k_sigma`` of
+that prediction's uncertainty, with its history
+cleared (and, in fusion, its weight earned anew: :attr:`PlausibilityRun.readmitted`).
+
+:class:`DragMonitor` is the readable per-second core over (N, S) arrays; :meth:`DragMonitor.run` runs it
+over (N, S, steps).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from chronofuse.discipline.servo import freeze
+from chronofuse.validation import check_scalar
+
+__all__ = ["ReferenceNoise", "DragMonitor", "PlausibilityRun", "oscillator_avar"]
+
+
+def oscillator_avar(h0: float, hm1: float, hm2: float, tau_s: np.ndarray) -> np.ndarray:
+    """Allan variance of white, flicker and random-walk FM at ``tau_s`` (NIST SP 1065 Table 3)."""
+    tau = np.asarray(tau_s, dtype=np.float64)
+    return h0 / (2.0 * tau) + 2.0 * math.log(2.0) * hm1 + 2.0 * math.pi**2 / 3.0 * hm2 * tau
+
+
+@dataclass(frozen=True)
+class ReferenceNoise:
+    """A reference's phase noise as the designer models it: white ``white_sigma_s`` (outliers folded in as
+    their variance) and first-order Gauss-Markov terms ``gauss_markov`` ((sigma_s, tau_s), ...)."""
+
+    white_sigma_s: float
+    gauss_markov: tuple[tuple[float, float], ...] = ()
+
+    def scaled(self, factor: float) -> ReferenceNoise:
+        """Every term's sigma times ``factor`` (a fused reference of ``R`` equal receivers: ``1 / sqrt(R)``)."""
+        return ReferenceNoise(self.white_sigma_s * factor, tuple((s * factor, t) for s, t in self.gauss_markov))
+
+    def block_var(self, m: int) -> float:
+        """Variance of one ``m``-sample block mean."""
+        var = self.white_sigma_s**2 / m
+        for sigma, tau in self.gauss_markov:
+            rho = math.exp(-1.0 / tau)
+            lags = np.arange(1, m)
+            var += sigma**2 / m**2 * (m + 2.0 * float(np.sum((m - lags) * rho**lags)))
+        return float(var)
+
+    def second_difference_var(self, m: int, lag: int) -> float:
+        """Variance of ``B(k) - 2 B(k - lag) + B(k - 2 lag)`` of ``m``-sample block means (``lag >= m``)."""
+        var = 6.0 * self.white_sigma_s**2 / m
+        for sigma, tau in self.gauss_markov:
+            rho = math.exp(-1.0 / tau)
+            lags = np.arange(1, m)
+            v0 = sigma**2 / m**2 * (m + 2.0 * np.sum((m - lags) * rho**lags))
+            # cov(B(t), B(t - L)) for L >= m: sigma^2 rho^(L - m + 1) (sum_i rho^i)^2 / m^2.
+            s = (1.0 - rho**m) / (1.0 - rho)
+
+            def cov(L):
+                return sigma**2 * rho ** (L - m + 1) * s * s / m**2
+
+            var += 6.0 * v0 - 8.0 * cov(lag) + 2.0 * cov(2 * lag)
+        return float(var)
+
+
+@dataclass(frozen=True)
+class PlausibilityRun:
+    """(N, S, steps): ``plausible`` (the series trusted this second), ``readmitted`` (trusted again this second
+    after a refusal), ``statistic`` (the largest ``|D_W| / threshold(W)`` of the second, NaN without one)."""
+
+    plausible: np.ndarray
+    readmitted: np.ndarray
+    statistic: np.ndarray
+
+    def __post_init__(self):
+        freeze(self)
+
+
+@dataclass(frozen=True)
+class DragMonitor:
+    """The plausibility test of one kind of series (module docstring).
+
+    ``h0, hm1, hm2``: the oscillator's FM noise; ``drift_per_s``: its aging bound; ``noise``: the reference's
+    (:class:`ReferenceNoise`); ``k_sigma``; ``persist``: seconds over threshold before a refusal;
+    ``max_horizon_s``; ``readmit_s``: seconds of agreement with the holdover prediction, within ``readmit_k_sigma``
+    of its uncertainty (stricter than the refusal: a series comes back only when clearly right), before re-admission;
+    ``check_block_s``: the block mean compared with the prediction while refused.
+    """
+
+    h0: float
+    hm1: float
+    hm2: float
+    noise: ReferenceNoise
+    drift_per_s: float = 0.0
+    k_sigma: float = 5.0
+    persist: int = 3
+    max_horizon_s: int = 2048
+    readmit_s: int = 300
+    readmit_k_sigma: float = 3.0
+    check_block_s: int = 16
+    horizons: tuple[int, ...] = field(init=False)
+    thresholds_s: tuple[float, ...] = field(init=False)
+
+    def __post_init__(self):
+        check_scalar(self.k_sigma, "k_sigma", min_val=0.0, include_min=False)
+        check_scalar(self.persist, "persist", min_val=1, integer=True)
+        check_scalar(self.max_horizon_s, "max_horizon_s", min_val=4, integer=True)
+        check_scalar(self.readmit_s, "readmit_s", min_val=1, integer=True)
+        check_scalar(self.check_block_s, "check_block_s", min_val=1, integer=True)
+        horizons = []
+        w = 4
+        while w <= self.max_horizon_s:
+            horizons.append(w)
+            w *= 2
+        object.__setattr__(self, "horizons", tuple(horizons))
+        object.__setattr__(self, "thresholds_s", tuple(self.threshold_s(w) for w in horizons))
+
+    @classmethod
+    def for_oscillator(cls, osc, noise: ReferenceNoise, **kw) -> DragMonitor:
+        """From an :class:`~chronofuse.models.oscillator.OscillatorModel`'s h-coefficients and aging."""
+        return cls(osc.h.h0, osc.h.hm1, osc.h.hm2, noise, abs(osc.drift_per_s), **kw)
+
+    @staticmethod
+    def block(w: int, filled: bool = False) -> int:
+        """The block length at horizon ``w``; ``filled``: the fewest samples a block may hold (half of it:
+        the noise terms are taken for the worst block the test accepts)."""
+        m = max(1, w // 4)
+        return max(1, m // 2) if filled else m
+
+    def statistic_var_s2(self, w: int) -> float:
+        """``var D_W``: the oscillator's ``2 W^2 sigma_y^2(W)`` plus the reference's part."""
+        osc = 2.0 * w * w * float(oscillator_avar(self.h0, self.hm1, self.hm2, w))
+        return osc + self.noise.second_difference_var(self.block(w, filled=True), w)
+
+    def threshold_s(self, w: int) -> float:
+        return self.k_sigma * math.sqrt(self.statistic_var_s2(w)) + self.drift_per_s * w * w
+
+    def slowest_rate(self, budget_s: float = 100e-9) -> tuple[float, int]:
+        """``(rate s/s, horizon s)``: the slowest linear drag whose ``D_W = rate x W`` crosses the threshold at
+        a horizon where the threshold is still inside ``budget_s`` (module docstring)."""
+        best = (math.inf, 0)
+        for w, thr in zip(self.horizons, self.thresholds_s):
+            if thr < budget_s and thr / w < best[0]:
+                best = (thr / w, w)
+        return best
+
+    def _lever_var(self, w: int) -> float:
+        """The reference's part of a frequency measured between two blocks ``w`` apart, times ``w^2``."""
+        return 2.0 * self.noise.block_var(self.block(int(w), filled=True)) if w > 1 else 0.0
+
+    def _prediction_var_s2(self, h, wa, ma):
+        """Variance of the holdover prediction ``h`` seconds past its anchor (a block of ``ma`` samples, the
+        frequency measured over ``wa`` seconds) against the check block: the oscillator's own wander over ``h``
+        (``2 h^2 sigma_y^2(h)``), the anchor frequency's error (``h^2 sigma_y^2(wa)``), the two blocks' reference
+        noise (their variances added: an upper bound whatever their correlation) and the reference's noise of
+        the frequency estimate levered by ``(h / wa)^2``."""
+        h = np.maximum(h, 1.0)
+        wa = np.asarray(wa, dtype=np.float64)
+        anchor_block = np.vectorize(lambda m: self.noise.block_var(max(1, int(m) // 2)), otypes=[float])(ma)
+        lever = np.vectorize(self._lever_var, otypes=[float])(wa)
+        var = (2.0 * h * h * oscillator_avar(self.h0, self.hm1, self.hm2, h)
+               + h * h * oscillator_avar(self.h0, self.hm1, self.hm2, wa)
+               + self.noise.block_var(max(1, self.check_block_s // 2)) + anchor_block + lever * (h / wa) ** 2)
+        return var
+
+    def kernel_params(self) -> tuple:
+        """(horizons, thresholds, lever variance and anchor-block variance per horizon, Gauss-Markov sigmas and
+        taus, scalars) for the compiled twin :func:`~.kernels.plausibility_kernel`."""
+        w = np.array(self.horizons, np.int64)
+        lever = np.array([self._lever_var(int(x)) for x in w])
+        block = np.array([self.noise.block_var(self.block(int(x), filled=True)) for x in w])
+        gm = np.array(self.noise.gauss_markov, dtype=np.float64).reshape(-1, 2)
+        scalars = np.array([self.h0, self.hm1, self.hm2, self.drift_per_s, self.k_sigma, self.persist, self.readmit_s,
+                            self.check_block_s, self._ring, self.noise.block_var(max(1, self.check_block_s // 2)),
+                            self.readmit_k_sigma])
+        return w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]), scalars
+
+    @property
+    def _ring(self) -> int:
+        return 4 * self.horizons[-1] + 2
+
+    def run(self, y, admitted, *, fast: bool = True) -> PlausibilityRun:
+        """The test over (N, S, steps) series ``y`` offered where ``admitted``: the compiled
+        :func:`~.kernels.plausibility_kernel` (``fast``) or :meth:`update` second by second (its twin)."""
+        from chronofuse.discipline.kernels import plausibility_kernel
+
+        y = np.asarray(y, dtype=np.float64)
+        admitted = np.asarray(admitted, dtype=bool) & np.isfinite(y)
+        shape, steps = y.shape[:-1], y.shape[-1]
+        if fast:
+            flat_y = np.ascontiguousarray(y.reshape(-1, steps))
+            flat_a = np.ascontiguousarray(admitted.reshape(-1, steps))
+            p, r, st = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
+            return PlausibilityRun(p.reshape(y.shape) != 0, r.reshape(y.shape) != 0, st.reshape(y.shape))
+        state = self.initial_state(shape)
+        plausible = np.empty(y.shape, bool)
+        readmitted = np.empty(y.shape, bool)
+        stat = np.empty(y.shape)
+        for k in range(steps):
+            state, plausible[..., k], readmitted[..., k], stat[..., k] = self.update(state, y[..., k], admitted[..., k])
+        return PlausibilityRun(plausible, readmitted, stat)
+
+    # ---- the per-second core (readable twin of the kernel) ------------------------------------------------
+    def initial_state(self, shape: tuple[int, ...]) -> dict:
+        L = self._ring
+        return {"k": 0, "csum": np.zeros(shape + (L,)), "tsum": np.zeros(shape + (L,)), "count": np.zeros(shape + (L,), np.int64),
+                "start": np.zeros(shape, np.int64), "trusted": np.ones(shape, bool), "streak": np.zeros(shape, np.int64),
+                "agree": np.zeros(shape, np.int64), "anchor": np.zeros(shape), "anchor_f": np.zeros(shape),
+                "anchor_t": np.zeros(shape), "anchor_w": np.ones(shape, np.int64), "anchor_m": np.ones(shape, np.int64)}
+
+    def _block_mean(self, state, end, m):
+        """Block mean over (end - m, end] per series and the mean time of its samples (NaN where that block
+        reaches before the history's ``start`` or half of it is missing); ``end`` an absolute second."""
+        L = self._ring
+        ok = (end - m >= state["start"] - 1) & (end - m >= -1)
+        i1, i0 = end % L, (end - m) % L
+        c1, t1, n1 = state["csum"][..., i1], state["tsum"][..., i1], state["count"][..., i1]
+        early = end - m < 0
+        c0 = 0.0 if early else state["csum"][..., i0]
+        t0 = 0.0 if early else state["tsum"][..., i0]
+        n0 = 0 if early else state["count"][..., i0]
+        n = n1 - n0
+        ok = ok & (2 * n >= m) & (n > 0)
+        safe = np.where(n > 0, n, 1)
+        return np.where(ok, (c1 - c0) / safe, np.nan), np.where(ok, (t1 - t0) / safe, np.nan)
+
+    def _anchor(self, state, k, w, m):
+        """The holdover prediction's anchor for an excursion seen at horizon ``w`` (the longest one over its
+        threshold, so that the anchor most likely precedes the excursion's start): the block mean at ``k - 2w``
+        (before the excursion began) and the frequency to it from the longest horizon's block before it
+        (``w``'s own when the history is shorter); returns (phase, frequency, centre, frequency span)."""
+        b1, c1 = self._block_mean(state, k - 2 * w, m)
+        f = np.full(b1.shape, np.nan)
+        span = np.zeros(b1.shape, np.int64)
+        for wl in self.horizons[::-1]:
+            ml = self.block(wl)
+            b0, c0 = self._block_mean(state, k - 2 * w - wl, ml)
+            take = np.isnan(f) & np.isfinite(b0)
+            f = np.where(take, (b1 - b0) / (c1 - c0), f)
+            span = np.where(take, wl, span)
+        return b1, np.where(np.isnan(f), 0.0, f), c1, np.maximum(span, 1)
+
+    def update(self, state: dict, y, admitted):
+        """One second: ``y`` (N, S) the series (NaN: none), ``admitted`` (N, S) whether it is offered this
+        second -> ``(state', plausible, readmitted, statistic)``; ``state`` is modified in place and returned."""
+        y = np.asarray(y, dtype=np.float64)
+        have = np.asarray(admitted, dtype=bool) & np.isfinite(y)
+        k = state["k"]
+        L = self._ring
+        c_prev = state["csum"][..., (k - 1) % L] if k > 0 else 0.0
+        n_prev = state["count"][..., (k - 1) % L] if k > 0 else 0
+        t_prev = state["tsum"][..., (k - 1) % L] if k > 0 else 0.0
+        state["csum"][..., k % L] = c_prev + np.where(have, y, 0.0)
+        state["tsum"][..., k % L] = t_prev + np.where(have, float(k), 0.0)
+        state["count"][..., k % L] = n_prev + have
+        trusted = state["trusted"]
+        worst = np.full(y.shape, np.nan)
+        first_w = np.zeros(y.shape, np.int64)
+        for w, thr in zip(self.horizons, self.thresholds_s):
+            m = self.block(w)
+            (b0, t0), (b1, t1), (b2, t2) = (self._block_mean(state, k - j * w, m) for j in range(3))
+            ratio = np.abs(b0 - b1 - (b1 - b2) * (t0 - t1) / (t1 - t2)) / thr
+            worst = np.fmax(worst, ratio)
+            exceed = np.isfinite(ratio) & (ratio > 1.0)
+            first_w = np.where(exceed, w, first_w)  # the longest horizon over its threshold: its anchor is earliest
+        # A second without a sample neither extends nor breaks a run (of exceedances, or of agreement).
+        streak = np.where(have, np.where(trusted & (first_w > 0), state["streak"] + 1, 0), state["streak"])
+        refuse = trusted & (streak >= self.persist)
+        if refuse.any():
+            for w in self.horizons:
+                sel = refuse & (first_w == w)
+                if sel.any():
+                    a, f, c, span = self._anchor(state, k, w, self.block(w))
+                    state["anchor"] = np.where(sel, a, state["anchor"])
+                    state["anchor_f"] = np.where(sel, f, state["anchor_f"])
+                    state["anchor_t"] = np.where(sel, c, state["anchor_t"])
+                    state["anchor_w"] = np.where(sel, span, state["anchor_w"])
+                    state["anchor_m"] = np.where(sel, self.block(w), state["anchor_m"])
+        ms = self.check_block_s
+        bs, ts = self._block_mean(state, k, ms)
+        h = np.where(np.isfinite(ts), ts, k - (ms - 1) / 2.0) - state["anchor_t"]
+        wa = state["anchor_w"].astype(np.float64)
+        tol = (self.readmit_k_sigma * np.sqrt(self._prediction_var_s2(h, wa, state["anchor_m"]))
+               + self.drift_per_s * np.maximum(h, wa) ** 2)
+        judged = have & np.isfinite(bs)
+        agree_now = judged & (np.abs(bs - (state["anchor"] + state["anchor_f"] * h)) < tol)
+        refused = ~trusted
+        agree = np.where(refused, np.where(judged, np.where(agree_now, state["agree"] + 1, 0), state["agree"]), 0)
+        readmit = refused & (agree >= np.maximum(self.readmit_s, 4 * state["anchor_m"]))
+        state["start"] = np.where(readmit, k + 1, state["start"])
+        trusted = (trusted & ~refuse) | readmit
+        state.update(trusted=trusted, streak=np.where(refuse | readmit, 0, streak), agree=np.where(readmit, 0, agree),
+                     k=k + 1)
+        return state, trusted.copy(), readmit, worst
