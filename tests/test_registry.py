@@ -19,10 +19,11 @@ from chronofuse.integrity.registry import DETECTORS
 from chronofuse.models.environment import ENVIRONMENT_REGISTRY, ENVIRONMENTS
 from chronofuse.models.oscillator_presets import OSCILLATORS, PRESETS
 from chronofuse.registry import FAMILIES, Config, Entry, Registry, group
+from chronofuse.sync.registry import ALGORITHM_NAMES, SYNC
 from chronofuse.validation import InputDataError
 
 REGISTRIES = {"servos": SERVOS, "detectors": DETECTORS, "statistics": STATISTIC_REGISTRY, "masks": MASK_REGISTRY,
-              "environments": ENVIRONMENT_REGISTRY, "oscillators": OSCILLATORS}
+              "environments": ENVIRONMENT_REGISTRY, "oscillators": OSCILLATORS, "sync": SYNC}
 
 # A unit at the end of a description, or in the field's name.
 _UNIT_AT_END = re.compile(r"\(([^()]+)\)\s*$")
@@ -103,6 +104,7 @@ def test_the_tables_members_are_behind_their_registries_and_build_what_the_table
     assert ENVIRONMENT_REGISTRY.builtin_names() == tuple(ENVIRONMENTS)
     assert SERVOS.builtin_names() == ("null", "pi", "kalman", "adaptive-kalman", "gated-kalman", "huber-kalman")
     assert DETECTORS.builtin_names() == ("chi-square", "single-epoch", "cusum", "reference-clock")
+    assert SYNC.builtin_names() == tuple(ALGORITHM_NAMES) and "doppler-kf" in ALGORITHM_NAMES
 
 
 def test_a_statistic_from_the_registry_computes_what_compute_does():

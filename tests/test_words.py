@@ -13,17 +13,13 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 BANNED = re.compile(r"\bSPEC(?: section)? [0-9]|\bSTYLE [0-9]|\bissue 10\.[0-9]|\b[Ss]eed 00[0-2]\b|\b[Ss]eed's\b"
                     r"|\bseed (?:documents?|experiments?|eqs?\.|table|figures?|claims?)\b")
-#: The two-way sync family and its swarm experiments are being renamed on their own branch (its algorithm
-#: names and words together); until it lands, their files keep the old words.
-SYNC_BRANCH = ("src/chronofuse/sync/", "src/chronofuse/experiments/swarm", "src/chronofuse/report/swarm",
-               "src/chronofuse/cli/swarm", "docs/sync/", "tests/sync/", "benchmarks/bench_sync.py")
 
 
 def _texts():
     for pattern in ("src/**/*.py", "tests/**/*.py", "benchmarks/*.py", "docs/**/*.md", "README.md", "scenarios/*.toml"):
         for path in REPO.glob(pattern):
             rel = path.relative_to(REPO).as_posix()
-            if "egg-info" in rel or rel.startswith("tests/data/") or rel.startswith(SYNC_BRANCH):
+            if "egg-info" in rel or rel.startswith("tests/data/"):
                 continue
             yield rel, path.read_text(encoding="utf-8")
 

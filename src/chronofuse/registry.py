@@ -48,8 +48,7 @@ from chronofuse.validation import ChronofuseError, InputDataError
 
 __all__ = ["Config", "Entry", "Registry", "PluginError", "FAMILIES", "group"]
 
-#: The families and the module that holds each one's registry (the sync algorithms' registry is built by
-#: the sync layer on this mechanism; until then :mod:`chronofuse.sync.registry` is its table of names).
+#: The families and the module that holds each one's registry.
 FAMILIES = {
     "statistics": "chronofuse.analysis.stability.statistic_registry",
     "detectors": "chronofuse.integrity.registry",

@@ -14,25 +14,33 @@ SMALL = ["--exchanges", "300", "--trials", "2", "--seed", "4"]
 
 
 def test_swarm_run_json_is_the_library_result_in_nanoseconds():
-    result = runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc,ours-doppler", "--velocity", "1500",
-                                 "--snr", "8", *SMALL, "--json"])
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc,doppler-kf", "--velocity", "1500",
+                                 "--snr", "8", "--common-velocity", "200", "--latitude", "40", *SMALL, "--json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
-    assert set(doc) >= {"rmse_ns", "pcrb_ns", "convergence_epochs", "overhead", "urt_mode", "scenario"}
-    lib = run_link(LinkScenario(velocity_m_s=1500.0, exchanges=300, link=LinkModel(snr_db=8.0)),
-                   ["rtt-rvc", "ours-doppler"], trials=2, seed=4)
-    for name in ("rtt-rvc", "ours-doppler"):
+    assert set(doc) >= {"rmse_ns", "rmse_ci_ns", "ratio_to_bound", "ratio_ci", "bound_ns", "convergence_epochs",
+                        "overhead", "urt_mode", "scenario", "calibration"}
+    lib = run_link(LinkScenario(velocity_m_s=1500.0, exchanges=300, link=LinkModel(snr_db=8.0), common_velocity_m_s=200.0,
+                                latitude_deg=40.0), ["rtt-rvc", "doppler-kf"], trials=2, seed=4)
+    for name in ("rtt-rvc", "doppler-kf"):
         assert doc["rmse_ns"][name] == pytest.approx(lib["rmse_s"][name] * 1e9, rel=1e-12)
-    assert doc["pcrb_ns"]["rms"] == pytest.approx(lib["pcrb_s"]["rms"] * 1e9, rel=1e-12)
+        assert doc["ratio_to_bound"][name] == pytest.approx(lib["ratio"][name], rel=1e-12)
+    assert doc["bound_ns"]["rms"] == pytest.approx(lib["bound_s"]["rms"] * 1e9, rel=1e-12)
     assert doc["overhead"]["messages_per_s"] == 200.0
 
 
 def test_paper_urt_mode_with_a_true_offset_is_off_by_the_offset():
-    args = ["swarm", "run", "--algorithm", "proposed-no-nn", "--true-offset", "1e-6", *SMALL, "--json"]
+    args = ["swarm", "run", "--algorithm", "rtt-rvc-kf", "--offset-mean", "1e-6", "--offset-sigma", "1e-7", *SMALL,
+            "--json"]
     paper = json.loads(runner.invoke(app, [*args, "--urt-mode", "paper"]).stdout)
     calibrated = json.loads(runner.invoke(app, [*args, "--urt-mode", "calibrated"]).stdout)
-    assert paper["rmse_ns"]["proposed-no-nn"] > 900.0
-    assert calibrated["rmse_ns"]["proposed-no-nn"] < 5.0
+    assert paper["rmse_ns"]["rtt-rvc-kf"] > 900.0
+    assert calibrated["rmse_ns"]["rtt-rvc-kf"] < 5.0
+
+
+def test_an_old_algorithm_name_is_one_line_with_its_new_name():
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ours-doppler", "--exchanges", "50", "--trials", "1"])
+    assert result.exit_code == 2 and "now called 'doppler-kf'" in result.stderr
 
 
 @pytest.mark.parametrize("args, option", [
@@ -42,6 +50,12 @@ def test_paper_urt_mode_with_a_true_offset_is_off_by_the_offset():
     (["--algorithm", "nope"], "--algorithm"),
     (["--urt-mode", "guess"], "--urt-mode"),
     (["--toa-model", "magic"], "--toa-model"),
+    (["--offset-sigma", "-1"], "--offset-sigma"),
+    (["--manoeuvre", "loop"], "--manoeuvre"),
+    (["--nlos", "2"], "--nlos"),
+    (["--calibration-duration", "-1"], "--calibration-duration"),
+    (["--algorithm", "rtt-rvc-kf-numba", "--urt-mode", "paper"], "--urt-mode"),
+    (["--algorithm", "doppler-kf", "--manoeuvre", "turn", "--velocity", "0"], "--velocity"),
 ])
 def test_bad_input_is_one_line_naming_the_option_with_exit_code_2(args, option):
     result = runner.invoke(app, ["swarm", "run", *args, "--exchanges", "50", "--trials", "1"])
@@ -50,20 +64,42 @@ def test_bad_input_is_one_line_naming_the_option_with_exit_code_2(args, option):
     assert len(lines) == 1 and lines[0].startswith(f"error: {option}"), result.stderr
 
 
+def test_a_cut_off_of_a_node_that_does_not_exist_is_one_line_naming_the_option_with_exit_code_2():
+    result = runner.invoke(app, ["swarm", "network", "--nodes", "3", "--duration", "30", "--cut-off", "7:0:10"])
+    assert result.exit_code == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: --cut-off == ") and "--nodes" in lines[0], result.stderr
+
+
 def test_an_outage_reports_robustness_and_the_filters_recover():
-    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ptp-mls,ours-doppler", "--outage", "100:200",
-                                 "--true-offset", "1e-6", *SMALL, "--json"])
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ptp-mls,doppler-kf", "--outage", "100:200",
+                                 "--offset-mean", "1e-6", *SMALL, "--json"])
     assert result.exit_code == 0, result.output
     rob = json.loads(result.stdout)["robustness"]
-    assert set(rob) == {"ptp-mls", "ours-doppler"}
-    assert rob["ours-doppler"]["recovery_epochs"] is not None and rob["ours-doppler"]["recovery_epochs"] < 50
+    assert set(rob) == {"ptp-mls", "doppler-kf"}
+    assert rob["doppler-kf"]["recovery_epochs"] is not None and rob["doppler-kf"]["recovery_epochs"] < 50
     bad = runner.invoke(app, ["swarm", "run", "--outage", "0:5", "--exchanges", "50", "--trials", "1"])
     assert bad.exit_code == 2 and bad.stderr.startswith("error: --outage == 0:5")
 
 
+def test_swarm_network_reports_each_node_s_state_uncertainty_and_time_error_statistics():
+    result = runner.invoke(app, ["swarm", "network", "--nodes", "5", "--duration", "60", "--leader-loss-at", "30",
+                                 "--cut-off", "2:2:60", "--seed", "3", "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["nodes"] == 5 and doc["leader_changes"][0] == {"exchange": 30, "leader": -1}
+    states = {r["node"]: r["state_end"] for r in doc["per_node"]}
+    assert states[2] == "holdover" and "leader" in states.values()
+    row = next(r for r in doc["per_node"] if r["state_end"] == "locked")
+    assert {"rms_ns", "p95_abs_ns", "p99_abs_ns", "max_abs_ns"} <= set(row["to_leader"])
+    assert row["mtie"]["tau_s"] and row["mask"]["name"] == "prtc-b"
+    bad = runner.invoke(app, ["swarm", "network", "--cut-off", "x", "--duration", "10"])
+    assert bad.exit_code == 2 and bad.stderr.startswith("error: --cut-off")
+
+
 def test_swarm_run_and_network_write_their_document_with_out(tmp_path):
     for args in (["swarm", "run", "--algorithm", "rtt-rvc", "--trials", "2", "--exchanges", "100"],
-                 ["swarm", "network", "--duration", "100", "--followers", "2"]):
+                 ["swarm", "network", "--duration", "60", "--nodes", "3"]):
         out = tmp_path / args[1]
         result = CliRunner().invoke(app, [*args, "--out", str(out), "--json", "--quiet"])
         assert result.exit_code == 0, result.output

@@ -48,3 +48,40 @@ def test_shapes_are_rejected_not_reshaped():
 def test_radial_geometry_refuses_a_negative_distance():
     with pytest.raises(ValueError, match="distance_m"):
         radial_geometry(-1.0, 100.0)
+
+
+def test_a_5_g_level_turn_turns_at_g_sqrt_24_keeping_its_speed_and_height():
+    from chronofuse.models.kinematics import STANDARD_GRAVITY_M_S2, turn
+
+    path = turn([0.0, 0.0, 3000.0], [250.0, 0.0, 0.0], load_factor_g=5.0, start_s=1.0, duration_s=10.0)
+    t = np.array([[0.5, 3.0, 6.0, 10.9, 12.0]])
+    a = path.acceleration_m_s2[0][np.searchsorted(path.segment_start_s, t[0], side="right") - 1]
+    assert np.linalg.norm(a[0]) == 0.0 and np.linalg.norm(a[-1]) == 0.0
+    np.testing.assert_allclose(np.linalg.norm(a[1:4], axis=1), STANDARD_GRAVITY_M_S2 * np.sqrt(24.0), rtol=1e-5)
+    v = path.velocity_at(t)[0]
+    np.testing.assert_allclose(np.linalg.norm(v, axis=1), 250.0, rtol=2e-5)
+    heading = np.degrees(np.arctan2(v[-1, 1], v[-1, 0]))
+    assert heading == pytest.approx(-np.degrees(10.0 * STANDARD_GRAVITY_M_S2 * np.sqrt(24.0) / 250.0), rel=1e-3)
+    assert np.all(path.position_at(t)[0, :, 2] == 3000.0)
+
+
+def test_a_pull_up_climbs_and_levels_off_again():
+    from chronofuse.models.kinematics import climb
+
+    path = climb([0.0, 0.0, 1000.0], [200.0, 0.0, 0.0], load_factor_g=3.0, start_s=1.0, pull_s=2.0, hold_s=4.0)
+    v = path.velocity_at(np.array([[0.5, 4.0, 10.0]]))[0]
+    assert v[0, 2] == 0.0 and v[1, 2] == pytest.approx(2 * 9.80665 * 2.0) and v[2, 2] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_path_on_the_rotating_earth_has_the_velocity_its_positions_imply():
+    from chronofuse.constants import EARTH_ROTATION_RAD_PER_S as OMEGA
+    from chronofuse.models.earth_frame import EarthRotating
+
+    path = EarthRotating(constant_velocity([1e3, 2e3, 3e3], [100.0, -50.0, 5.0]), 45.0, 10.0, 500.0)
+    t = np.array([[10.0]])
+    h = 1e-3
+    numeric = (path.position_at(t + h) - path.position_at(t - h)) / (2 * h)
+    np.testing.assert_allclose(path.velocity_at(t), numeric, rtol=0, atol=1e-6)
+    # at rest on the equator the inertial speed is omega R (465 m/s)
+    still = EarthRotating(constant_velocity([0.0, 0, 0], [0.0, 0, 0]), 0.0, 0.0)
+    assert np.linalg.norm(still.velocity_at(np.zeros((1, 1)))) == pytest.approx(OMEGA * 6378137.0, rel=1e-9)

@@ -10,26 +10,41 @@ from chronofuse.models.link import LinkModel
 from chronofuse.sync.base import NullSync, measurement_array
 from chronofuse.sync.mls import PtpMls, weighted_line_at_zero
 from chronofuse.sync.ptp import PtpOffset, PtpPiServo, pi_gains
-from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK, make_algorithm
+from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK, LinkKnowledge, make_algorithm
 from chronofuse.sync.regression import ChronyRegression, PtpLinreg, runs_test_passes
 from chronofuse.sync.rvc import RttRvc
-from chronofuse.sync.twoway import ptp_offset_s, rvc_offset_exact_s, rvc_offset_seed_s
+from chronofuse.sync.twoway import ptp_offset_s, rvc_offset_exact_s, rvc_offset_paper_s
 
 
 @pytest.mark.parametrize("name", [n for n in ALGORITHM_NAMES if n not in NEEDS_NETWORK])
 def test_every_algorithm_streams_exactly_what_its_batch_run_gives(name):
     ex = exchanges(velocity_m_s=800.0, link=LinkModel(), steps=150, trials=2, offset_s=3e-6)
-    alg = make_algorithm(name, LinkModel(), steps=150).fit()
+    alg = make_algorithm(name, LinkKnowledge(steps=150)).fit()
     assert compare_streaming_to_batch(alg, measurement_array(ex)) == []
 
 
 def test_run_before_fit_is_refused_and_results_are_read_only():
     with pytest.raises(RuntimeError, match="fit"):
-        RttRvc().run(np.zeros((1, 3, 4)))
-    res = NullSync().fit().run(np.zeros((1, 3, 4)))
+        RttRvc().run(np.zeros((1, 3, 6)))
+    res = NullSync().fit().run(np.zeros((1, 3, 6)))
     assert not res.offset_s.flags.writeable
     with pytest.raises(ValueError, match="last axis"):
-        NullSync().fit().run(np.zeros((1, 3, 3)))
+        NullSync().fit().run(np.zeros((1, 3, 4)))
+
+
+@pytest.mark.parametrize("old, new", [("proposed", "rtt-rvc-kf-bp"), ("proposed-no-nn", "rtt-rvc-kf"),
+                                      ("ours-doppler", "doppler-kf"), ("ptp", "ptp-pi"), ("lstm", "rtt-rvc-kf-lstm")])
+def test_an_old_algorithm_name_is_refused_with_its_new_name(old, new):
+    with pytest.raises(ValueError, match=f"now called '{new}'"):
+        make_algorithm(old)
+    with pytest.raises(ValueError, match="removed"):
+        make_algorithm("ours-accel")
+
+
+def test_a_configuration_override_is_validated_by_the_algorithm_s_config():
+    assert make_algorithm("ptp-mls", window=16).fit().window == 16
+    with pytest.raises(ValueError, match="window"):
+        make_algorithm("ptp-mls", window=8)
 
 
 def test_pi_gains_are_linuxptp_hardware_defaults():
@@ -84,15 +99,17 @@ def test_moving_median_delay_lags_by_four_and_a_half_exchanges_on_a_moving_link(
     assert lag == pytest.approx(300e-9, rel=0.001)
 
 
-def test_exact_rvc_recovers_the_offset_of_a_noiseless_moving_link_and_seed_eq9_misses_s_v_over_2c2():
+def test_exact_rvc_recovers_the_offset_of_a_noiseless_moving_link_and_the_paper_s_eq9_misses_s_v_over_2c2():
     v = 2000.0
     ex = exchanges(velocity_m_s=v, trials=1, offset_s=2e-6)
     exact = rvc_offset_exact_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.radial_velocity_m_s)
     np.testing.assert_allclose(exact, ex.offset_s, atol=1e-17)
-    seed = rvc_offset_seed_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.radial_velocity_m_s)
-    np.testing.assert_allclose(seed - ex.offset_s, ex.range_m * v / (2 * C * C), rtol=2e-3)
+    eq9 = rvc_offset_paper_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.radial_velocity_m_s)
+    np.testing.assert_allclose(eq9 - ex.offset_s, ex.range_m * v / (2 * C * C), rtol=2e-3)
     with_doppler = rvc_offset_exact_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s)
     np.testing.assert_array_equal(RttRvc("exact").fit().run(measurement_array(ex)).offset_s, with_doppler)
+    paper = rvc_offset_paper_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s)
+    np.testing.assert_array_equal(RttRvc("paper").fit().run(measurement_array(ex)).offset_s, paper)
 
 
 def test_mls_is_a_weighted_least_squares_line_evaluated_now():

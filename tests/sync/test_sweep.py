@@ -1,4 +1,5 @@
-"""Sweeps: a real Dask scheduler with two workers on loopback gives the serial run's numbers bit for bit."""
+"""Sweeps: a real Dask scheduler with two workers on loopback gives the serial run's numbers bit for bit;
+the summary's intervals and ratios to the bound."""
 
 import json
 
@@ -11,7 +12,7 @@ from chronofuse.experiments.swarm import LinkScenario
 from chronofuse.experiments.sweep import run_sweep, run_task, summarize, sweep_tasks, value_key
 
 BASE = LinkScenario(exchanges=200)
-ALGS = ("rtt-rvc", "ours-doppler")
+ALGS = ("rtt-rvc", "doppler-kf")
 
 
 def test_a_point_has_the_same_numbers_whichever_other_values_are_swept():
@@ -20,6 +21,17 @@ def test_a_point_has_the_same_numbers_whichever_other_values_are_swept():
     assert [t["trials"] for t in a] == [4, 2, 4, 2]
     assert a[2]["seed"].spawn_key == b[0]["seed"].spawn_key == (value_key(800.0), 0)
     pd.testing.assert_frame_equal(run_task(a[3]), run_task(b[1]), check_exact=True)
+
+
+def test_the_summary_carries_intervals_that_contain_the_rmse_and_a_ratio_to_the_bound():
+    table = run_sweep(BASE, "velocity", [400.0], ALGS, trials=12, seed=5, chunk_trials=6, scheduler="serial")
+    summary = summarize(table)
+    for row in summary.to_dict(orient="records"):
+        assert row["rmse_lo_ns"] <= row["rmse_ns"] <= row["rmse_hi_ns"]
+        assert row["ratio_lo"] <= row["ratio"] <= row["ratio_hi"]
+        assert row["ratio"] == pytest.approx(row["rmse_ns"] / row["bound_rms_ns"], rel=1e-12)
+    # the trials have their own calibrations: their bounds differ
+    assert table["bound_rms_ns"].nunique() > 1
 
 
 @pytest.mark.slow
@@ -50,16 +62,24 @@ def test_an_unreachable_scheduler_is_a_one_line_error_with_exit_code_2(tmp_path)
     assert len(lines) == 1 and lines[0].startswith("error: --scheduler"), result.stderr
 
 
+def test_the_library_s_scheduler_error_names_its_parameter_not_a_flag():
+    from chronofuse.experiments.sweep import _client
+    from chronofuse.validation import ChronofuseError
+
+    with pytest.raises(ChronofuseError, match="^scheduler == 'nope'"):
+        _client("nope", 1)
+
+
 def test_sweep_writes_a_tidy_table_a_summary_and_a_figure(tmp_path):
     runner = CliRunner()
     result = runner.invoke(app, ["swarm", "sweep", "--param", "urt", "--values", "0,4e-8", "--trials", "2",
-                                 "--exchanges", "150", "--algorithm", "rtt-rvc", "--urt-mode", "paper",
+                                 "--exchanges", "150", "--algorithm", "rtt-rvc", "--urt-mode", "paper", "--urt-sigma", "0",
                                  "--scheduler", "serial", "--out", str(tmp_path), "--json"])
     assert result.exit_code == 0, result.output
     doc = json.loads(result.stdout)
     table = pd.read_parquet(tmp_path / "sweep.parquet")
-    assert list(table.columns) == ["param", "value", "algorithm", "trial", "rmse_ns", "pcrb_rms_ns"]
+    assert list(table.columns) == ["param", "value", "algorithm", "trial", "rmse_ns", "bound_rms_ns"]
     assert (tmp_path / "sweep.png").stat().st_size > 0
     rmse = {row["value"]: row["rmse_ns"] for row in doc["summary"]}
-    # RTT-RVC has no URT compensation: a 40 ns URT biases it by about 20 ns (seed eq. 17).
+    # RTT-RVC has no URT compensation: a 40 ns URT biases it by about 20 ns (the paper's eq. 17).
     assert rmse[4e-8] - rmse[0.0] == pytest.approx(20.0, abs=2.0)

@@ -29,7 +29,7 @@ def register(app: typer.Typer) -> None:
 
 
 def detect(
-    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file or RINEX clock product (.clk); - : standard input (any of these but RINEX observations, read as it arrives)."),
+    file: Path = typer.Argument(..., help="Clock-bias CSV (time + bias column), UBX (NAV-CLOCK), RINEX observation file, RINEX clock product (.clk), or a field log (ptp4l/phc2sys/ts2phc, chrony, RTKLIB .stat, gpsd JSON, Trimble TSIP); - : standard input (any of these but RINEX observations and field logs, read as it arrives)."),
     rate: float | None = typer.Option(None, "--rate", help="Sampling rate (Hz) of a file without a time column."),
     column: str | None = typer.Option(None, "--column", help="CSV clock-bias column (name)."),
     h0: float | None = typer.Option(None, "--h0", help="White FM level h0 (s)."),
@@ -39,10 +39,13 @@ def detect(
     window: int | None = typer.Option(None, "--window", help="Window length n (epochs; default 20) of a windowed detector."),
     pfa: float = typer.Option(1e-3, "--pfa", help="False-alarm probability per epoch."),
     position: str | None = typer.Option(None, "--position", help="Static antenna ECEF X,Y,Z (m): identification mode."),
-    nav: Path | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode)."),
-    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table)."),
+    nav: list[Path] | None = typer.Option(None, "--nav", help="RINEX navigation file (identification mode); repeat for several (RINEX 3 observations: each day the file spans)."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to test (default: all, a table); a field log (ptp4l, chrony, ...): the clock to test (default: the first)."),
     max_tacc_ns: float = typer.Option(_DEFAULT_MAX_TACC_NS, "--max-tacc-ns", help="UBX: epochs whose receiver time accuracy (NAV-CLOCK tAcc) is over this many ns are not tested (unavailable); 0: not used."),
     noise: Path | None = typer.Option(None, "--noise", help="Noise model JSON (a previous --json output): h0, hm2, sigma_rho_m."),
+    test: str = typer.Option("chi-square", "--test", help="RINEX 3 identification: the window test of each channel and of the receiver clock, chi-square or glr (a GLR for step, ramp and drag onsets)."),
+    codes: str | None = typer.Option(None, "--codes", help="RINEX 3 identification: codes to test, comma-separated (e.g. 'G C1C,E C1X'); default every code most satellites of a system carry."),
+    elevation_mask_deg: float = typer.Option(10.0, "--elevation-mask-deg", help="RINEX 3 identification: channels below this elevation (deg) are not used."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after this long without any (s)."),
@@ -92,8 +95,10 @@ def detect(
                               max_time_acc_s=max_tacc_s))
     with user_errors():
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
-                          window=window, pfa=pfa, position_m=position, nav=nav, station=station,
-                          max_time_acc_s=max_tacc_s, detector=detector)
+                          window=window, pfa=pfa, position_m=position, nav=nav or None, station=station,
+                          max_time_acc_s=max_tacc_s, detector=detector, test=test,
+                          codes=[c.strip() for c in codes.split(",") if c.strip()] if codes else None,
+                          elevation_mask_deg=elevation_mask_deg)
     if json_out:
         print_json(doc)
     else:

@@ -49,7 +49,8 @@ def gnssdo(
                                                help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
     oscillator: str = typer.Option("ocxo", "--oscillator", help="Oscillator preset: tcxo, ocxo, rb or csac."),
     reference: Path | None = typer.Option(None, "--reference",
-                                          help="Real 1PPS phase record against a reference clock (1 Hz, no gaps)."),
+                                          help="Real 1PPS phase record against a reference clock (1 Hz, no gaps): a "
+                                          "phase file, or a field log's first clock (a ts2phc or phc2sys offset)."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),

@@ -25,8 +25,13 @@ def _replay_source(path: Path, speed: float, index: int, start_at):
     """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
     from chronofuse.io.replay import ReplaySource
 
+    from chronofuse.io.formats import CAPTURE_FORMATS, capture_format
+
     if not path.is_file():
         fail(f"{path}: no such file")
+    if capture_format(path) is None:  # a clock-bias text file would replay as no epochs at all
+        fail(f"{path}: not a receiver recording ({', '.join(CAPTURE_FORMATS)}); detect FILE or detect - read "
+             "clock-bias text files")
     return ReplaySource(path, name=f"{path.name}#{index}", speed=speed, start_at=start_at)
 
 
@@ -80,6 +85,10 @@ def monitor(
         fail(f"--replay-speed == {replay_speed}, must be > 0")
     if not stale_s > 0:
         fail(f"--stale-s {stale_s}: must be > 0 s")
+    if window < 1:
+        fail(f"--window {window}: must be >= 1")
+    if not 0.0 < pfa < 1.0:
+        fail(f"--pfa {pfa:g}: must be in (0, 1)")
     connect = _timeout(connect_timeout_s, "--connect-timeout-s")
     reconnect = _timeout(reconnect_timeout_s, "--reconnect-timeout-s")
     with user_errors():
@@ -108,6 +117,7 @@ def monitor(
         address = parse_address(http, "--http") if http is not None else None
         settings = MonitorSettings(gdop_max=gdop_max, window=window, pfa=pfa, train_s=train,
                                    jump_s=jump_ns * 1e-9, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho)
+        settings.check()  # every setting refused here, naming its option, before a source is opened
         log = EpochLog(db) if db is not None else None
     try:
         lines_file = open(json_lines_file, "a", encoding="utf-8") if json_lines_file is not None else None
@@ -125,7 +135,7 @@ def monitor(
     outputs.attach(mon)
     gave_up = None
     try:
-        with outputs.running():
+        with outputs.running(), user_errors():
             mon.run(duration, on_tick=outputs.tick)
     except SourceUnavailable as err:
         gave_up = str(err)

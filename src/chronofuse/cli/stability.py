@@ -69,7 +69,8 @@ def register(app: typer.Typer) -> None:
 
 def stability(
     file: Path = typer.Argument(..., help="Phase or frequency record: 1 or 2 columns (time, value), CSV or whitespace, "
-                                "a header block, units in the header, .gz ok."),
+                                "a header block, units in the header, .gz ok; or a field log: ptp4l/phc2sys/ts2phc, chrony, "
+                                "RTKLIB .stat, gpsd JSON, Trimble TSIP (--station picks its clock, --column its column)."),
     kind: str | None = typer.Option(None, "--kind", help="phase (seconds) or freq (fractional frequency); default: from "
                                     "the value column's unit or name, phase without either."),
     rate: float | None = typer.Option(None, "--rate", help="Sample rate (Hz; required without a time column or a "
@@ -79,7 +80,7 @@ def stability(
     mask: str | None = typer.Option(None, "--mask", help=f"ITU-T masks to check, comma list of: {', '.join(MASK_NAMES)}."),
     plot: Path | None = typer.Option(None, "--plot", help="Write a PNG plot of every statistic, the masks and the verdict."),
     column: str | None = typer.Option(None, "--column", help="Value column (name or 1-based number)."),
-    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to analyse (default: the first)."),
+    station: str | None = typer.Option(None, "--station", help="RINEX clock product: the station to analyse; a field log (ptp4l, phc2sys, chrony, ...): the clock (default: the first)."),
     nominal_hz: float | None = typer.Option(None, "--nominal-hz", help="For frequency in Hz: the nominal frequency."),
     ci: float = typer.Option(0.683, "--ci", help="Confidence factor of the intervals."),
     no_bias_correction: bool = typer.Option(False, "--no-bias-correction", help="Report total deviations without bias correction."),
@@ -93,6 +94,8 @@ def stability(
     freq_mean: str = typer.Option("keep", "--freq-mean", help="Frequency input: keep the mean frequency in the "
                                   "integrated phase (TIE rms and MTIE see the offset) or remove it first (allantools' "
                                   "convention)."),
+    export_stable32: Path | None = typer.Option(None, "--export-stable32", help="Also write the record read (a field "
+                                                "log's clock too) as a Stable32 data file: one value per line, gaps as 0."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
@@ -120,6 +123,10 @@ def stability(
                 record = read_record(file, kind=kind, rate_hz=rate, column=column, nominal_hz=nominal_hz,
                                      station=station, zero_is_gap=zero_is_gap)
                 importing.join()
+            if export_stable32 is not None:
+                from chronofuse.io.stable32_export import write_stable32
+
+                write_stable32(export_stable32, record.values, record.rate_hz, record.kind, str(file))
             from chronofuse.analysis import stability as st
 
             is_freq = record.kind == "freq"

@@ -88,7 +88,9 @@ class GraphFusion:
         """Train on features (N, R, 5), usable (N, R) and the truth ``errors_s`` (N, R) (supervised).
 
         At most ``max_rows`` seconds (a seeded random subset) enter the full-batch training."""
-        import torch
+        from chronofuse.extras import require
+
+        torch = require("torch", "the graph-model fusion")
 
         torch.manual_seed(int(self.seed))
         device = self.device or ("cuda" if torch.cuda.is_available() else "cpu")

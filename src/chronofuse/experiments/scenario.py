@@ -28,7 +28,7 @@ from chronofuse.analysis.stability.taus import SPACINGS
 from chronofuse.models.oscillator_presets import PRESETS
 from chronofuse.experiments.gnssdo import CONTROLLERS, DEFAULT_CONTROLLER
 from chronofuse.models.environment import ENVIRONMENTS
-from chronofuse.sync.registry import ALGORITHM_NAMES
+from chronofuse.sync.registry import ALGORITHM_NAMES, NEEDS_NETWORK
 from chronofuse.validation import InputDataError
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parent / "default.toml"
@@ -41,8 +41,8 @@ StatisticName = Literal[tuple(STATISTICS)]
 MaskName = Literal[tuple(MASKS)]
 SpacingName = Literal[tuple(s for s in SPACINGS if s != "all")]
 ControllerName = Literal[tuple(CONTROLLERS)]
-#: Followers run an algorithm that needs no trained network (the swarm paper's "proposed" chain and the LSTM do).
-SyncName = Literal[tuple(a for a in ALGORITHM_NAMES if a not in ("proposed", "lstm"))]
+#: Followers run an algorithm that needs no trained network (the paper's chain with its BP or LSTM does).
+SyncName = Literal[tuple(a for a in ALGORITHM_NAMES if a not in NEEDS_NETWORK)]
 
 
 class ScenarioError(InputDataError):
@@ -87,7 +87,7 @@ class SwarmSection(_Strict):
     """Followers that keep the disciplined leader's time over two-way radio links."""
 
     followers: int = Field(3, ge=0, le=16)
-    algorithm: SyncName = "ours-doppler"
+    algorithm: SyncName = "doppler-kf"
     topology: Literal["tree", "consensus"] = "tree"
 
 

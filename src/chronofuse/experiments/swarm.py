@@ -1,12 +1,15 @@
-"""Two-node link experiments of seed 001 (orchestration only): scenario -> truth -> algorithms -> metrics.
+"""Two-node link experiments (orchestration only): scenario -> prior draw -> calibration -> truth -> algorithms
+-> metrics with intervals, beside the Bayesian bound of the same model.
 
-:func:`run_link` is the one library call behind ``chronofuse swarm run`` (and what the main job can
-call): it simulates a scenario, runs each named algorithm, and returns per-algorithm RMSE,
-convergence epochs and the PCRB under the same link model.
+:func:`run_link` is the one library call behind ``chronofuse swarm run``: each trial is one link with its
+own draw from the scenario's prior (offset, skew, reply delay, initial range), its own URT calibration
+(a separate run while both nodes know true time), then ``exchanges`` exchanges; every named algorithm runs
+on the same exchanges, and each one's RMSE, its ratio to the bound (with percentile-bootstrap intervals
+over trials, so the calibration-to-calibration spread is in them) and its convergence epochs come back.
 
-Random streams (``chronofuse.seeding``): clock A ``child_seed(root, 0)``, clock B ``child_seed(root, 1)``,
-link noise ``child_seed(root, 2)``; inside each, trial ``i`` has its own child, so a trial's numbers do
-not depend on how many trials run or where.
+Random streams (``chronofuse.seeding``), children of the root: 0 clock A, 1 clock B, 2 link noise, 3 the
+prior draw, 4 the calibration; inside each, trial ``i`` has its own child, so a trial's numbers do not
+depend on how many trials run or where.
 """
 
 from __future__ import annotations
@@ -15,80 +18,180 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
-from chronofuse.models.kinematics import radial_geometry
+from chronofuse.models.clock_markov import ClockMarkovModel
+from chronofuse.models.earth_frame import EarthRotating
+from chronofuse.models.kinematics import climb, constant_velocity, manoeuvre, turn
 from chronofuse.models.link import Exchanges, LinkModel, node_clock_error_s, simulate_exchanges
 from chronofuse.models.oscillator_presets import preset
-from chronofuse.seeding import child_seed, root_seed
+from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.sync.base import measurement_array
-from chronofuse.sync.metrics import convergence_epochs, rmse_s, robustness
-from chronofuse.sync.pcrb import link_pcrb
-from chronofuse.sync.registry import ALGORITHM_NAMES, make_algorithm
-from chronofuse.sync.rvc import rvc_offset_exact_s
-from chronofuse.sync.urt import calibrate_urt
+from chronofuse.sync.calibration import CalibrationConfig, UrtCalibration, calibrate_urt
+from chronofuse.sync.metrics import convergence_epochs, per_trial_mse, ratio_interval, rmse_interval, robustness
+from chronofuse.sync.pcrb import exchange_bound
+from chronofuse.sync.prior import LinkPrior, PriorDraw
+from chronofuse.sync.registry import ALGORITHM_NAMES, LinkKnowledge, make_algorithm
 from chronofuse.validation import InputError, check_choice, check_scalar
 
-__all__ = ["LinkScenario", "simulate_scenario", "calibrated_urt_s", "run_link", "residual_dataset", "split_by_group",
-           "ablation", "train_networks"]
+__all__ = ["LinkScenario", "link_paths", "simulate_scenario", "calibrate_scenario", "knowledge_of", "run_link",
+           "hold_last", "MANOEUVRES"]
+
+MANOEUVRES = ("none", "turn", "climb")
+CLOCK_TRUTHS = ("power-law", "markov")
 
 
 @dataclass(frozen=True)
 class LinkScenario:
-    """One two-node link run (defaults: seed 001 section 4, SNR 10 dB assumed; the seed does not say).
+    """One two-node link (defaults: the paper's section 4 conditions, SNR 10 dB assumed; it does not say).
 
-    Attributes: ``distance_m`` (initial range, >= 0), ``velocity_m_s`` (radial, opening > 0),
-    ``acceleration_m_s2`` (radial), ``exchanges``, ``true_offset_s`` (B minus A at the start),
-    ``true_skew`` (fractional frequency of B minus A), ``oscillator`` (preset of both clocks), and the
-    :class:`~chronofuse.models.link.LinkModel` ``link``.
+    Geometry: B starts ``distance_m`` from A (the prior may spread it) along the line of sight and moves
+    along it at ``velocity_m_s`` (opening > 0) with ``acceleration_m_s2``; both nodes also fly at
+    ``common_velocity_m_s`` along the line (A's own motion, which the paper's "A at rest" cannot see), and
+    B at ``cross_velocity_m_s`` across it. ``latitude_deg`` None puts the nodes in the inertial frame
+    (no Earth rotation, the paper's setting); a latitude puts them on the rotating Earth with the line of
+    sight on ``bearing_deg`` (degrees from north), so the Sagnac effect is in the truth. ``manoeuvre``
+    ("none", "turn", "climb") makes B turn or pull up at ``load_factor_g`` from ``manoeuvre_start_s`` for
+    ``manoeuvre_s``. ``clock_truth``: "power-law" (the oscillator preset's noise, flicker by Kasdin-Walter)
+    or "markov" (the finite model the filter and bound use, so the bound is exact for the truth).
+    ``prior`` and ``calibration`` are stated (:mod:`chronofuse.sync.prior`, :mod:`chronofuse.sync.calibration`).
     """
 
     distance_m: float = 80e3
     velocity_m_s: float = 800.0
     acceleration_m_s2: float = 0.0
     exchanges: int = 2000
-    true_offset_s: float = 0.0
-    true_skew: float = 0.0
     oscillator: str = "ocxo"
     link: LinkModel = LinkModel()
+    prior: LinkPrior = LinkPrior()
+    calibration: CalibrationConfig = CalibrationConfig()
+    common_velocity_m_s: float = 0.0
+    cross_velocity_m_s: float = 0.0
+    latitude_deg: float | None = None
+    bearing_deg: float = 90.0
+    manoeuvre: str = "none"
+    load_factor_g: float = 5.0
+    manoeuvre_start_s: float = 5.0
+    manoeuvre_s: float = 5.0
+    clock_truth: str = "power-law"
 
     def __post_init__(self):
         check_scalar(self.distance_m, "distance_m", min_val=0.0)
-        check_scalar(self.velocity_m_s, "velocity_m_s", min_val=-1e5, max_val=1e5)
-        check_scalar(self.acceleration_m_s2, "acceleration_m_s2")
+        for name in ("velocity_m_s", "common_velocity_m_s", "cross_velocity_m_s"):
+            check_scalar(getattr(self, name), name, min_val=-1e4, max_val=1e4)
+        check_scalar(self.acceleration_m_s2, "acceleration_m_s2", min_val=-1e3, max_val=1e3)
         check_scalar(self.exchanges, "exchanges", min_val=2, integer=True)
-        check_scalar(self.true_offset_s, "true_offset_s")
-        check_scalar(self.true_skew, "true_skew", min_val=-1e-3, max_val=1e-3)
+        if self.latitude_deg is not None:
+            check_scalar(self.latitude_deg, "latitude_deg", min_val=-89.0, max_val=89.0)
+        check_scalar(self.bearing_deg, "bearing_deg", min_val=-360.0, max_val=360.0)
+        check_choice(self.manoeuvre, "manoeuvre", MANOEUVRES)
+        check_scalar(self.load_factor_g, "load_factor_g", min_val=1.0, max_val=12.0)
+        check_choice(self.clock_truth, "clock_truth", CLOCK_TRUTHS)
         preset(self.oscillator)
         if not isinstance(self.link, LinkModel):
             raise TypeError(f"link == {self.link!r}, must be a LinkModel")
 
+    @property
+    def duration_s(self) -> float:
+        return self.exchanges * self.link.interval_s
 
-def simulate_scenario(scenario: LinkScenario, trials: int, seed) -> Exchanges:
-    """Truth and measurements of ``trials`` runs of ``scenario``."""
+
+def _unit(bearing_deg: float) -> np.ndarray:
+    b = np.radians(bearing_deg)
+    return np.array([np.sin(b), np.cos(b), 0.0])
+
+
+def link_paths(sc: LinkScenario, ranges_m: np.ndarray, *, static: bool = False):
+    """A's and B's paths (trial axis of ``ranges_m``) for scenario ``sc``; ``static``: both at rest in the
+    scenario's frame (the calibration's formation)."""
+    ranges = np.atleast_1d(np.asarray(ranges_m, dtype=np.float64))
+    u = _unit(sc.bearing_deg)
+    across = np.array([u[1], -u[0], 0.0])
+    altitude = np.array([0.0, 0.0, 3000.0])
+    v_a = np.zeros(3) if static else sc.common_velocity_m_s * u
+    v_b = v_a if static else v_a + sc.velocity_m_s * u + sc.cross_velocity_m_s * across
+    acc_b = np.zeros(3) if static else sc.acceleration_m_s2 * u
+    r_b = altitude + ranges[:, None] * u
+    a = constant_velocity(altitude, v_a)
+    if static or sc.manoeuvre == "none":
+        b = manoeuvre(r_b, np.broadcast_to(v_b, r_b.shape), np.zeros(1), acc_b[None, :])
+    else:
+        if sc.manoeuvre == "turn":
+            profile = turn(np.zeros(3), v_b, load_factor_g=sc.load_factor_g, start_s=sc.manoeuvre_start_s,
+                           duration_s=sc.manoeuvre_s)
+        else:
+            profile = climb(np.zeros(3), v_b, load_factor_g=sc.load_factor_g, start_s=sc.manoeuvre_start_s,
+                            pull_s=sc.manoeuvre_s / 2.0, hold_s=sc.manoeuvre_s / 2.0)
+        acc = profile.acceleration_m_s2[0] + acc_b
+        b = manoeuvre(r_b, np.broadcast_to(v_b, r_b.shape), profile.segment_start_s, acc)
+    if sc.latitude_deg is not None:
+        return EarthRotating(a, sc.latitude_deg, 0.0, 0.0), EarthRotating(b, sc.latitude_deg, 0.0, 0.0)
+    return a, b
+
+
+def _clocks(sc: LinkScenario, steps: int, interval_s: float, base, draw: PriorDraw, trials: int, keys=(0, 1)):
+    """Clock errors of A and B (trials, steps + 2): the oscillators' noise, B offset and skewed per draw."""
+    osc = preset(sc.oscillator)
+    t = np.arange(steps + 2) * interval_s
+    if sc.clock_truth == "markov":
+        single = ClockMarkovModel.for_link(osc, _silent(osc), interval_s, steps * interval_s)
+        xa = np.vstack([single.simulate_phase_s(steps + 2, interval_s, child_rng(base, keys[0], i)) for i in range(trials)])
+        xb = np.vstack([single.simulate_phase_s(steps + 2, interval_s, child_rng(base, keys[1], i)) for i in range(trials)])
+    else:
+        xa = node_clock_error_s(osc, steps, interval_s, child_seed(base, keys[0]), trials)
+        xb = node_clock_error_s(osc, steps, interval_s, child_seed(base, keys[1]), trials)
+    return xa, xb + draw.offset_s[:, None] + draw.skew[:, None] * t
+
+
+def _silent(osc):
+    """An oscillator with no noise (so that ``for_link(osc, silent)`` is one clock's model)."""
+    from dataclasses import replace as _replace
+
+    from chronofuse.models.oscillator import PowerLaw
+
+    return _replace(osc, h=PowerLaw())
+
+
+def simulate_scenario(sc: LinkScenario, trials: int, seed, *, urt_change_s=None) -> tuple[Exchanges, PriorDraw]:
+    """Truth and measurements of ``trials`` links of ``sc`` (each its own prior draw), and the draws.
+    ``urt_change_s`` (steps,) or (trials, steps) is added to each link's URT (a change after calibration)."""
     check_scalar(trials, "trials", min_val=1, integer=True)
     base = root_seed(seed)
-    osc = preset(scenario.oscillator)
-    steps, dt = int(scenario.exchanges), scenario.link.interval_s
-    xa = node_clock_error_s(osc, steps, dt, child_seed(base, 0), int(trials))
-    xb = node_clock_error_s(osc, steps, dt, child_seed(base, 1), int(trials), offset_s=scenario.true_offset_s,
-                            frequency_offset=scenario.true_skew)
-    a, b = radial_geometry(scenario.distance_m, scenario.velocity_m_s, scenario.acceleration_m_s2)
-    return simulate_exchanges(a, b, xa, xb, scenario.link, steps, child_seed(base, 2))
+    draw = sc.prior.draw(sc.distance_m, int(trials), child_seed(base, 3))
+    steps, dt = int(sc.exchanges), sc.link.interval_s
+    xa, xb = _clocks(sc, steps, dt, base, draw, int(trials))
+    a, b = link_paths(sc, draw.range_m)
+    change = np.broadcast_to(draw.urt_deviation_s[:, None], (int(trials), steps))
+    if urt_change_s is not None:
+        change = change + np.asarray(urt_change_s, dtype=np.float64)
+    ex = simulate_exchanges(a, b, xa, xb, sc.link, steps, child_seed(base, 2), urt_change_s=change)
+    return ex, draw
 
 
-def calibrated_urt_s(scenario: LinkScenario, seed, trials: int = 4, exchanges: int = 6000,
-                     gnss_sigma_s: float = 5e-9) -> float:
-    """The calibrated mode's fixed URT, s: learnt on a separate run of ``exchanges`` while both nodes
-    know true time through GNSS (each with white timing error ``gnss_sigma_s``), then kept.
-
-    Uses the truth on purpose (the supervised calibration step of SPEC 5).
-    """
+def calibrate_scenario(sc: LinkScenario, draw: PriorDraw, seed) -> UrtCalibration:
+    """Each link's URT calibration (:mod:`chronofuse.sync.calibration`): a separate run with both nodes at
+    rest at the link's initial range, one exchange per GNSS time comparison, each node's GNSS time off by
+    white noise of ``reference_sigma_s``. Uses the truth on purpose (the reference stands for GNSS)."""
     base = root_seed(seed)
-    calib = replace(scenario, exchanges=exchanges)
-    ex = simulate_scenario(calib, trials, child_seed(base, 0))
-    rng = np.random.default_rng(child_seed(base, 1))
-    gnss = ex.offset_s + gnss_sigma_s * np.sqrt(2.0) * rng.standard_normal(ex.offset_s.shape)
-    eps = rvc_offset_exact_s(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s)
-    return float(np.mean(calibrate_urt(eps, gnss, ex.velocity_m_s)))
+    cal = sc.calibration
+    trials = draw.offset_s.size
+    link = replace(sc.link, interval_s=cal.reference_interval_s, loss_fraction=0.0, nlos_probability=0.0)
+    steps = cal.comparisons
+    xa, xb = _clocks(sc, steps, link.interval_s, base, draw, trials, keys=(0, 1))
+    a, b = link_paths(sc, draw.range_m, static=True)
+    ex = simulate_exchanges(a, b, xa, xb, link, steps, child_seed(base, 2),
+                            urt_change_s=np.broadcast_to(draw.urt_deviation_s[:, None], (trials, steps)))
+    ref = ex.offset_s + cal.reference_sigma_s * np.sqrt(2.0) * np.vstack(
+        [child_rng(base, 3, i).standard_normal(steps) for i in range(trials)])
+    return calibrate_urt(ex.t_i_s, ex.t_b_s, ex.t_r_s, ex.velocity_m_s, ex.a_los_velocity_m_s,
+                         link.toa_sigma_at(ex.snr_db), ref, t_s=ex.t_s, urt_jitter_s=link.urt_jitter_s,
+                         reference_sigma_s=cal.reference_sigma_s, velocity_sigma_m_s=link.velocity_sigma_at(ex.snr_db))
+
+
+def knowledge_of(sc: LinkScenario, calibration: UrtCalibration | None, urt_mode: str = "calibrated") -> LinkKnowledge:
+    """What the nodes of ``sc`` know after ``calibration`` (None: the nominal URT, no uncertainty)."""
+    urt = sc.link.urt_fixed_s if calibration is None else calibration.urt_s
+    sigma = 0.0 if calibration is None else calibration.sigma_s
+    return LinkKnowledge(link=sc.link, oscillator=preset(sc.oscillator), prior=sc.prior, steps=sc.exchanges,
+                         urt_s=urt, calibration_sigma_s=sigma, urt_mode=urt_mode)
 
 
 def hold_last(est: np.ndarray) -> np.ndarray:
@@ -98,178 +201,75 @@ def hold_last(est: np.ndarray) -> np.ndarray:
     return np.take_along_axis(est, idx, axis=1)
 
 
-def run_link(scenario: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, seed=0,
-             urt_mode: str = "calibrated", threshold_s: float = 1e-9, networks: dict | None = None,
-             outage: tuple[int, int] | None = None) -> dict:
-    """Run ``algorithms`` on ``trials`` simulated runs of ``scenario``.
+def bound_of(sc: LinkScenario, ex: Exchanges, calibration: UrtCalibration | None):
+    """The Bayesian bound of these exchanges under ``sc``'s prior and ``calibration``'s uncertainty."""
+    know = knowledge_of(sc, calibration)
+    return exchange_bound(sc.link, know.clock_model(), sc.prior, t_i_s=np.where(ex.lost, np.nan, ex.tau_up_s + ex.offset_s),
+                          t_b_s=np.where(ex.lost, np.nan, ex.t_b_s), offset_s=ex.offset_s,
+                          velocity_m_s=ex.radial_velocity_m_s, snr_db=np.where(ex.lost, np.nan, ex.snr_db),
+                          calibration_sigma_s=know.calibration_sigma_s)
 
-    Returns a dict: ``rmse_s`` and ``convergence_epochs`` per algorithm (K*: first exchange whose
-    running RMSE over trials is <= ``threshold_s``, seed eq. 48; None if never), ``pcrb_s`` (the PCRB of the
-    offset at the last exchange and its RMS over the run), ``urt_fixed_estimate_s`` (calibrated mode),
-    the scenario and the settings. ``networks`` maps "bp" / "lstm" to trained residual networks (the
-    algorithms "proposed" and "lstm" need them). ``outage = (k0, k1)`` also runs every algorithm with
-    exchanges ``k0 .. k1 - 1`` lost (the stress of seed eqs. 49-50; an algorithm's missing outputs are
-    held) and adds ``robustness``: the RMSE increase and the recovery epochs after ``k1``.
+
+def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, seed=0, urt_mode: str = "calibrated",
+             threshold_s: float = 1e-9, networks: dict | None = None, outage: tuple[int, int] | None = None,
+             overrides: dict | None = None, variants: dict | None = None) -> dict:
+    """Run ``algorithms`` on ``trials`` links of ``sc`` (module docstring).
+
+    Returns a dict: per algorithm ``rmse_s`` and its interval ``rmse_ci_s``, ``ratio`` to the bound and
+    ``ratio_ci``, ``convergence_epochs`` (K*: first exchange whose running RMSE over trials is below
+    ``threshold_s``; None if never), ``mse_per_trial_s2``; ``bound_s`` (``rms``, ``final``, per trial);
+    ``calibration`` (the URT estimates' error and stated sigma); the scenario. ``networks`` maps "bp" /
+    "lstm" to trained residual networks. ``outage = (k0, k1)`` also loses exchanges ``k0 .. k1 - 1`` and adds
+    ``robustness`` (the paper's eqs. 49-50). ``overrides`` maps an algorithm name to configuration fields;
+    ``variants`` maps more labels to ``(name, fields)``: the same algorithm with other settings, on the same
+    exchanges, reported under the label.
     """
     if outage is not None:
         k0, k1 = (int(k) for k in outage)
-        if not 1 <= k0 < k1 <= scenario.exchanges:
-            raise InputError(f"{{outage}} == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= {{exchanges}} ({scenario.exchanges})",
+        if not 1 <= k0 < k1 <= sc.exchanges:
+            raise InputError(f"{{outage}} == {k0}:{k1}, must be K0:K1 with 1 <= K0 < K1 <= {{exchanges}} ({sc.exchanges})",
                              fields=("outage", "exchanges"))
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
     base = root_seed(seed)
-    ex = simulate_scenario(scenario, trials, child_seed(base, 0))
+    ex, draw = simulate_scenario(sc, trials, child_seed(base, 0))
+    calib = calibrate_scenario(sc, draw, child_seed(base, 4))
+    know = knowledge_of(sc, calib, urt_mode)
     Z = measurement_array(ex)
-    tp = calibrated_urt_s(scenario, child_seed(base, 1)) if urt_mode == "calibrated" else 0.0
-    rmse, conv, robust = {}, {}, {}
-    for name in algorithms:
-        alg = make_algorithm(name, scenario.link, steps=scenario.exchanges, urt_mode=urt_mode, urt_fixed_s=tp,
-                             oscillator=preset(scenario.oscillator), networks=networks).fit()
+    bound = bound_of(sc, ex, calib)
+    bound_var = bound.offset_var_s2.mean(axis=1)
+    out = {name: {} for name in ("rmse_s", "rmse_ci_s", "ratio", "ratio_ci", "convergence_epochs",
+                                 "mse_per_trial_s2", "robustness")}
+    runs = [(name, name, (overrides or {}).get(name, {})) for name in algorithms]
+    runs += [(label, name, fields) for label, (name, fields) in (variants or {}).items()]
+    for name, algorithm, fields in runs:
+        alg = make_algorithm(algorithm, know, networks=networks, **fields).fit()
         err = alg.run(Z).offset_s - ex.offset_s
-        rmse[name] = rmse_s(err)
-        conv[name] = convergence_epochs(err, threshold_s)
+        mse = per_trial_mse(err)
+        r, lo, hi = rmse_interval(mse)
+        q, qlo, qhi = ratio_interval(mse, bound_var)
+        out["rmse_s"][name], out["rmse_ci_s"][name] = r, [lo, hi]
+        out["ratio"][name], out["ratio_ci"][name] = q, [qlo, qhi]
+        out["convergence_epochs"][name] = convergence_epochs(err, threshold_s)
+        out["mse_per_trial_s2"][name] = mse.tolist()
         if outage is not None:
             stressed = Z.copy()
             stressed[:, k0:k1, :] = np.nan
             err_stress = hold_last(alg.run(stressed).offset_s) - ex.offset_s
-            robust[name] = robustness(hold_last(err + ex.offset_s) - ex.offset_s, err_stress, threshold_s, k1)
-    bound = link_pcrb(scenario.link, preset(scenario.oscillator), scenario.exchanges, scenario.distance_m,
-                      scenario.velocity_m_s)
+            out["robustness"][name] = robustness(hold_last(err + ex.offset_s) - ex.offset_s, err_stress, threshold_s, k1)
+    cal_err = calib.urt_s - (sc.link.urt_fixed_s + draw.urt_deviation_s)
     return {
-        "rmse_s": rmse,
-        "convergence_epochs": conv,
-        "pcrb_s": {"final": float(np.sqrt(bound.offset_var_s2[-1])),
-                   "rms": float(np.sqrt(np.mean(bound.offset_var_s2)))},
-        "urt_fixed_estimate_s": tp,
-        "robustness": robust,
+        **out,
+        "bound_s": {"rms": bound.mean_rms_s, "final": float(np.sqrt(np.mean(bound.final_s**2))),
+                    "per_trial_rms": bound.rms_s.tolist()},
+        "calibration": {"urt_error_rms_s": float(np.sqrt(np.mean(cal_err**2))),
+                        "stated_sigma_rms_s": float(np.sqrt(np.mean(calib.sigma_s**2)))},
         "urt_mode": urt_mode,
         "threshold_s": float(threshold_s),
         "trials": int(trials),
-        "scenario": {k: v for k, v in asdict(scenario).items() if k != "link"} | {"link": asdict(scenario.link)},
+        "scenario": _scenario_dict(sc),
     }
 
 
-# --- residual networks: training set, training, ablation (seed 001 sections 2.2.2 and 4.1) ---
-
-TRAIN_WINDOW = 16
-
-
-def _runs(link: LinkModel, distance_m, velocity_m_s, exchanges: int, seed, oscillator: str = "ocxo") -> Exchanges:
-    """Runs with one distance and velocity per trial (arrays of shape (trials,))."""
-    base = root_seed(seed)
-    osc = preset(oscillator)
-    n = len(velocity_m_s)
-    xa = node_clock_error_s(osc, exchanges, link.interval_s, child_seed(base, 0), n)
-    xb = node_clock_error_s(osc, exchanges, link.interval_s, child_seed(base, 1), n)
-    a, b = radial_geometry(np.asarray(distance_m), np.asarray(velocity_m_s))
-    return simulate_exchanges(a, b, xa, xb, link, exchanges, child_seed(base, 2))
-
-
-def residual_dataset(*, samples: int = 100_000, groups: int = 50, runs_per_group: int = 10, exchanges: int = 2000,
-                     seed=0, urt_mode: str = "calibrated", window: int = TRAIN_WINDOW) -> dict:
-    """The residual networks' data set (seed section 4.1): ``samples`` exchanges from ``groups`` SNRs
-    ~ U[4, 20] dB, each with ``runs_per_group`` runs of v ~ U[0, 2000] m/s and distance ~ U[10, 200] km,
-    taken after the chain's warm-up (60 %) through the seed chain without its network (URT calibrated:
-    the configured fixed part). Targets: ``eps_true - eps_KF``, ns (supervised: uses the truth).
-
-    Returns ``X`` (n, window, 9), ``y_ns`` (n,), ``group`` (n,), ``snr_db`` (n,), ``velocity_m_s`` (n,).
-    The 6:2:2 split is by group (:func:`split_by_group`): held-out SNRs and trajectories.
-    """
-    base = root_seed(seed)
-    per_run = int(np.ceil(samples / (groups * runs_per_group)))
-    xs, ys, gs, ss, vs = [], [], [], [], []
-    for g in range(int(groups)):
-        rng = np.random.default_rng(child_seed(base, g, 0))
-        snr = float(rng.uniform(4.0, 20.0))
-        v = rng.uniform(0.0, 2000.0, runs_per_group)
-        d = rng.uniform(10e3, 200e3, runs_per_group)
-        link = LinkModel(snr_db=snr)
-        ex = _runs(link, d, v, exchanges, child_seed(base, g, 1))
-        chain = make_algorithm("proposed-no-nn", link, steps=exchanges, urt_mode=urt_mode,
-                               urt_fixed_s=link.urt_fixed_s).fit()
-        est, feats = chain.run_features(measurement_array(ex))
-        target = (ex.offset_s - est) * 1e9
-        first = max(int(0.6 * exchanges), window)
-        for r in range(runs_per_group):
-            ks = rng.choice(np.arange(first, exchanges), size=per_run, replace=False)
-            xs.append(np.stack([feats[r, k - window + 1:k + 1] for k in ks]))
-            ys.append(target[r, ks])
-            gs.append(np.full(per_run, g))
-            ss.append(np.full(per_run, snr))
-            vs.append(np.full(per_run, v[r]))
-    out = {"X": np.concatenate(xs), "y_ns": np.concatenate(ys), "group": np.concatenate(gs),
-           "snr_db": np.concatenate(ss), "velocity_m_s": np.concatenate(vs)}
-    return {k: a[:samples] for k, a in out.items()}
-
-
-def split_by_group(data: dict, seed=0) -> dict:
-    """6:2:2 train/validation/test split of :func:`residual_dataset` by group (never one group in two)."""
-    groups = np.unique(data["group"])
-    order = np.random.default_rng(root_seed(seed)).permutation(groups)
-    n_tr, n_va = int(round(0.6 * groups.size)), int(round(0.2 * groups.size))
-    parts = {"train": order[:n_tr], "validation": order[n_tr:n_tr + n_va], "test": order[n_tr + n_va:]}
-    return {name: {k: a[np.isin(data["group"], g)] for k, a in data.items()} for name, g in parts.items()}
-
-
-def ablation(network, *, runs: int = 12, exchanges: int = 2000, seed=0, urt_mode: str = "calibrated") -> dict:
-    """The chain with and without ``network`` on held-out runs (v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB,
-    distance ~ U[10, 200] km, drawn from a seed the training never used): RMSE (s) of each, per run."""
-    base = root_seed(seed)
-    rows = []
-    for i in range(int(runs)):
-        rng = np.random.default_rng(child_seed(base, i, 0))
-        snr, v, d = float(rng.uniform(4.0, 20.0)), float(rng.uniform(0.0, 2000.0)), float(rng.uniform(10e3, 200e3))
-        link = LinkModel(snr_db=snr)
-        ex = _runs(link, [d], [v], exchanges, child_seed(base, i, 1))
-        Z = measurement_array(ex)
-        plain = make_algorithm("proposed-no-nn", link, steps=exchanges, urt_mode=urt_mode,
-                               urt_fixed_s=link.urt_fixed_s).fit()
-        with_net = make_algorithm("proposed-no-nn", link, steps=exchanges, urt_mode=urt_mode,
-                                  urt_fixed_s=link.urt_fixed_s)
-        with_net.residual_model = network
-        with_net.fit()
-        rows.append({"snr_db": snr, "velocity_m_s": v, "distance_m": d,
-                     "rmse_without_s": rmse_s(plain.run(Z).offset_s - ex.offset_s),
-                     "rmse_with_s": rmse_s(with_net.run(Z).offset_s - ex.offset_s)})
-    return {"runs": rows,
-            "rmse_without_s": float(np.sqrt(np.mean([r["rmse_without_s"] ** 2 for r in rows]))),
-            "rmse_with_s": float(np.sqrt(np.mean([r["rmse_with_s"] ** 2 for r in rows])))}
-
-
-def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt_mode: str = "calibrated",
-                   progress=None) -> dict:
-    """Build the data set, train the BP 9-32-1 network and the LSTM baseline on it, save both to
-    ``out`` (``bp.pt``, ``lstm.pt``) and return a summary: parameter counts, training seconds and
-    device, held-out test RMS of the target and of what each network leaves, and the ablation."""
-    from pathlib import Path
-
-    from chronofuse.sync.network import ResidualConfig, ResidualNetwork
-
-    out = Path(out)
-    size = dict(samples=6000, groups=10, runs_per_group=6, exchanges=1000) if quick else {}
-    say = progress or (lambda message: None)
-    say("data set")
-    data = residual_dataset(seed=child_seed(root_seed(seed), 0), urt_mode=urt_mode, **size)
-    split = split_by_group(data, seed=child_seed(root_seed(seed), 1))
-    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
-    summary = {"samples": {k: int(v["y_ns"].size) for k, v in split.items()}, "networks": {}}
-    y_test = split["test"]["y_ns"]
-    for kind, window in (("bp", 1), ("lstm", TRAIN_WINDOW)):
-        say(f"training {kind}")
-        cfg = ResidualConfig(kind=kind, window=window, device=device, chain=chain, epochs=8 if quick else 40)
-        part = {k: v["X"][:, -window:, :] for k, v in split.items()}
-        net = ResidualNetwork(cfg).fit(part["train"], split["train"]["y_ns"], part["validation"],
-                                       split["validation"]["y_ns"])
-        path = net.save(out / f"{kind}.pt")
-        left = y_test - net.predict_ns(part["test"])
-        say(f"ablation {kind}")
-        abl = ablation(net, runs=4 if quick else 12, exchanges=size.get("exchanges", 2000),
-                       seed=child_seed(root_seed(seed), 2), urt_mode=urt_mode)
-        summary["networks"][kind] = {
-            "file": str(path), "parameters": net.parameter_count_, "train_seconds": net.train_seconds_,
-            "device": net.device_, "epochs": len(net.history_),
-            "test_target_rms_ns": float(np.sqrt(np.mean(y_test**2))),
-            "test_left_rms_ns": float(np.sqrt(np.mean(left**2))),
-            "ablation": abl,
-        }
-    return summary
+def _scenario_dict(sc: LinkScenario) -> dict:
+    d = {k: v for k, v in asdict(sc).items() if k not in ("link", "prior", "calibration")}
+    return d | {"link": asdict(sc.link), "prior": sc.prior.model_dump(), "calibration": sc.calibration.model_dump()}

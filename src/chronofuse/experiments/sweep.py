@@ -2,10 +2,11 @@
 
 A sweep is a list of tasks, one per (parameter value, chunk of ``chunk_trials`` trials). Task
 ``(value, c)`` simulates its trials from ``child_seed(root, key(value), c)``, ``key`` the value's
-float64 bit pattern as an integer, and runs every algorithm on them, so its numbers depend only on
-its own spec: not on the other values swept, nor on the process, worker or machine that runs it; a
-Dask run equals a serial one bit for bit. The calibrated URT of a point is learnt once in the driver
-from ``child_seed(root, key(value), CALIBRATION_KEY)``.
+float64 bit pattern as an integer, calibrates each trial's link on its own (so the calibration-to-
+calibration spread is in the trials) and runs every algorithm on them, so its numbers depend only on its
+own spec: not on the other values swept, nor on the process, worker or machine that runs it; a Dask run
+equals a serial one bit for bit. Each row also carries the trial's Bayesian bound, and the summary gives
+every RMSE and its ratio to the bound with percentile-bootstrap intervals over trials.
 
 Where tasks run: ``scheduler=None`` starts a LocalCluster of worker processes (one thread each);
 ``"serial"`` runs them in this process (small runs, tests); ``"tcp://HOST:PORT"`` sends them to an
@@ -20,11 +21,10 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from chronofuse.experiments.swarm import LinkScenario, calibrated_urt_s, simulate_scenario
-from chronofuse.models.oscillator_presets import preset
+from chronofuse.experiments.swarm import LinkScenario, bound_of, calibrate_scenario, knowledge_of, simulate_scenario
 from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
-from chronofuse.sync.pcrb import link_pcrb
+from chronofuse.sync.metrics import per_trial_mse, ratio_interval, rmse_interval
 from chronofuse.sync.registry import make_algorithm
 from chronofuse.validation import InputError, check_choice, check_scalar
 
@@ -32,7 +32,8 @@ __all__ = ["SWEEP_PARAMS", "scenario_at", "sweep_tasks", "run_task", "run_sweep"
 
 #: Sweepable parameters and the unit of their values.
 SWEEP_PARAMS = {"velocity": "m/s", "distance": "m", "reply-delay": "s", "urt": "s", "snr": "dB"}
-CALIBRATION_KEY = 1_000_000
+#: The table's columns (one row per value, algorithm and trial).
+COLUMNS = ["param", "value", "algorithm", "trial", "rmse_ns", "bound_rms_ns"]
 
 
 def value_key(value: float) -> int:
@@ -69,46 +70,47 @@ def sweep_tasks(base: LinkScenario, param: str, values, algorithms, *, trials: i
     for value in values:
         scenario = scenario_at(base, param, value)
         key = value_key(value)
-        tp = calibrated_urt_s(scenario, child_seed(root, key, CALIBRATION_KEY)) if urt_mode == "calibrated" else 0.0
         for c, start in enumerate(range(0, int(trials), int(chunk_trials))):
             n = min(int(chunk_trials), int(trials) - start)
             tasks.append({"param": param, "value": float(value), "scenario": scenario, "algorithms": tuple(algorithms),
                           "seed": child_seed(root, key, c), "first_trial": start, "trials": n, "urt_mode": urt_mode,
-                          "urt_fixed_s": tp, "model_files": dict(model_files or {})})
+                          "model_files": dict(model_files or {})})
     return tasks
 
 
 def run_task(task: dict) -> pd.DataFrame:
-    """One task: its trials, every algorithm; rows ``param, value, algorithm, trial, rmse_ns, pcrb_rms_ns``."""
+    """One task: its trials (each calibrated on its own), every algorithm; rows of :data:`COLUMNS`."""
     sc: LinkScenario = task["scenario"]
-    ex = simulate_scenario(sc, task["trials"], task["seed"])
+    base = root_seed(task["seed"])
+    ex, draw = simulate_scenario(sc, task["trials"], child_seed(base, 0))
+    calib = calibrate_scenario(sc, draw, child_seed(base, 1))
+    know = knowledge_of(sc, calib, task["urt_mode"])
     Z = measurement_array(ex)
-    osc = preset(sc.oscillator)
     networks = _load_networks(task.get("model_files", {}), task["urt_mode"])
-    bound = link_pcrb(sc.link, osc, sc.exchanges, sc.distance_m, sc.velocity_m_s)
-    pcrb_ns = float(np.sqrt(np.mean(bound.offset_var_s2))) * 1e9
+    bound_ns = np.sqrt(bound_of(sc, ex, calib).offset_var_s2.mean(axis=1)) * 1e9
     rows = []
     for name in task["algorithms"]:
-        alg = make_algorithm(name, sc.link, steps=sc.exchanges, urt_mode=task["urt_mode"],
-                             urt_fixed_s=task["urt_fixed_s"], oscillator=osc, networks=networks).fit()
-        err = alg.run(Z).offset_s - ex.offset_s
-        per_trial = np.sqrt(np.nanmean(err**2, axis=1)) * 1e9
+        alg = make_algorithm(name, know, networks=networks).fit()
+        per_trial = np.sqrt(per_trial_mse(alg.run(Z).offset_s - ex.offset_s)) * 1e9
         for j, value in enumerate(per_trial):
-            rows.append((task["param"], task["value"], name, task["first_trial"] + j, float(value), pcrb_ns))
-    return pd.DataFrame(rows, columns=["param", "value", "algorithm", "trial", "rmse_ns", "pcrb_rms_ns"])
+            rows.append((task["param"], task["value"], name, task["first_trial"] + j, float(value), float(bound_ns[j])))
+    return pd.DataFrame(rows, columns=COLUMNS)
 
 
 def _load_networks(files: dict, urt_mode: str) -> dict:
     """The residual networks named in a task (paths -> loaded, each checked against its configuration)."""
-    from chronofuse.sync.network import load_residual_network
+    from chronofuse.sync.residual import load_residual_network
 
-    chain = {"filter": "seed", "light_time": "seed", "urt_mode": urt_mode}
+    chain = {"light_time": "paper", "urt_mode": urt_mode}
     return {kind: load_residual_network(path, chain=chain) for kind, path in files.items()}
 
 
 def _client(scheduler: str | None, n_tasks: int):
     """(client, cluster) for ``scheduler``; raises InputError naming an unreachable address."""
-    from distributed import Client, LocalCluster
+    from chronofuse.extras import require
+
+    distributed = require("distributed", "a parameter sweep on Dask")
+    Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
     if scheduler is None:
         workers = max(1, min(os.cpu_count() or 1, n_tasks))
@@ -161,10 +163,16 @@ def run_sweep(base: LinkScenario, param: str, values, algorithms, *, trials: int
     return table.sort_values(["value", "algorithm", "trial"], kind="mergesort").reset_index(drop=True)
 
 
-def summarize(table: pd.DataFrame) -> pd.DataFrame:
-    """Per (value, algorithm): RMSE over trials ``sqrt(mean(rmse_trial^2))`` (equal run lengths), the
-    trial count and the PCRB."""
-    g = table.groupby(["value", "algorithm"], sort=True)
-    out = g.agg(trials=("trial", "size"), pcrb_rms_ns=("pcrb_rms_ns", "first"))
-    out["rmse_ns"] = g["rmse_ns"].apply(lambda s: float(np.sqrt(np.mean(np.square(s)))))
-    return out.reset_index()
+def summarize(table: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
+    """Per (value, algorithm): the trial count, RMSE over trials ``sqrt(mean(rmse_trial^2))`` (equal run
+    lengths) with its bootstrap interval ``rmse_lo_ns``/``rmse_hi_ns``, the bound's RMS over the same trials
+    and the ratio of the two with its paired interval (:mod:`chronofuse.sync.metrics`)."""
+    rows = []
+    for (value, name), g in table.groupby(["value", "algorithm"], sort=True):
+        mse, bnd = np.square(g["rmse_ns"].to_numpy()), np.square(g["bound_rms_ns"].to_numpy())
+        r, lo, hi = rmse_interval(mse, confidence)
+        q, qlo, qhi = ratio_interval(mse, bnd, confidence)
+        rows.append({"value": value, "algorithm": name, "trials": int(len(g)), "rmse_ns": r, "rmse_lo_ns": lo,
+                     "rmse_hi_ns": hi, "bound_rms_ns": float(np.sqrt(bnd.mean())), "ratio": q, "ratio_lo": qlo,
+                     "ratio_hi": qhi})
+    return pd.DataFrame(rows)

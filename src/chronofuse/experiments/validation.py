@@ -1,7 +1,9 @@
 """Validation figures for docs/: the stability engine and the truth models against outside references.
 
-``write_validation_figures(out_dir, data_dir)`` writes PNGs and ``validation.json`` (the numbers
-plotted) into ``out_dir``:
+``run_validation(data_dir, out_dir)`` computes the numbers below from the records shipped with the package
+(:func:`shipped_data`, or ``data_dir``) and, only when ``out_dir`` is given, writes the PNGs and
+``validation.json`` (the numbers plotted) there; :mod:`chronofuse.experiments.validation_checks` turns the
+numbers into PASS/FAIL verdicts:
 
 1. ``gps_deviations.png``, ``gps_tdev.png``: ADEV (decade grid), MDEV, MTOTDEV and TDEV (octave grid)
    of the real GPS 1PPS-vs-H-maser record (``stability/gps``) with Stable32's tables overlaid
@@ -15,14 +17,15 @@ plotted) into ``out_dir``:
 4. ``cs5071a_mtie.png``, ``cs5071a_tdev.png``: MTIE and TDEV of the Cs 5071A record against the
    PRTC-A, PRTC-B and G.811 masks, with Stable32's MTIE and TDEV tables overlaid.
 
-This module computes; :mod:`chronofuse.report.validation_figures` draws. Run as ``chronofuse validate
---data DIR --out docs/figures`` (``--quick``: shorter simulations and a shorter MTOTDEV range, for tests);
-``DIR`` is the project's data store or the repository's ``tests/data``, which holds the same records.
+This module computes; :mod:`chronofuse.report.validation_figures` draws. Run as ``chronofuse validate``
+(the table of verdicts; ``--out docs/figures`` also writes the figures; ``--quick``: shorter simulations
+and a shorter MTOTDEV range; ``--data DIR``: records from another folder holding the same layout).
 """
 
 from __future__ import annotations
 
 import time
+from importlib import resources
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,6 +53,8 @@ __all__ = [
     "FULL",
     "QUICK",
     "write_validation_figures",
+    "run_validation",
+    "shipped_data",
     "record_statistics",
 ]
 
@@ -99,7 +104,7 @@ def _max_rel_diff(ours: np.ndarray, table: np.ndarray) -> float:
     return float(np.max(np.abs(ours / table - 1.0)))
 
 
-def _gps_figures(out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationSettings) -> tuple[list[Path], dict]:
+def _gps_figures(out_dir: Path | None, stab: Path, x: np.ndarray, settings: ValidationSettings) -> tuple[list[Path], dict]:
     tables = {
         "adev": read_stable32_table(stab / "gps" / "stable32_ADEV_decade.txt"),
         "mdev": read_stable32_table(stab / "gps" / "stable32_MDEV_octave.txt"),
@@ -109,7 +114,7 @@ def _gps_figures(out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationS
     octave_tau_s = st.averaging_factors(st.STATISTICS["mtotdev"].max_m(x.size), "octave").astype(float)
     mtot_tau = octave_tau_s[octave_tau_s <= settings.mtotdev_max_tau_s]
     ours["mtotdev"] = st.mtotdev(x, 1.0, mtot_tau)
-    paths = figures.gps_figures(out_dir, ours, tables, x.size)
+    paths = [] if out_dir is None else figures.gps_figures(out_dir, ours, tables, x.size)
     numbers = {
         "n_points": int(x.size),
         "ours": {name: dev.to_dict() for name, dev in ours.items()},
@@ -154,7 +159,7 @@ def record_statistics(x_s: np.ndarray, oadev_table: dict[str, np.ndarray], max_t
 
 
 def _receiver_figure(
-    out_dir: Path, stab: Path, x: np.ndarray, settings: ValidationSettings, seed: int
+    out_dir: Path | None, stab: Path, x: np.ndarray, settings: ValidationSettings, seed: int
 ) -> tuple[list[Path], dict]:
     table = read_stable32_table(stab / "gps" / "stable32_ADEV_decade.txt")
     truth = simulate_receivers("open-sky", settings.receiver_duration_s, 1, np.random.SeedSequence([seed, 2]))
@@ -165,7 +170,8 @@ def _receiver_figure(
         sim = st.adev(corrected, 1.0, tau)
         sim_raw = st.adev(raw, 1.0, tau)
     analytic = corrected_pps_adev(receiver_environment("open-sky").model, table["tau"])
-    path = figures.receiver_figure(out_dir, sim, sim_raw, table, analytic, settings.receiver_duration_s)
+    paths = [] if out_dir is None else [
+        figures.receiver_figure(out_dir, sim, sim_raw, table, analytic, settings.receiver_duration_s)]
     keep = np.isin(table["tau"], sim.tau_s)
     numbers = {
         "duration_s": settings.receiver_duration_s,
@@ -180,10 +186,10 @@ def _receiver_figure(
         "ratio_analytic_to_stable32": analytic[keep] / table["dev"][keep],
         "record": record_statistics(x, read_stable32_table(stab / "gps" / "stable32_OADEV_octave.txt")),
     }
-    return [path], numbers
+    return paths, numbers
 
 
-def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) -> tuple[list[Path], dict]:
+def _oscillator_figures(out_dir: Path | None, settings: ValidationSettings, seed: int) -> tuple[list[Path], dict]:
     paths, numbers = [], {}
     for i, (name, model) in enumerate(sorted(PRESETS.items())):
         truth = simulate_oscillator(
@@ -192,8 +198,9 @@ def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) 
         )
         dev = pooled_oadev(truth.x_s, 1.0)
         theory = adev_theory(model.h, dev.tau_s, 1.0, model.drift_per_s)
-        paths.append(figures.oscillator_figure(out_dir, name, dev, theory, settings.oscillator_trials,
-                                               settings.oscillator_duration_s))
+        if out_dir is not None:
+            paths.append(figures.oscillator_figure(out_dir, name, dev, theory, settings.oscillator_trials,
+                                                   settings.oscillator_duration_s))
         inside = (theory >= dev.lo) & (theory <= dev.hi)
         numbers[name] = {
             "seed": [seed, 3, i],
@@ -212,14 +219,15 @@ def _oscillator_figures(out_dir: Path, settings: ValidationSettings, seed: int) 
     return paths, numbers
 
 
-def _cs_figures(out_dir: Path, stab: Path) -> tuple[list[Path], dict]:
+def _cs_figures(out_dir: Path | None, stab: Path) -> tuple[list[Path], dict]:
     x = read_record(stab / "Cs5071A" / "5071A_phase.txt.gz", kind="phase", rate_hz=1.0).values
     paths, numbers = [], {"n_points": int(x.size)}
     cases = (("mtie", "mtie_decade.txt", "MTIE (s)"), ("tdev", "tdev_decade.txt", "TDEV (s)"))
     for metric, table_name, ylabel in cases:
         table = read_stable32_table(stab / "Cs5071A" / table_name)
         dev = st.compute(metric, x, 1.0, table["tau"])
-        paths.append(figures.mask_figure(out_dir, metric, dev, table, x.size, ylabel))
+        if out_dir is not None:
+            paths.append(figures.mask_figure(out_dir, metric, dev, table, x.size, ylabel))
         checks = {clock: MASKS[clock].check(dev) for clock in figures.PRIMARY_CLOCKS}
         numbers[metric] = {
             "ours": dev.to_dict(),
@@ -234,27 +242,41 @@ def _cs_figures(out_dir: Path, stab: Path) -> tuple[list[Path], dict]:
     return paths, numbers
 
 
-def write_validation_figures(out_dir, data_dir, *, quick: bool = False, seed: int = SEED) -> list[Path]:
-    """Write the validation PNGs and ``validation.json`` into ``out_dir``; return their paths.
+def shipped_data() -> Path:
+    """The records :func:`run_validation` reads by default: the package's own ``data`` folder (``stability/gps``
+    and ``stability/Cs5071A``, shipped with every installation)."""
+    return Path(str(resources.files("chronofuse") / "data"))
+
+
+def run_validation(data_dir=None, out_dir=None, *, quick: bool = False, seed: int = SEED,
+                   progress=None) -> tuple[dict, list[Path]]:
+    """Compute every validation number; with ``out_dir`` also write the PNGs and ``validation.json`` there.
+
+    Returns ``(numbers, paths)``: the numbers (:func:`chronofuse.experiments.validation_checks.checks` turns
+    them into verdicts) and the files written (none without ``out_dir``: nothing is written unless asked).
 
     Parameters
     ----------
-    out_dir : str or Path
-        Output folder (created if missing).
-    data_dir : str or Path
-        The project's real data (holding ``stability/gps`` and ``stability/Cs5071A``).
+    data_dir : str or Path, optional
+        A folder holding ``stability/gps`` and ``stability/Cs5071A``; default :func:`shipped_data`.
+    out_dir : str or Path, optional
+        Folder for the figures and ``validation.json`` (created if missing).
     quick : bool
         Use :data:`QUICK` sizes instead of :data:`FULL`.
     seed : int
         Root seed of the simulations.
+    progress : callable, optional
+        Called with the name of each part as it starts.
     """
-    out_dir, data_dir = Path(out_dir), Path(data_dir)
+    data_dir = shipped_data() if data_dir is None else Path(data_dir)
     stab = data_dir / "stability"
     if not (stab / "gps").is_dir() or not (stab / "Cs5071A").is_dir():
         raise InputError(f"{{data_dir}} == {str(data_dir)!r}, must hold stability/gps and stability/Cs5071A",
                          fields=("data_dir",))
     check_scalar(seed, "seed", min_val=0, integer=True)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if out_dir is not None:
+        out_dir = Path(out_dir)
+        out_dir.mkdir(parents=True, exist_ok=True)
     settings = QUICK if quick else FULL
     timings, paths, numbers = {}, [], {"settings": settings.__dict__, "quick": bool(quick), "seed": seed}
     gps_x = read_record(stab / "gps" / "gps_1pps_phase_data.txt.gz", kind="phase", rate_hz=1.0).values
@@ -264,13 +286,21 @@ def write_validation_figures(out_dir, data_dir, *, quick: bool = False, seed: in
         ("oscillators", lambda: _oscillator_figures(out_dir, settings, seed)),
         ("cs5071a", lambda: _cs_figures(out_dir, stab)),
     ):
+        if progress is not None:
+            progress(key)
         start = time.perf_counter()
         new_paths, numbers[key] = run()
         timings[key] = time.perf_counter() - start
         paths.extend(new_paths)
     numbers["seconds"] = timings
-    json_path = out_dir / "validation.json"
-    json_path.write_text(dumps(numbers) + "\n")
-    paths.append(json_path)
-    return paths
+    if out_dir is not None:
+        json_path = out_dir / "validation.json"
+        json_path.write_text(dumps(numbers) + "\n")
+        paths.append(json_path)
+    return numbers, paths
 
+
+def write_validation_figures(out_dir, data_dir=None, *, quick: bool = False, seed: int = SEED) -> list[Path]:
+    """Write the validation PNGs and ``validation.json`` into ``out_dir``; return their paths
+    (:func:`run_validation` with an output folder)."""
+    return run_validation(data_dir, out_dir, quick=quick, seed=seed)[1]

@@ -7,7 +7,10 @@ document the command prints with ``--json``:
   bias (:func:`chronofuse.io.clockbias.read_clock_bias`): **detection** mode, one
   :class:`~chronofuse.integrity.detector.HodDetector` over the record, after the receiver's millisecond
   clock resets are repaired and reported as clock events (:mod:`chronofuse.integrity.clock_events`);
-* a RINEX observation file with a navigation file and the static antenna's ECEF position gives
+* a RINEX 3 observation file (plain, gzip or Hatanaka) with its navigation files and the static antenna's
+  ECEF position: **identification** mode on every code of every system, satellites named by exclusion, the
+  receiver clock tested beside them (:mod:`chronofuse.integrity.station_mode`);
+* a RINEX 2 observation file with a navigation file and the static antenna's ECEF position gives
   per-satellite clock biases: **identification** mode
   (:func:`chronofuse.integrity.identification.identify`: the common receiver clock removed, each channel's
   noise fitted on its own first ``train_s`` seconds; an alarm names its satellite).
@@ -70,7 +73,7 @@ from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S
 from chronofuse.integrity.watch import TRAINING_CONFIDENCE, DetectionSettings, watch_record
 from chronofuse.io.clockbias import n_skipped, read_clock_bias
 from chronofuse.io.formats import sniff_format
-from chronofuse.validation import InputDataError, InputError, check_scalar
+from chronofuse.validation import InputDataError, InputError, check_choice, check_scalar
 
 #: The modes of :func:`detect_file`.
 MODES = ("detection", "identification")
@@ -203,6 +206,43 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     return doc
 
 
+def _rinex_version(path) -> float:
+    """The RINEX version of an observation file from its first line (a Hatanaka file's CRINEX 3 holds RINEX 3,
+    CRINEX 1 RINEX 2); 0 when unreadable."""
+    from chronofuse.io.rinex_text import first_line
+
+    line = first_line(path)
+    try:
+        version = float(line[:9])
+    except ValueError:
+        return 0.0
+    return (3.0 if version >= 3 else 2.0) if "CRINEX" in line else version
+
+
+def _station_mode(path, nav, position_m, *, train_s, window, pfa, test, codes, elevation_mask_deg) -> dict:
+    """A RINEX 3 file: every code of every system through the station's identification
+    (:func:`chronofuse.integrity.station_mode.station_document`); ``nav`` the navigation file(s), merged. The
+    settings are checked before any file is read."""
+    from chronofuse.integrity.station_mode import station_document
+    from chronofuse.io.rinex_nav import merge_navigation, read_navigation
+    from chronofuse.io.station_channels import station_channels
+
+    from chronofuse.integrity.window_tests import WINDOW_TESTS
+    from chronofuse.io.rinex_obs import read_any_observations
+
+    check_choice(test, "test", WINDOW_TESTS)
+    check_scalar(elevation_mask_deg, "elevation_mask_deg", min_val=0.0, max_val=90.0, include_max=False)
+    if train_s is None:
+        raise InputError("a RINEX 3 station needs a training stretch ({train_s}): each code's noise is fitted on it",
+                         str(path), fields=("train_s",))
+    position = parse_position(position_m)
+    observations = read_any_observations(path)
+    navigation = merge_navigation([read_navigation(p) for p in nav])
+    channels = station_channels(observations, navigation, position, codes=codes, elevation_mask_deg=elevation_mask_deg)
+    return station_document(None, None, position, channels=channels, train_s=train_s, window=window, pfa=pfa,
+                            test=test)
+
+
 def _forward_fill(values: np.ndarray) -> np.ndarray:
     idx = np.where(np.isfinite(values), np.arange(values.size), 0)
     idx = np.maximum.accumulate(idx)
@@ -221,10 +261,13 @@ def detect_file(
     window: int = 20,
     pfa: float = 1e-3,
     position_m=None,
-    nav: str | Path | None = None,
+    nav: str | Path | list | None = None,
     station: str | None = None,
     max_time_acc_s: float | None = DEFAULT_MAX_TIME_ACC_S,
     detector: str = "chi-square",
+    test: str = "chi-square",
+    codes=None,
+    elevation_mask_deg: float = 10.0,
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -247,8 +290,9 @@ def detect_file(
         False-alarm probability per epoch.
     position_m : str or array-like of shape (3,), optional
         Static antenna ECEF X, Y, Z (m), for identification mode.
-    nav : str or Path, optional
-        RINEX navigation file, for identification mode.
+    nav : str or Path, or a list of them, optional
+        RINEX navigation file, for identification mode: one for a RINEX 2 observation file; a RINEX 3 file
+        takes several (merged: a day that spans two navigation files).
     station : str, optional
         For a RINEX clock product (``.clk``): the station whose ``AR`` clock is tested (detection mode);
         without it every station is tested (:func:`chronofuse.integrity.products.clock_product_document`).
@@ -259,6 +303,14 @@ def detect_file(
         A name of :data:`chronofuse.integrity.registry.DETECTORS` (plugins included) for detection mode;
         ``window`` and ``confidence`` go to a detector that has them, ``h0``/``hm2``/``sigma_rho_m`` when
         given. Identification mode and the all-stations table of a clock product run the chi-square test.
+
+    test : str
+        RINEX 3 observations: the window test of every channel, ``"chi-square"`` or ``"glr"``
+        (:mod:`chronofuse.integrity.window_tests`).
+    codes : sequence of str, optional
+        RINEX 3 observations: the codes tested (``"G C1C"``); default every code most satellites carry.
+    elevation_mask_deg : float
+        RINEX 3 observations: channels below this elevation are not used.
 
     Returns
     -------
@@ -288,9 +340,16 @@ def detect_file(
         if nav is None or position_m is None:
             raise InputError("a RINEX observation file needs a navigation file ({nav}) and the antenna position "
                              "({position_m}, ECEF X,Y,Z) for identification mode", str(path), fields=("nav", "position_m"))
+        navs = [nav] if isinstance(nav, (str, Path)) else list(nav)
+        if _rinex_version(path) >= 3:
+            return _station_mode(path, navs, position_m, train_s=train_s, window=window,
+                                 pfa=pfa, test=test, codes=codes, elevation_mask_deg=elevation_mask_deg)
         params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                       confidence=TRAINING_CONFIDENCE if train_s is not None else None)
-        return identification_document(path, nav, position_m, HodDetector(interval_s=1.0, **params), train_s)
+        if len(navs) != 1:
+            raise InputError(f"a RINEX 2 observation file takes one navigation file ({{nav}}), not {len(navs)}",
+                             str(path), fields=("nav",))
+        return identification_document(path, navs[0], position_m, HodDetector(interval_s=1.0, **params), train_s)
     if nav is not None or position_m is not None:
         raise InputError("{nav} and {position_m} need a RINEX observation file (identification mode)", str(path),
                          fields=("nav", "position_m"))
@@ -308,9 +367,12 @@ def detect_file(
         doc = detect_record(station_clock_bias(clocks, station), settings)
         doc["station"] = station
         return doc
-    if station is not None:
-        raise InputError("{station} needs a RINEX clock product (.clk)", str(path), fields=("station",))
-    return detect_record(read_clock_bias(path, rate_hz, column), settings)
+    from chronofuse.io.formats import log_format
+
+    if station is not None and log_format(path) is None:
+        raise InputError("{station} needs a RINEX clock product (.clk) or a field log with several clocks",
+                         str(path), fields=("station",))
+    return detect_record(read_clock_bias(path, rate_hz, column, clock=station), settings)
 
 
 def _only_chi_square(detector: str, where: str, fields: tuple[str, ...] = ()) -> None:

@@ -20,7 +20,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from chronofuse.io.capture_series import read_clock_series
-from chronofuse.io.formats import CAPTURE_FORMATS, sniff_format
+from chronofuse.io.formats import CAPTURE_FORMATS, LOG_FORMATS, sniff_format
 from chronofuse.io.records import column_names, epoch_record, read_record
 from chronofuse.record import EpochRecord
 from chronofuse.validation import InputDataError, check_scalar
@@ -67,9 +67,11 @@ def read_capture_bias(path: str | Path, rate_hz: float | None = None, station: s
     return read_clock_series(path, rate_hz, station)
 
 
-def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None) -> EpochRecord:
-    """One receiver clock bias from a CSV/text file or a receiver recording (UBX alone or with NMEA; told
-    apart by :func:`sniff_format`).
+def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str | None = None,
+                    clock: str | None = None) -> EpochRecord:
+    """One receiver clock bias from a CSV/text file, a receiver recording (UBX alone or with NMEA) or a field
+    log's clock offset (``clock`` picks it: :func:`chronofuse.io.field_logs.log_clock_bias`); told apart by
+    :func:`sniff_format`.
 
     The interval is the file's own (time column, UBX iTOW); ``rate_hz`` serves a CSV without times and sets
     a recording's grid interval.
@@ -80,6 +82,13 @@ def read_clock_bias(path: str | Path, rate_hz: float | None = None, column: str 
     if rate_hz is not None:
         check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
     kind = sniff_format(path)
+    if kind in LOG_FORMATS:  # a field log: the offset of one of its clocks (``clock``; the first without it)
+        from chronofuse.io.field_logs import log_clock_bias
+
+        return log_clock_bias(path, rate_hz=rate_hz, column=column, clock=clock, fmt=kind)
+    if clock is not None:
+        raise InputDataError("a clock is picked in a field log (linuxptp, chrony, RTKLIB, gpsd, TSIP), not here",
+                             str(path))
     if kind.startswith("rinex"):
         raise InputDataError(f"a {kind} file holds no single receiver clock bias", str(path))
     return read_capture_bias(path, rate_hz) if kind in CAPTURE_FORMATS else read_csv_bias(path, rate_hz, column)

@@ -10,10 +10,13 @@ from pathlib import Path
 
 from chronofuse.validation import InputDataError
 
-__all__ = ["FORMATS", "CAPTURE_FORMATS", "sniff_format", "format_of_head", "capture_format", "is_gzip", "open_data", "open_text"]
+__all__ = ["FORMATS", "CAPTURE_FORMATS", "LOG_FORMATS", "sniff_format", "format_of_head", "capture_format",
+           "log_format", "is_gzip", "open_data", "open_text"]
 
+#: The field's own logs, read by :mod:`chronofuse.io.field_logs` (told apart by :func:`chronofuse.io.log_sniff.sniff_log`).
+LOG_FORMATS = ("linuxptp", "chrony", "rtklib-pos", "rtklib-stat", "gpsd-json", "tsip")
 #: The kinds :func:`sniff_format` tells apart.
-FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock", "csv")
+FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock", "csv") + LOG_FORMATS
 #: Recordings :func:`chronofuse.io.inspect.read_capture` reads into receiver epochs (every kind but CSV text;
 #: a RINEX navigation file is refused there, naming the file).
 CAPTURE_FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock")
@@ -61,7 +64,8 @@ def sniff_format(path: str | Path) -> str:
     letter in column 21 (RINEX 2.11 and 3.05 header, "RINEX VERSION / TYPE") tells navigation from
     observations (a Hatanaka file is always observations); lines that are mostly NMEA 0183 sentences
     (``$GPGGA,...``; ``#`` comment lines as gpsd's logs carry them are passed over) an NMEA recording;
-    anything else is read as text. A gzip file (magic bytes 0x1F 0x8B, whatever its name) is looked at
+    a field log (linuxptp, chrony, RTKLIB, gpsd JSON, Trimble TSIP: :func:`chronofuse.io.log_sniff.sniff_log`)
+    by its own; anything else is read as text. A gzip file (magic bytes 0x1F 0x8B, whatever its name) is looked at
     decompressed (the readers decompress it too).
 
     Raises :class:`InputDataError` naming the file when it does not exist, is a folder, is empty or is
@@ -85,6 +89,10 @@ def sniff_format(path: str | Path) -> str:
 def format_of_head(head: bytes) -> str:
     """One of :data:`FORMATS` for a stream whose first bytes (up to 4096, decompressed) are ``head``, by the
     rules of :func:`sniff_format` (which reads them from a file)."""
+    from chronofuse.io.log_sniff import is_tsip, sniff_log
+
+    if is_tsip(head):  # binary TSIP may hold a UBX sync pair by chance: told first, by its DLE framing
+        return "tsip"
     if _UBX_SYNC in head:
         return "ubx"
     first = head.split(b"\n", 1)[0].decode("ascii", errors="replace")
@@ -93,9 +101,12 @@ def format_of_head(head: bytes) -> str:
     if "RINEX VERSION / TYPE" in first or "CRINEX VERS" in first:
         kind = first[20:21].upper()
         return "rinex-nav" if kind in _RINEX_NAV_TYPES and "CRINEX" not in first else "rinex-obs"
+    log = sniff_log(head)
+    if log == "rtklib-stat":  # "$POS,...", "$CLK,..." lines would pass for NMEA sentences
+        return log
     if _looks_like_nmea(head):
         return "nmea"
-    return "csv"
+    return log or "csv"
 
 
 def capture_format(path: str | Path) -> str | None:
@@ -106,3 +117,13 @@ def capture_format(path: str | Path) -> str | None:
     except (InputDataError, OSError):
         return None
     return kind if kind in CAPTURE_FORMATS else None
+
+
+def log_format(path: str | Path) -> str | None:
+    """The file's kind when it is a field log (one of :data:`LOG_FORMATS`), else None; never raises (the
+    reader the caller falls back to says what is wrong with the file)."""
+    try:
+        kind = sniff_format(path)
+    except (InputDataError, OSError):
+        return None
+    return kind if kind in LOG_FORMATS else None

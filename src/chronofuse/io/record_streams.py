@@ -29,7 +29,7 @@ import numpy as np
 import pyarrow as pa
 
 from chronofuse.io.columns import decimal_text_to_ns
-from chronofuse.io.formats import format_of_head
+from chronofuse.io.formats import LOG_FORMATS, format_of_head
 from chronofuse.io.record_columns import TIME_NAMES, time_ns_per_unit
 from chronofuse.io.units import column_unit
 from chronofuse.io.rinex_clock import is_rinex_clock, parse_ar_line
@@ -199,6 +199,7 @@ class TextLines(_Lines):
         self.column, self.rate_hz, self.name, self.prefer = column, rate_hz, name, prefer
         self._layout = None  # (time index or None, value index, value scale, time ns per unit, width)
         self._sample = 0
+        self._last_t_ns: int | None = None  # the stream's last time tag, to refuse one that does not increase
 
     def _choose(self, header: list[str] | None, width: int, number: int) -> tuple:
         names = header if header is not None else [str(i + 1) for i in range(width)]
@@ -272,7 +273,15 @@ class TextLines(_Lines):
             if bad >= 0:
                 raise InputDataError(f"cannot read {t_text[bad]!r} as a time", self.source, lines[bad])
         self._sample += len(values)
-        record = EpochRecord.from_arrays(np.asarray(t_ns, dtype=np.int64), {self.name: np.array(values)},
+        t_ns = np.asarray(t_ns, dtype=np.int64)
+        before = t_ns if self._last_t_ns is None else np.concatenate(([self._last_t_ns], t_ns))
+        back = np.flatnonzero(np.diff(before) <= 0)
+        if back.size:  # what the file reader refuses, with the same words (an input error, not a bug)
+            k = int(back[0])
+            raise InputDataError(f"time is not increasing ({int(before[k])} ns then {int(before[k + 1])} ns on the "
+                                 "file's scale)", self.source, lines[k + 1 if self._last_t_ns is None else k])
+        self._last_t_ns = int(t_ns[-1])
+        record = EpochRecord.from_arrays(t_ns, {self.name: np.array(values)},
                                          {self.name: "s"}, source=self.source, time_scale="file",
                                          position=np.array(lines, dtype=np.int64), position_unit="line")
         return [(None, record)]
@@ -340,4 +349,6 @@ def open_stream(chunks: Iterable[bytes], source: str, *, column: str | None = No
     if kind in ("rinex-obs", "rinex-nav"):
         raise InputDataError(f"a {kind} stream holds no receiver clock bias: identification mode reads a RINEX "
                              "observation file with its navigation file", source)
+    if kind in LOG_FORMATS:  # its clocks are told apart over the whole log: read from a file
+        raise InputDataError(f"a {kind} log is read from a file (detect FILE), not from a stream", source)
     return TextLines(source, column=column, rate_hz=rate_hz), rest()

@@ -35,8 +35,9 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
+from chronofuse.io.clock_record import ClockRecord
 from chronofuse.io.columns import Layout, data_lines, decimal_text_to_ns, read_columns, sniff
-from chronofuse.io.formats import capture_format
+from chronofuse.io.formats import capture_format, log_format
 from chronofuse.io.record_columns import (
     ColumnChoice,
     check_frequency,
@@ -60,52 +61,6 @@ KINDS = ("phase", "freq")
 _SLOT_TOLERANCE = 0.25
 # rate_hz and the time column agree when their intervals differ by less than this (relative).
 _RATE_AGREEMENT = 1e-3
-
-
-@dataclass(frozen=True)
-class ClockRecord:
-    """A phase (seconds) or fractional-frequency record sampled at ``rate_hz``.
-
-    Attributes
-    ----------
-    values : ndarray of shape (N,)
-        Phase in seconds or fractional frequency (dimensionless); NaN marks a gap.
-    rate_hz : float
-        Sample rate.
-    kind : {"phase", "freq"}
-    t_ns : ndarray of int64 of shape (N,) or None
-        Epoch of each grid slot in integer nanoseconds on the file's own time scale (UNIX, MJD, ...), when
-        the file had a time column.
-    source : str
-        Where the record came from (file path).
-    n_gaps : int
-        Number of missing samples (NaN values plus slots the time column skipped).
-    column : str
-        The name (or 1-based number) of the value column read.
-    jitter_rms_s, jitter_max_s : float
-        Rms and largest distance of the time tags from their grid slots (0 without a time column).
-    notes : tuple of str
-        What the reader took from the file rather than from the caller (the values' unit from a header
-        line, the sample interval from a header block, the lines of a header block it skipped).
-    """
-
-    values: np.ndarray
-    rate_hz: float
-    kind: str
-    t_ns: np.ndarray | None
-    source: str
-    n_gaps: int
-    column: str
-    jitter_rms_s: float = 0.0
-    jitter_max_s: float = 0.0
-    notes: tuple[str, ...] = ()
-
-    @property
-    def t_s(self) -> np.ndarray | None:
-        """Seconds since the first sample (a duration, float64), shape (N,), or None without a time column."""
-        if self.t_ns is None:
-            return None
-        return (self.t_ns - self.t_ns[0]) / NS_PER_S
 
 
 def _line_of(path: Path, layout: Layout, k: int) -> int:
@@ -146,7 +101,7 @@ def _median_step(t_ns: np.ndarray, path: Path, layout: Layout) -> float:
     if (steps <= 0).any():
         k = int(np.flatnonzero(steps <= 0)[0]) + 1
         raise InputDataError(
-            f"time is not increasing ({t_ns[k - 1] / NS_PER_S:.9g} s then {t_ns[k] / NS_PER_S:.9g} s on the file's "
+            f"time is not increasing ({int(t_ns[k - 1])} ns then {int(t_ns[k])} ns on the file's "
             "scale)", str(path), _line_of(path, layout, k))
     return float(np.partition(steps, (steps.size - 1) // 2)[(steps.size - 1) // 2])
 
@@ -241,8 +196,10 @@ def read_record(
     station: str | None = None,
     zero_is_gap: bool = False,
 ) -> ClockRecord:
-    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), or a
-    receiver recording's clock (:func:`capture_record`).
+    """Read a phase or frequency record from a text file (plain, gzip, bz2 or xz, told by content), a
+    receiver recording's clock (:func:`capture_record`), or a clock of a field log
+    (:func:`chronofuse.io.field_logs.log_record`: ptp4l/phc2sys/ts2phc, chrony, RTKLIB .stat, gpsd JSON,
+    Trimble TSIP; ``column`` then names one of its columns).
 
     Parameters
     ----------
@@ -264,7 +221,9 @@ def read_record(
     max_gap_fraction : float
         A record whose gaps exceed this fraction of its samples is rejected (too little data).
     station : str, optional
-        The station of a RINEX clock product (the first without it); refused for any other file.
+        The station of a RINEX clock product, or the clock of a field log (its name or a unique part of it:
+        ``ptp4l``, ``phc2sys``, a chrony source; :func:`chronofuse.io.field_logs.pick_series`); the first
+        without it; refused for any other file.
     zero_is_gap : bool
         Read a value of exactly 0 as a missing sample (Stable32's convention for gaps).
 
@@ -287,9 +246,13 @@ def read_record(
         raise InputDataError("is a directory, not a data file", str(path))
     if capture_format(path) is not None:  # a receiver recording (UBX, NMEA): its clock bias / drift
         return capture_record(path, kind=kind or "phase", rate_hz=rate_hz, station=station)
+    if log_format(path) is not None:  # a field log (linuxptp, chrony, RTKLIB, gpsd, TSIP): one of its clocks
+        from chronofuse.io.field_logs import log_record
+
+        return log_record(path, kind=kind, rate_hz=rate_hz, column=column, clock=station)
     if station is not None:
-        raise InputError("{station} picks a station of a RINEX clock product (.clk), not of a text record",
-                         str(path), fields=("station",))
+        raise InputError("{station} picks a station of a RINEX clock product (.clk) or a clock of a field log, "
+                         "not a column of a text record", str(path), fields=("station",))
     layout = sniff(path)
     facts = header_facts(list(layout.comments) + list(layout.preamble))
     first_row = list(layout.rows[0])

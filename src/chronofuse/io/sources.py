@@ -153,6 +153,9 @@ class SerialSource(_Reconnecting):
     """A serial port through pyserial (``port`` like ``/dev/ttyUSB0``; a pseudo-terminal works too)."""
 
     def __init__(self, port: str, baudrate: int = 9600, name: str | None = None, backoff: Backoff | None = None):
+        from chronofuse.extras import require
+
+        require("serial", f"the serial source {port}")  # here, not in the reading thread: one line, exit 2
         super().__init__(name or port, backoff)
         self.port, self.baudrate = port, baudrate
 

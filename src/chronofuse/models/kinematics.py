@@ -12,6 +12,11 @@ Within segment ``j`` (``t_j <= t < t_{j+1}``)::
 
 Arrays carry a leading trial axis of length ``trials`` or 1 (1 = the same path for every trial), so a
 Monte Carlo run with one geometry and a training set with a different path per trial use one type.
+
+Manoeuvre profiles: :func:`turn` (a level coordinated turn at a load factor, as many short constant-
+acceleration segments whose acceleration stays perpendicular to the velocity) and :func:`climb` (a pull-up
+into a climb and back). A path in a local frame on the rotating Earth, seen in the inertial frame, is
+:class:`chronofuse.models.earth_frame.EarthRotating` (it offers the same ``position_at``/``velocity_at``).
 """
 
 from __future__ import annotations
@@ -22,7 +27,8 @@ import numpy as np
 
 from chronofuse.validation import InputError, check_array, check_scalar
 
-__all__ = ["Trajectory", "constant_velocity", "constant_acceleration", "manoeuvre", "radial_geometry"]
+__all__ = ["Trajectory", "constant_velocity", "constant_acceleration", "manoeuvre", "radial_geometry", "turn",
+           "climb", "line_of_sight"]
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -139,7 +145,7 @@ def manoeuvre(position_m, velocity_m_s, segment_start_s, acceleration_m_s2) -> T
 
 
 def radial_geometry(distance_m, radial_velocity_m_s, radial_acceleration_m_s2=0.0) -> tuple[Trajectory, Trajectory]:
-    """The swarm paper's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
+    """The paper's two-node geometry: A at rest at the origin, B on the x axis at ``distance_m`` moving
     away at ``radial_velocity_m_s`` (negative: closing) with ``radial_acceleration_m_s2``.
 
     Each argument is a scalar or an array of shape (trials,). Returns ``(a, b)``.
@@ -164,3 +170,76 @@ def radial_geometry(distance_m, radial_velocity_m_s, radial_acceleration_m_s2=0.
     b = constant_acceleration(np.broadcast_to(d, (n,))[:, None] * e, np.broadcast_to(v, (n,))[:, None] * e,
                               np.broadcast_to(acc, (n,))[:, None] * e)
     return a, b
+
+
+STANDARD_GRAVITY_M_S2 = 9.80665
+
+
+def turn(position_m, velocity_m_s, *, load_factor_g: float, start_s: float, duration_s: float,
+         right: bool = True, segment_s: float = 0.05, total_s: float | None = None) -> Trajectory:
+    """A level turn at ``load_factor_g`` (horizontal acceleration ``g sqrt(n^2 - 1)``, the coordinated-turn
+    relation) from ``start_s`` for ``duration_s``, straight flight before and after.
+
+    The turn is built from segments of ``segment_s`` (at most) with constant acceleration, each taking the
+    velocity to the same velocity rotated by ``omega segment_s`` (``omega = a / |v|``): the speed is the same
+    at every segment's ends (it dips by ``(omega segment_s)^2 / 8`` relative in between, 1e-5 at 5 g, 250 m/s
+    and the default 0.05 s) and the acceleration's size is ``a`` within ``(omega segment_s)^2 / 24``.
+    ``position_m``, ``velocity_m_s`` of shape (3,) (one path; ``z`` is up). ``total_s`` (default: the end of
+    the turn) only documents the run length.
+    """
+    check_scalar(load_factor_g, "load_factor_g", min_val=1.0)
+    check_scalar(start_s, "start_s", min_val=0.0)
+    check_scalar(duration_s, "duration_s", min_val=0.0, include_min=False)
+    check_scalar(segment_s, "segment_s", min_val=1e-4, include_min=True)
+    r0, v0 = _vec(position_m, "position_m")[0], _vec(velocity_m_s, "velocity_m_s")[0]
+    speed = float(np.hypot(v0[0], v0[1]))
+    if speed <= 0.0:
+        raise InputError(f"{{velocity_m_s}} == {v0.tolist()} has no horizontal part, a level turn ({{manoeuvre}}) "
+                         "needs one", fields=("velocity_m_s", "manoeuvre"))
+    accel = STANDARD_GRAVITY_M_S2 * np.sqrt(load_factor_g**2 - 1.0)
+    n_seg = max(1, int(np.ceil(duration_s / segment_s)))
+    starts = [0.0] if start_s > 0.0 else []
+    acc_rows = [np.zeros(3)] if start_s > 0.0 else []
+    v = v0.astype(float).copy()
+    sign = -1.0 if right else 1.0
+    dt = duration_s / n_seg
+    step = sign * accel / speed * dt  # heading change per segment, rad
+    rot = np.array([[np.cos(step), -np.sin(step), 0.0], [np.sin(step), np.cos(step), 0.0], [0.0, 0.0, 1.0]])
+    for j in range(n_seg):
+        starts.append(start_s + j * dt)
+        v_next = rot @ v
+        acc_rows.append((v_next - v) / dt)
+        v = v_next
+    starts.append(start_s + duration_s)
+    acc_rows.append(np.zeros(3))
+    return manoeuvre(r0, v0, np.asarray(starts), np.asarray(acc_rows))
+
+
+def climb(position_m, velocity_m_s, *, load_factor_g: float, start_s: float, pull_s: float, hold_s: float) -> Trajectory:
+    """A pull-up: vertical acceleration ``g (n - 1)`` for ``pull_s`` from ``start_s``, a constant climb for
+    ``hold_s``, and the same push-over back to level flight (piecewise constant acceleration, exact)."""
+    check_scalar(load_factor_g, "load_factor_g", min_val=1.0)
+    for name, value in (("start_s", start_s), ("pull_s", pull_s), ("hold_s", hold_s)):
+        check_scalar(value, name, min_val=0.0)
+    up = np.array([0.0, 0.0, STANDARD_GRAVITY_M_S2 * (load_factor_g - 1.0)])
+    times = np.array([0.0, start_s, start_s + pull_s, start_s + pull_s + hold_s, start_s + 2 * pull_s + hold_s])
+    acc = np.array([np.zeros(3), up, np.zeros(3), -up, np.zeros(3)])
+    keep = np.concatenate([[True], np.diff(times) > 0.0])
+    return manoeuvre(position_m, velocity_m_s, times[keep], acc[keep])
+
+
+def line_of_sight(node_a, node_b, t_s):
+    """Range (trials, k), m, the unit vector from A to B (trials, k, 3), and the velocities of A and B
+    (trials, k, 3), m/s, at true times ``t_s`` (trials, k), in the paths' common frame.
+
+    Where the nodes coincide (range below 1 mm) the line of sight is the direction the range opens along,
+    that of the relative velocity (the one-sided limit), so that the range rate there is ``|v_B - v_A|``."""
+    rel = node_b.position_at(t_s) - node_a.position_at(t_s)
+    v_a, v_b = node_a.velocity_at(t_s), node_b.velocity_at(t_s)
+    rng_m = np.linalg.norm(rel, axis=-1)
+    near = rng_m < 1e-3
+    if np.any(near):
+        rel = np.where(near[..., None], v_b - v_a, rel)
+    norm = np.linalg.norm(rel, axis=-1)
+    u = np.divide(rel, norm[..., None], out=np.zeros_like(rel), where=norm[..., None] > 0.0)
+    return rng_m, u, v_a, v_b

@@ -59,6 +59,13 @@ class MonitorSettings:
                                  sigma_rho_m=self.sigma_rho_m, train_s=None if complete else self.train_s,
                                  max_time_acc_s=self.max_time_acc_s)
 
+    def check(self) -> None:
+        """Refuse a setting no receiver could be watched with (an :class:`InputError` naming its field), before
+        any source is opened: the qualification's limits, and the detector built as every receiver's will be."""
+        Qualification(self.gdop_max, self.min_sats)
+        detection = self.detection()
+        detection.make_detector(1.0)
+
 
 #: An epoch is held for its verdict while at most this many later epochs of the receiver have been decoded: a
 #: receiver whose clock bias stops before its grid has learnt its interval (from its first 9 epochs with a

@@ -1,12 +1,13 @@
-"""A numba kernel for the seed chain's streaming step, beside its readable numpy twin.
+"""A numba kernel for the paper's chain's streaming step, beside its readable numpy twin.
 
-:class:`FastSeedChain` is :class:`~chronofuse.sync.chain.ProposedChain` with ``filter="seed"`` and the
-calibrated URT mode (the configuration a node runs in real time), its per-exchange core fused into one
-numba kernel: RVC (seed eq. 9 or its exact form), URT compensation with the calibrated fixed part,
-the Kalman predict/update with ``H = [1 0 0]`` (Joseph form, as :mod:`chronofuse.estimation.kalman`),
-the nine residual inputs and the BP 9-32-1 forward pass (eqs. 39-43) with the clip and warm-up. The
-numpy twin is ``ProposedChain`` itself (tests/sync/test_fast.py compares them); the kernel exists only
-because a Python step costs about 100 us and the seed claims 1-2 us.
+:class:`FastRvcKfChain` (registered as ``rtt-rvc-kf-numba`` and, with its BP network, ``rtt-rvc-kf-bp-numba``)
+is :class:`~chronofuse.sync.chain.RvcKfChain` in the calibrated URT mode (the configuration a node runs
+in real time), its per-exchange core fused into one numba kernel: RVC (the paper's eq. 9 or its exact
+form), URT compensation with the calibrated fixed part, the Kalman predict/update with ``H = [1 0 0]``
+(the shared compiled kernel :mod:`chronofuse.estimation.kalman_kernel`), the nine residual inputs and the BP 9-32-1 forward
+pass (eqs. 39-43) with the clip and warm-up. The numpy twin is ``RvcKfChain`` itself
+(tests/sync/test_fast.py compares them); the kernel exists only because a Python step costs about 100 us
+and the paper claims 1-2 us.
 """
 
 from __future__ import annotations
@@ -17,14 +18,16 @@ import numba
 import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
-from chronofuse.sync.chain import ProposedChain
+from chronofuse.estimation.kalman_kernel import predict, update
+from chronofuse.sync.chain import RvcKfChain
+from chronofuse.validation import InputError
 
-__all__ = ["FastSeedChain"]
+__all__ = ["FastRvcKfChain"]
 
 
 @numba.njit(cache=True)
-def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp, dt, Q, R, P0, exact, snr_feat, w1, b1, w2, b2, use_net, warmup,
-            clip_ns):
+def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_feat, w1, b1, w2, b2, use_net,
+            warmup, clip_ns):
     n = x.shape[0]
     x_out = x.copy()
     P_out = P.copy()
@@ -32,7 +35,12 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp, dt, Q, R, P0, exact, snr_feat
     v0_out = v0.copy()
     est = np.empty(n)
     feat = np.empty(9)
+    F = np.eye(3)
+    F[0, 1] = dt
+    hrow = np.array([1.0, 0.0, 0.0])
+    work = np.empty(3 * 3 * 3 + 2 * 3)  # the Kalman kernel's scratch (kalman_kernel.work_size(3))
     for i in range(n):
+        tp = tp_all[i] if tp_all.size > 1 else tp_all[0]
         if exact:
             eps_rvc = (C * (t_i[i] - t_r[i] + t_b[i]) + v[i] * (t_b[i] - t_i[i])) / (2.0 * C)
         else:
@@ -49,54 +57,22 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp, dt, Q, R, P0, exact, snr_feat
             s0_out[i] = C * (t_i[i] + t_r[i] - t_b[i]) / 2.0
             v0_out[i] = v[i]
         else:
-            # predict: x- = F x, P- = F P F' + Q with F = [[1, dt, 0], [0, 1, 0], [0, 0, 1]]
-            x0 = x[i, 0] + dt * x[i, 1]
-            x1 = x[i, 1]
-            x2 = x[i, 2]
-            p = P[i]
-            pp = np.empty((3, 3))
-            fp = np.empty((3, 3))
-            for b in range(3):
-                fp[0, b] = p[0, b] + dt * p[1, b]
-                fp[1, b] = p[1, b]
-                fp[2, b] = p[2, b]
-            for a in range(3):
-                pp[a, 0] = fp[a, 0] + dt * fp[a, 1] + Q[a, 0]
-                pp[a, 1] = fp[a, 1] + Q[a, 1]
-                pp[a, 2] = fp[a, 2] + Q[a, 2]
+            # x- = F x, P- = F P F' + Q (the shared compiled kernel), then the control x-[2] = v_doppler
+            xi = x_out[i]
+            Pi = P_out[i]
+            predict(x[i], P[i], F, Q, xi, Pi, work)
             if not math.isnan(v[i]):
-                x2 = v[i]  # B u with u = v_doppler - v
-            if math.isnan(z):
-                x_out[i, 0], x_out[i, 1], x_out[i, 2] = x0, x1, x2
-                P_out[i] = pp
-            else:
-                # update with H = [1 0 0]: S = P00 + R, K = P[:, 0] / S, Joseph form
-                s = pp[0, 0] + R
-                y = z - x0
-                kg = np.empty(3)
-                for a in range(3):
-                    kg[a] = pp[a, 0] / s
-                x_out[i, 0] = x0 + kg[0] * y
-                x_out[i, 1] = x1 + kg[1] * y
-                x_out[i, 2] = x2 + kg[2] * y
-                ikh = np.eye(3)
-                for a in range(3):
-                    ikh[a, 0] -= kg[a]
-                tmp = ikh @ pp @ ikh.T
-                for a in range(3):
-                    for b in range(3):
-                        tmp[a, b] += kg[a] * R * kg[b]
-                for a in range(3):
-                    for b in range(3):
-                        P_out[i, a, b] = 0.5 * (tmp[a, b] + tmp[b, a])
+                xi[2] = v[i]  # B u with u = v_doppler - v
+            if not math.isnan(z):
+                update(xi, Pi, z, hrow, R, xi, Pi, work)  # H = [1 0 0], Joseph form
         e = x_out[i, 0]
         if use_net and k >= warmup:
             feat[0] = (z - e) * 1e9
-            feat[1] = e * 1e6
+            feat[1] = x_out[i, 1] * 1e9
             feat[2] = x_out[i, 2] / 1e3
             feat[3] = snr_feat
-            feat[4] = t_i[i] * 1e3
-            feat[5] = (t_r[i] - t_b[i]) * 1e3
+            feat[4] = (t_i[i] + t_r[i] - t_b[i]) / 2.0 * 1e3
+            feat[5] = t_b[i] * 1e3
             feat[6] = s0_out[i] / 1e5
             feat[7] = v0_out[i] / 1e3
             feat[8] = tp * 1e8
@@ -111,22 +87,23 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp, dt, Q, R, P0, exact, snr_feat
     return x_out, P_out, s0_out, v0_out, est
 
 
-class FastSeedChain(ProposedChain):
-    """The seed chain (``filter="seed"``, URT calibrated, optional BP network) through one numba kernel.
+class FastRvcKfChain(RvcKfChain):
+    """The paper's chain (URT calibrated, optional BP network) through one numba kernel.
 
-    Same parameters as :class:`ProposedChain`; ``residual_model`` must be a BP network (window 1).
+    Same configuration as :class:`RvcKfChain`; ``residual_model`` must be a BP network (window 1).
     """
 
-    name = "proposed-fast"
+    name = "rtt-rvc-kf-numba"
 
     def _check_params(self):
         super()._check_params()
-        if self.filter != "seed" or self.urt_mode != "calibrated":
-            raise ValueError(f"filter, urt_mode == {self.filter!r}, {self.urt_mode!r}, must be 'seed', 'calibrated'")
+        if self.config.urt_mode != "calibrated":
+            raise InputError(f"{{urt_mode}} == {self.config.urt_mode!r}, must be 'calibrated' for the numba chain "
+                             f"({self.name})", fields=("urt_mode",))
         net = self.residual_model
         if net is not None and (net.config.kind != "bp" or not hasattr(net, "_w1")):
             raise ValueError("residual_model must be a trained BP network for the numba chain")
-        self.tp_ = float(self.urt_fixed_s)
+        self.tp_ = np.atleast_1d(np.asarray(self.config.urt_s, dtype=np.float64))
         if net is None:
             self.w_ = (np.zeros((1, 9)), np.zeros(1), np.zeros(1), 0.0)
         else:
@@ -138,9 +115,11 @@ class FastSeedChain(ProposedChain):
 
     def update(self, state, sample):
         w1, b1, w2, b2 = self.w_
+        cfg = self.config
+        tp = self.tp_ if self.tp_.size == 1 or self.tp_.size == sample.t_i_s.size else self.tp_[:1]
         x, P, s0, v0, est = _kernel(
             state["x"], state["P"], state["s0"], state["v0"], sample.k, sample.t_i_s, sample.t_b_s, sample.t_r_s,
-            sample.velocity_m_s, self.tp_, float(self.interval_s), self.Q_, float(self.R_[0, 0]), self.P0_,
-            self.light_time == "exact", (float(self.snr_db) - 12.0) / 8.0, w1, b1, w2, b2,
-            self.residual_model is not None, int(self.warmup_steps_), float(self.clip_s) * 1e9)
+            sample.velocity_m_s, tp, float(self.interval_s), self.Q_, float(self.R_[0, 0]), self.P0_,
+            cfg.light_time == "exact", (float(cfg.snr_db) - 12.0) / 8.0, w1, b1, w2, b2,
+            self.residual_model is not None, int(self.warmup_steps_), float(cfg.clip_s) * 1e9)
         return {"x": x, "P": P, "s0": s0, "v0": v0}, est

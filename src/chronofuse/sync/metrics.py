@@ -1,4 +1,12 @@
-"""Sync metrics (seed 001 eqs. 47-51): RMSE, convergence epochs, robustness, communication overhead."""
+"""Sync metrics: RMSE (the swarm paper's eq. 47) with its confidence interval, its ratio to a bound,
+convergence epochs, robustness, communication overhead (eqs. 48-51), and a follower's time-error
+statistics (percentiles, MTIE and TDEV against an ITU-T mask).
+
+Intervals are percentile bootstraps over trials (Efron and Tibshirani, *An Introduction to the Bootstrap*,
+1993, ch. 13): each trial is one link with its own prior draw and its own calibration, so resampling trials
+carries the calibration-to-calibration spread into the interval. A ratio to the bound resamples the
+trials' mean-square errors and their bounds together.
+"""
 
 from __future__ import annotations
 
@@ -6,13 +14,49 @@ import numpy as np
 
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["rmse_s", "running_rmse_s", "convergence_epochs", "robustness", "overhead"]
+__all__ = ["rmse_s", "running_rmse_s", "convergence_epochs", "robustness", "overhead", "per_trial_mse",
+           "rmse_interval", "ratio_interval", "time_error_statistics"]
+
+_BOOT = 2000
 
 
 def rmse_s(error_s) -> float:
     """Eq. (47): ``sqrt(mean(err^2))`` over every trial and exchange (NaN = no estimate yet, left out)."""
     err = check_array(error_s, "error_s", ndim=2, allow_nan=True)
     return float(np.sqrt(np.nanmean(err**2)))
+
+
+def per_trial_mse(error_s) -> np.ndarray:
+    """Each trial's mean-square error over its exchanges (trials,), s^2 (NaN left out)."""
+    err = check_array(error_s, "error_s", ndim=2, allow_nan=True)
+    return np.nanmean(err**2, axis=1)
+
+
+def _boot_index(n: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).integers(0, n, size=(_BOOT, n))
+
+
+def rmse_interval(mse_per_trial, confidence: float = 0.95, seed: int = 0) -> tuple[float, float, float]:
+    """``(rmse, lo, hi)``: ``sqrt(mean(mse))`` and its percentile-bootstrap interval over trials."""
+    mse = check_array(mse_per_trial, "mse_per_trial", ndim=1)
+    check_scalar(confidence, "confidence", min_val=0.0, max_val=1.0, include_min=False, include_max=False)
+    idx = _boot_index(mse.size, seed)
+    boot = np.sqrt(mse[idx].mean(axis=1))
+    a = (1.0 - confidence) / 2.0
+    return float(np.sqrt(mse.mean())), float(np.quantile(boot, a)), float(np.quantile(boot, 1.0 - a))
+
+
+def ratio_interval(mse_per_trial, bound_var_per_trial, confidence: float = 0.95, seed: int = 0):
+    """``(ratio, lo, hi)``: ``sqrt(mean(mse) / mean(bound))`` (an RMSE over the bound's RMS) and its
+    paired percentile-bootstrap interval over trials."""
+    mse = check_array(mse_per_trial, "mse_per_trial", ndim=1)
+    bnd = check_array(bound_var_per_trial, "bound_var_per_trial", ndim=1)
+    if mse.shape != bnd.shape:
+        raise ValueError(f"mse_per_trial {mse.shape} and bound_var_per_trial {bnd.shape} must agree")
+    idx = _boot_index(mse.size, seed)
+    boot = np.sqrt(mse[idx].mean(axis=1) / bnd[idx].mean(axis=1))
+    a = (1.0 - confidence) / 2.0
+    return float(np.sqrt(mse.mean() / bnd.mean())), float(np.quantile(boot, a)), float(np.quantile(boot, 1.0 - a))
 
 
 def running_rmse_s(error_s) -> np.ndarray:
@@ -41,8 +85,35 @@ def overhead(interval_s: float, request_bits: int = 128, reply_bits: int = 256) 
     """Eq. (51): messages and bits per second of one link exchanging every ``interval_s``.
 
     A request carries a header and its slot number (default 128 bits); the reply also carries ``T_i``
-    and ``T_B`` as two 64-bit timestamps (default 256 bits). Sizes are assumptions, not the seed's.
+    and ``T_B`` as two 64-bit timestamps (default 256 bits). Sizes are assumptions, not the paper's.
     """
     check_scalar(interval_s, "interval_s", min_val=0.0, include_min=False)
     rate = 1.0 / interval_s
     return {"messages_per_s": 2.0 * rate, "bits_per_s": (request_bits + reply_bits) * rate}
+
+
+def time_error_statistics(te_s, rate_hz: float, mask: str | None = "prtc-b") -> dict:
+    """A follower's time-error record ``te_s`` (N,) (NaN: none) summarised: RMS, percentiles of ``|TE|``
+    (50, 95, 99 %) and max, and its MTIE and TDEV (:mod:`chronofuse.analysis.stability`, octave taus)
+    against the ITU-T ``mask`` (:data:`chronofuse.analysis.masks.MASKS`; None: no mask). All in s."""
+    from chronofuse.analysis.masks import MASKS
+    from chronofuse.analysis.stability import mtie, tau_grid, tdev
+
+    te = check_array(te_s, "te_s", ndim=1, allow_nan=True)
+    ok = np.isfinite(te)
+    if ok.sum() < 4:
+        raise ValueError("te_s has fewer than 4 valid samples")
+    a = np.abs(te[ok])
+    out = {"rms_s": float(np.sqrt(np.mean(te[ok] ** 2))), "max_abs_s": float(a.max()),
+           "p50_abs_s": float(np.percentile(a, 50)), "p95_abs_s": float(np.percentile(a, 95)),
+           "p99_abs_s": float(np.percentile(a, 99))}
+    m = mtie(te, rate_hz, tau_grid("octave", te.size, rate_hz, "mtie"))
+    t = tdev(te, rate_hz, tau_grid("octave", te.size, rate_hz, "tdev"))
+    out["mtie"] = {"tau_s": [float(v) for v in m.tau_s], "mtie_s": [float(v) for v in m.dev]}
+    out["tdev"] = {"tau_s": [float(v) for v in t.tau_s], "tdev_s": [float(v) for v in t.dev]}
+    if mask is not None:
+        clock = MASKS[mask]
+        rm, rt = clock.mtie.check(m), clock.tdev.check(t)
+        out["mask"] = {"name": mask, "mtie_passed": bool(rm.passed), "tdev_passed": bool(rt.passed),
+                       "evaluated": bool(rm.evaluated.any() or rt.evaluated.any())}
+    return out

@@ -1,7 +1,7 @@
-"""PTP-MLS: PTP offsets smoothed by moving least squares (seed 001 refs. [17-18]; no motion model).
+"""PTP-MLS: PTP offsets smoothed by moving least squares (the swarm paper's refs. [17-18]; no motion model).
 
-The seed names the method without details; the definition used here: after exchange ``k`` fit
-``z_j = a + b (t_j - t_k)`` to the last ``W`` PTP offsets (seed eq. 1) by weighted least squares with
+The paper names the method without details; the definition used here: after exchange ``k`` fit
+``z_j = a + b (t_j - t_k)`` to the last ``W`` PTP offsets (the paper's eq. 1) by weighted least squares with
 the tricube weights of LOESS (Cleveland 1979), ``w_j = (1 - (age_j / W)^3)^3`` for ``age_j = k - j``
 in ``0 .. W-1``, and report ``a``, the fitted value at the current exchange (causal). ``W`` is 16..64
 (default 32). Fewer than two samples: the raw offset.

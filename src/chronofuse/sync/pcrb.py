@@ -1,24 +1,27 @@
-"""Posterior Cramér–Rao bound of a moving two-way link (derivation: docs/sync/pcrb.md).
+"""The Bayesian bound of a two-way link under its stated prior (derivation: docs/sync/pcrb.md).
 
-Tichavský, Muravchik and Nehorai, "Posterior Cramér-Rao bounds for discrete-time nonlinear
-filtering", IEEE Trans. Signal Processing 46(5), 1998, eq. (21): for ``x(k+1) = F x(k) + w``,
-``w ~ N(0, Q)``, ``z(k) = h_k(x(k)) + v``, ``v ~ N(0, R)``, the information ``J`` of the state obeys::
+For a linear Gaussian state-space model ``x(k+1) = Phi x(k) + w``, ``z(k) = H_k x(k) + n``, the posterior
+Cramér–Rao bound (Van Trees' Bayesian bound; Tichavský, Muravchik and Nehorai, IEEE Trans. Signal
+Processing 46(5), 1998, eq. (21)) is the Kalman filter's posterior covariance under the true model: no
+estimator's mean-square error, averaged over the prior and the noise, is below it. The information form
+of Tichavský's recursion (:func:`tichavsky_pcrb`) needs ``Q`` invertible; the covariance form
+(:func:`bayesian_bound`) does not, and the tests check that both agree where both apply.
 
-    J(k+1) = D22 - D21 (J(k) + D11)^-1 D12,
-    D11 = F' Q^-1 F,   D12 = -F' Q^-1 = D21',   D22 = Q^-1 + E[H' R^-1 H],
+The link model (one model with the filter, :mod:`chronofuse.sync.measurement`):
 
-with ``H`` the Jacobian of ``h_k`` and ``J(0) = P0^-1 + H0' R^-1 H0``; the bound is ``J^-1``.
+* state ``[eps, y, g_1 .. g_M, b]``: the offset, the skew with random-walk FM, the flicker-FM components of
+  :class:`~chronofuse.models.clock_markov.ClockMarkovModel`, and ``b`` the error of the calibrated URT
+  (constant, prior sigma from :mod:`chronofuse.sync.calibration`, never observable from the link);
+* the prior: ``eps ~ N(., offset_sigma^2)``, ``y ~ N(., skew_sigma^2)``, flicker parts stationary
+  (:mod:`chronofuse.sync.prior`);
+* one row per exchange, ``z1 = eps + c_k (y + sum g) + a_k b + n``, ``c_k = (T_B + T_i - 2 eps) / 2``,
+  ``a_k = -(1 + v_k / c) / 2``, ``var(n) = (2 sigma_TOA,k^2 + sigma_j^2)/4`` (+ the Doppler lever term), the
+  TOA sigma from each exchange's SNR; a lost exchange has no row. The geometric terms of ``z1`` are known
+  and do not enter the bound. ``T_i`` and ``eps`` in ``c_k`` are the exchange's (the bound is
+  conditional on the geometry, which the nodes know to far better than the coefficient needs).
 
-The link model (that of :class:`~chronofuse.sync.chain.ProposedChain` ``filter="doppler"``):
-state ``[eps, eps_dot, v]``; the clock block of ``Q`` from both oscillators' ``h0``, ``h-2``
-(Van Dierendonck et al. 1984), the velocity a random walk of white acceleration ``accel_psd``
-(a small value stands for the truth's constant velocity: ``Q`` must be invertible); the two
-measurements of each exchange, the URT-compensated offset of seed eq. (1)
-``z1 = eps + eps_dot T_B / 2 - v (T_B - T_i) / (2c)`` with variance ``(2 sigma_TOA^2 + sigma_jitter^2) / 4`` (the fixed
-URT calibrated) and the Doppler velocity ``z2 = v`` with variance ``sigma_v^2``. ``T_i`` is taken at its
-noiseless value ``range(k) / c``; the Jacobian's dependence on the noise is below 1e-12 relative.
-At zero velocity it reduces to the static two-way bound of Skog and Händel (IEEE TSP 58(4), 2010),
-checked in tests/sync/test_pcrb.py.
+The bound printed beside an RMSE is ``sqrt(mean_k P_k[eps, eps])`` over the run (``rms``) and its last value
+(``final``); averaged over trials, ``sqrt(mean over trials and k)``.
 """
 
 from __future__ import annotations
@@ -29,29 +32,40 @@ import numpy as np
 
 from chronofuse.constants import SPEED_OF_LIGHT_M_PER_S as C
 from chronofuse.estimation.interface import FrozenResult
-from chronofuse.models.clock import clock_process_noise
+from chronofuse.models.clock_markov import ClockMarkovModel
 from chronofuse.models.link import LinkModel
 from chronofuse.models.oscillator import OscillatorModel
+from chronofuse.sync.measurement import offset_noise_var_s2, skew_coefficient_s, urt_coefficient
+from chronofuse.sync.prior import LinkPrior
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["PcrbResult", "tichavsky_pcrb", "link_model_matrices", "link_pcrb"]
+__all__ = ["PcrbResult", "tichavsky_pcrb", "bayesian_bound", "link_rows", "exchange_bound", "link_pcrb"]
 
 
 @dataclass(frozen=True)
 class PcrbResult(FrozenResult):
-    """``bound`` (steps, n, n): the PCRB matrix after each exchange; ``offset_var_s2`` (steps,) and
-    ``skew_var`` (steps,): its offset and fractional-frequency diagonal entries."""
+    """``offset_var_s2`` (trials, steps): the bound on the offset's mean-square error after each exchange;
+    ``skew_var`` (trials, steps): on the skew's; ``rms_s`` (trials,) and ``final_s`` (trials,): the offset
+    bound's RMS over the run and its last value, s."""
 
-    bound: np.ndarray
     offset_var_s2: np.ndarray
     skew_var: np.ndarray
+    rms_s: np.ndarray
+    final_s: np.ndarray
+
+    @property
+    def mean_rms_s(self) -> float:
+        """``sqrt(mean over trials and exchanges)``: the bound of an RMSE over all of them."""
+        return float(np.sqrt(np.mean(self.offset_var_s2)))
 
 
 def tichavsky_pcrb(F, Q, H_seq, R, P0) -> np.ndarray:
-    """The PCRB ``J(k)^-1`` (steps, n, n) of a linear Gaussian model (module docstring's recursion).
+    """The PCRB ``J(k)^-1`` (steps, n, n) of a linear Gaussian model by Tichavský's information recursion.
 
     ``F`` (n, n), ``Q`` (n, n) invertible, ``H_seq`` (steps, m, n), ``R`` (m, m), ``P0`` (n, n) the prior
-    covariance of the first state.
+    covariance of the first state::
+
+        J(k+1) = D22 - D21 (J(k) + D11)^-1 D12,  D11 = F' Q^-1 F,  D12 = -F' Q^-1,  D22 = Q^-1 + H' R^-1 H.
     """
     F, Q, R, P0 = (check_array(a, name, ndim=2) for a, name in ((F, "F"), (Q, "Q"), (R, "R"), (P0, "P0")))
     H_seq = check_array(H_seq, "H_seq", ndim=3)
@@ -69,37 +83,84 @@ def tichavsky_pcrb(F, Q, H_seq, R, P0) -> np.ndarray:
     return out
 
 
-def link_model_matrices(link: LinkModel, h0: float, hm2: float, steps: int, distance_m: float,
-                        velocity_m_s: float, accel_psd: float = 1e-4):
-    """``(F, Q, H_seq, R)`` of the moving two-way link model (module docstring)."""
-    check_scalar(steps, "steps", min_val=1, integer=True)
-    check_scalar(accel_psd, "accel_psd", min_val=0.0, include_min=False)
-    dt = link.interval_s
-    F = np.eye(3)
-    F[0, 1] = dt
-    Q = np.zeros((3, 3))
-    Q[:2, :2] = clock_process_noise(dt, h0=h0, hm2=hm2)
-    Q[2, 2] = accel_psd * dt
-    rng_m = distance_m + velocity_m_s * dt * np.arange(int(steps))
-    H = np.zeros((int(steps), 2, 3))
-    H[:, 0, 0] = 1.0
-    H[:, 0, 1] = link.reply_delay_s / 2.0  # eq. (1) averages eps over the exchange's T_B
-    H[:, 0, 2] = -(link.reply_delay_s - rng_m / C) / (2.0 * C)
-    H[:, 1, 2] = 1.0
-    R = np.diag([(2.0 * link.toa_sigma_s**2 + link.urt_jitter_s**2) / 4.0, link.velocity_sigma_m_s**2])
-    return F, Q, H, R
+def bayesian_bound(Phi, Q, H, R, P0) -> np.ndarray:
+    """The posterior covariance (trials, steps, n, n) of a scalar-measurement linear Gaussian model.
+
+    ``Phi``, ``Q`` (n, n); ``H`` (trials, steps, n) one row per exchange (NaN: no measurement); ``R``
+    (trials, steps) its noise variance; ``P0`` (n, n) or (trials, n, n) the prior covariance. Covariance
+    form (``Q`` may be singular): ``P- = Phi P Phi' + Q``, ``P = P- - P- h h' P- / (h' P- h + r)``.
+    """
+    Phi, Q = check_array(Phi, "Phi", ndim=2), check_array(Q, "Q", ndim=2)
+    H = check_array(H, "H", ndim=3, allow_nan=True)
+    R = check_array(R, "R", ndim=2, allow_nan=True)
+    trials, steps, n = H.shape
+    P = np.broadcast_to(np.asarray(P0, dtype=np.float64), (trials, n, n)).copy()
+    out = np.empty((trials, steps, n, n))
+    for k in range(steps):
+        if k:
+            P = Phi @ P @ Phi.T + Q
+        h, r = H[:, k], R[:, k]
+        seen = np.isfinite(h).all(axis=1) & np.isfinite(r)
+        h0 = np.where(seen[:, None], h, 0.0)
+        Ph = np.einsum("tij,tj->ti", P, h0)
+        s = np.einsum("ti,ti->t", h0, Ph) + np.where(seen, r, 1.0)
+        P = P - np.where(seen, 1.0 / s, 0.0)[:, None, None] * Ph[:, :, None] * Ph[:, None, :]
+        P = 0.5 * (P + np.swapaxes(P, 1, 2))
+        out[:, k] = P
+    return out
+
+
+def link_rows(clock: ClockMarkovModel, t_i_s, t_b_s, offset_s, velocity_m_s, *, with_urt: bool = True) -> np.ndarray:
+    """The measurement rows ``H`` (trials, steps, n) of ``z1`` over the state of the module docstring
+    (``with_urt=False``: without the calibration state ``b``); NaN where the exchange was lost."""
+    c = skew_coefficient_s(t_i_s, t_b_s, offset_s)
+    m = clock.n_states - 2
+    cols = [np.ones_like(c), c] + [c] * m
+    if with_urt:
+        cols.append(urt_coefficient(velocity_m_s) + 0.0 * c)
+    H = np.stack(cols, axis=-1)
+    return np.where(np.isfinite(c)[..., None], H, np.nan)
+
+
+def _prior_covariance(clock: ClockMarkovModel, prior: LinkPrior, calibration_sigma_s, trials: int) -> np.ndarray:
+    m = clock.n_states - 2
+    n = clock.n_states + 1
+    P0 = np.zeros((trials, n, n))
+    P0[:, 0, 0] = prior.offset_sigma_s**2
+    P0[:, 1, 1] = prior.skew_sigma**2
+    P0[:, 2:2 + m, 2:2 + m] = np.diag(clock.flicker_variances())
+    P0[:, -1, -1] = np.broadcast_to(np.asarray(calibration_sigma_s, dtype=np.float64), (trials,)) ** 2
+    return P0
+
+
+def exchange_bound(link: LinkModel, clock: ClockMarkovModel, prior: LinkPrior, *, t_i_s, t_b_s, offset_s,
+                   velocity_m_s, snr_db, calibration_sigma_s=0.0) -> PcrbResult:
+    """The bound for exchanges with this geometry (arrays (trials, steps); NaN ``t_i_s``: lost), under
+    ``prior`` and a calibration of uncertainty ``calibration_sigma_s`` (scalar or (trials,))."""
+    t_i = check_array(t_i_s, "t_i_s", ndim=2, allow_nan=True)
+    Phi_c, Q_c = clock.discrete(link.interval_s)
+    n = clock.n_states + 1
+    Phi, Q = np.eye(n), np.zeros((n, n))
+    Phi[:-1, :-1], Q[:-1, :-1] = Phi_c, Q_c
+    H = link_rows(clock, t_i, t_b_s, offset_s, velocity_m_s)
+    R = offset_noise_var_s2(link.toa_sigma_at(snr_db), link.urt_jitter_s, link.velocity_sigma_at(snr_db), t_i, t_b_s)
+    P = bayesian_bound(Phi, Q, H, np.where(np.isfinite(t_i), R, np.nan),
+                       _prior_covariance(clock, prior, calibration_sigma_s, t_i.shape[0]))
+    var = P[:, :, 0, 0]
+    return PcrbResult(offset_var_s2=var, skew_var=P[:, :, 1, 1], rms_s=np.sqrt(var.mean(axis=1)),
+                      final_s=np.sqrt(var[:, -1]))
 
 
 def link_pcrb(link: LinkModel, oscillator: OscillatorModel, steps: int, distance_m: float, velocity_m_s: float,
-              *, accel_psd: float = 1e-4, offset_sigma_s: float = 1e-3, frequency_sigma: float = 1e-6,
-              velocity_sigma_m_s: float = 3000.0) -> PcrbResult:
-    """PCRB of offset and skew over ``steps`` exchanges of ``link`` between two ``oscillator`` clocks.
-
-    The prior is broad (``offset_sigma_s``, ``frequency_sigma``, ``velocity_sigma_m_s``): the bound is
-    then set by the exchanges, not by the prior.
-    """
-    F, Q, H, R = link_model_matrices(link, 2.0 * oscillator.h.h0, 2.0 * oscillator.h.hm2, steps, distance_m,
-                                     velocity_m_s, accel_psd)
-    P0 = np.diag([offset_sigma_s**2, frequency_sigma**2, velocity_sigma_m_s**2])
-    bound = tichavsky_pcrb(F, Q, H, R, P0)
-    return PcrbResult(bound=bound, offset_var_s2=bound[:, 0, 0].copy(), skew_var=bound[:, 1, 1].copy())
+              *, prior: LinkPrior | None = None, calibration_sigma_s: float = 0.0, flicker: bool = True) -> PcrbResult:
+    """The bound of one nominal link: range ``distance_m + velocity_m_s t``, the reply slot and SNR of
+    ``link``, both clocks ``oscillator`` (flicker FM included unless ``flicker=False``), ``prior``
+    (default :class:`~chronofuse.sync.prior.LinkPrior`), a calibration of ``calibration_sigma_s``."""
+    check_scalar(steps, "steps", min_val=1, integer=True)
+    prior = LinkPrior() if prior is None else prior
+    t = np.arange(int(steps)) * link.interval_s
+    rng_m = np.maximum(distance_m + velocity_m_s * t, 0.0)[None, :]
+    clock = ClockMarkovModel.for_link(oscillator, oscillator, link.interval_s, steps * link.interval_s, flicker=flicker)
+    return exchange_bound(link, clock, prior, t_i_s=rng_m / C, t_b_s=np.full_like(rng_m, link.reply_delay_s),
+                          offset_s=0.0, velocity_m_s=np.full_like(rng_m, velocity_m_s), snr_db=link.snr_at(rng_m),
+                          calibration_sigma_s=calibration_sigma_s)

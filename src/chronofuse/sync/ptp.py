@@ -1,6 +1,6 @@
 """PTP (IEEE 1588) offset from the four timestamps, with linuxptp's delay filter and PI servo.
 
-Offset measurement (IEEE 1588-2019 section 11.3): with a per-exchange delay it is seed eq. (1); with
+Offset measurement (IEEE 1588-2019 section 11.3): with a per-exchange delay it is the paper's eq. (1); with
 linuxptp's ``delay_filter moving_median`` of ``delay_filter_length 10`` it is ``(t2 - t1) - median of
 the last 10 mean path delays``. On moving nodes the path delay changes by ``v interval / c`` per
 exchange (67 ps at 2000 m/s and 10 ms), and a 10-sample median lags it by about 4.5 exchanges.
@@ -75,7 +75,7 @@ def _measured_offset(state, sample, delay_filter: str, length: int):
 
 
 class PtpOffset(SyncAlgorithm):
-    """The raw PTP offset of each exchange (no servo): seed eq. (1), or with the moving-median delay.
+    """The raw PTP offset of each exchange (no servo): the paper's eq. (1), or with the moving-median delay.
 
     Parameters
     ----------

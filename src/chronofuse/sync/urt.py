@@ -1,17 +1,18 @@
-"""Unequal-reply-time (URT) compensation (seed 001 section 2.1, eqs. 17-21), and its fix.
+"""Unequal-reply-time (URT) compensation (the swarm paper's section 2.1, eqs. 17-21), and its fix.
 
 B really transmits ``t_p = t_fixed + jitter`` after its reply stamp; the two-way offset is then biased
 by ``alpha t_p`` with ``alpha = -c / (2c + v)`` (eq. 18).
 
-``mode="paper"`` is the seed as written: from the last ``M`` (50..200) velocity-compensated offsets,
+``mode="paper"`` is the paper as written: from the last ``M`` (50..200) velocity-compensated offsets,
 ``t_p = mean(eps) / alpha`` (eqs. 19-20) and ``eps_corr = eps - alpha t_p`` (eq. 21), refreshed every
 ``T_update = 10 s``; before the first batch is full, the mean of all offsets so far. This removes the
 whole mean of ``eps``, the true clock offset included: it is right only when the true offset is zero.
 A fixed reply asymmetry is not observable from two-way timestamps alone (it trades one for one with
 the offset).
 
-``mode="calibrated"`` subtracts ``alpha t_fixed`` with ``t_fixed`` learnt by :func:`calibrate_urt`
-while both nodes know true time (e.g. GNSS-disciplined), and keeps it through a GNSS loss.
+``mode="calibrated"`` subtracts ``alpha t_fixed`` with ``t_fixed`` learnt by
+:func:`chronofuse.sync.calibration.calibrate_urt` while both nodes know true time (GNSS time comparisons),
+and keeps it through a GNSS loss.
 """
 
 from __future__ import annotations
@@ -19,24 +20,9 @@ from __future__ import annotations
 import numpy as np
 
 from chronofuse.sync.twoway import urt_sensitivity
-from chronofuse.validation import check_array, check_choice, check_scalar
+from chronofuse.validation import check_choice, check_scalar
 
-__all__ = ["UrtCompensation", "calibrate_urt"]
-
-
-def calibrate_urt(offset_measured_s, reference_offset_s, velocity_m_s) -> np.ndarray:
-    """Supervised calibration of the fixed URT, s, per trial (uses the true offset: says so).
-
-    ``offset_measured_s``: velocity-compensated offsets (trials, n) taken while both nodes know true
-    time; ``reference_offset_s``: the offset their GNSS time gives (trials, n); ``velocity_m_s``: the
-    Doppler velocities. Returns ``mean((eps_meas - eps_ref) / alpha)`` over the window, shape (trials,).
-    """
-    meas = check_array(offset_measured_s, "offset_measured_s", ndim=2)
-    ref = check_array(reference_offset_s, "reference_offset_s", ndim=2)
-    vel = check_array(velocity_m_s, "velocity_m_s", ndim=2)
-    if not meas.shape == ref.shape == vel.shape:
-        raise ValueError(f"shapes {meas.shape}, {ref.shape}, {vel.shape} must agree")
-    return np.mean((meas - ref) / urt_sensitivity(vel), axis=1)
+__all__ = ["UrtCompensation"]
 
 
 class UrtCompensation:

@@ -1,13 +1,14 @@
-"""Residual networks of the seed's chain (seed 001 section 2.2.2, eqs. 38-46): BP 9-32-1 and an LSTM.
+"""Residual networks of the paper's chain (the swarm paper's section 2.2.2, eqs. 38-46): BP 9-32-1 and an LSTM.
 
-Both predict the Kalman filter's residual ``eps_true - eps_KF`` (ns) from the nine inputs of
-:data:`~chronofuse.sync.chain.FEATURES` (seed eq. 38); the chain adds the prediction clipped to
-+-5 ns after its warm-up (eq. 46 and pseudo-code lines 18-28).
+Both predict the Kalman filter's residual ``eps_true - eps_KF`` (ns) from the nine offset-invariant inputs
+of :data:`~chronofuse.sync.chain.FEATURES` (the paper's eq. 38, changed so that no input carries the
+absolute offset); the chain adds the prediction clipped to +-5 ns after its warm-up (eq. 46 and
+pseudo-code lines 18-28).
 
 * **BP**: ``9 -> 32 (tanh) -> 1`` (eqs. 39-43), loss ``mean((y_hat - y)^2) + lambda (|W1|^2 + |W2|^2)``
   (eq. 44), trained by Adam with early stopping on the validation split. Inference runs in numpy from
   the trained weights (:meth:`ResidualNetwork.predict_residual_s`), checked against torch.
-* **LSTM** (the seed's baseline, section 4.6): one LSTM layer of 32 over the last ``window``
+* **LSTM** (the paper's baseline, section 4.6): one LSTM layer of 32 over the last ``window``
   exchanges' inputs, a linear head on its last output, the same loss (lambda on every weight matrix).
 
 Training is reproducible: ``torch.manual_seed(config.seed)`` and a seeded shuffling generator; CPU by
@@ -30,7 +31,7 @@ from chronofuse.validation import ChronofuseError, check_choice, check_scalar
 
 __all__ = ["ResidualConfig", "ResidualNetwork", "load_residual_network", "parameter_count"]
 
-_FORMAT = 1
+_FORMAT = 2  # 2: offset-invariant inputs (files of format 1 learnt the offset's size and are refused)
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,7 @@ class ResidualConfig:
     """What a residual network is: ``kind`` ("bp" or "lstm"), ``hidden`` units, ``window`` exchanges
     of inputs (1 for BP), ``l2`` (lambda of eq. 44), ``learning_rate``, ``epochs`` (at most),
     ``patience`` (early stopping), ``batch``, ``seed``, ``device`` ("cpu", "cuda" or "auto"), and
-    ``chain``: the chain configuration the network was trained behind (filter, light_time, urt_mode)."""
+    ``chain``: the chain configuration the network was trained behind (light_time, urt_mode)."""
 
     kind: str = "bp"
     hidden: int = 32
@@ -50,7 +51,7 @@ class ResidualConfig:
     batch: int = 1024
     seed: int = 0
     device: str = "cpu"
-    chain: dict = field(default_factory=lambda: {"filter": "seed", "light_time": "seed", "urt_mode": "calibrated"})
+    chain: dict = field(default_factory=lambda: {"light_time": "paper", "urt_mode": "calibrated"})
     features: tuple = FEATURES
 
     def __post_init__(self):
@@ -68,9 +69,9 @@ class ResidualConfig:
 
 
 def _torch():
-    import torch
+    from chronofuse.extras import require
 
-    return torch
+    return require("torch", "the residual networks (BP, LSTM)")
 
 
 def _build(config: ResidualConfig):
@@ -153,7 +154,7 @@ class ResidualNetwork:
                 idx = order[i:i + int(cfg.batch)]
                 opt.zero_grad()
                 mse = torch.mean((model(xt[idx]) - yt[idx]) ** 2)
-                loss = mse + cfg.l2 * sum(torch.sum(w * w) for w in weights)  # seed eq. (44)
+                loss = mse + cfg.l2 * sum(torch.sum(w * w) for w in weights)  # the paper's eq. (44)
                 loss.backward()
                 opt.step()
                 total += float(mse.detach()) * len(idx)

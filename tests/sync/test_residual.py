@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 torch = pytest.importorskip("torch")
 
 from chronofuse.cli.main import app  # noqa: E402
-from chronofuse.sync.network import ResidualConfig, ResidualNetwork, load_residual_network, parameter_count  # noqa: E402
+from chronofuse.sync.residual import ResidualConfig, ResidualNetwork, load_residual_network, parameter_count  # noqa: E402
 from chronofuse.validation import ChronofuseError  # noqa: E402
 
 
@@ -76,23 +76,25 @@ def test_the_cli_refuses_a_mismatching_model_file_in_one_line(bp, tmp_path):
     doc = torch.load(bp.save(tmp_path / "bp.pt"), weights_only=True)
     doc["config"]["hidden"] = 8
     torch.save(doc, tmp_path / "bad.pt")
-    result = CliRunner().invoke(app, ["swarm", "run", "--algorithm", "proposed", "--model", str(tmp_path / "bad.pt"),
+    result = CliRunner().invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc-kf-bp", "--model", str(tmp_path / "bad.pt"),
                                       "--exchanges", "50", "--trials", "1"])
     assert result.exit_code == 2
     lines = [x for x in result.stderr.splitlines() if x.strip()]
     assert len(lines) == 1 and lines[0].startswith("error: --model"), result.stderr
-    missing = CliRunner().invoke(app, ["swarm", "run", "--algorithm", "proposed", "--exchanges", "50"])
+    missing = CliRunner().invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc-kf-bp", "--exchanges", "50"])
     assert missing.exit_code == 2 and "--model" in missing.stderr
 
 
 def test_the_chain_with_a_network_streams_what_its_batch_run_gives(bp):
     from chronofuse.estimation.interface import compare_streaming_to_batch
-    from chronofuse.experiments.swarm import LinkScenario, simulate_scenario
+    from chronofuse.experiments.swarm import LinkScenario, knowledge_of, simulate_scenario
     from chronofuse.sync.base import measurement_array
     from chronofuse.sync.registry import make_algorithm
 
     sc = LinkScenario(exchanges=120)
-    alg = make_algorithm("proposed", sc.link, steps=120, urt_mode="calibrated", networks={"bp": bp}).fit()
+    alg = make_algorithm("rtt-rvc-kf-bp", knowledge_of(sc, None), networks={"bp": bp}).fit()
     assert alg.warmup_steps_ == 72
-    assert compare_streaming_to_batch(alg, measurement_array(simulate_scenario(sc, 2, 3))) == []
+    assert compare_streaming_to_batch(alg, measurement_array(simulate_scenario(sc, 2, 3)[0])) == []
+    with pytest.raises(ValueError, match="needs a trained bp network"):
+        make_algorithm("rtt-rvc-kf-bp", knowledge_of(sc, None))
     assert dataclasses.asdict(bp.config)["chain"]["urt_mode"] == "calibrated"

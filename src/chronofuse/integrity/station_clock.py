@@ -1,0 +1,135 @@
+"""The receiver clock a station's channels share, and each channel's residual against the others, one epoch
+at a time.
+
+Each channel ``n`` of a code gives its own estimate ``b_n(k)`` of the receiver clock bias at the known
+position (:func:`chronofuse.gnss.observables.channel_biases`). The common clock is removed from each channel
+in three steps (the reasons are in :mod:`chronofuse.integrity.common_mode`, whose whole-record functions this
+module computes epoch by epoch):
+
+1. **Common clock** ``c0(k) = c0(k-1) + median_S (b(k) - b(k-1))`` over the channels ``S`` seen at both epochs
+   and not excluded: continuous when satellites rise and set, a named satellite does not move it. Restarts at
+   the median of the biases after an epoch without any increment. It is the receiver clock of the code
+   (identification's receiver-clock test watches it).
+2. **Alignment**: ``a_n(k) = b_n(k) - o_n``, ``o_n = b_n(k0) - c0(k0)`` fixed at the first epoch ``k0`` of each
+   unbroken arc of the channel.
+3. **Leave-one-out clock**: channel ``n``'s clock moves from ``k-1`` to ``k`` by ``median_S a(k) - median_S
+   a(k-1)`` over the other channels ``S`` seen at both epochs and not excluded (fewer than
+   :data:`MIN_CLOCK_CHANNELS`: it restarts at the median of the others at ``k``, or is NaN); the residual is
+   ``a_n(k) - clock_n(k)``. A restart of the clock breaks the channel's difference chain (``restarted``).
+
+Exclusion (``excluded``): the satellites named faulty are left out of every clock from the epoch they are
+named; their own residuals are still given (against a clean clock).
+
+:meth:`CodeClock.step` computes one epoch from the state of the previous one and is pure apart from
+:meth:`CodeClock.commit`: identification calls ``step`` again at the same epoch after each exclusion, then
+commits the last. The leave-one-out medians of all channels come from one sort
+(:func:`leave_one_out_medians`), the median of ``M - 1`` values read off the sorted ``M`` by rank.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from chronofuse.integrity.common_mode import MIN_CLOCK_CHANNELS
+
+__all__ = ["CodeClock", "ClockEpoch", "leave_one_out_medians", "MIN_CLOCK_CHANNELS"]
+
+
+def leave_one_out_medians(values: np.ndarray, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each channel, the median of ``values`` over the members other than itself, and how many those
+    are: ``(medians (C,), counts (C,))``; NaN where no member is left. ``values`` (C,), ``member`` (C,) bool."""
+    values = np.asarray(values, dtype=np.float64)
+    member = np.asarray(member, dtype=bool)
+    c = values.size
+    idx = np.flatnonzero(member)
+    m = idx.size
+    counts = np.where(member, m - 1, m)
+    out = np.full(c, np.nan)
+    if m == 0:
+        return out, counts
+    order = np.argsort(values[idx], kind="stable")
+    s = values[idx][order]
+    rank = np.empty(m, dtype=np.intp)
+    rank[order] = np.arange(m)
+
+    def median_of(n: int) -> float:
+        return float(s[(n - 1) // 2] + s[n // 2]) / 2.0
+
+    full = median_of(m)
+    out[~member] = full
+    if m >= 2:
+        k = m - 1  # values left after one is removed
+        r = rank
+        lo_pos, hi_pos = (k - 1) // 2, k // 2  # positions of the middle values among the k left
+        lo = np.where(lo_pos < r, s[lo_pos], s[np.minimum(lo_pos + 1, m - 1)])
+        hi = np.where(hi_pos < r, s[hi_pos], s[np.minimum(hi_pos + 1, m - 1)])
+        out[idx] = 0.5 * (lo + hi)
+    return out, counts
+
+
+@dataclass(frozen=True)
+class ClockEpoch:
+    """One epoch of a :class:`CodeClock`: ``residual_s`` (C,) (NaN: none), ``restarted`` (C,) bool (the
+    channel's clock restarted: its difference chain breaks), ``common_s`` the common clock (NaN: none),
+    ``arc_start`` (C,) bool (first epoch of a channel's arc), and the state to commit."""
+
+    residual_s: np.ndarray
+    restarted: np.ndarray
+    common_s: float
+    arc_start: np.ndarray
+    state: tuple
+
+
+class CodeClock:
+    """The clocks of one code's ``n_channels`` channels (module docstring)."""
+
+    def __init__(self, n_channels: int):
+        self.n_channels = int(n_channels)
+        self.reset()
+
+    def reset(self) -> None:
+        c = self.n_channels
+        nan = np.full(c, np.nan)
+        # previous raw biases, common clock, per-arc offsets, previous aligned values, leave-one-out clocks
+        self._state = (nan.copy(), np.nan, nan.copy(), nan.copy(), nan.copy())
+
+    def step(self, bias_s: np.ndarray, excluded: np.ndarray) -> ClockEpoch:
+        """One epoch: ``bias_s`` (C,) the channels' biases (NaN: none), ``excluded`` (C,) bool (left out of
+        every clock). Does not change the state; :meth:`commit` the result to move on."""
+        prev_b, c0, offset, prev_a, loo = self._state
+        b = np.asarray(bias_s, dtype=np.float64)
+        out = np.asarray(excluded, dtype=bool)
+        valid = np.isfinite(b)
+        # 1. common clock over the channels seen at both epochs and not excluded
+        both = valid & np.isfinite(prev_b) & ~out
+        if np.isfinite(c0) and both.any():
+            c0 = c0 + float(np.median(b[both] - prev_b[both]))
+        elif (valid & ~out).any():
+            c0 = float(np.median(b[valid & ~out]))
+        elif valid.any():
+            c0 = float(np.median(b[valid]))
+        else:
+            c0 = np.nan
+        # 2. alignment fixed at the first epoch of each arc
+        arc_start = valid & ~np.isfinite(prev_b)
+        offset = np.where(arc_start, b - c0, offset)
+        offset = np.where(valid, offset, np.nan)
+        a = np.where(valid, b - offset, np.nan)
+        # 3. leave-one-out clocks over the other channels
+        pair = valid & np.isfinite(prev_a) & ~out
+        med_now, n_pair = leave_one_out_medians(np.where(pair, a, np.nan), pair)
+        med_prev, _ = leave_one_out_medians(np.where(pair, prev_a, np.nan), pair)
+        now_set = valid & ~out
+        restart_level, n_now = leave_one_out_medians(np.where(now_set, a, np.nan), now_set)
+        moving = np.isfinite(loo) & (n_pair >= MIN_CLOCK_CHANNELS)
+        restarting = ~moving & (n_now >= MIN_CLOCK_CHANNELS)
+        new_loo = np.where(moving, loo + (med_now - med_prev), np.where(restarting, restart_level, np.nan))
+        residual = np.where(valid, a - new_loo, np.nan)
+        return ClockEpoch(residual, restarting & valid, c0, arc_start,
+                          (np.where(valid, b, np.nan), c0, offset, a, new_loo))
+
+    def commit(self, epoch: ClockEpoch) -> None:
+        """Move on to the next epoch with the state ``epoch`` gave."""
+        self._state = epoch.state

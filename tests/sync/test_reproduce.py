@@ -1,0 +1,39 @@
+"""The swarm report: verdicts follow the rules they state, and a quick reproduction writes figures, tables and
+a report whose every number is in its swarm.json; --replot redraws them from it."""
+
+import json
+
+import pytest
+from typer.testing import CliRunner
+
+from chronofuse.cli.main import app
+from chronofuse.experiments.swarm_reproduce import verdict
+
+
+def _row(rmse, lo, hi, bound):
+    return {"rmse_ns": rmse, "rmse_lo_ns": lo, "rmse_hi_ns": hi, "bound_rms_ns": bound}
+
+
+def test_a_below_claim_is_reproduced_only_when_the_whole_interval_is_below_and_unreachable_under_the_bound():
+    assert verdict("<", 0.3, _row(0.2, 0.18, 0.25, 0.15)) == "reproduced"
+    assert verdict("<", 0.3, _row(0.29, 0.25, 0.33, 0.15)).startswith("not reproduced")
+    assert verdict("<", 0.2, _row(0.35, 0.3, 0.4, 0.33)) == "not reachable: the bound is 0.33 ns"
+    assert verdict("~", 1.8, _row(2.0, 1.9, 2.1, 0.3)) == "reproduced"
+    assert verdict("~", 13.0, _row(22.0, 21.0, 23.0, 0.3)) == "not reproduced: ours is 1.7x the paper's"
+
+
+@pytest.mark.slow
+def test_a_quick_reproduction_writes_its_figures_and_a_report_that_replots_from_its_json(tmp_path):
+    runner = CliRunner()
+    result = runner.invoke(app, ["reproduce", "swarm", "--quick", "--figure", "9", "--out", str(tmp_path), "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert (tmp_path / "fig9.png").stat().st_size > 0 and (tmp_path / "fig9_summary.csv").exists()
+    text = (tmp_path / "README.md").read_text()
+    assert "| 9 | rtt-rvc-kf-bp |" in text and "no model file given" in text
+    assert "A changed reply delay after calibration" in text and "the leader lost" in text
+    assert {r["change"] for r in doc["urt_changes"]} == {"step +5 ns", "step -5 ns", "ramp 1 ns/min"}
+    (tmp_path / "fig9.png").unlink()
+    again = runner.invoke(app, ["reproduce", "swarm", "--replot", "--out", str(tmp_path)])
+    assert again.exit_code == 0, again.output
+    assert (tmp_path / "fig9.png").exists() and (tmp_path / "README.md").read_text() == text
