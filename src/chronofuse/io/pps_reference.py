@@ -73,28 +73,28 @@ REFERENCE_MIN_JITTER_S = 1e-10
 def _check_pps_phase(x: np.ndarray, path: Path) -> None:
     """Refuse, naming the file and line, a record that is not a 1PPS phase against a reference clock in
     seconds: a frequency (in Hz, or fractional), another unit read as seconds, or a ramp."""
+    field_log = bool(log_format(path))
+
+    def _line(k: int) -> int | None:  # a field log's lines are not one sample each
+        return None if field_log else _data_line(path, k)
+
     median = float(np.median(x))
     if abs(median) > 1.0:
         raise InputError(f"values of order {median:.6g}: not a 1PPS phase in seconds (a frequency in Hz, or a phase "
-                             "in ns or us without a unit in the header?)", str(path), _line(path, 0))
+                         "in ns or us without a unit in the header?)", str(path), _line(0))
     far = np.flatnonzero(np.abs(x - median) > REFERENCE_MAX_SPREAD_S)
     if far.size:
         k = int(far[0])
         raise InputError(f"{x[k]:.6g} s is {x[k] - median:+.3g} s from the record's median; a 1PPS against a reference "
-                             f"stays within {REFERENCE_MAX_SPREAD_S:g} s (values in ns or us without a unit header? a "
-                             "free-running clock?)", str(path), _line(path, k))
+                         f"stays within {REFERENCE_MAX_SPREAD_S:g} s (values in ns or us without a unit header? a "
+                         "free-running clock?)", str(path), _line(k))
     t = np.arange(x.size, dtype=np.float64)
     slope = float(np.polyfit(t, x, 1)[0])
     if abs(slope) > REFERENCE_MAX_SLOPE:
         raise InputError(f"the record drifts by {slope:.3g} s/s over its {x.size} samples; a 1PPS against a "
-                             f"reference clock drifts by less than {REFERENCE_MAX_SLOPE:g} (a ramp: the reference is "
-                             "not a clock, or the record is not a 1PPS)", str(path), _line(path, x.size - 1))
+                         f"reference clock drifts by less than {REFERENCE_MAX_SLOPE:g} (a ramp: the reference is "
+                         "not a clock, or the record is not a 1PPS)", str(path), _line(x.size - 1))
     jitter = float(np.sqrt(np.mean(np.diff(x) ** 2)))
     if jitter < REFERENCE_MIN_JITTER_S:
         raise InputError(f"consecutive values differ by {jitter:.3g} s rms; a receiver's 1PPS jitters by far more "
-                             "(a fractional-frequency record read as phase?)", str(path), _line(path, 1))
-
-
-def _line(path: Path, index: int) -> int | None:
-    """The file line of sample ``index``; None for a field log, whose lines are not one sample each."""
-    return None if log_format(path) else _data_line(path, index)
+                         "(a fractional-frequency record read as phase?)", str(path), _line(1))
