@@ -40,3 +40,15 @@ def receivers_dir() -> Path:
 #: The two real Trimble 5700 stations of RTKLIB's sample data (RINEX 2.10, 120 epochs at 30 s, C1 and P2,
 #: with their broadcast navigation files): the ``trimble`` fixture of tests/integrity reads them.
 TRIMBLE_STATIONS = ("07590920", "30400920")
+
+
+#: The real IGS stations (24 h, 30 s, multi-GNSS RINEX 3 with same-day navigation and published coordinates):
+#: ``tests/data/rinex/igs`` and its ``stations.toml``; see that folder's README.md.
+IGS_DIR = _REPO / "tests" / "data" / "rinex" / "igs"
+
+
+def igs_station_catalogue():
+    """``{name: RealStation}`` of the shipped IGS stations (for module-level parametrisation)."""
+    from chronofuse.experiments.real_stations import load_stations
+
+    return load_stations(IGS_DIR)

@@ -49,16 +49,9 @@ def data_dir(real_data) -> Path:
     return real_data
 
 
-#: The real IGS stations (24 h, 30 s, multi-GNSS RINEX 3 with same-day navigation and published coordinates):
-#: ``tests/data/rinex/igs`` and its ``stations.toml``; see that folder's README.md.
-IGS_DIR = REAL_DATA / "rinex" / "igs"
-
-
-def igs_station_catalogue():
-    """``{name: RealStation}`` of the shipped IGS stations (for module-level parametrisation)."""
-    from chronofuse.experiments.real_stations import load_stations
-
-    return load_stations(IGS_DIR)
+# The real IGS stations live in ``_helpers`` (a module name no sub-folder's conftest shadows, so test modules
+# can import it at collection time under pytest-xdist).
+from _helpers import IGS_DIR, igs_station_catalogue  # noqa: E402,F401
 
 
 @pytest.fixture(scope="session")

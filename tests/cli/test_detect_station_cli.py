@@ -8,7 +8,7 @@ import json
 import pytest
 from typer.testing import CliRunner
 
-from conftest import igs_station_catalogue
+from _helpers import igs_station_catalogue
 
 from chronofuse.cli.main import build_app
 

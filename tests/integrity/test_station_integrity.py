@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import igs_station_catalogue
+from _helpers import igs_station_catalogue
 
 from chronofuse.experiments.integrity_stations import clean_day, clopper_pearson, fault_bias_s, fault_cases, run_case
 from chronofuse.integrity.station_identify import IdentificationSettings, StationIdentification
