@@ -13,3 +13,11 @@ def best_of(fn, repeats: int) -> float:
         fn()
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def print_rows(rows, name_width: int = 48) -> None:
+    """Print the rows of a command-timing benchmark (name, ours, baseline, target, verdict, note), one a line."""
+    for r in rows:
+        base = "-" if r["baseline_s"] is None else f"{r['baseline_s']:.2f} s"
+        print(f"{r['name']:<{name_width}} {r['ours_s']:10.2f}  {r['baseline'] or '-':<28} {base:>8}  target {r['target']:<18}"
+              f" {'ok' if r['passed'] else 'FAIL'}  {r['note']}", flush=True)

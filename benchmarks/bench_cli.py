@@ -32,6 +32,9 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.csv as pcsv
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _timing import print_rows  # noqa: E402
+
 SEED = 20240611
 HERE = Path(__file__).resolve().parent
 MAX_RATIO = 8.0
@@ -166,7 +169,4 @@ if __name__ == "__main__":
     if "--points" in sys.argv[1:]:
         _measure_one(sys.argv[1:])
         sys.exit(0)
-    for r in run(quick="--quick" in sys.argv[1:]):
-        base = "-" if r["baseline_s"] is None else f"{r['baseline_s']:.2f} s"
-        print(f"{r['name']:<48} {r['ours_s']:10.2f}  {r['baseline'] or '-':<28} {base:>8}  target {r['target']:<18}"
-              f" {'ok' if r['passed'] else 'FAIL'}  {r['note']}", flush=True)
+    print_rows(run(quick="--quick" in sys.argv[1:]), name_width=48)

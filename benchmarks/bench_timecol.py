@@ -32,6 +32,7 @@ import pyarrow.csv as pcsv
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+from _timing import print_rows  # noqa: E402
 from bench_cli import CHILD, run_child  # noqa: E402  (the console-script child and its peak memory)
 
 SEED = 20240612
@@ -148,7 +149,4 @@ if __name__ == "__main__":
     if "--points" in sys.argv[1:]:
         _measure_one(sys.argv[1:])
         sys.exit(0)
-    for r in run(quick="--quick" in sys.argv[1:]):
-        base = "-" if r["baseline_s"] is None else f"{r['baseline_s']:.2f} s"
-        print(f"{r['name']:<52} {r['ours_s']:10.2f}  {r['baseline'] or '-':<28} {base:>8}  target {r['target']:<18}"
-              f" {'ok' if r['passed'] else 'FAIL'}  {r['note']}", flush=True)
+    print_rows(run(quick="--quick" in sys.argv[1:]), name_width=52)

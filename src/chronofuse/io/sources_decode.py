@@ -70,7 +70,21 @@ def record_rows(record: EpochRecord | None) -> list[dict]:
     return split_rows({"gps_ns": np.asarray(record.t_ns), **record.columns})
 
 
-class StreamDecoder:
+class _OneReceiverStream:
+    """``decode``/``finish`` of a stream that carries one receiver: its record chunks as ``[(None, record)]``."""
+
+    def decode(self, data: bytes) -> list:
+        """:meth:`feed_record` as ``[(None, record)]`` (the one receiver of the stream), or ``[]``."""
+        record = self.feed_record(data)
+        return [] if record is None else [(None, record)]
+
+    def finish(self) -> list:
+        """:meth:`close_record` as ``[(None, record)]``, or ``[]``."""
+        record = self.close_record()
+        return [] if record is None else [(None, record)]
+
+
+class StreamDecoder(_OneReceiverStream):
     """One receiver's live decoder (framer + pynmeagps/pyubx2 + epoch assembly), kept across reconnects.
 
     A stream carrying both NMEA and UBX is one receiver, merged as the batch reader merges it
@@ -111,14 +125,6 @@ class StreamDecoder:
         """:meth:`close`, as one record chunk."""
         return self._decode(self.scanner.close(), final=True)
 
-    def decode(self, data: bytes) -> list:
-        """:meth:`feed_record` as ``[(None, record)]`` (the one receiver of the stream), or ``[]``."""
-        record = self.feed_record(data)
-        return [] if record is None else [(None, record)]
-
-    def finish(self) -> list:
-        record = self.close_record()
-        return [] if record is None else [(None, record)]
 
     @property
     def n_damaged(self) -> int:
@@ -220,7 +226,7 @@ def _joined(parts: list[dict]) -> dict | None:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-class GpsdJsonDecoder:
+class GpsdJsonDecoder(_OneReceiverStream):
     """A gpsd server's JSON reports (gpsd_json(5)) to epochs: a TPV with a ``time`` opens an epoch
     (UTC label, ``mode``, ``leapseconds`` when gpsd knows it, else the leap-second table), a SKY adds its
     DOPs and ``uSat``; an epoch closes when the next TPV time arrives.
@@ -260,13 +266,6 @@ class GpsdJsonDecoder:
     def close_record(self) -> EpochRecord | None:
         return dicts_record(self.close(), "<gpsd>")
 
-    def decode(self, data: bytes) -> list:
-        record = self.feed_record(data)
-        return [] if record is None else [(None, record)]
-
-    def finish(self) -> list:
-        record = self.close_record()
-        return [] if record is None else [(None, record)]
 
     def close(self) -> list[dict]:
         out: list[dict] = []
