@@ -20,6 +20,7 @@ from chronofuse.experiments.scenario import Scenario, ScenarioError
 from chronofuse.experiments.swarm_network import follow_leader
 from chronofuse.models.environment import ReceiverEnvironment
 from chronofuse.models.oscillator import OscillatorModel
+from chronofuse.progress import within
 
 __all__ = ["discipline_and_swarm", "outage_window_s", "discipline_environment", "check_disciplinable",
            "MIN_DURATION_S"]
@@ -79,7 +80,8 @@ def discipline_environment(scn: Scenario) -> ReceiverEnvironment:
 
 
 def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
-                         oscillator: OscillatorModel | None = None) -> tuple[dict, list[Path]]:
+                         oscillator: OscillatorModel | None = None, span: tuple[float, float] = (0.0, 1.0)
+                         ) -> tuple[dict, list[Path]]:
     """Run both stages for ``scn``; returns the summary sections and the files written into ``out``.
 
     A run shorter than :data:`MIN_DURATION_S` has no room for the loop to settle: the section then says so.
@@ -98,15 +100,18 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
     setup = GnssdoSetup(scenario=scn.receivers.scenario, controller=d.controller, receivers=scn.receivers.count,
                         duration_s=int(round(scn.duration_s)), seed=scn.seed, oscillator=scn.oscillator.preset,
                         oscillator_model=oscillator, outage_start_s=start if length > 0 else None, outage_s=length)
-    say(f"disciplining the {setup.oscillator} ({setup.controller}) through a {length:g} s GNSS outage")
-    sim = simulate_gnssdo(setup, say)
+    a, b = span
+    stage = within(say, a, a + 0.4 * (b - a))  # the simulation; measuring it takes as long again
+    stage(f"disciplining the {setup.oscillator} ({setup.controller}) through a {length:g} s GNSS outage")
+    sim = simulate_gnssdo(setup, stage)
+    say("measuring the disciplined output", a + 0.4 * (b - a))
     summary = evaluate(sim)
     sub = out / "discipline"
     sub.mkdir(parents=True, exist_ok=True)
     files = [sub / name for name in write_report(sim, summary, sub)]
     sections = {"discipline": {k: summary[k] for k in summary if k != "state_changes_trial0"}}
     if scn.swarm.followers > 0:
-        say(f"{scn.swarm.followers} followers keeping the leader's time over two-way links")
+        say(f"{scn.swarm.followers} followers keeping the leader's time over two-way links", a + 0.9 * (b - a))
         leader = np.asarray(sim["run"].phase_s[0, 1:])  # after the first jam sync (the start-up phase step)
         n = scn.swarm.followers
         swarm = follow_leader(np.r_[leader, leader[-1], leader[-1]], interval_s=1.0, parents=(0,) * n,

@@ -10,7 +10,6 @@ this same job.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +28,7 @@ from chronofuse.models.receiver import simulate_receivers
 from chronofuse.report.run_figures import write_run_figures
 from chronofuse.report.jsonio import dumps
 
-Progress = Callable[[str], None]
+from chronofuse.progress import Progress, silent
 
 
 @dataclass(frozen=True)
@@ -69,26 +68,26 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
 
     Returns the summary that is also written as ``summary.json``.
     """
-    say = progress or (lambda _msg: None)
+    say = progress or silent
     check_disciplinable(scn)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     seeds = np.random.SeedSequence(scn.seed).spawn(2)  # the children simulate_gnssdo draws the same run from
 
-    say("simulating the oscillator")
+    say("simulating the oscillator", 0.0)
     model = _oscillator_model(scn)
     osc = simulate_oscillator(model, scn.duration_s, scn.rate_hz, seeds[0], trials=1)
     t_s = osc.t_s
     osc_x = osc.x_s[0]
 
-    say(f"simulating {scn.receivers.count} receivers ({scn.receivers.scenario})")
+    say(f"simulating {scn.receivers.count} receivers ({scn.receivers.scenario})", 0.03)
     rx = simulate_receivers(discipline_environment(scn), int(round(scn.duration_s)), scn.receivers.count, seeds[1],
                             rate_hz=scn.rate_hz)
     pps = rx.pps_error_s[0] + rx.epochs.qerr_s[0]  # (receivers, steps): qErr-corrected 1PPS time error (u-blox sign)
     labels = [f"rx{i + 1}" for i in range(scn.receivers.count)]
     n = min(t_s.size, pps.shape[1])
 
-    say("analysing stability")
+    say("analysing stability", 0.12)
     taus = scn.analysis.taus
     osc_adev = stability.oadev(osc_x[:n], scn.rate_hz, stability.tau_grid(taus, n, scn.rate_hz, "oadev"))
     theory_tau = np.logspace(np.log10(osc_adev.tau_s[0]), np.log10(osc_adev.tau_s[-1]), 60)
@@ -110,7 +109,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
         grid = np.logspace(0, np.log10(max(scn.duration_s / 10, 10)), 200)
         mask_limits = {f"{scn.analysis.mask} {stat}": (grid, mask.limit_s(stat, grid)) for stat in ("mtie", "tdev")}
 
-    say("writing the report")
+    say("writing the report", 0.25)
     files = []
     frame = pd.DataFrame({"t_s": t_s[:n], "oscillator_x_ns": osc_x[:n] * 1e9})
     for label, series in zip(labels, pps[:, :n]):
@@ -134,7 +133,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
 
     chain: dict = {}
     if scn.discipline.enabled:
-        chain, chain_files = discipline_and_swarm(scn, out, say, oscillator=model)
+        chain, chain_files = discipline_and_swarm(scn, out, say, oscillator=model, span=(0.32, 1.0))
         files += chain_files
 
     summary = {
