@@ -110,7 +110,10 @@ def run(
                            networks=networks, outage=window, progress=say)
     doc = link_report(res)
     if out is not None:
-        doc["files"] = _write_summary(out, doc)
+        from chronofuse.report.html import swarm_page
+
+        doc["files"] = _write_summary(out, doc) + [str(out / "report.html")]
+        swarm_page(doc, out)
     if json_out:
         print_json(doc)
         return

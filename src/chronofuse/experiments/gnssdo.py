@@ -377,9 +377,16 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
     if out_dir is not None:
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        summary["files"] = write_report(sim, summary, out_dir)
+        from chronofuse.analysis.masks import MASKS
+        from chronofuse.report.html import gnssdo_page
+
+        output = np.asarray(sim["run"].phase_s[0, int(SETTLE_S):], dtype=float)
+        summary["masks"] = {m: MASKS[m].check(output, 1.0).to_dict() for m in ("prtc-a", "prtc-b", "g811")}
+        summary["masks_record"] = (f"the disciplined 1PPS of trial 0 from {SETTLE_S:g} s (after settling) to the end, "
+                                   f"{output.size} s, any outage in holdover included")
+        summary["files"] = write_report(sim, summary, out_dir) + ["summary.json", "report.html"]
         (out_dir / "summary.json").write_text(dumps(summary) + "\n")
-        summary["files"].append("summary.json")
+        gnssdo_page(summary, out_dir)
     return summary
 
 

@@ -22,7 +22,10 @@ from chronofuse.models.environment import ReceiverEnvironment
 from chronofuse.models.oscillator import OscillatorModel
 from chronofuse.progress import within
 
-__all__ = ["discipline_and_swarm", "outage_window_s", "discipline_environment", "check_disciplinable",
+#: The clock classes the disciplined output is checked against, besides the scenario's own mask.
+OUTPUT_MASKS = ("prtc-a", "prtc-b", "g811")
+
+__all__ = ["OUTPUT_MASKS", "discipline_and_swarm", "outage_window_s", "discipline_environment", "check_disciplinable",
            "MIN_DURATION_S"]
 
 #: The shortest run the disciplining stage takes (the controller's settling time, twice).
@@ -82,7 +85,12 @@ def discipline_environment(scn: Scenario) -> ReceiverEnvironment:
 def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
                          oscillator: OscillatorModel | None = None, span: tuple[float, float] = (0.0, 1.0)
                          ) -> tuple[dict, list[Path]]:
-    """Run both stages for ``scn``; returns the summary sections and the files written into ``out``.
+    """Run both stages for ``scn``; returns the summary sections, the files written into ``out`` and the
+    disciplined output's MTIE and TDEV (``{"mtie": Deviation, "tdev": Deviation}``, empty when skipped).
+
+    The disciplined 1PPS (trial 0, from :data:`~chronofuse.experiments.gnssdo.SETTLE_S` on, the outage in
+    holdover included) is checked against the scenario's mask and :data:`OUTPUT_MASKS`
+    (``sections["discipline"]["masks"]``: name -> ``ClockVerdict.to_dict()``).
 
     A run shorter than :data:`MIN_DURATION_S` has no room for the loop to settle: the section then says so.
     ``oscillator``: the scenario's oscillator with its overrides (default: the preset). The loop runs on the
@@ -93,7 +101,7 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
 
     if scn.duration_s < MIN_DURATION_S:
         return {"discipline": {"skipped": f"the run ({scn.duration_s:g} s) is shorter than the {MIN_DURATION_S:g} s "
-                                          "a disciplined oscillator needs to settle"}}, []
+                                          "a disciplined oscillator needs to settle"}}, [], {}
     check_disciplinable(scn)
     d = scn.discipline
     start, length = outage_window_s(scn)
@@ -110,6 +118,16 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
     sub.mkdir(parents=True, exist_ok=True)
     files = [sub / name for name in write_report(sim, summary, sub)]
     sections = {"discipline": {k: summary[k] for k in summary if k != "state_changes_trial0"}}
+    from chronofuse.analysis import stability
+    from chronofuse.analysis.masks import MASKS
+
+    output = np.asarray(sim["run"].phase_s[0, int(SETTLE_S):], dtype=float)
+    names = tuple(dict.fromkeys(((scn.analysis.mask,) if scn.analysis.mask else ()) + OUTPUT_MASKS))
+    sections["discipline"]["masks"] = {m: MASKS[m].check(output, 1.0).to_dict() for m in names}
+    sections["discipline"]["masks_record"] = (f"the disciplined 1PPS from {SETTLE_S:g} s (after settling) to the end, "
+                                              f"{output.size} s, the {length:g} s outage in holdover included")
+    curves = {stat: stability.compute(stat, output, 1.0, stability.tau_grid(scn.analysis.taus, output.size, 1.0, stat))
+              for stat in ("mtie", "tdev")}
     if scn.swarm.followers > 0:
         say(f"{scn.swarm.followers} followers keeping the leader's time over two-way links", a + 0.9 * (b - a))
         leader = np.asarray(sim["run"].phase_s[0, 1:])  # after the first jam sync (the start-up phase step)
@@ -128,4 +146,4 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
             "to_leader_in_outage_rms_ns": [_rms_ns(e[outage]) for e in swarm.to_leader_s] if outage.any() else None,
         }
         files.append(plot_followers(swarm, outage, out / "swarm.png"))
-    return sections, files
+    return sections, files, curves

@@ -25,6 +25,7 @@ from chronofuse.experiments.scenario import Scenario
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
+from chronofuse.report.html import run_page
 from chronofuse.report.run_figures import write_run_figures
 from chronofuse.report.jsonio import dumps
 
@@ -128,13 +129,17 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     files.append(out / "stability.csv")
     pd.DataFrame(rows).to_csv(files[-1], index=False, float_format="%.6g")
 
-    files += write_run_figures(out, t_s[:n], dict(zip(labels, pps[:, :n])), scn.receivers.scenario, model.name,
-                               osc_x[:n], osc_adev, (theory_tau, theory), rx_devs, mask_limits)
-
     chain: dict = {}
+    output_devs: dict = {}
     if scn.discipline.enabled:
-        chain, chain_files = discipline_and_swarm(scn, out, say, oscillator=model, span=(0.32, 1.0))
+        chain, chain_files, output_devs = discipline_and_swarm(scn, out, say, oscillator=model, span=(0.32, 1.0))
         files += chain_files
+    if output_devs and not mask_limits:  # the disciplined output is checked against the PRTC masks: draw them
+        grid = np.logspace(0, np.log10(max(scn.duration_s / 10, 10)), 200)
+        mask_limits = {f"{name} {stat}": (grid, MASKS[name].limit_s(stat, grid)) for name in ("prtc-a",)
+                       for stat in ("mtie", "tdev")}
+    files[2:2] = write_run_figures(out, t_s[:n], dict(zip(labels, pps[:, :n])), scn.receivers.scenario, model.name,
+                                   osc_x[:n], osc_adev, (theory_tau, theory), rx_devs, mask_limits, output_devs)
 
     summary = {
         "scenario": scn.model_dump(),
@@ -160,6 +165,8 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
         "files": [str(f.relative_to(out)) for f in files] + ["summary.json"],
     }
     files.append(out / "summary.json")
+    summary["files"].append("report.html")
     files[-1].write_text(dumps(summary))
+    files.append(run_page(summary, out))
     return RunReport(out_dir=out, summary=summary, files=tuple(files))
 
