@@ -358,5 +358,7 @@ def monitor_page(doc: dict, out: Path, command: str = "chronofuse monitor --repo
                           f"{alarms} alarm(s) in {rx.get('epochs', '?')} epochs ({rx.get('usable', '?')} usable), "
                           f"{rx.get('jumps', 0)} jump(s), {len(rx.get('outages', []))} outage(s)")
         images = [(Path(f), Path(f).stem.replace("_", " ")) for f in doc["files"] if Path(f).name.startswith(f"{name}_")]
-        sections.append(Section(name, [verdict], images=images))
+        notes = [] if rx.get("clock_bias_epochs") else ["no plot: the log holds no clock bias for this receiver "
+                                                        "(its messages carry none, e.g. NMEA, or none was usable)"]
+        sections.append(Section(name, [verdict], notes=notes, images=images))
     return write_html(out / "report.html", f"chronofuse monitor: {Path(doc['db']).name}", sections, command=command)
