@@ -94,7 +94,10 @@ def detect(
         _stream(file, follow, json_lines, json_out, rate_hz=rate, column=column, station=station, detector=detector,
                 settings=dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                               max_time_acc_s=max_tacc_s))
-    with user_errors():
+    from chronofuse.cli.common import progress_reporter
+
+    with user_errors(), progress_reporter("detect") as say:
+        say(f"testing {file.name}")  # stage only: detect_file reports no fraction yet
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                           window=window, pfa=pfa, position_m=position, nav=nav or None, station=station,
                           max_time_acc_s=max_tacc_s, detector=detector, test=test,

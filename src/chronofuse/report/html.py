@@ -191,20 +191,29 @@ def _images(out: Path, names) -> list[tuple[Path, str]]:
 
 
 def _coverage_note(label: str, rx: dict, duration_s: float) -> str | None:
-    """Why a receiver's curves end before the run does: where each ends, with the record's missing epochs."""
+    """Why a receiver's curves end before the grid does, from its own numbers: where each ends, how few terms
+    are left there, and the record's missing epochs. None when no curve ends early."""
     missing = rx["pps_error"]["n_missing"] / max(rx["pps_error"]["n"], 1)
-    ends = []
+    ends, falls = [], []
     for stat, dev in rx["deviations"].items():
-        taus = [t for t, v in zip(dev["tau"], dev["dev"]) if v is not None]
-        if taus:
-            ends.append(f"{stat.upper()} at tau {max(taus):g} s")
+        pairs = [(t, v, n) for t, v, n in zip(dev["tau"], dev["dev"], dev["n"])]
+        have = [p for p in pairs if p[1] is not None]
+        if not have or len(have) == len(pairs):
+            continue
+        tau, value, n = have[-1]
+        ends.append(f"{stat.upper()} ends at tau {tau:g} s, from {n:,} terms there (of {have[0][2]:,} at tau "
+                    f"{have[0][0]:g} s); none is left at tau {pairs[len(have)][0]:g} s")
+        if len(have) > 1 and value < have[-2][1]:
+            falls.append(stat.upper())
     if not ends:
         return None
-    return (f"{label}: the curves end ({', '.join(ends)}) well before the run's {duration_s:g} s because "
-            f"{missing:.1%} of its epochs are missing (no fix, outliers, the outage): the receivers' deviations "
-            "use only terms whose samples are all present, and at long tau nearly every term spans a gap, so too few "
-            "terms are left for a value; the few that remain also make the last TDEV points fall (few averages, "
-            "wide intervals), not a real improvement.")
+    note = (f"{label}: {'; '.join(ends)}. {missing:.1%} of its epochs are missing (no fix, rejected outliers, the "
+            "outage), and a term is used only where the samples it needs are present: at long tau nearly every term "
+            f"spans a gap, so the curves stop well before the run's {duration_s:g} s.")
+    if falls:
+        note += (f" The last {', '.join(falls)} points fall because the few terms left come from the gap-free "
+                 "stretches, the quietest ones: that is a selection of the data, not a better receiver.")
+    return note
 
 
 def _discipline_verdicts(d: dict) -> list[Verdict]:
