@@ -32,6 +32,7 @@ COMMANDS: dict[str, tuple[str, ...]] = {
     "run": ("run",),
     "detect": ("detect",),
     "gnssdo": ("gnssdo",),
+    "characterize": ("characterize",),
     "position": ("position",),
     "swarm": ("swarm",),
     "inspect": ("inspect",),

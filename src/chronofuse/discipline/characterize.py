@@ -65,7 +65,8 @@ from chronofuse.models.oscillator import OscillatorModel, PowerLaw
 from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
 __all__ = ["Characterization", "LoopAdvice", "characterize", "fit_adev", "model_adev", "recommend_loop",
-           "predict_holdover", "oscillator_document", "oscillator_from_document", "MIN_SAMPLES", "MIN_TAUS",
+           "predict_holdover", "oscillator_document", "oscillator_from_document", "read_oscillator_file",
+           "characterize_file", "MIN_SAMPLES", "MIN_TAUS",
            "HOLDOVER_HORIZONS_S"]
 
 #: Fewest samples a record may have (about 17 minutes at 1 Hz).
@@ -471,3 +472,38 @@ def oscillator_from_document(doc, source: str = "oscillator file") -> Oscillator
                                source=str(doc["source"]), temp_ref_K=float(doc.get("temp_ref_K", 298.15)))
     except (TypeError, ValueError) as exc:
         raise InputError(f"{exc}", source) from None
+
+
+def characterize_file(path, *, kind: str | None = None, rate_hz: float | None = None, column: str | None = None,
+                      nominal_hz: float | None = None, temperature_column: str | None = None,
+                      receiver_sigma_s: float = 10e-9, holdover_trials: int = 200, seed: int = 0) -> Characterization:
+    """:func:`characterize` of a record file read by :func:`chronofuse.io.records.read_record` (its
+    options); ``temperature_column`` names a column of the oscillator's temperature beside it, in degC
+    unless its name ends in ``_k`` (kelvin)."""
+    from chronofuse.io.records import read_record, read_side_column
+
+    record = read_record(path, kind=kind, rate_hz=rate_hz, column=column, nominal_hz=nominal_hz)
+    temp = None
+    if temperature_column is not None:
+        temp = read_side_column(path, temperature_column, record.values.size)
+        if not temperature_column.lower().endswith("_k"):
+            temp = temp + 273.15
+    return characterize(record.values, record.rate_hz, record.kind, temperature_K=temp,
+                        receiver_sigma_s=receiver_sigma_s, holdover_trials=holdover_trials, seed=seed,
+                        source=str(path))
+
+
+def read_oscillator_file(path) -> OscillatorModel:
+    """The oscillator of a JSON oscillator file (:func:`oscillator_document`); bad JSON or a bad document is
+    an :class:`InputError` naming the file."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError("no such file", str(path)) from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"not a JSON oscillator file ({exc})", str(path)) from None
+    return oscillator_from_document(doc, str(path))

@@ -386,7 +386,8 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
 
 
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
-                  progress: Progress = lambda s: None, oscillator: str = "ocxo") -> dict:
+                  progress: Progress = lambda s: None, oscillator: str = "ocxo",
+                  oscillator_model: OscillatorModel | None = None) -> dict:
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
     The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
@@ -397,7 +398,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
     e = e - np.mean(e)
     steps = e.size
-    osc = preset(oscillator)
+    osc = preset(oscillator) if oscillator_model is None else oscillator_model
     dac = Dac.for_oscillator(osc)
     root = root_seed(seed)
     progress("simulating the oscillator")
