@@ -76,3 +76,25 @@ def test_a_bad_oscillator_file_is_refused_naming_it(tmp_path):
     _refused(runner.invoke(app, ["gnssdo", "--oscillator-file", str(bad)]), "osc.json")
     res = runner.invoke(app, ["gnssdo", "--oscillator-file", str(bad), "--oscillator", "rb"])
     _refused(res, "--oscillator-file")
+
+
+def test_a_temperature_column_gives_the_tempco_and_the_oscillator_file_keeps_it(tmp_path):
+    from chronofuse.models.oscillator import OscillatorModel, PowerLaw, simulate_oscillator
+
+    n = 60_000
+    temp = 300.0 + 2.0 * np.sin(2 * np.pi * np.arange(n) / 43_200.0)
+    model = OscillatorModel("t", 10e6, PowerLaw(h2=2e-21, h0=2e-23, hm1=5e-25, hm2=2e-28), 3e-16, 3e-11, 0.0, 1, 1.0,
+                            "test")
+    x = simulate_oscillator(model, float(n), 1.0, 3, temperature_K=temp).x_s[0]
+    path = tmp_path / "withtemp.txt"
+    np.savetxt(path, np.column_stack([np.arange(n), x, temp - 273.15]), header="t_s phase_s temp_c", comments="")
+    out = tmp_path / "rep"
+    res = runner.invoke(app, ["characterize", str(path), "--column", "phase_s", "--temperature-column", "temp_c",
+                              "--trials", "20", "--out", str(out), "--json"])
+    assert res.exit_code == 0, res.output
+    doc = json.loads(res.stdout)
+    assert abs(doc["temp_coeff_per_K"] - 3e-11) < 4 * doc["temp_coeff_sigma_per_K"]
+    osc = json.loads((out / "oscillator.json").read_text())
+    assert osc["temp_coeff_per_K"] == doc["temp_coeff_per_K"] and abs(osc["temp_ref_K"] - 300.0) < 0.5
+    res = runner.invoke(app, ["characterize", str(path), "--column", "phase_s", "--temperature-column", "nope"])
+    _refused(res, "withtemp.txt")

@@ -444,17 +444,10 @@ def read_side_column(path: str | Path, column: str, size: int) -> np.ndarray:
     """The values of one more column of a text record (a temperature beside the phase), as read, one per
     sample of the record (``size`` of them: a record whose time column skips samples is refused)."""
     path = Path(path)
+    from chronofuse.io.record_columns import _field, column_index
+
     layout = sniff(path)
-    logical = layout.width - (layout.pair is not None)
-    names = layout.header if layout.header is not None else [str(i + 1) for i in range(logical)]
-    if column in names:
-        index = names.index(column)
-    elif column.isdigit() and 1 <= int(column) <= logical:
-        index = int(column) - 1
-    else:
-        raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{logical})", str(path),
-                             layout.header_line or layout.first_data_line)
-    field = index + 1 if layout.pair is not None and index > layout.pair else index
+    field = _field(layout, column_index(layout, path, column))
     values, _, _ = read_columns(path, layout, field, None)
     if values.size != size:
         raise InputDataError(f"column {column!r} has {values.size} values where the record has {size} samples (a "

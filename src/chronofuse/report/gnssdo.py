@@ -60,11 +60,16 @@ def plot_adev(adev: dict, path: Path, title: str) -> Path:
             ax.loglog(tau, dev, "o-", ms=3, color=colour, label=label)
     env = np.fmin(np.asarray(adev["free_run"]["dev"], dtype=float), np.asarray(adev["gnss"]["dev"], dtype=float))
     ax.loglog(adev["free_run"]["tau"], env, "k--", lw=0.8, label="lower envelope")
+    return _finish_adev(fig, ax, path, title)
+
+
+def _finish_adev(fig, ax, path: Path, title: str, legend_size: int = 8) -> Path:
+    """Label an ADEV plot's axes, title and legend, and write it (110 dpi)."""
     ax.set_xlabel("tau (s)")
     ax.set_ylabel("overlapping ADEV")
     ax.grid(True, which="both", lw=0.3)
     ax.set_title(title)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=legend_size)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -128,11 +133,4 @@ def plot_characterization(doc: dict, path: Path, title: str) -> Path:
             ax.loglog(dense, np.sqrt(parts[key]), ":", lw=0.9, label=label)
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("tau (s)")
-    ax.set_ylabel("overlapping ADEV")
-    ax.grid(True, which="both", lw=0.3)
-    ax.set_title(title)
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    return path
+    return _finish_adev(fig, ax, path, title, legend_size=7)
