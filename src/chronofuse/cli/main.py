@@ -76,7 +76,7 @@ def build_app(modules: tuple[str, ...] | None = None) -> typer.Typer:
         help="Precision timing: simulate clocks and GNSS receivers, analyse stability, watch clock integrity, "
              "discipline oscillators, synchronize swarms, position with GNSS/INS.",
         no_args_is_help=True,
-        add_completion=False,
+        add_completion=True,
         pretty_exceptions_enable=False,
     )
     wanted = modules or tuple(dict.fromkeys(m for group in COMMANDS.values() for m in group))

@@ -9,6 +9,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from chronofuse.discipline.states import State
+from chronofuse.report.figures import legend_outside
 
 _STATE_COLOURS = {State.FREE_RUN: "#dddddd", State.ACQUIRING: "#fde9b0", State.LOCKED: "#d8f0d8",
                   State.HOLDOVER: "#f7c6c6", State.RECOVERY: "#cfe0fb", State.ALARM: "#f4a259"}
@@ -21,7 +22,7 @@ def _decimated(t: np.ndarray, v: np.ndarray, keep: int = 20_000):
 
 def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> Path:
     """Time error of trial 0 (ns) against hours, the clairvoyant servo's beside it, states shaded."""
-    fig = Figure(figsize=(9, 4))
+    fig = Figure(figsize=(10.5, 4))
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     hours = t_s / 3600.0
@@ -41,7 +42,7 @@ def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> 
     ax.set_xlabel("time (h)")
     ax.set_ylabel("time error (ns)")
     ax.set_title(title)
-    ax.legend(loc="upper right", fontsize=7, ncol=3)
+    legend_outside(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -63,13 +64,13 @@ def plot_adev(adev: dict, path: Path, title: str) -> Path:
     return _finish_adev(fig, ax, path, title)
 
 
-def _finish_adev(fig, ax, path: Path, title: str, legend_size: int = 8) -> Path:
+def _finish_adev(fig, ax, path: Path, title: str) -> Path:
     """Label an ADEV plot's axes, title and legend, and write it (110 dpi)."""
     ax.set_xlabel("tau (s)")
     ax.set_ylabel("overlapping ADEV")
     ax.grid(True, which="both", lw=0.3)
     ax.set_title(title)
-    ax.legend(fontsize=legend_size)
+    legend_outside(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -88,7 +89,7 @@ def plot_holdover(t_s, phase_s, optimal_s, start_s: float, stop_s: float, path: 
     ax.set_ylabel("accumulated time error (ns)")
     ax.set_title(title)
     ax.grid(True, lw=0.3)
-    ax.legend()
+    legend_outside(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -133,4 +134,4 @@ def plot_characterization(doc: dict, path: Path, title: str) -> Path:
             ax.loglog(dense, np.sqrt(parts[key]), ":", lw=0.9, label=label)
     ax.set_xscale("log")
     ax.set_yscale("log")
-    return _finish_adev(fig, ax, path, title, legend_size=7)
+    return _finish_adev(fig, ax, path, title)
