@@ -134,16 +134,16 @@ def _edf_with_gaps(spec: StatisticSpec, x: np.ndarray, alpha: np.ndarray, m: np.
 
 
 def _kernel_and_noise(spec: StatisticSpec, x: np.ndarray, x_id: np.ndarray, m: np.ndarray, tau0_s: float,
-                      gap_rule: str):
+                      gap_rule: str, gaps: bool | None = None):
     """``(dev, n, (alpha, method))``: the statistic's kernel on ``x`` and the noise identification on
     ``x_id``, side by side for records of :data:`SIDE_BY_SIDE_FROM` samples or more on a machine with
     more than one CPU (the identification on a helper thread, the kernel in this one)."""
     kwargs = {"gap_rule": gap_rule} if len(spec.gap_rules) > 1 else {}
     if x.size < SIDE_BY_SIDE_FROM or (os.cpu_count() or 1) < 2:
         dev, n = spec.kernel(x, m, tau0_s, **kwargs)
-        return dev, n, identify_noise_methods(x_id, m, spec.noise_dmax, spec.overlapping)
+        return dev, n, identify_noise_methods(x_id, m, spec.noise_dmax, spec.overlapping, gaps=gaps)
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="chronofuse-noise-id") as pool:
-        noise = pool.submit(identify_noise_methods, x_id, m, spec.noise_dmax, spec.overlapping)
+        noise = pool.submit(identify_noise_methods, x_id, m, spec.noise_dmax, spec.overlapping, gaps=gaps)
         dev, n = spec.kernel(x, m, tau0_s, **kwargs)
         return dev, n, noise.result()
 
@@ -218,7 +218,7 @@ def compute(
     n_points = int(x.size)  # after filling/trimming for the "fill" policy
 
     m = _factors(spec, tau_s, rate_hz, n_points)
-    dev, n, (alpha, alpha_method) = _kernel_and_noise(spec, x, x_id, m, tau0_s, rule)
+    dev, n, (alpha, alpha_method) = _kernel_and_noise(spec, x, x_id, m, tau0_s, rule, gaps=bool(skipped))
     dev = np.asarray(dev, dtype=float)
     n = np.asarray(n, dtype=np.int64)
     corrected = bool(bias_correction and spec.bias is not None)
