@@ -41,7 +41,7 @@ from chronofuse.analysis.stability.taus import taus_to_factors
 from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 from chronofuse.registry import Config, Entry, Registry
 
-__all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM",
+__all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "uncovered_samples", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM",
            "STATISTIC_REGISTRY", "Statistic", "StatisticConfig", "statistic_entry", "statistic_spec"]
 
 #: Records at least this long have their kernel and their noise identification run on two threads: at
@@ -120,6 +120,26 @@ def kept_terms(statistic: str, x: np.ndarray, m: int, gap_rule: str) -> np.ndarr
         starts = np.arange(max(x.size - 3 * m + 1, 0))
         return c[starts + 3 * m] == c[starts]
     return term_validity(x, m, d, 1 if overlapping else m, gap_rule)
+
+
+def uncovered_samples(statistic: str, x: np.ndarray, m: int, gap_rule: str = "samples") -> np.ndarray:
+    """The samples present in ``x`` (N,) that no term the gap rule keeps at factor ``m`` spans (boolean (N,)).
+
+    A term spans ``x[j .. j + 3m - 1]`` (MDEV, TDEV) or ``x[j .. j + d m]`` (the unmodified statistics). With
+    gaps a stretch between two missing samples shorter than a term is seen by no term: an event there (a
+    time-error burst next to a silence) is left out of the statistic, which then describes the rest of the
+    record. Greenhall-family statistics only (those of :func:`kept_terms`).
+    """
+    d, overlapping, modified = edf_mod.GREENHALL_PARAMETERS[statistic]
+    keep = kept_terms(statistic, x, int(m), gap_rule)
+    step = 1 if (modified or overlapping) else int(m)
+    starts = np.flatnonzero(keep) * step
+    span = 3 * int(m) if modified else d * int(m) + 1
+    edges = np.zeros(x.size + 1, dtype=np.int64)
+    np.add.at(edges, starts, 1)
+    np.add.at(edges, np.minimum(starts + span, x.size), -1)
+    covered = np.cumsum(edges[:-1]) > 0
+    return ~covered & ~np.isnan(x)
 
 
 def _edf_with_gaps(spec: StatisticSpec, x: np.ndarray, alpha: np.ndarray, m: np.ndarray, gap_rule: str) -> np.ndarray:
