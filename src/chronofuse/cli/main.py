@@ -20,6 +20,7 @@ import traceback
 
 import typer
 from typer.core import TyperGroup
+from typer._click.exceptions import ClickException  # typer's click; the version is pinned
 from typer.exceptions import Abort, Exit, TyperException
 
 from chronofuse import __version__
@@ -46,10 +47,35 @@ COMMANDS: dict[str, tuple[str, ...]] = {
 EXIT_BUG = 70
 
 
+def usage_error_line(exc) -> str:
+    """A usage error (unknown option, bad value, missing argument) as one line naming the command and the
+    option: ``chronofuse detect: error: No such option: --foo (Possible options: --follow, --pfa)``."""
+    ctx = getattr(exc, "ctx", None)
+    where = ctx.command_path if ctx is not None else "chronofuse"
+    message = " ".join(part.strip() for part in exc.format_message().splitlines() if part.strip())
+    return f"{where}: error: {message}"
+
+
 class _Program(TyperGroup):
     """The root command: an error that is not the user's (not one :mod:`chronofuse.cli.common` turned into
     exit 2, not a usage error) is a bug, said so in one line on stderr, exit :data:`EXIT_BUG`; with
-    ``--debug`` (or ``CHRONOFUSE_DEBUG=1``) the traceback follows."""
+    ``--debug`` (or ``CHRONOFUSE_DEBUG=1``) the traceback follows. A usage error is one line on stderr
+    (:func:`usage_error_line`), exit 2, on every subcommand (not click's usage text and a framed box)."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode: bool = True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except ClickException as exc:
+            if type(exc).__name__ != "NoArgsIsHelpError":  # that one has printed the help already
+                sys.stderr.write(usage_error_line(exc) + "\n")
+                sys.stderr.flush()
+            sys.exit(exc.exit_code)
+        except Abort:
+            sys.stderr.write("Aborted!\n")
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
         try:
