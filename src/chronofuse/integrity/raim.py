@@ -110,8 +110,8 @@ def _design(satellite_m, position_m, system, n_systems):
     r = np.linalg.norm(d, axis=-1)
     rot = _enu_rotation(position_m)  # (E, 3, 3) rows e, n, u
     los_enu = np.einsum("eij,esj->esi", rot, d / r[..., None])
-    onehot = (system[:, None] == np.arange(1, n_systems)[None, :]).astype(np.float64)
-    g = np.concatenate([-los_enu, np.ones(r.shape + (1,)), np.broadcast_to(onehot, r.shape + (n_systems - 1,))], -1)
+    onehot = (system[..., None] == np.arange(1, n_systems)).astype(np.float64)  # (E, S, n_systems - 1)
+    g = np.concatenate([-los_enu, np.ones(r.shape + (1,)), onehot], -1)
     return g, r
 
 
@@ -122,7 +122,8 @@ def _separations(g, w, y, system, n_systems, k_axis, pfa):
     n_used = used.sum(-1)
 
     def normal_inv(weights):
-        present = np.stack([((weights > 0) & (system == j)).any(-1) for j in range(n_systems)], -1)
+        sysb = system if weights.ndim == 2 else system[:, None, :]
+        present = np.stack([((weights > 0) & (sysb == j)).any(-1) for j in range(n_systems)], -1)
         hold = np.zeros(weights.shape[:-1] + (u, u))
         idx = np.arange(3, u)
         hold[..., idx, idx] = np.where(present, 0.0, 1.0)
@@ -170,22 +171,39 @@ def raim(satellite_m, pseudorange_m, sigma_m, system, x0_m, settings: RaimSettin
     (corrected for satellite clock and atmosphere; NaN: not tracked) from satellites ``satellite_m`` (E, S, 3)
     ECEF with 1-sigma ``sigma_m`` (E, S) and system index ``system`` (S,) (0: the reference clock's);
     ``x0_m`` a coarse starting position (3,) or (E, 3)."""
-    cfg = settings or RaimSettings()
     rho = np.asarray(pseudorange_m, dtype=np.float64)
-    sat = np.asarray(satellite_m, dtype=np.float64)
-    sig = np.asarray(sigma_m, dtype=np.float64)
+    sat = np.broadcast_to(np.asarray(satellite_m, dtype=np.float64), rho.shape + (3,))
+    sig = np.broadcast_to(np.asarray(sigma_m, dtype=np.float64), rho.shape)
     system = np.asarray(system, dtype=np.intp)
+    # the satellites of each epoch packed to the front (the subset algebra is cubic in the columns)
+    usable = np.isfinite(rho) & np.isfinite(sig) & (sig > 0) & np.isfinite(sat).all(-1)
+    order = np.argsort(~usable, axis=1, kind="stable")
+    width = max(int(usable.sum(axis=1).max(initial=0)), 1)
+    cols = order[:, :width]
+    take = lambda a: np.take_along_axis(a, cols if a.ndim == 2 else cols[..., None], axis=1)  # noqa: E731
+    fix = least_squares_position(sat, np.where(usable, rho, np.nan), np.where(usable, sig, np.inf), system, x0_m,
+                                 iterations=8)
+    packed = _raim_packed(take(sat), np.where(take(usable), take(rho), np.nan), take(sig),
+                          np.broadcast_to(system, rho.shape)[np.arange(rho.shape[0])[:, None], cols],
+                          int(system.max(initial=0)) + 1, fix, x0_m, settings or RaimSettings())
+    mdb = np.full(rho.shape, np.nan)
+    np.put_along_axis(mdb, cols, packed.mdb_m, axis=1)
+    excluded = np.where(packed.excluded >= 0, cols[np.arange(rho.shape[0]), np.maximum(packed.excluded, 0)], -1)
+    return RaimResult(state=packed.state, position_m=packed.position_m, hpl_m=packed.hpl_m, vpl_m=packed.vpl_m,
+                      excluded=excluded, n_used=packed.n_used, mdb_m=mdb, max_statistic=packed.max_statistic)
+
+
+def _raim_packed(sat, rho, sig, system, n_systems, fix, x0_m, cfg) -> RaimResult:
+    """:func:`raim` on columns packed per epoch (``system`` (E, S) per column), from the all-in ``fix``."""
     e, s = rho.shape
-    n_systems = int(system.max()) + 1
     n_unknowns = 3 + n_systems
-    fix = least_squares_position(sat, rho, sig, system, x0_m, iterations=8)
     position = np.asarray(fix.position_m)
     ok_fix = np.isfinite(position).all(-1)
     position = np.where(ok_fix[:, None], position, np.broadcast_to(np.asarray(x0_m, dtype=np.float64), (e, 3)))
     sat_safe = np.where(np.isfinite(sat), sat, np.array([3.0e7, 0.0, 0.0]))
     g, r = _design(sat_safe, position, system, n_systems)
     isb = np.concatenate([np.zeros((e, 1)), np.nan_to_num(np.asarray(fix.isb_m).reshape(e, -1))], -1)
-    pred = r + np.nan_to_num(fix.clock_m)[:, None] + isb[:, system]
+    pred = r + np.nan_to_num(fix.clock_m)[:, None] + np.take_along_axis(isb, system, axis=1)
     usable = np.isfinite(rho) & np.isfinite(sig) & (sig > 0) & np.isfinite(sat).all(-1) & ok_fix[:, None]
     y = np.where(usable, rho - pred, 0.0)
     w = np.where(usable, 1.0 / np.where(usable, sig, 1.0) ** 2, 0.0)
@@ -205,7 +223,7 @@ def raim(satellite_m, pseudorange_m, sigma_m, system, x0_m, settings: RaimSettin
                 break
             wk = w[k:k + 1].copy()
             wk[0, j] = 0.0
-            sub = _separations(g[k:k + 1], wk, y[k:k + 1], system, n_systems, k_axis, cfg.pfa)
+            sub = _separations(g[k:k + 1], wk, y[k:k + 1], system[k:k + 1], n_systems, k_axis, cfg.pfa)
             if not sub["alarm"][0]:
                 state[k], excluded[k] = "excluded", j
                 hpl[k], vpl[k], n_used[k] = sub["hpl"][0], sub["vpl"][0], sub["n_used"][0]
