@@ -5,12 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import typer
-from rich.table import Table
 
-from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
-from chronofuse.experiments.main_job import run_scenario
-from chronofuse.experiments.scenario import load_scenario
-from chronofuse.report.html import mask_reason
+# The main job (the whole toolkit) and the console are imported inside the command, so that `run --help`
+# pays only for typer.
 
 
 def register(app: typer.Typer) -> None:
@@ -26,6 +23,13 @@ def run(
 ) -> None:
     """Simulate a scenario and write its report (JSON, CSV, PNG): the free-running OCXO and the receivers, the
     OCXO disciplined to them through a GNSS outage, and followers keeping its time over two-way links."""
+    from rich.table import Table
+
+    from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
+    from chronofuse.experiments.main_job import run_scenario
+    from chronofuse.experiments.scenario import load_scenario
+    from chronofuse.report.html import mask_reason
+
     quiet_output(quiet)
     with user_errors():
         scn = load_scenario(scenario)

@@ -61,6 +61,11 @@ def plot_adev(adev: dict, path: Path, title: str) -> Path:
             ax.loglog(tau, dev, "o-", ms=3, color=colour, label=label)
     env = np.fmin(np.asarray(adev["free_run"]["dev"], dtype=float), np.asarray(adev["gnss"]["dev"], dtype=float))
     ax.loglog(adev["free_run"]["tau"], env, "k--", lw=0.8, label="lower envelope")
+    return _finish_adev(fig, ax, path, title)
+
+
+def _finish_adev(fig, ax, path: Path, title: str) -> Path:
+    """Label an ADEV plot's axes, title and legend, and write it (110 dpi)."""
     ax.set_xlabel("tau (s)")
     ax.set_ylabel("overlapping ADEV")
     ax.grid(True, which="both", lw=0.3)
@@ -104,3 +109,29 @@ def write_report(sim: dict, summary: dict, out_dir: Path) -> list[str]:
                                    env.jamming_start_s + env.jamming_duration_s, out_dir / "holdover.png",
                                    f"Holdover ({label})").name)
     return files
+
+
+def plot_characterization(doc: dict, path: Path, title: str) -> Path:
+    """A characterised oscillator: the measured ADEV with its simultaneous intervals, the fitted model's ADEV
+    and each power-law term's (``doc``: :meth:`~chronofuse.discipline.characterize.Characterization.to_dict`)."""
+    from chronofuse.analysis.theory import avar_components
+    from chronofuse.models.oscillator import PowerLaw
+
+    a = doc["adev"]
+    tau, dev = np.asarray(a["tau_s"]), np.asarray(a["measured"])
+    lo, hi = np.asarray(a["lo"]), np.asarray(a["hi"])
+    fig = Figure(figsize=(6.5, 4.5))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.errorbar(tau, dev, yerr=[dev - lo, hi - dev], fmt="o", ms=3, color="C0", capsize=2,
+                label=f"measured OADEV ({a['family_ci']:.0%} simultaneous intervals)")
+    ax.loglog(tau, a["model"], "-", color="C3", label="fitted model")
+    dense = np.logspace(np.log10(tau[0]), np.log10(tau[-1]), 200)
+    parts = avar_components(PowerLaw(**doc["h"]), dense, doc["rate_hz"])
+    for key, label in (("h2", "white PM"), ("h1", "flicker PM"), ("h0", "white FM"), ("hm1", "flicker FM"),
+                       ("hm2", "random-walk FM")):
+        if doc["h"][key] > 0:
+            ax.loglog(dense, np.sqrt(parts[key]), ":", lw=0.9, label=label)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    return _finish_adev(fig, ax, path, title)
