@@ -169,6 +169,16 @@ def _wanted(argv: list[str]) -> tuple[str, ...] | None:
     return COMMANDS.get(first) if first is not None else None
 
 
+def _completing() -> list[str]:
+    """The words after ``chronofuse`` of a command line the shell asks to complete (Typer's completion:
+    ``COMP_WORDS`` from bash, ``_TYPER_COMPLETE_ARGS`` from zsh, fish and PowerShell), so that a subcommand
+    being completed is built with its options (a first word that is no subcommand yet builds the index);
+    [] when no completion is asked for."""
+    if not os.environ.get("_CHRONOFUSE_COMPLETE"):
+        return []
+    return (os.environ.get("COMP_WORDS") or os.environ.get("_TYPER_COMPLETE_ARGS") or "").split()[1:]
+
+
 def main() -> None:
     """The console script: build only what this command line runs, then run it.
 
@@ -180,7 +190,7 @@ def main() -> None:
     """
     process_ends_with_command()
     with loading():
-        wanted = _wanted(sys.argv[1:])
+        wanted = _wanted(_completing() or sys.argv[1:])
         program = build_app(wanted) if wanted is not None else build_index()
     program(prog_name="chronofuse")
 
