@@ -180,7 +180,7 @@ def _report(db: Path, out: Path | None, json_out: bool) -> None:
     (out / "summary.json").write_text(json.dumps(doc, indent=2))
     from chronofuse.report.html import monitor_page
 
-    monitor_page(doc, out)
+    monitor_page(doc, out, command=f"chronofuse monitor --report {db} --out {out}")
     if json_out:
         print_json(doc)
     else:

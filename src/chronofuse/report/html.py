@@ -357,8 +357,9 @@ def detect_page(doc: dict, path: Path, file: str, command: str = "chronofuse det
                                (["t (s)", "statistic", "channel"], rows) if rows else None, notes)], command=command)
 
 
-def monitor_page(doc: dict, out: Path, command: str = "chronofuse monitor --report") -> Path:
-    """The page of ``chronofuse monitor --report DB --out DIR``: each receiver's session."""
+def monitor_page(doc: dict, out: Path, command: str = "") -> Path:
+    """The page of a monitor session's report (the log DB ``doc["db"]``): each receiver's verdict and plots;
+    ``command`` the command line that made it, shown on the page."""
     sections = []
     for rx in doc["receivers"]:
         name = rx["receiver"]
