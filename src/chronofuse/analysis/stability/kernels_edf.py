@@ -55,24 +55,17 @@ def basic_sums(J: np.ndarray, M: np.ndarray, S: np.ndarray, F: np.ndarray, alpha
     total = np.empty(rows)
     norm = np.empty(rows)
     for r in range(rows):
-        last = int(J[r])
-        m_terms, s, f, a = M[r], S[r], F[r], alpha[r]
-        acc = 0.0
-        for j in range(last + 1):
-            t = j / s
-            sz = 0.0
-            for q in range(2 * d + 1):
-                sz += weights[q] * _sx(t + (q - d), f, a)
-            sz2 = sz * sz
-            if j == 0:
-                norm[r] = sz2
-                acc += sz2
-            elif j < last:
-                acc += 2.0 * (1.0 - j / m_terms) * sz2
-            else:
-                acc += (1.0 - j / m_terms) * sz2
-        total[r] = acc
+        total[r], norm[r] = _row_sum(int(J[r]), M[r], S[r], F[r], alpha[r], d, weights)
     return total, norm
+
+
+@numba.njit(cache=True, nogil=True)
+def _row_sum(last: int, m_terms: float, s: float, f: float, a: int, d: int, weights: np.ndarray) -> tuple[float, float]:
+    """Eq. (10) of one row over ``j = 0..last`` and its ``sz(0)**2`` (see :func:`basic_sums`): the weighted sum
+    of :func:`weighted_sz_sum` with the pair counts ``M - j`` of a record without gaps, divided by ``M``."""
+    pairs = m_terms - np.arange(last + 1).astype(np.float64)
+    acc, norm = weighted_sz_sum(pairs, s, f, a, d, weights)
+    return acc / m_terms, norm
 
 
 @numba.njit(cache=True, nogil=True)
@@ -157,21 +150,7 @@ def greenhall_rows(alpha: np.ndarray, m: np.ndarray, n_points: int, d: int, over
             Sb = m_prime
             if not modified:
                 f = m_prime if a > 0 else np.inf
-        acc = 0.0
-        norm = 0.0
-        for j in range(last + 1):
-            t = j / Sb
-            sz = 0.0
-            for q in range(2 * d + 1):
-                sz += weights[q] * _sx(t + (q - d), f, a)
-            sz2 = sz * sz
-            if j == 0:
-                norm = sz2
-                acc += sz2
-            elif j < last:
-                acc += 2.0 * (1.0 - j / Mb) * sz2
-            else:
-                acc += (1.0 - j / Mb) * sz2
+        acc, norm = _row_sum(last, Mb, Sb, f, a, d, weights)
         if not modified and not summed and a == 1:
             g = b0 + b1 * math.log(mf)
             norm = g * g
