@@ -52,3 +52,30 @@ def igs_station_catalogue():
     from chronofuse.experiments.real_stations import load_stations
 
     return load_stations(IGS_DIR)
+
+
+def command_tree() -> dict:
+    """Every leaf subcommand of the program, ``"swarm sweep"`` -> its click command (from the full tree)."""
+    import typer
+
+    from chronofuse.cli.main import build_app
+
+    def leaves(group, path=()):
+        for name, sub in getattr(group, "commands", {}).items():
+            if hasattr(sub, "commands"):
+                yield from leaves(sub, (*path, name))
+            else:
+                yield " ".join((*path, name)), sub
+
+    return dict(leaves(typer.main.get_command(build_app())))
+
+
+def option_type(param) -> type:
+    """An option's value type: ``float`` for ``float | None``, ``Path`` for ``list[Path]`` (a repeatable one)."""
+    import types
+    import typing
+
+    kind = param.type_descriptor.annotation
+    while typing.get_origin(kind) in (typing.Union, types.UnionType, list):
+        kind = next(a for a in typing.get_args(kind) if a is not type(None))
+    return kind

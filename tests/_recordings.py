@@ -1,5 +1,6 @@
 """Simulated u-blox recordings (serialized by pyubx2) of a receiver clock with the events the integrity
-pipeline must handle: a millisecond clock reset, a step, a ramp, a loss of fix (importable as ``_recordings``)."""
+pipeline must handle: a millisecond clock reset, a step, a ramp, a loss of fix, epochs sent out of time order
+(importable as ``_recordings``)."""
 
 from __future__ import annotations
 
@@ -72,4 +73,26 @@ def fix_loss() -> bytes:
     return ubx_recording(x, fix_type=fix, time_acc_ns=tacc)
 
 
-SIMULATED = {"millisecond-reset": millisecond_reset, "step": step, "ramp": ramp, "fix-loss": fix_loss}
+def _epoch_by_epoch(x: np.ndarray) -> list[bytes]:
+    return [ubx_recording(x[k:k + 1], start_tow_ms=100_000_000 + k * 1000) for k in range(x.size)]
+
+
+def out_of_order() -> bytes:
+    """Epochs 400 and 401 sent in swapped order, and epoch 600 after 601 and 602 (within the reorder buffer
+    of chronofuse.io.arrival: every epoch is put back in its place, with a warning)."""
+    epochs = _epoch_by_epoch(_clock(15))
+    epochs[400], epochs[401] = epochs[401], epochs[400]
+    epochs[600:603] = [epochs[601], epochs[602], epochs[600]]
+    return b"".join(epochs)
+
+
+def late_epoch() -> bytes:
+    """Epoch 500 sent after epoch 505: beyond the reorder buffer, it is left out (a gap) on every path."""
+    epochs = _epoch_by_epoch(_clock(16))
+    late = epochs.pop(500)
+    epochs.insert(505, late)
+    return b"".join(epochs)
+
+
+SIMULATED = {"millisecond-reset": millisecond_reset, "step": step, "ramp": ramp, "fix-loss": fix_loss,
+             "out-of-order": out_of_order, "late-epoch": late_epoch}

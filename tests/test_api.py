@@ -36,7 +36,7 @@ def test_python_dash_m_chronofuse_runs_the_program():
     done = subprocess.run([sys.executable, "-m", "chronofuse", "--version"], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == __version__ and done.stderr == ""
     usage = subprocess.run([sys.executable, "-m", "chronofuse", "detect"], capture_output=True, text=True)
-    assert usage.returncode == 2 and "Usage: chronofuse detect" in usage.stderr
+    assert usage.returncode == 2 and usage.stderr == "chronofuse detect: error: Missing argument 'file'.\n"
 
 
 def test_the_api_reexports_rather_than_redefines():

@@ -9,15 +9,13 @@ shares (``--json``, ``--quiet``, ``--seed``, ``--out``) are where they make sens
 from __future__ import annotations
 
 import re
-import types
-import typing
 from pathlib import Path
 
 import pytest
-import typer
 
 from chronofuse.cli.flags import FLAGS
-from chronofuse.cli.main import build_app
+
+from _helpers import command_tree, option_type  # noqa: E402
 
 #: Python types of an option's value for each kind of the table.
 KIND_TYPES = {"switch": {bool}, "count": {int}, "number": {int, float}, "text": {str}, "path": {Path}}
@@ -26,24 +24,9 @@ NO_SEED = {"stability", "detect", "inspect", "monitor", "log"}
 NO_OUT = {"stability", "detect"}  # stability writes its plot with --plot; detect prints its document
 
 
-def _leaves(group, path=()):
-    for name, sub in getattr(group, "commands", {}).items():
-        if hasattr(sub, "commands"):
-            yield from _leaves(sub, (*path, name))
-        else:
-            yield " ".join((*path, name)), sub
-
-
-COMMANDS = dict(_leaves(typer.main.get_command(build_app())))
+COMMANDS = command_tree()
 OPTIONS = [(command, p) for command, cmd in COMMANDS.items() for p in cmd.params if p.param_type_name == "option"]
-
-
-def _type(param) -> type:
-    """The option's value type: ``float`` for ``float | None``, ``Path`` for ``list[Path]`` (a repeatable one)."""
-    kind = param.type_descriptor.annotation
-    while typing.get_origin(kind) in (typing.Union, types.UnionType, list):
-        kind = next(a for a in typing.get_args(kind) if a is not type(None))
-    return kind
+_type = option_type
 
 
 def _name(param) -> str:

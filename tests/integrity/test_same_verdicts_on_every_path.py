@@ -187,6 +187,12 @@ def test_detect_file_detect_pipe_and_the_monitor_agree_on_a_simulated_recording(
         assert raised and doc["n_alarm_epochs"] >= 150  # latched while the ramp lasts, not only while it starts
     elif name == "fix-loss":
         assert doc["n_no_fix"] == 40
+    elif name == "out-of-order":  # put back in order: every epoch tested, none missing, said so
+        assert doc["n_epochs"] == 900 and doc["n_skipped"] == 0 and doc["state"] == "ok"
+        assert any("2 epoch(s) arrived after a later one" in w for w in doc["warnings"]), doc["warnings"]
+    elif name == "late-epoch":  # too late: a gap on every path, said so
+        assert doc["n_epochs"] == 900 and doc["n_skipped"] == 1
+        assert any("1 epoch(s) arrived more than 2 epochs late" in w for w in doc["warnings"]), doc["warnings"]
 
 
 def _interval_ns(grid: list[int]) -> int:

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from _real_parts import TcpReceiver
+from chronofuse.io.arrival import REORDER_EPOCHS
 from chronofuse.discipline.verdict import (LEAP_TABLE_KNOWN_UNTIL_GPS_NS, ReceiverVerdict, reasons, verdict_bits)
 from chronofuse.integrity.inject import Anomaly, inject
 from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
@@ -86,7 +87,8 @@ def test_a_receiver_whose_alarm_is_latched_is_not_usable_for_as_long_as_it_is_la
 
 def test_a_receiver_that_goes_silent_with_its_link_open_becomes_stale_and_unusable():
     rx = TcpReceiver()
-    epochs = ubx_epochs(_bias(10, 6), start_tow_s=300_000, eoe=True)
+    # 9 epochs for the grid to learn its interval, and the reorder buffer's (chronofuse.io.arrival) after them
+    epochs = ubx_epochs(_bias(10 + REORDER_EPOCHS, 6), start_tow_s=300_000, eoe=True)
     mon = Monitor([TcpSource("127.0.0.1", rx.port, name="quiet")], KNOWN, stale_s=1.0)
     runner = threading.Thread(target=mon.run, kwargs={"duration_s": 6.0}, daemon=True)
     runner.start()

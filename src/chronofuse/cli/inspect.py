@@ -8,7 +8,6 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, quiet_output, user_errors
-from chronofuse.io.inspect import read_capture, summarize
 
 
 def register(app: typer.Typer) -> None:
@@ -33,6 +32,8 @@ def inspect(
         if series is not None:
             _inspect_log(file, series, out, station, json_out)
             return
+        from chronofuse.io.inspect import read_capture, summarize  # here: `inspect --help` needs none of it
+
         capture = read_capture(file, receiver=station)
         doc = summarize(capture)
         if out is not None:

@@ -2,7 +2,8 @@
 
 Start-up is lazy: the program imports only the module of the subcommand it runs (``chronofuse detect ...``
 loads ``cli/detect.py`` and what it needs, not the whole toolkit), so ``chronofuse detect --help`` answers in
-a fraction of a second. ``app`` (the full program with every subcommand, for ``CliRunner`` in tests and for
+a fraction of a second; a command line without a subcommand (``chronofuse --help``) loads none of them
+(:data:`SUMMARIES`). ``app`` (the full program with every subcommand, for ``CliRunner`` in tests and for
 ``chronofuse --help``) is built on first access.
 
 Exit status: 0 done (and, where a command gives a verdict, its own codes: ``detect`` 1 alarm, 3 integrity
@@ -20,6 +21,7 @@ import traceback
 
 import typer
 from typer.core import TyperGroup
+from typer._click.exceptions import ClickException  # typer's click; the version is pinned
 from typer.exceptions import Abort, Exit, TyperException
 
 from chronofuse import __version__
@@ -32,6 +34,7 @@ COMMANDS: dict[str, tuple[str, ...]] = {
     "run": ("run",),
     "detect": ("detect",),
     "gnssdo": ("gnssdo",),
+    "characterize": ("characterize",),
     "position": ("position",),
     "swarm": ("swarm",),
     "inspect": ("inspect",),
@@ -42,14 +45,63 @@ COMMANDS: dict[str, tuple[str, ...]] = {
 }
 
 
+#: What ``chronofuse --help`` lists, in its order, each command's help as the command gives it: the program
+#: lists them from here without importing any subcommand's module (each imports the library it needs, which
+#: takes seconds for some). tests/cli/test_lazy_help.py renders the full program's help and this one's and
+#: compares them, so a changed docstring shows up there.
+SUMMARIES: dict[str, str] = {
+    "stability": "ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV, total deviations, Theo1, TheoBR, TheoH, TIE rms and MTIE, "
+                 "with confidence intervals.",
+    "run": "Simulate a scenario and write its report (JSON, CSV, PNG): the free-running OCXO and the receivers, the\n"
+           "OCXO disciplined to them through a GNSS outage, and followers keeping its time over two-way links.",
+    "detect": "Detect clock-bias anomalies with the high-order-difference chi-square test.",
+    "gnssdo": "GNSS-disciplined oscillator (the GNSSDO paper): time error, convergence, holdover, states and ADEV.",
+    "position": "Single-point fixes from a RINEX file (--obs), or a simulated drive comparing GNSS-only, GNSS/INS and\n"
+                "(with --smooth) RTS-smoothed positions.",
+    "inspect": "Receivers, message counts per type, time span, gaps, checksum failures, unknown talkers.",
+    "monitor": "Live table per receiver (fix, satellites, GDOP, usable and why not, UTC, leap, clock bias/drift, qErr,\n"
+               "alarms, age), events on stderr, the log, a web dashboard, metrics, alert hooks and a chrony feed.",
+    "validate": "Our statistics on real records against Stable32's tables, the receiver model against the GPS\n"
+                "record, each oscillator preset against theory: one PASS/FAIL line per check (exit 1 if any fails).",
+    "simulate": "Simulate clocks and receivers (truth models) and write them to a file.",
+    "swarm": "Swarm clock synchronization over two-way radio links.",
+    "log": "Query a monitor log: epochs, availability, outages, alarms, dissent; export CSV/Parquet.",
+    "reproduce": "Reproduce the source papers' experiments and write their reports.",
+}
+
 #: Exit status of a bug (sysexits' EX_SOFTWARE): apart from bad input (2) and a command's verdicts (0, 1, 3).
 EXIT_BUG = 70
+
+
+def usage_error_line(exc) -> str:
+    """A usage error (unknown option, bad value, missing argument) as one line naming the command and the
+    option: ``chronofuse detect: error: No such option: --foo (Possible options: --follow, --pfa)``."""
+    ctx = getattr(exc, "ctx", None)
+    where = ctx.command_path if ctx is not None else "chronofuse"
+    message = " ".join(part.strip() for part in exc.format_message().splitlines() if part.strip())
+    return f"{where}: error: {message}"
 
 
 class _Program(TyperGroup):
     """The root command: an error that is not the user's (not one :mod:`chronofuse.cli.common` turned into
     exit 2, not a usage error) is a bug, said so in one line on stderr, exit :data:`EXIT_BUG`; with
-    ``--debug`` (or ``CHRONOFUSE_DEBUG=1``) the traceback follows."""
+    ``--debug`` (or ``CHRONOFUSE_DEBUG=1``) the traceback follows. A usage error is one line on stderr
+    (:func:`usage_error_line`), exit 2, on every subcommand (not click's usage text and a framed box)."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode: bool = True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            code = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except ClickException as exc:
+            if type(exc).__name__ != "NoArgsIsHelpError":  # that one has printed the help already
+                sys.stderr.write(usage_error_line(exc) + "\n")
+                sys.stderr.flush()
+            sys.exit(exc.exit_code)
+        except Abort:
+            sys.stderr.write("Aborted!\n")
+            sys.exit(1)
+        sys.exit(code if isinstance(code, int) else 0)
 
     def invoke(self, ctx):
         try:
@@ -67,20 +119,16 @@ class _Program(TyperGroup):
             raise Exit(EXIT_BUG) from None
 
 
-def build_app(modules: tuple[str, ...] | None = None) -> typer.Typer:
-    """The Typer program with the subcommands of ``modules`` (all when None)."""
+def _root() -> typer.Typer:
     program = typer.Typer(
         name="chronofuse",
         cls=_Program,
         help="Precision timing: simulate clocks and GNSS receivers, analyse stability, watch clock integrity, "
              "discipline oscillators, synchronize swarms, position with GNSS/INS.",
         no_args_is_help=True,
-        add_completion=False,
+        add_completion=True,
         pretty_exceptions_enable=False,
     )
-    wanted = modules or tuple(dict.fromkeys(m for group in COMMANDS.values() for m in group))
-    for name in wanted:
-        importlib.import_module(f"chronofuse.cli.{name}").register(program)
 
     @program.callback(invoke_without_command=True)
     def _main(version: bool = typer.Option(False, "--version", help="Print the version and exit."),
@@ -90,6 +138,29 @@ def build_app(modules: tuple[str, ...] | None = None) -> typer.Typer:
             raise typer.Exit()
 
     return program
+
+
+def build_app(modules: tuple[str, ...] | None = None) -> typer.Typer:
+    """The Typer program with the subcommands of ``modules`` (all when None)."""
+    program = _root()
+    wanted = modules or tuple(dict.fromkeys(m for group in COMMANDS.values() for m in group))
+    for name in wanted:
+        importlib.import_module(f"chronofuse.cli.{name}").register(program)
+    return program
+
+
+def build_index() -> typer.Typer:
+    """The program as a command line without a subcommand sees it (``chronofuse --help``, ``--version``, an
+    unknown command): every subcommand listed with its :data:`SUMMARIES` entry, none of their modules loaded."""
+    program = _root()
+    for name, summary in SUMMARIES.items():
+        program.command(name, help=summary, add_help_option=False,
+                        context_settings={"ignore_unknown_options": True, "allow_extra_args": True})(_listed_only)
+    return program
+
+
+def _listed_only() -> None:  # pragma: no cover - a command line naming a subcommand builds the real one
+    raise RuntimeError("the index of subcommands was asked to run one")
 
 
 def _wanted(argv: list[str]) -> tuple[str, ...] | None:
@@ -109,7 +180,8 @@ def main() -> None:
     """
     process_ends_with_command()
     with loading():
-        program = build_app(_wanted(sys.argv[1:]))
+        wanted = _wanted(sys.argv[1:])
+        program = build_app(wanted) if wanted is not None else build_index()
     program(prog_name="chronofuse")
 
 

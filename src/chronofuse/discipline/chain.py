@@ -42,20 +42,20 @@ __all__ = ["ChainConfig", "GnssdoRun", "corrected_pps_error", "integrity_alarms"
 class ChainConfig:
     """Settings of the chain around the servo.
 
-    qualification : the usability test (GDOP threshold etc.).
-    fusion : ``"fusion"`` (inverse-variance) or ``"selection"`` (best source).
-    states : lock threshold and hold time.
-    qerr_sign : +1 (u-blox: add qErr to the counter's reading) or -1.
-    qerr_lag : 0 (qErr aligned with its pulse) or 1 (logged a pulse early: TIM-TP describes the next pulse).
-    integrity_pfa : false-alarm probability per epoch of the clock-bias HOD detector (None: off).
-    integrity_train_s : seconds at the start used to fit the detector's noise model.
-    alarm_hold_s : a receiver stays excluded this long after its last alarm.
-    counter : measure offsets with this multi-phase counter (None: exact).
-    fast : compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
-    receiver_monitor, reference_monitor : the oscillator's plausibility test
-        (:class:`~chronofuse.discipline.plausibility.DragMonitor`) of each receiver (a refused one is excluded
-        from fusion and comes back with its weight earned anew) and of the fused reference (refused: the loop
-        holds over); None: off.
+    - ``qualification``: the usability test (GDOP threshold etc.).
+    - ``fusion``: ``"fusion"`` (inverse-variance) or ``"selection"`` (best source).
+    - ``states``: lock threshold and hold time.
+    - ``qerr_sign``: +1 (u-blox: add qErr to the counter's reading) or -1.
+    - ``qerr_lag``: 0 (qErr aligned with its pulse) or 1 (logged a pulse early: TIM-TP describes the next pulse).
+    - ``integrity_pfa``: false-alarm probability per epoch of the clock-bias HOD detector (None: off).
+    - ``integrity_train_s``: seconds at the start used to fit the detector's noise model.
+    - ``alarm_hold_s``: a receiver stays excluded this long after its last alarm.
+    - ``counter``: measure offsets with this multi-phase counter (None: exact).
+    - ``fast``: compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
+    - ``receiver_monitor``, ``reference_monitor``: the oscillator's plausibility test
+      (:class:`~chronofuse.discipline.plausibility.DragMonitor`) of each receiver (a refused one is excluded
+      from fusion and comes back with its weight earned anew) and of the fused reference (refused: the loop
+      holds over); None: off.
     """
 
     qualification: Qualification = field(default_factory=Qualification)

@@ -43,13 +43,13 @@ import copy
 import dataclasses
 import math
 import os
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from chronofuse.analysis.metrics import pooled_dev, trial_avar
+from chronofuse.progress import Progress, silent, within
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.montecarlo import mean_square_per_trial, ratio_ci, rms_ci
 from chronofuse.discipline.bound import ClairvoyantServo, time_error_bound
@@ -84,8 +84,6 @@ from chronofuse.experiments.gnssdo_controllers import (  # noqa: F401 (part of t
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
            "DESIGN_STEER_S"]
-
-Progress = Callable[[str], None]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
@@ -217,7 +215,7 @@ def is_gaussian(env: ReceiverEnvironment) -> bool:
     return m.outlier_prob == 0.0 and m.jump_prob == 0.0 and not spoofed
 
 
-def design_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> dict:
+def design_gnssdo(setup: GnssdoSetup, progress: Progress = silent) -> dict:
     """What every trial of ``setup`` shares: the oscillator, the environment, the chain's settings, the
     controller (fitted once on its calibration record) and the clairvoyant yardstick."""
     root = root_seed(setup.seed)
@@ -235,7 +233,7 @@ def design_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> di
     if setup.design == "fit":
         from chronofuse.experiments.gnssdo_design import fitted_controller
 
-        progress(f"fitting {setup.controller} on a calibration record")
+        progress(f"fitting {setup.controller} on a calibration record", 0.1)
         servo, design = fitted_controller(setup.controller, osc, env, setup.receivers, dac, root, config=config,
                                           loop_bandwidth_hz=setup.loop_bandwidth_hz)
     else:
@@ -245,26 +243,26 @@ def design_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> di
             "design": design, "clairvoyant_servo": clairvoyant_controller(osc, env, setup.receivers, dac)}
 
 
-def simulate_trials(plan: dict, first_trial: int, trials: int, progress: Progress = lambda s: None) -> dict:
+def simulate_trials(plan: dict, first_trial: int, trials: int, progress: Progress = silent) -> dict:
     """Trials ``first_trial .. first_trial + trials - 1`` of :func:`design_gnssdo`'s ``plan``: each trial's numbers
     are those it has in a run of all of them (the seeding of :mod:`chronofuse.models`)."""
     setup = plan["setup"]
     root = root_seed(setup.seed)
     osc, env = plan["oscillator"], plan["environment"]
-    progress("simulating the oscillator")
+    progress("simulating the oscillator", 0.0)
     free, noise_only = _free_phase(osc, setup.duration_s, trials, root, first_trial)
-    progress("simulating the receivers")
+    progress("simulating the receivers", 0.05)
     rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=trials,
                             first_trial=first_trial)
     servo, yardstick = copy.deepcopy(plan["servo"]), plan["clairvoyant_servo"]
-    progress(f"disciplining ({setup.controller} and the clairvoyant servo)")
+    progress(f"disciplining ({setup.controller} and the clairvoyant servo)", 0.5)
     run, best = discipline_runs((servo, yardstick), free, rx.pps_error_s, rx.epochs, plan["config"])
     return {"setup": setup, "oscillator": osc, "environment": env, "free_phase_s": free, "noise_phase_s": noise_only,
             "receivers": rx, "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick, "design": plan["design"],
             "first_trial": first_trial}
 
 
-def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> dict:
+def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = silent) -> dict:
     """Simulate the scenario and run the chosen controller and the clairvoyant one on the same data."""
     return simulate_trials(design_gnssdo(setup, progress), 0, setup.trials, progress)
 
@@ -496,7 +494,7 @@ def _workers(requested: int | None, blocks: int) -> int:
     return max(1, min(cores, blocks))
 
 
-def gnssdo_stats(plan: dict, workers: int | None = None, progress: Progress = lambda s: None) -> dict:
+def gnssdo_stats(plan: dict, workers: int | None = None, progress: Progress = silent) -> dict:
     """:func:`trial_stats` of every trial of ``plan`` (:func:`design_gnssdo`), simulated in blocks of
     :data:`BLOCK_TRIALS` trials on ``workers`` processes (None: one per usable core); the same numbers
     whatever the blocks or the workers (each trial's seeds are its own)."""
@@ -506,7 +504,7 @@ def gnssdo_stats(plan: dict, workers: int | None = None, progress: Progress = la
     if n == 1:
         stats = []
         for i, (first, count) in enumerate(blocks):
-            progress(f"trials {first + 1}-{first + count} of {trials}")
+            progress(f"trials {first + 1}-{first + count} of {trials}", first / trials)
             stats.append(_block_stats(plan, first, count))
         return merge_stats(stats)
     import multiprocessing
@@ -520,7 +518,7 @@ def gnssdo_stats(plan: dict, workers: int | None = None, progress: Progress = la
     return merge_stats(stats)
 
 
-def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progress = lambda s: None,
+def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progress = silent,
                workers: int | None = None) -> dict:
     """Simulate, evaluate and (with ``out_dir``) write ``summary.json`` and the PNG report; returns the summary.
 
@@ -528,25 +526,33 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
     from chronofuse.report.gnssdo import write_report
     from chronofuse.report.jsonio import dumps
 
-    plan = design_gnssdo(setup, progress)
+    plan = design_gnssdo(setup, within(progress, 0.0, 0.05))
     if setup.trials <= BLOCK_TRIALS:
-        sim = simulate_trials(plan, 0, setup.trials, progress)
-        progress("measuring")
+        sim = simulate_trials(plan, 0, setup.trials, within(progress, 0.05, 0.4))
+        progress("measuring", 0.4)
         summary = summarize(plan, trial_stats(sim))
     else:
-        summary = summarize(plan, gnssdo_stats(plan, workers, progress))
+        summary = summarize(plan, gnssdo_stats(plan, workers, within(progress, 0.05, 0.9)))
         sim = simulate_trials(plan, 0, 1) if out_dir is not None else None
     if out_dir is not None:
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        summary["files"] = write_report(sim, summary, out_dir)
+        from chronofuse.analysis.masks import MASKS
+        from chronofuse.report.html import gnssdo_page
+
+        output = np.asarray(sim["run"].phase_s[0, int(SETTLE_S):], dtype=float)
+        summary["masks"] = {m: MASKS[m].check(output, 1.0).to_dict() for m in ("prtc-a", "prtc-b", "g811")}
+        summary["masks_record"] = (f"the disciplined 1PPS of trial 0 from {SETTLE_S:g} s (after settling) to the end, "
+                                   f"{output.size} s, any outage in holdover included")
+        summary["files"] = write_report(sim, summary, out_dir) + ["summary.json", "report.html"]
         (out_dir / "summary.json").write_text(dumps(summary) + "\n")
-        summary["files"].append("summary.json")
+        gnssdo_page(summary, out_dir)
     return summary
 
 
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
-                  progress: Progress = lambda s: None, oscillator: str = "ocxo") -> dict:
+                  progress: Progress = silent, oscillator: str = "ocxo",
+                  oscillator_model: OscillatorModel | None = None) -> dict:
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
     The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
@@ -557,10 +563,10 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
     e = e - np.mean(e)
     steps = e.size
-    osc = preset(oscillator)
+    osc = preset(oscillator) if oscillator_model is None else oscillator_model
     dac = Dac.for_oscillator(osc)
     root = root_seed(seed)
-    progress("simulating the oscillator")
+    progress("simulating the oscillator", 0.0)
     free, noise_only = _free_phase(osc, steps, trials, root)
     sigma = equivalent_white_sigma_s(e[:4 * 3600])
     env = dataclasses.replace(receiver_environment("open-sky"), name="reference")

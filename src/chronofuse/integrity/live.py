@@ -25,6 +25,7 @@ from chronofuse.integrity.document import check_length, detection_document
 from chronofuse.integrity.products import product_document, station_row
 from chronofuse.integrity.streaming import EpochVerdict
 from chronofuse.integrity.watch import DetectionSettings, ClockWatch
+from chronofuse.io.arrival import arrival_warnings
 from chronofuse.io.capture_series import clock_epochs, clock_grid, no_bias_reason
 from chronofuse.io.grid import GridPlacer
 from chronofuse.io.record_streams import ClockProductLines, ReceiverBytes, TextLines, open_stream
@@ -132,12 +133,16 @@ class StreamDetection:
             raise InputDataError("no data lines (empty stream, or only comments and a header)", self.source)
         record = clock.record()
         check_length(record.n_epochs, self.settings.window, self.source)
+        arrival = []
         if isinstance(self.reader, ReceiverBytes):  # the grid's gaps and the frames lost to damage
             n_skipped = int(record.info.get("n_gaps", 0)) + self.reader.n_damaged
+            arrival = arrival_warnings(self.reader.decoder.n_reordered, self.reader.decoder.n_late)
         else:  # the grid's gaps and the missing values (NaN)
             n_skipped = int(np.isnan(record.column("clock_bias_s")).sum())
-        return detection_document(clock.watch.result(), self.settings, n_skipped=n_skipped,
-                                  time_scale=record.time_scale)
+        doc = detection_document(clock.watch.result(), self.settings, n_skipped=n_skipped,
+                                 time_scale=record.time_scale)
+        doc["warnings"] += arrival  # as detect FILE says it (chronofuse.integrity.modes.detect_record)
+        return doc
 
     def _product_document(self) -> dict:
         if self.station is not None:

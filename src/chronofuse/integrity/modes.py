@@ -71,6 +71,7 @@ from chronofuse.integrity.inputs import (  # noqa: F401 (re-exported: the CLI an
 from chronofuse.integrity.products import clock_product_document
 from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S
 from chronofuse.integrity.watch import TRAINING_CONFIDENCE, DetectionSettings, watch_record
+from chronofuse.io.arrival import arrival_warnings
 from chronofuse.io.clockbias import n_skipped, read_clock_bias
 from chronofuse.io.formats import sniff_format
 from chronofuse.validation import InputDataError, InputError, check_choice, check_scalar
@@ -85,7 +86,9 @@ def detect_record(record, settings: DetectionSettings) -> dict:
     Raises :class:`InputDataError` naming the source when the record is shorter than one window."""
     check_length(record.n_epochs, settings.window, record.source)
     watched = watch_record(record, settings)
-    return detection_document(watched, settings, n_skipped=n_skipped(record), time_scale=record.time_scale)
+    doc = detection_document(watched, settings, n_skipped=n_skipped(record), time_scale=record.time_scale)
+    doc["warnings"] += arrival_warnings(int(record.info.get("n_reordered", 0)), int(record.info.get("n_late", 0)))
+    return doc
 
 
 def detection_settings(detector: str = "chi-square", **fields) -> DetectionSettings:

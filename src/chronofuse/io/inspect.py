@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from chronofuse.epochs import EXPORT_COLUMNS, ReceiverEpochs
+from chronofuse.io.arrival import sorted_on_arrival
 from chronofuse.io.epoch_offsets import EpochOffsets
 from chronofuse.io.formats import open_data
 from chronofuse.io.frames import FrameScanner, FrameStats
@@ -40,7 +41,8 @@ class Capture:
     """What one recording holds. ``rows``: ``gps_ns`` (int64, strictly increasing) and
     :data:`EPOCH_FIELDS`, one entry per epoch. ``frames``: the framer's counts; ``nmea``/``ubx``: the
     decoders' counts; ``time_marks_gps_ns``: TIM-TM2 rising edges; ``duplicate_epochs``: epochs dropped
-    because their time repeats an earlier one; ``time_acc_s``: the receiver's time accuracy estimate per
+    because their time repeats an earlier one; ``reordered_epochs`` and ``late_epochs``: epochs that came
+    after a later one, put back in order or left out (:mod:`chronofuse.io.arrival`); ``time_acc_s``: the receiver's time accuracy estimate per
     epoch of ``rows`` (UBX NAV-CLOCK ``tAcc``, s; NaN where not reported), None for RINEX; ``offsets``: the
     byte offset where each epoch's UBX messages begin (:class:`chronofuse.io.epoch_offsets.EpochOffsets`; -1
     unknown), None for RINEX."""
@@ -52,6 +54,8 @@ class Capture:
     ubx: UbxDecodeStats
     time_marks_gps_ns: np.ndarray
     duplicate_epochs: int = 0
+    reordered_epochs: int = 0
+    late_epochs: int = 0
     protocols: tuple = field(default=())
     receivers: tuple = field(default=())  # names, for files holding several (RINEX clock: stations)
     time_acc_s: np.ndarray | None = None
@@ -82,7 +86,8 @@ class Capture:
         """The capture as the one epoch record (:class:`chronofuse.record.EpochRecord`, one stream): every
         per-epoch field as a column on GPS time, ``time_acc_s`` where the capture has it, ``valid`` where the
         receiver did not report "no fix", provenance the byte offset of each epoch's UBX messages (RINEX:
-        the epoch's index), ``info`` the damaged-frame count (``n_damaged``)."""
+        the epoch's index), ``info`` the damaged-frame count (``n_damaged``) and the epochs that came out of
+        time order (``n_reordered``, ``n_late``)."""
         rows = self.rows
         columns = {name: rows[name] for name in EPOCH_FIELDS}
         if self.time_acc_s is not None:
@@ -90,7 +95,9 @@ class Capture:
         unit = "index" if self.offsets is None else "byte"
         return EpochRecord.from_arrays(rows["gps_ns"], columns, {n: RECEIVER_UNITS[n] for n in columns},
                                        source=self.source, valid=rows["fix_mode"] != 1, position=self.offsets,
-                                       position_unit=unit, info={"n_damaged": self.n_damaged})
+                                       position_unit=unit, info={"n_damaged": self.n_damaged,
+                                                                 "n_reordered": self.reordered_epochs,
+                                                                 "n_late": self.late_epochs})
 
     def to_frame(self) -> pd.DataFrame:
         """One row per epoch, columns :data:`chronofuse.epochs.EXPORT_COLUMNS` (see
@@ -126,16 +133,20 @@ def read_bytes(chunks, source: str = "<bytes>", reference_gps_ns: int | None = N
     offsets.feed(frames)
     decode_nmea(frames, nmea_b, nmea_s)
     decode_ubx(frames, ubx_b, ubx_s)
-    ubx_rows = ubx_b.rows(ubx_s)
-    nmea_rows = nmea_b.rows()
+    # each protocol's epochs in file order through the live decoder's reorder buffer (io/arrival.py)
+    ubx_rows, ubx_order = sorted_on_arrival(ubx_b.rows(ubx_s))
+    nmea_rows, nmea_order = sorted_on_arrival(nmea_b.rows())
     rows = merge_epochs(ubx_rows, nmea_rows)
     rows, dup = strictly_increasing(rows)
+    dup += ubx_order.n_repeated + nmea_order.n_repeated
     time_acc_s = np.full(rows["gps_ns"].size, np.nan)  # every UBX epoch's time is among the merged rows'
     time_acc_s[np.searchsorted(rows["gps_ns"], ubx_rows["gps_ns"])] = ubx_rows["time_acc_s"]
     protocols = tuple(p for p, n in (("nmea", sum(nmea_s.decoded.values())), ("ubx", sum(ubx_s.decoded.values())))
                       if n)
     return Capture(source=source, rows=rows, frames=scanner.stats, nmea=nmea_s, ubx=ubx_s,
                    time_marks_gps_ns=np.asarray(ubx_b.marks_gps_ns, dtype=np.int64), duplicate_epochs=dup,
+                   reordered_epochs=ubx_order.n_reordered + nmea_order.n_reordered,
+                   late_epochs=ubx_order.n_late + nmea_order.n_late,
                    protocols=protocols, time_acc_s=time_acc_s,
                    offsets=offsets.of(rows["gps_ns"]) if "ubx" in protocols else np.full(rows["gps_ns"].size, -1))
 
@@ -278,6 +289,8 @@ def summarize(capture: Capture, max_gaps: int = 20) -> dict:
             "undated_epochs": capture.ubx.undated_epochs,
             "pulses_without_epoch": capture.ubx.pulses_without_epoch,
             "duplicate_epochs": capture.duplicate_epochs,
+            "reordered_epochs": capture.reordered_epochs,
+            "late_epochs": capture.late_epochs,
         },
         "unknown_talkers": dict(sorted(f.unknown_talkers.items())),
         "problems": [{"offset": o, "reason": r} for o, r in f.problems[:max_gaps]],

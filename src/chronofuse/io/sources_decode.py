@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 
+from chronofuse.io.arrival import ArrivalOrder, in_arrival_order
 from chronofuse.io.epoch_offsets import EpochOffsets
 from chronofuse.io.frames import FrameScanner
 from chronofuse.io.inspect import EPOCH_FIELDS, merge_epochs, strictly_increasing
@@ -107,6 +108,19 @@ class StreamDecoder(_OneReceiverStream):
         self._closed: dict[str, int | None] = {}  # protocol -> gps_ns of its last closed epoch (None: none yet)
         self._first_closed: int | None = None  # the first epoch any protocol closed
         self._last_gps_ns = _NEVER
+        # each protocol's epochs put in time order as the batch reader puts them (io/arrival.py)
+        self._order = {"ubx": ArrivalOrder(), "nmea": ArrivalOrder()}
+        self._columns: dict[str, dict] = {}
+
+    @property
+    def n_reordered(self) -> int:
+        """Epochs that came after a later one and were put back in order (:mod:`chronofuse.io.arrival`)."""
+        return sum(o.n_reordered for o in self._order.values())
+
+    @property
+    def n_late(self) -> int:
+        """Epochs that came too late to be put back in order, left out (:mod:`chronofuse.io.arrival`)."""
+        return sum(o.n_late for o in self._order.values())
 
     def feed(self, data: bytes) -> list[dict]:
         """Decode ``data``; return the epochs that closed, in time order (an epoch that repeats or runs
@@ -144,8 +158,8 @@ class StreamDecoder(_OneReceiverStream):
         self._take("ubx", self._ubx.pop_complete(self.ubx_stats))
         self._take("nmea", self._nmea.pop_complete())
         if final:
-            self._take("ubx", self._ubx.pop_all(self.ubx_stats))
-            self._take("nmea", self._nmea.pop_all())
+            self._take("ubx", self._ubx.pop_all(self.ubx_stats), final=True)
+            self._take("nmea", self._nmea.pop_all(), final=True)
         return self._release(np.iinfo(np.int64).max if final else self._horizon())
 
     def _ubx_only(self, final: bool) -> EpochRecord | None:
@@ -154,8 +168,10 @@ class StreamDecoder(_OneReceiverStream):
         records = self._ubx.pop_complete_records(self.ubx_stats)
         if final:
             records += self._ubx.pop_all_records(self.ubx_stats)
+        order = self._order["ubx"]
+        records = order.push([r["gps_ns"] for r in records], records) + (order.flush() if final else [])
         kept = []
-        for epoch in sorted(records, key=lambda r: r["gps_ns"]):
+        for epoch in records:
             if epoch["gps_ns"] > self._last_gps_ns:
                 kept.append(epoch)
                 self._last_gps_ns = epoch["gps_ns"]
@@ -171,7 +187,13 @@ class StreamDecoder(_OneReceiverStream):
         self.offsets.forget_before(self._last_gps_ns)
         return rows_record(rows, self.source, offsets)
 
-    def _take(self, name: str, rows: dict | None) -> None:
+    def _take(self, name: str, rows: dict | None, final: bool = False) -> None:
+        order = self._order[name]
+        if rows is not None and rows["gps_ns"].size:
+            self._columns[name] = {k: v[:0] for k, v in rows.items()}  # the columns of what the buffer holds
+            rows = in_arrival_order(rows, order, final=final)
+        elif final and order.n_held:
+            rows = in_arrival_order(self._columns[name], order, final=True)
         if rows is not None and rows["gps_ns"].size:
             self._pending[name].append(rows)
             last = int(rows["gps_ns"].max())

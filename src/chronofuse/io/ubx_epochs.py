@@ -342,8 +342,9 @@ class UbxEpochBuilder:
             return rows
         if rows["gps_ns"].size == 0:
             return rows
-        last_gps = int(rows["gps_ns"][-1])
-        ready = [p for p in self._pulses if pulse_gps_ns(p, int(rows["leap_s"][-1])) <= last_gps]
+        latest = int(np.argmax(rows["gps_ns"]))  # the stream's order may not be time order (io/arrival.py)
+        last_gps = int(rows["gps_ns"][latest])
+        ready = [p for p in self._pulses if pulse_gps_ns(p, int(rows["leap_s"][latest])) <= last_gps]
         self._pulses = [p for p in self._pulses if p not in ready]
         rows, unmatched = attach_pulses(rows, ready)
         if stats is not None:
@@ -425,8 +426,9 @@ def _records_of(builder: UbxEpochBuilder, eps: list, stats, final: bool) -> list
         builder._last_leap = int(leap[owned[-1]])
     if not records:
         return records
-    last_gps = records[-1]["gps_ns"]
-    ready = [p for p in builder._pulses if pulse_gps_ns(p, records[-1]["leap_s"]) <= last_gps]
+    latest = max(records, key=lambda r: r["gps_ns"])  # the stream's order may not be time order (io/arrival.py)
+    last_gps = latest["gps_ns"]
+    ready = [p for p in builder._pulses if pulse_gps_ns(p, latest["leap_s"]) <= last_gps]
     builder._pulses = [p for p in builder._pulses if p not in ready]
     unmatched = _attach_pulses_records(records, ready)
     if stats is not None:
@@ -435,20 +437,21 @@ def _records_of(builder: UbxEpochBuilder, eps: list, stats, final: bool) -> list
 
 
 def _attach_pulses_records(records: list[dict], pulses: list) -> int:
-    """:func:`~chronofuse.io.ubx_pulses.attach_pulses` on records (in time order); returns the unmatched."""
+    """:func:`~chronofuse.io.ubx_pulses.attach_pulses` on records (in stream order, kept); returns the unmatched."""
     import bisect
 
-    times = [r["gps_ns"] for r in records]
+    by_time = sorted(records, key=lambda r: r["gps_ns"])
+    times = [r["gps_ns"] for r in by_time]
     unmatched = 0
     for week, tow_ms, base, qerr in pulses:
         t = week * NS_PER_WEEK + tow_ms * 1_000_000
         if base == 1:
             j = bisect.bisect_right(times, t) - 1
-            leap = records[max(j, 0)]["leap_s"] if times else int(gps_minus_utc_s(t))
+            leap = by_time[max(j, 0)]["leap_s"] if times else int(gps_minus_utc_s(t))
             t += leap * NS_PER_S
         j = bisect.bisect_left(times, t)
         if j < len(times) and times[j] == t:
-            records[j]["qerr_s"] = qerr
+            by_time[j]["qerr_s"] = qerr
         else:
             unmatched += 1
     return unmatched

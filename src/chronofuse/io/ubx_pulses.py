@@ -26,23 +26,22 @@ def attach_pulses(rows: dict, pulses: list) -> tuple[dict, int]:
     base is moved to GPS with that epoch's leap count). Returns the rows and the number of pulses whose
     epoch is not among them: such a pulse is no epoch (it has no fix, no time, no solution of its own; the
     last TIM-TP of a recording announces a pulse after the recording ends), so it is counted, never made
-    a row."""
+    a row. The rows keep their order (the stream's: :mod:`chronofuse.io.arrival` puts them in time order)."""
     if not pulses:
         return rows, 0
-    gps = rows["gps_ns"]
-    order = np.argsort(gps, kind="stable")
-    rows = {k: v[order] for k, v in rows.items()}
-    gps = rows["gps_ns"]
+    order = np.argsort(rows["gps_ns"], kind="stable")
+    gps = rows["gps_ns"][order]
+    rows = {**rows, "qerr_s": np.array(rows["qerr_s"], dtype=np.float64)}
     unmatched = 0
     for week, tow_ms, base, qerr in pulses:
         t = week * NS_PER_WEEK + tow_ms * 1_000_000
         if base == 1:  # UTC time base: towMS counts UTC seconds of the week
             j = np.searchsorted(gps, t, side="right") - 1
-            leap = int(rows["leap_s"][max(j, 0)]) if gps.size else int(gps_minus_utc_s(t))
+            leap = int(rows["leap_s"][order[max(j, 0)]]) if gps.size else int(gps_minus_utc_s(t))
             t += leap * NS_PER_S
         j = np.searchsorted(gps, t)
         if j < gps.size and gps[j] == t:
-            rows["qerr_s"][j] = qerr
+            rows["qerr_s"][order[j]] = qerr
         else:
             unmatched += 1
     return rows, unmatched

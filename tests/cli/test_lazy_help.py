@@ -1,0 +1,62 @@
+"""``chronofuse --help`` lists every subcommand without importing any subcommand's module (they import the
+library, seconds for some), and says exactly what the full program says; ``chronofuse detect --help`` loads
+its own module only, none of the numerical stack. The timings are in benchmarks/bench_import.py."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from chronofuse.cli.main import COMMANDS, SUMMARIES, app, build_index
+
+REPO = Path(__file__).resolve().parents[2]
+runner = CliRunner()
+
+_LOADED = """
+import json, sys
+sys.argv = ["chronofuse", *sys.argv[1:]]
+from chronofuse.cli.main import main
+try:
+    main()
+except SystemExit:
+    pass
+print(json.dumps(sorted(m for m in sys.modules if m.startswith(("chronofuse", "numpy", "scipy", "pandas")))))
+"""
+
+
+def _loaded(*argv: str) -> list[str]:
+    done = subprocess.run([sys.executable, "-c", _LOADED, *argv], capture_output=True, text=True, timeout=300,
+                          env={"PYTHONPATH": str(REPO / "src"), "PATH": "/usr/bin:/bin", "COLUMNS": "100"})
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+@pytest.mark.parametrize("columns", ["80", "200"])
+def test_the_index_says_what_the_full_program_says(columns):
+    lazy = runner.invoke(build_index(), ["--help"], env={"COLUMNS": columns})
+    full = runner.invoke(app, ["--help"], env={"COLUMNS": columns})
+    assert lazy.exit_code == full.exit_code == 0
+    assert lazy.stdout == full.stdout
+
+
+def test_the_index_lists_every_subcommand():
+    assert set(SUMMARIES) == set(COMMANDS)
+
+
+def test_the_programs_help_imports_no_subcommand_and_no_numerical_library():
+    loaded = _loaded("--help")
+    assert [m for m in loaded if m.startswith(("numpy", "scipy", "pandas"))] == []
+    assert [m for m in loaded if m.split(".")[-1] in COMMANDS] == [], loaded
+
+
+def test_a_subcommands_help_imports_that_subcommand_only():
+    loaded = _loaded("detect", "--help")
+    assert "chronofuse.cli.detect" in loaded
+    assert [m for m in loaded if m.startswith("chronofuse.cli.") and m.split(".")[-1] in COMMANDS] == \
+        ["chronofuse.cli.detect"]
+    assert [m for m in loaded if m.startswith(("numpy", "scipy", "pandas"))] == []
