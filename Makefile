@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: demo test test-fast bench clean debian-packages
+.PHONY: demo test test-fast bench docs clean debian-packages
 
 # The real parts the tests start (Debian's packages): RTKLIB's rnx2rtkp (an independent positioning
 # solution), chronyd and chronyc, gpsd and gpsfake, headless Chromium and its driver. Installed when one is
@@ -15,7 +15,7 @@ DEBIAN_TOOLS := rnx2rtkp chronyd chronyc gpsd gpsfake chromium chromedriver
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[test,ml,dask,live]"
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e ".[test,ml,dask,live,docs]"
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -33,6 +33,11 @@ test: $(STAMP) debian-packages
 
 test-fast: $(STAMP) debian-packages
 	$(BIN)/python -m pytest -n 2 -m "not slow"
+
+# The docs site, strict: any warning (a broken link, a docstring that does not parse, a notebook cell that
+# fails) fails the build. The test suite builds it too (tests/test_docs_site.py).
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -W --keep-going -b html docs out/docs
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py

@@ -261,14 +261,24 @@ def test_greenhall_edf_rejects_an_alpha_outside_its_tables():
         greenhall_edf(-1, 1, 4, 1000, overlapping=True, modified=False)
 
 
-def test_greenhall_basic_sum_in_numba_equals_its_numpy_twin(monkeypatch):
-    """kernels_edf.basic_sums (one numba loop) against edf._basic_sum (numpy arrays), through greenhall_edf
-    on the whole grid: the same terms added in another order, so equal to rounding, not bit for bit."""
+def test_greenhall_edf_in_numba_equals_its_numpy_twin(monkeypatch):
+    """greenhall_edf (kernels_edf.greenhall_rows, one numba loop over the rows) against greenhall_edf_twin
+    with its basic sum in numpy too (edf._basic_sum), on the whole grid: the same cases and terms, added in
+    another order, so equal to rounding, not bit for bit."""
     import chronofuse.analysis.stability.edf as edf_module
 
     ours = {case: greenhall_edf(case[4], case[1], case[5], case[0], overlapping=case[2], modified=case[3])
             for case in GRID}
     monkeypatch.setattr(edf_module, "basic_sums", lambda J, M, S, F, a, d, w: edf_module._basic_sum(J, M, S, F, a, d))
     for (n, d, ov, mod, a, m), value in ours.items():
-        twin = greenhall_edf(a, d, m, n, overlapping=ov, modified=mod)
+        twin = edf_module.greenhall_edf_twin(a, d, m, n, overlapping=ov, modified=mod)
         assert value == pytest.approx(twin, rel=5e-13, nan_ok=True), (n, d, ov, mod, a, m)  # |t|**p by multiplication
+    many = np.array([1, 2, 3, 8, 16, 33, 64, 200, 1000, 2000, 4999], dtype=np.int64)
+    for d, ov, mod in [(2, False, False), (2, True, False), (2, True, True), (3, False, False), (3, True, False)]:
+        for a in (2, 1, 0, -1, -2):
+            if a + 2 * d <= 1:
+                continue
+            rows = np.full(many.size, a, dtype=np.int64)
+            np.testing.assert_allclose(greenhall_edf(rows, d, many, 5000, overlapping=ov, modified=mod),
+                                       edf_module.greenhall_edf_twin(rows, d, many, 5000, overlapping=ov, modified=mod),
+                                       rtol=5e-12)

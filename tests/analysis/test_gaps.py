@@ -72,6 +72,11 @@ def test_pair_counts_by_fft_equal_direct_counting():
     direct = [np.count_nonzero(kept[: kept.size - j] & kept[j:]) for j in range(601)]
     np.testing.assert_array_equal(counts, direct)
     np.testing.assert_array_equal(pair_counts(np.ones(5, bool), 8), [5, 4, 3, 2, 1, 0, 0, 0, 0])
+    for fraction, lags in ((0.01, 12), (0.01, 384), (0.1, 48), (0.3, 1536)):  # both routes (from the missing terms, FFT)
+        sparse = rng.random(16000) > fraction
+        direct = [np.count_nonzero(sparse[: sparse.size - j] & sparse[j:]) for j in range(lags + 1)]
+        np.testing.assert_array_equal(pair_counts(sparse, lags), direct)
+    np.testing.assert_array_equal(pair_counts(np.zeros(4, bool), 6), np.zeros(7))
 
 
 @pytest.mark.parametrize("statistic", ["adev", "oadev", "hdev", "ohdev", "mdev", "tdev"])
@@ -136,27 +141,47 @@ def _gapped(x: np.ndarray, pattern: str, rng: np.random.Generator) -> np.ndarray
     return x
 
 
+# The noises' true alpha (S_y ~ f**alpha), for the interval of the EDF alone at the larger factors.
+TRUE_ALPHA = {"white FM": 0, "flicker FM": -1, "random-walk FM": -2, "white PM": 2}
+#: Factors where the identification misnames the noise too often for the engine's interval (docs/stability.md
+#: section "Gaps", the measured coverage): there the interval of the EDF from the terms used with the true
+#: alpha is checked instead, which is the EDF's own accuracy.
+EDF_ONLY = (256, 512)
+
+
 def _coverage(noise: str, pattern: str, factors: tuple[int, ...], trials: int, seed: int):
-    """Fraction of trials whose OADEV interval holds the exact expected deviation, per factor; and the
-    same with the EDF of a gap-free record of N - skipped points (the former engine's rule)."""
+    """Fraction of trials whose OADEV interval holds the exact expected deviation, per factor; the same with
+    the EDF of a gap-free record of N - skipped points (the former engine's rule); and, at EDF_ONLY, with
+    the EDF from the terms used at the noise's true alpha."""
     n = 16384
     rng = np.random.default_rng(seed)
     p = phase_filter(noise, n)
     phases = fftconvolve(rng.standard_normal((trials, n)), p[None, :], axes=1)[:, :n] * 1e-9
-    expected = {m: expected_square(p, m, 2, n - 2 * m) * 1e-18 for m in factors}
+    every = tuple(factors) + EDF_ONLY
+    expected = {m: expected_square(p, m, 2, n - 2 * m) * 1e-18 for m in every}
     hits = np.zeros(len(factors))
     old_hits = np.zeros(len(factors))
+    edf_hits = np.zeros(len(EDF_ONLY))
     for x in phases:
         x = _gapped(x, pattern, rng)
-        res = st.oadev(x, 1.0, np.array(factors, float))
-        old_edf = greenhall_edf(res.alpha, 2, np.array(factors), n - res.skipped, overlapping=True, modified=False)
-        old_lo, old_hi = chi2_interval(res.dev, old_edf, res.ci)
-        for j, m in enumerate(factors):
+        res = st.oadev(x, 1.0, np.array(every, float))
+        old_edf = greenhall_edf(res.alpha[:len(factors)], 2, np.array(factors), n - res.skipped, overlapping=True,
+                                modified=False)
+        old_lo, old_hi = chi2_interval(res.dev[:len(factors)], old_edf, res.ci)
+        for j, m in enumerate(every):
             kept = kept_terms("oadev", x, m, "samples")
             truth = np.sqrt(np.mean(expected[m][kept]) / (2.0 * m * m))
-            hits[j] += res.lo[j] <= truth <= res.hi[j]
-            old_hits[j] += old_lo[j] <= truth <= old_hi[j]
-    return hits.astype(int), old_hits.astype(int)
+            if j < len(factors):
+                hits[j] += res.lo[j] <= truth <= res.hi[j]
+                old_hits[j] += old_lo[j] <= truth <= old_hi[j]
+            else:
+                lo, hi = res.lo[j], res.hi[j]  # the engine's own interval where it named the noise right
+                if res.alpha[j] != TRUE_ALPHA[noise]:
+                    e = edf_from_terms(TRUE_ALPHA[noise], 2, m, kept, overlapping=True, modified=False)
+                    lo, hi = chi2_interval(res.dev[j:j + 1], np.array([e]), res.ci)
+                    lo, hi = lo[0], hi[0]
+                edf_hits[j - len(factors)] += lo <= truth <= hi
+    return hits.astype(int), old_hits.astype(int), edf_hits.astype(int)
 
 
 @pytest.mark.slow
@@ -178,10 +203,18 @@ def test_intervals_from_the_terms_used_cover_the_truth_at_the_nominal_rate_with_
     The 68.3 % interval must hold the exact expected OADEV in 68.3 +- 5 % of the trials; the binomial 95 %
     interval of each coverage is printed with the numbers. Factors below 4 are left out: there Greenhall's
     continuous-time model (F = m) and point-sampled phase differ by up to 15 % in EDF without any gap
-    (2/3 M against 0.78 M for white FM at m = 1), a property of the EDF, not of the gaps."""
+    (2/3 M against 0.78 M for white FM at m = 1), a property of the EDF, not of the gaps. At m = 256 and 512
+    (64 and 32 frequency averages, fewer with gaps) the identification misnames the noise in 11-57 % of the
+    trials and the engine's coverage leaves the band (white FM 0.59-0.66, white PM 0.75-0.80): there the
+    interval of the EDF from the terms used at the true alpha is checked, the EDF's own part."""
     trials = 1000
     for k, pattern in enumerate(("1 % scattered", "10 % scattered", "four long gaps")):
-        hits, old_hits = _coverage(noise, pattern, factors, trials, seed=100 + k)
+        hits, old_hits, edf_hits = _coverage(noise, pattern, factors, trials, seed=100 + k)
+        for j, m in enumerate(EDF_ONLY):
+            ci = binomtest(int(edf_hits[j]), trials).proportion_ci(0.95)
+            message = (f"{noise}, {pattern}, m = {m}, EDF from the terms used at the true alpha: coverage "
+                       f"{edf_hits[j] / trials:.3f} (95 % {ci.low:.3f}-{ci.high:.3f})")
+            assert abs(edf_hits[j] / trials - NOMINAL) <= 0.05, message
         for j, m in enumerate(factors):
             ci = binomtest(int(hits[j]), trials).proportion_ci(0.95)
             message = (f"{noise}, {pattern}, m = {m}: coverage {hits[j] / trials:.3f} "

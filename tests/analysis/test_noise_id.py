@@ -198,3 +198,25 @@ def test_identification_over_a_grid_equals_the_readable_twin_at_each_factor(seed
             for j, mj in enumerate(m):
                 if method[j] == "acf":
                     assert alpha[j] == min(max(acf_noise_id(x, int(mj), 2), -2), 2)
+
+
+def test_b1_in_numba_chooses_as_its_numpy_twin_does():
+    """noise_id.b1_choice (one numba pass) picks the mu whose expected B1 brackets the twin's B1 (b1_ratio,
+    numpy arrays), on the five power-law noises at factors from 3 to 300 frequency averages."""
+    from chronofuse.analysis.stability.noise_id import b1_choice, b1_expected, b1_ratio
+
+    rng = np.random.default_rng(7)
+    checked = 0
+    for alpha in (2, 1, 0, -1, -2):
+        x = np.cumsum(np.cumsum(rng.standard_normal(4000))) if alpha == -2 else np.cumsum(rng.standard_normal(4000))
+        if alpha == 2:
+            x = rng.standard_normal(4000)
+        for m in (13, 40, 133, 400, 1333):
+            for overlapping in (False, True):
+                b1 = b1_ratio(x, m, overlapping)
+                n = (x.size - 1) // m
+                cuts = [np.sqrt(b1_expected(n, mu) * b1_expected(n, mu + 1)) for mu in (-2, -1, 0)]
+                assert b1_choice(x, m, overlapping) == int(np.sum(b1 > np.array(cuts)))
+                checked += 1
+    assert b1_choice(np.arange(5.0), 2, False) == -1 and b1_ratio(np.arange(5.0), 2) is None  # 2 averages
+    assert checked == 50

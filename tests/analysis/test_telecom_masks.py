@@ -228,3 +228,50 @@ def test_the_real_records_pass_or_fail_each_filtered_mask_as_a_second_filter_doe
             clear = res.evaluated & (np.abs(limit - theirs.dev) > 0.05 * limit)
             np.testing.assert_array_equal(res.passed_each[clear], (theirs.dev <= limit)[clear],
                                           err_msg=f"{name} {metric} {clock}")
+
+
+def test_ts2phc_reject_tdev_from_128_s_is_the_quiet_record_because_no_kept_term_sees_the_burst(data_dir):
+    """Issue 20, E: the rejected ts2phc capture's TDEV drops from 1.6e-4 s at 64 s to 3.2e-12 s at 128 s while
+    MTIE fails. The units are right (seconds, from the log's ns) and the kernel is right: the 82 samples of
+    the 1 s error and its recovery lie between the log's silences (samples 4649-4659, 5007-5019, 5202-5220,
+    segments of 347 and 182 samples), shorter than a TDEV term's 3 tau = 384 samples, so from tau = 128 s no
+    term the gap rule keeps contains them and TDEV is that of the record without them (the oracle: the same
+    record with the burst blanked). The verdict leaves those taus unevaluated, saying why."""
+    from chronofuse.analysis.stability.engine import uncovered_samples
+    from chronofuse.io.records import read_record
+
+    x = np.asarray(read_record(data_dir / "logs" / "linuxptp" / "ts2phc-reject.log.gz").values, dtype=float)
+    burst = np.flatnonzero(np.abs(x) > 10 * NS)
+    assert burst.size == 82 and np.isnan(x).sum() == 43
+    taus = np.array([64.0, 128.0, 256.0, 512.0])
+    quiet = x.copy()
+    quiet[burst.min() - 20:burst.max() + 20] = np.nan
+    got, without = tdev(x, 1.0, taus), tdev(quiet, 1.0, taus)
+    assert got.dev[0] > 1e-5  # at 64 s some terms still see the burst
+    np.testing.assert_allclose(got.dev[1:], without.dev[1:], rtol=2e-3)  # from 128 s: the quiet record's TDEV
+    assert uncovered_samples("tdev", x, 64)[burst].sum() == 82 - 21 and uncovered_samples("tdev", x, 128)[burst].all()
+    verdict = MASKS["prtc-a"].check(x, 1.0)
+    blind = verdict.tdev.tau_s[~verdict.tdev.evaluated & (verdict.tdev.tau_s >= 128)]
+    assert blind.tolist() == [128.0, 256.0, 512.0, 1024.0]
+    assert "no term the gap rule keeps sees the record's largest |dTE|" in verdict.summary()
+    assert not verdict.passed
+
+
+def test_a_burst_between_silences_is_not_a_tdev_pass_and_gaps_away_from_it_change_nothing():
+    rng = np.random.default_rng(11)
+    x = 1.0 * NS * rng.standard_normal(6000)
+    x[3000:3004] += 400 * NS  # a 400 ns error burst
+    base = MASKS["prtc-a"].check(x, 1.0)
+    assert base.tdev.evaluated[base.tdev.tau_s <= 1000].all()  # no gap: every TDEV tau evaluated
+    silenced = x.copy()
+    silenced[2990:2995] = np.nan
+    silenced[3060:3066] = np.nan  # silences 60 samples apart around the burst
+    v = MASKS["prtc-a"].check(silenced, 1.0)
+    unseen = v.tdev.tau_s[~v.tdev.evaluated]
+    assert unseen.size and unseen.min() >= 32 and "largest |dTE|" in v.summary()
+    far = x.copy()
+    far[100:105] = np.nan
+    far[5000:5006] = np.nan  # the same silences far from the burst: it stays in the terms
+    w = MASKS["prtc-a"].check(far, 1.0)
+    np.testing.assert_array_equal(w.tdev.evaluated, base.tdev.evaluated)
+    assert "largest |dTE|" not in w.summary()

@@ -38,7 +38,8 @@ def test_a_short_outage_run_prints_one_json_document_with_every_key_and_writes_t
     assert set(doc["adev"]) == {"free_run", "gnss", "disciplined"}
     assert all(set(v) == {"tau", "dev"} for v in doc["adev"].values())
     assert doc["state_seconds"]["holdover"] == pytest.approx(1800.0)
-    assert sorted(p.name for p in out.iterdir()) == ["adev.png", "holdover.png", "summary.json", "time_error.png"]
+    assert sorted(p.name for p in out.iterdir()) == ["adev.png", "holdover.png", "report.html", "summary.json",
+                                                    "time_error.png"]
     # the disciplined output is far better than the free-running oscillator after a 2-hour run
     assert doc["time_error_rms_ns"] < 30
 

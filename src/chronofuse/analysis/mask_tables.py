@@ -24,7 +24,9 @@ a transcription, named with the table it transcribes, and the tests re-evaluate 
   in R. Smiley's ``timetools`` (``compliance/ituTG8262``). No second transcription was found.
 
 Not here, because no text of their tables was found (none is invented): G.8262.1 (eEEC), G.813 (SEC),
-G.812 (SSU), G.823 and G.824 (network limits of the 2048 and 1544 kbit/s hierarchies).
+G.812 (SSU), G.823 and G.824 (network limits of the 2048 and 1544 kbit/s hierarchies). Searched twice
+(the second time on 2026-12-02, docs/stability.md section 6 says where): tables of contents and
+summaries only, and no open-source transcription with a second one to check it against.
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ equal to the limit passes (with a 1e-12 relative tolerance for float rounding).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -31,6 +31,7 @@ from chronofuse.analysis.mask_results import ClockVerdict, LimitResult, MaskResu
 from chronofuse.analysis.mask_results import limit_result as _limit
 from chronofuse.analysis.mask_tables import NOT_TRANSCRIBED, TABLES
 from chronofuse.analysis.stability import mtie, tau_grid, tdev
+from chronofuse.analysis.stability.engine import uncovered_samples
 from chronofuse.analysis.stability.result import Deviation
 from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 
@@ -238,6 +239,7 @@ class ClockMasks:
             if self.tdev is not None:
                 res_tdev = self.tdev.check(tdev(wander, rate_hz, tau_grid("octave", x.size, rate_hz, "tdev")),
                                            interval_s=interval)
+                res_tdev = _blind_tdev(res_tdev, wander, rate_hz, notes)
             if te_l is not None and self.dte_h_pp_s is not None:
                 high = x - te_l
                 limits.append(_limit("dte_h_pp", float(np.nanmax(high) - np.nanmin(high)), self.dte_h_pp_s,
@@ -277,6 +279,34 @@ class ClockMasks:
         peak = float(np.nanmax(np.abs(te)))
         margin = self.max_abs_te_s - peak
         return TimeErrorResult(self.name, peak, self.max_abs_te_s, margin, bool(peak <= self.max_abs_te_s))
+
+
+def _blind_tdev(res: MaskResult, wander: np.ndarray, rate_hz: float, notes: list[str]) -> MaskResult:
+    """``res`` with the TDEV taus left unevaluated where no term the gap rule keeps sees the record's largest
+    |dTE|: between two silences closer than a term's 3 tau, a time-error burst is in no term, and TDEV
+    there is that of the rest of the record (a pass that says nothing of the burst). ``notes`` gets why."""
+    if not np.isnan(wander).any():
+        return res
+    magnitude = np.abs(wander)
+    blind, where, peak, count = [], 0, 0.0, 0
+    for j in np.flatnonzero(res.evaluated):
+        m = int(round(res.tau_s[j] * rate_hz))
+        unseen = uncovered_samples("tdev", wander, m)
+        if unseen.any() and np.nanmax(magnitude[unseen]) > np.nanmax(np.where(unseen, np.nan, magnitude), initial=0.0):
+            blind.append(j)
+            where = int(np.nanargmax(np.where(unseen, magnitude, np.nan)))
+            peak, count = float(magnitude[where]), int(unseen.sum())
+    if not blind:
+        return res
+    evaluated = res.evaluated.copy()
+    evaluated[blind] = False
+    passed_each = res.passed_each & evaluated
+    taus = ", ".join(f"{t:g}" for t in res.tau_s[blind])
+    notes.append(f"TDEV at tau {taus} s: no term the gap rule keeps sees the record's largest |dTE| "
+                 f"({peak / _NS:.4g} ns at sample {where}; {count} samples unseen at tau {res.tau_s[blind[-1]]:g} s), "
+                 f"between missing samples closer than 3 tau: TDEV there describes the rest of the record")
+    return replace(res, evaluated=evaluated, passed_each=passed_each,
+                   passed=bool(evaluated.any() and np.all(passed_each[evaluated])))
 
 
 _ENDS = {"(]": (False, True), "[]": (True, True), "()": (False, False), "[)": (True, False)}

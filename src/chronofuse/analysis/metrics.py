@@ -13,7 +13,7 @@ from scipy import stats
 import chronofuse.analysis.stability as st
 from chronofuse.analysis.stability.edf import chi2_interval
 
-__all__ = ["clopper_pearson", "pooled_oadev", "gdop_over_5_fraction"]
+__all__ = ["clopper_pearson", "pooled_oadev", "trial_avar", "pooled_dev", "gdop_over_5_fraction"]
 
 
 def clopper_pearson(k: int, n: int, level: float = 0.99) -> tuple[float, float]:
@@ -38,15 +38,32 @@ def pooled_oadev(x_s: np.ndarray, rate_hz: float, tau_s: np.ndarray | None = Non
     taus = st.tau_grid("octave", x_s.shape[1], rate_hz, "oadev") if tau_s is None else np.asarray(tau_s, float)
     per_trial = [st.oadev(row, rate_hz, taus, ci=ci) for row in x_s]
     avar = np.array([d.dev**2 for d in per_trial])
-    ok = np.isfinite(avar)
-    count = ok.sum(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dev = np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
+    dev = pooled_dev(avar)
+    count = np.isfinite(avar).sum(axis=0)
     edf = count * np.asarray(per_trial[0].edf)
     lo, hi = chi2_interval(dev, edf, ci)
     return dataclasses.replace(
         per_trial[0], dev=dev, edf=edf, lo=lo, hi=hi, n=np.sum([d.n for d in per_trial], axis=0)
     )
+
+
+def trial_avar(x_s: np.ndarray, rate_hz: float, tau_s: np.ndarray) -> np.ndarray:
+    """Each trial's overlapping Allan variance (trials, k) at ``tau_s`` (NaN where a trial has no term): what
+    :func:`pooled_oadev` pools, for a caller that runs its trials in blocks and pools them with :func:`pooled_dev`."""
+    if x_s.ndim != 2:
+        raise ValueError(f"x_s has shape {x_s.shape}, must be (trials, N)")
+    taus = np.asarray(tau_s, float)
+    return np.array([st.oadev(row, rate_hz, taus).dev ** 2 for row in x_s]).reshape(x_s.shape[0], taus.size)
+
+
+def pooled_dev(avar: np.ndarray) -> np.ndarray:
+    """The pooled deviation of :func:`pooled_oadev` from the trials' Allan variances ``avar`` (trials, k): the
+    square root of their mean over the trials with a finite value at each tau (NaN where none has)."""
+    avar = np.asarray(avar, dtype=float)
+    ok = np.isfinite(avar)
+    count = ok.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, np.sqrt(np.where(ok, avar, 0.0).sum(axis=0) / np.maximum(count, 1)), np.nan)
 
 
 def gdop_over_5_fraction(gdop: np.ndarray) -> float:

@@ -9,13 +9,16 @@ config's validation error say so; their fields are written as the options that s
 
 from __future__ import annotations
 
+import os
 import sys
+import time
 import warnings
 from contextlib import contextmanager
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.progress import (BarColumn, Progress, SpinnerColumn, TaskProgressColumn, TextColumn, TimeElapsedColumn,
+                           TimeRemainingColumn)
 
 from chronofuse.cli.flags import FLAG_OF_FIELD, label
 from chronofuse.report.jsonio import dumps
@@ -97,20 +100,101 @@ def human_console(json_mode: bool) -> Console:
     return err_console if json_mode else console
 
 
+#: Off a terminal: the first plain progress line after this many seconds, then one every this many seconds
+#: or every tenth of the job, whichever comes first (``CHRONOFUSE_PROGRESS_S`` overrides it).
+PLAIN_PROGRESS_S = 5.0
+
+
+def _eta(elapsed_s: float, fraction: float | None) -> float | None:
+    """Seconds left by the rate so far; None before any fraction is known."""
+    if fraction is None or fraction <= 0.0:
+        return None
+    return max(elapsed_s * (1.0 - fraction) / fraction, 0.0)
+
+
+def _clock(seconds: float | None) -> str:
+    if seconds is None:
+        return "?"
+    seconds = int(round(seconds))
+    return f"{seconds // 60}:{seconds % 60:02d}" if seconds >= 60 else f"{seconds} s"
+
+
+class _PlainProgress:
+    """Progress off a terminal: plain lines on stderr, ``label: message, 40 % (12 s gone, ETA 18 s)``, none
+    in the first :data:`PLAIN_PROGRESS_S` seconds (a short command prints nothing), then at every tenth of the
+    job and, from a timer, every :data:`PLAIN_PROGRESS_S` seconds while a stage lasts."""
+
+    def __init__(self, label: str, interval_s: float):
+        import threading
+
+        self.label, self.interval_s = label, interval_s
+        self.start = self.last_line = time.monotonic()
+        self.message, self.fraction, self.printed_tenth = "working", None, -1
+        self.lock = threading.Lock()
+        self.stop = threading.Event()
+        self.ticker = threading.Thread(target=self._tick, name="chronofuse-progress", daemon=True)
+        self.ticker.start()
+
+    def _line(self, now: float) -> None:
+        elapsed = now - self.start
+        done = "" if self.fraction is None else f", {100 * self.fraction:.0f} %"
+        eta = _eta(elapsed, self.fraction)
+        tail = f" ({_clock(elapsed)} gone" + ("" if eta is None else f", ETA {_clock(eta)}") + ")"
+        err_console.print(f"{self.label}: {self.message}{done}{tail}", markup=False, highlight=False, soft_wrap=True)
+        self.last_line = now
+        if self.fraction is not None:
+            self.printed_tenth = int(10 * self.fraction)
+
+    def update(self, message: str | None = None, fraction: float | None = None) -> None:
+        with self.lock:
+            self.message = message or self.message
+            self.fraction = self.fraction if fraction is None else min(max(float(fraction), 0.0), 1.0)
+            now = time.monotonic()
+            new_tenth = self.fraction is not None and int(10 * self.fraction) > self.printed_tenth
+            if now - self.start >= self.interval_s and new_tenth:
+                self._line(now)
+
+    def _tick(self) -> None:
+        while not self.stop.wait(min(self.interval_s, 1.0)):
+            with self.lock:
+                now = time.monotonic()
+                if now - self.start >= self.interval_s and now - self.last_line >= self.interval_s:
+                    self._line(now)
+
+    def close(self) -> None:
+        self.stop.set()
+        self.ticker.join()
+
+
 @contextmanager
 def progress_reporter(label: str):
-    """A rich progress display on stderr for work that takes more than a second.
+    """Progress of work that may take more than a few seconds, on stderr (stdout stays clean for ``--json``).
 
-    Yields ``say(message)``, which moves the display to the next stage; the display is transient and
-    never touches stdout, so ``--json`` output stays clean.
+    Yields ``say(message=None, fraction=None)`` (:mod:`chronofuse.progress`): the stage now running and,
+    where known, the fraction of the job done. On a terminal: a transient bar with the percentage, the time
+    gone and the ETA. Off one: plain lines (:class:`_PlainProgress`). ``--quiet``: nothing.
     """
-    columns = (SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn())
-    # Off when stderr is not a terminal: a non-terminal progress display leaves a blank line behind.
-    with Progress(*columns, console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
+    if err_console.quiet:
+        yield lambda message=None, fraction=None: None
+        return
+    if not err_console.is_terminal:
+        interval = float(os.environ.get("CHRONOFUSE_PROGRESS_S", PLAIN_PROGRESS_S))
+        plain = _PlainProgress(label, interval)
+        try:
+            yield plain.update
+        finally:
+            plain.close()
+        return
+    columns = (SpinnerColumn(), TextColumn("[bold]{task.description}"), BarColumn(), TaskProgressColumn(),
+               TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn())
+    with Progress(*columns, console=err_console, transient=True) as bar:
         task = bar.add_task(label, total=None)
 
-        def say(message: str) -> None:
-            bar.update(task, description=f"{label}: {message}")
+        def say(message: str | None = None, fraction: float | None = None) -> None:
+            fields = {} if message is None else {"description": f"{label}: {message}"}
+            if fraction is not None:
+                fields.update(total=1.0, completed=min(max(float(fraction), 0.0), 1.0))
+            bar.update(task, **fields)
 
         yield say
 

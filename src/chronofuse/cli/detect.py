@@ -46,6 +46,7 @@ def detect(
     test: str = typer.Option("chi-square", "--test", help="RINEX 3 identification: the window test of each channel and of the receiver clock, chi-square or glr (a GLR for step, ramp and drag onsets)."),
     codes: str | None = typer.Option(None, "--codes", help="RINEX 3 identification: codes to test, comma-separated (e.g. 'G C1C,E C1X'); default every code most satellites of a system carry."),
     elevation_mask_deg: float = typer.Option(10.0, "--elevation-mask-deg", help="RINEX 3 identification: channels below this elevation (deg) are not used."),
+    report: Path | None = typer.Option(None, "--report", help="Also write the verdict, its reason and every alarm as one HTML page."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after this long without any (s)."),
@@ -95,12 +96,19 @@ def detect(
         _stream(file, follow, json_lines, json_out, rate_hz=rate, column=column, station=station, detector=detector,
                 settings=dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                               max_time_acc_s=max_tacc_s))
-    with user_errors():
+    from chronofuse.cli.common import progress_reporter
+
+    with user_errors(), progress_reporter("detect") as say:
+        say(f"testing {file.name}")  # stage only: detect_file reports no fraction yet
         doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                           window=window, pfa=pfa, position_m=position, nav=nav or None, station=station,
                           max_time_acc_s=max_tacc_s, detector=detector, test=test,
                           codes=[c.strip() for c in codes.split(",") if c.strip()] if codes else None,
                           elevation_mask_deg=elevation_mask_deg)
+        if report is not None:
+            from chronofuse.report.html import detect_page
+
+            detect_page(doc, report, str(file), command=f"chronofuse detect {file}")
     if json_out:
         print_json(doc)
     else:

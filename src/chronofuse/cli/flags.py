@@ -129,6 +129,12 @@ FLAGS: dict[str, Flag] = {
     "--integrity-pfa": Flag("exclude receivers on clock-bias HOD alarms at this false-alarm probability",
                             "number", fields=("integrity_pfa",)),
     "--reference": Flag("a real 1PPS phase record against a reference clock", "path", fields=("reference",)),
+    "--oscillator-file": Flag("an oscillator JSON file (chronofuse characterize --out writes one)", "path",
+                              fields=("oscillator_file",)),
+    "--temperature-column": Flag("the column of the oscillator's temperature (degC, or K when its name ends in _k)",
+                                 "text", fields=("temperature_column",)),
+    "--receiver-sigma": Flag("white phase noise of the receiver a loop is designed for", "number", _S,
+                             fields=("receiver_sigma_s",)),
     # positioning
     "--systems": Flag("GNSS constellations used", "text", fields=("systems",)),
     "--ins": Flag("IMU grade", "text", fields=("ins",)),

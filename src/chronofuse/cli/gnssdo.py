@@ -48,6 +48,9 @@ def gnssdo(
     integrity_pfa: float | None = typer.Option(None, "--integrity-pfa",
                                                help="Exclude receivers on clock-bias HOD alarms at this P_fa."),
     oscillator: str = typer.Option("ocxo", "--oscillator", help="Oscillator preset: tcxo, ocxo, rb or csac."),
+    oscillator_file: Path | None = typer.Option(None, "--oscillator-file",
+                                                help="An oscillator JSON file (chronofuse characterize --out writes "
+                                                     "oscillator.json) instead of a preset."),
     reference: Path | None = typer.Option(None, "--reference",
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps): a "
                                           "phase file, or a field log's first clock (a ts2phc or phc2sys offset)."),
@@ -67,15 +70,22 @@ def gnssdo(
         given = [p.opts[0] for p in ctx.command.params if p.name in SIMULATION_ONLY and _given(ctx, p.name)]
         if given:
             fail(f"{', '.join(given)}: not used with --reference (the record is the receiver; its length the run's)")
+    if oscillator_file is not None and _given(ctx, "oscillator"):
+        fail("--oscillator, --oscillator-file: give one (the file is the oscillator)")
     with user_errors():
+        model = None
+        if oscillator_file is not None:
+            from chronofuse.discipline.characterize import read_oscillator_file
+
+            model = read_oscillator_file(oscillator_file)
         setup = GnssdoSetup(scenario=scenario, controller=controller, receivers=receivers, duration_s=duration,
                             trials=trials, seed=seed, gdop_max=gdop_max, dac_bits=dac_bits, oscillator=oscillator,
                             loop_bandwidth_hz=loop_bandwidth, fusion=fusion, integrity_pfa=integrity_pfa,
-                            design=design)
+                            design=design, oscillator_model=model)
         with progress_reporter("gnssdo") as say:
             if reference is not None:
                 summary = run_reference(reference, controller, seed=seed, trials=trials, progress=say,
-                                        oscillator=oscillator)
+                                        oscillator=oscillator, oscillator_model=model)
                 if out is not None:
                     from chronofuse.report.gnssdo import plot_adev
                     from chronofuse.report.jsonio import dumps

@@ -34,6 +34,7 @@ COMMANDS: dict[str, tuple[str, ...]] = {
     "run": ("run",),
     "detect": ("detect",),
     "gnssdo": ("gnssdo",),
+    "characterize": ("characterize",),
     "position": ("position",),
     "swarm": ("swarm",),
     "inspect": ("inspect",),
@@ -125,7 +126,7 @@ def _root() -> typer.Typer:
         help="Precision timing: simulate clocks and GNSS receivers, analyse stability, watch clock integrity, "
              "discipline oscillators, synchronize swarms, position with GNSS/INS.",
         no_args_is_help=True,
-        add_completion=False,
+        add_completion=True,
         pretty_exceptions_enable=False,
     )
 

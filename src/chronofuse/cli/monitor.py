@@ -178,6 +178,9 @@ def _report(db: Path, out: Path | None, json_out: bool) -> None:
                                              title=f"{s.name}: clock bias stability")))
     doc = {"db": str(db), "receivers": [s.to_dict() for s in sessions], "files": files}
     (out / "summary.json").write_text(json.dumps(doc, indent=2))
+    from chronofuse.report.html import monitor_page
+
+    monitor_page(doc, out)
     if json_out:
         print_json(doc)
     else:
@@ -185,5 +188,5 @@ def _report(db: Path, out: Path | None, json_out: bool) -> None:
             d = s.to_dict()
             err_console.print(f"{s.name}: {d['epochs']} epochs, {d['usable']} usable, {d['alarms']} alarm(s), "
                               f"{d['dissent_epochs']} dissenting, {d['jumps']} jump(s), {len(d['outages'])} outage(s)")
-        err_console.print(f"wrote {len(files)} plot(s) and summary.json to {out}")
+        err_console.print(f"wrote {len(files)} plot(s), summary.json and report.html to {out}")
 

@@ -28,6 +28,7 @@ def run(
     from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
     from chronofuse.experiments.main_job import run_scenario
     from chronofuse.experiments.scenario import load_scenario
+    from chronofuse.report.html import mask_reason
 
     quiet_output(quiet)
     with user_errors():
@@ -53,8 +54,8 @@ def run(
                       str(pe["n_missing"]), f"{rx['fix_fraction']:.1%}", f"{rx['gdop_over_5_fraction']:.1%}")
     con.print(table)
     if s["mask"] is not None:
-        verdicts = ", ".join(f"{k} {'PASS' if v['passed'] else 'FAIL'}" for k, v in s["mask"]["receivers"].items())
-        con.print(f"mask {s['mask']['name']}: {verdicts}")
+        for k, v in s["mask"]["receivers"].items():
+            con.print(f"mask {s['mask']['name']}: {k} {'PASS' if v['passed'] else 'FAIL'} ({mask_reason(v)})")
     if "discipline" in s and "skipped" in s["discipline"]:
         con.print(f"no disciplining: {s['discipline']['skipped']}")
     elif "discipline" in s:
@@ -63,6 +64,8 @@ def run(
                   f"(clairvoyant {d['optimal_rms_ns']:.1f} ns), peak-to-peak {d['time_error_pp_ns']:.1f} ns; "
                   f"holdover {d.get('holdover_s', 0):g} s -> {d.get('holdover_error_ns', float('nan')):.1f} ns")
         con.print("states (s): " + ", ".join(f"{k} {v:g}" for k, v in d["state_seconds"].items()))
+        for name, v in d.get("masks", {}).items():
+            con.print(f"disciplined output, mask {name}: {'PASS' if v['passed'] else 'FAIL'} ({mask_reason(v)})")
     if "swarm" in s:
         w = s["swarm"]
         table = Table("follower", "to leader rms (ns)", "to true time rms (ns)", "to leader in the outage (ns)",
@@ -73,4 +76,5 @@ def run(
             table.add_row(str(i + 1), f"{w['to_leader_rms_ns'][i]:.3f}", f"{w['to_true_rms_ns'][i]:.1f}",
                           "-" if outage is None else f"{outage[i]:.3f}")
         con.print(table)
-    con.print(f"report -> {report.out_dir}/ ({len(s['files'])} files: summary.json, timeseries.csv, PNG plots)")
+    con.print(f"report -> {report.out_dir}/report.html ({len(s['files'])} files: report.html, summary.json, "
+              "timeseries.csv, PNG plots)")

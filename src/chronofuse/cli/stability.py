@@ -166,6 +166,10 @@ def stability(
         "plot": str(plot) if plot is not None else None,
         "warnings": notes,
     }
+    if plot is not None:
+        from chronofuse.report.html import stability_page
+
+        doc["report"] = str(stability_page(doc, plot))
     if json_out:
         print_json(doc)
         return
@@ -190,7 +194,7 @@ def stability(
         con.print(f"mask {verdict.clock}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} "
                   f"({verdict_details(verdict)})")
     if plot is not None:
-        con.print(f"plot -> {plot}")
+        con.print(f"plot -> {plot}, report -> {doc['report']}")
 
 
 #: Statistics whose kernels are numba-parallel (``prange``): they already use every core, and numba's

@@ -104,12 +104,16 @@ def run(
                 fail(f"--outage == {outage!r}, must be K0:K1 (two exchange numbers)")
         if trials < 1:
             fail(f"--trials == {trials}, must be >= 1")
-        with progress_reporter("swarm run"):
+        with progress_reporter("swarm run") as say:
+            say(f"simulating {trials} links", 0.0)
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
-                           networks=networks, outage=window)
+                           networks=networks, outage=window, progress=say)
     doc = link_report(res)
     if out is not None:
-        doc["files"] = _write_summary(out, doc)
+        from chronofuse.report.html import swarm_page
+
+        doc["files"] = _write_summary(out, doc) + [str(out / "report.html")]
+        swarm_page(doc, out)
     if json_out:
         print_json(doc)
         return

@@ -143,16 +143,12 @@ def load_models(files: dict, urt_mode: str) -> dict:
 
 @contextmanager
 def trial_progress(label: str):
-    """A progress bar over trials on stderr (off when stderr is not a terminal); yields ``advance(done, total)``."""
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+    """Progress over trials (:func:`chronofuse.cli.common.progress_reporter`); yields ``advance(done, total)``."""
+    from chronofuse.cli.common import progress_reporter
 
-    from chronofuse.cli.common import err_console
-
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err_console, transient=True, disable=not err_console.is_terminal) as bar:
-        task = bar.add_task(label, total=None)
+    with progress_reporter(label) as say:
 
         def advance(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
+            say(f"trial {done} of {total}", done / total if total else None)
 
         yield advance

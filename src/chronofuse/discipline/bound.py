@@ -38,10 +38,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.kalman import KalmanServo
+from chronofuse.estimation import kalman_kernel as kk
 from chronofuse.models.clock import clock_process_noise, clock_transition
 from chronofuse.models.environment import ReceiverEnvironment
 from chronofuse.models.oscillator import OscillatorModel
@@ -163,23 +165,49 @@ class TimeErrorBound:
 
 def _riccati(F, Q, H, r, P0, mask: np.ndarray) -> np.ndarray:
     """``P-_k[0, 0]`` for one mask (steps,): the first sample sets the prior ``P0`` (the jam sync); before
-    it the phase is unknown (inf)."""
+    it the phase is unknown (inf). The compiled :func:`_riccati_kernel` (the prediction on the Kalman kernel's
+    :func:`~chronofuse.estimation.kalman_kernel.predict_flat`)."""
+    n = F.shape[0]
+    return _riccati_kernel(np.ascontiguousarray(F, dtype=np.float64).ravel(), np.ascontiguousarray(Q, dtype=np.float64).ravel(),
+                           np.ascontiguousarray(H[0], dtype=np.float64), float(r),
+                           np.ascontiguousarray(P0, dtype=np.float64).ravel(), np.ascontiguousarray(mask, dtype=np.bool_),
+                           n)
+
+
+@numba.njit(cache=True)
+def _riccati_kernel(F, Q, h, r, P0, mask, n):
+    """The Riccati recursion of :func:`_riccati` on flat storage: ``P <- P - (P h)(P h)' / (h' P h + r)`` at a
+    sample, ``P <- F P F' + Q`` every second."""
     steps = mask.size
     out = np.full(steps, np.inf)
-    h = H[0]
-    P = None
-    Ft = F.T
+    P = np.empty(n * n)
+    Pn = np.empty(n * n)
+    x = np.zeros(n)
+    xo = np.empty(n)
+    work = np.empty(3 * n * n + 2 * n)  # kalman_kernel.work_size(n)
+    Ph = np.empty(n)
+    started = False
     for k in range(steps):
-        if P is None:
+        if not started:
             if not mask[k]:
                 continue
-            P = P0.copy()  # the jam sync on the first sample: its prior is the servo's
-        out[k] = P[0, 0]
+            P[:] = P0
+            started = True
+        out[k] = P[0]
         if mask[k]:
-            Ph = P @ h
-            s = h @ Ph + r
-            P = P - np.outer(Ph, Ph) / s
-        P = F @ P @ Ft + Q
+            for a in range(n):
+                acc = 0.0
+                for b in range(n):
+                    acc += P[a * n + b] * h[b]
+                Ph[a] = acc
+            s = r
+            for a in range(n):
+                s += h[a] * Ph[a]
+            for a in range(n):
+                for b in range(n):
+                    P[a * n + b] -= Ph[a] * Ph[b] / s
+        kk.predict_flat(x, P, F, Q, xo, Pn, work)
+        P[:] = Pn
     return out
 
 

@@ -31,30 +31,31 @@ from chronofuse.discipline.servo import Servo, freeze
 from chronofuse.discipline.stages import IntegrityStage, corrected_pps_error, gnssdo_pipeline
 from chronofuse.discipline.states import StateConfig, StateRun
 from chronofuse.epochs import ReceiverEpochs
+from chronofuse.estimation.pipeline import Pipeline
 from chronofuse.integrity.watch import DetectionSettings
 from chronofuse.validation import check_array, check_choice, check_scalar
 
-__all__ = ["ChainConfig", "GnssdoRun", "corrected_pps_error", "integrity_alarms", "discipline_run", "gnssdo_frame"]
+__all__ = ["ChainConfig", "GnssdoRun", "corrected_pps_error", "integrity_alarms", "discipline_run", "discipline_runs", "gnssdo_frame"]
 
 
 @dataclass(frozen=True)
 class ChainConfig:
     """Settings of the chain around the servo.
 
-    qualification : the usability test (GDOP threshold etc.).
-    fusion : ``"fusion"`` (inverse-variance) or ``"selection"`` (best source).
-    states : lock threshold and hold time.
-    qerr_sign : +1 (u-blox: add qErr to the counter's reading) or -1.
-    qerr_lag : 0 (qErr aligned with its pulse) or 1 (logged a pulse early: TIM-TP describes the next pulse).
-    integrity_pfa : false-alarm probability per epoch of the clock-bias HOD detector (None: off).
-    integrity_train_s : seconds at the start used to fit the detector's noise model.
-    alarm_hold_s : a receiver stays excluded this long after its last alarm.
-    counter : measure offsets with this multi-phase counter (None: exact).
-    fast : compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
-    receiver_monitor, reference_monitor : the oscillator's plausibility test
-        (:class:`~chronofuse.discipline.plausibility.DragMonitor`) of each receiver (a refused one is excluded
-        from fusion and comes back with its weight earned anew) and of the fused reference (refused: the loop
-        holds over); None: off.
+    - ``qualification``: the usability test (GDOP threshold etc.).
+    - ``fusion``: ``"fusion"`` (inverse-variance) or ``"selection"`` (best source).
+    - ``states``: lock threshold and hold time.
+    - ``qerr_sign``: +1 (u-blox: add qErr to the counter's reading) or -1.
+    - ``qerr_lag``: 0 (qErr aligned with its pulse) or 1 (logged a pulse early: TIM-TP describes the next pulse).
+    - ``integrity_pfa``: false-alarm probability per epoch of the clock-bias HOD detector (None: off).
+    - ``integrity_train_s``: seconds at the start used to fit the detector's noise model.
+    - ``alarm_hold_s``: a receiver stays excluded this long after its last alarm.
+    - ``counter``: measure offsets with this multi-phase counter (None: exact).
+    - ``fast``: compiled kernels for fusion and states (False: their numpy twins; the servo has its own flag).
+    - ``receiver_monitor``, ``reference_monitor``: the oscillator's plausibility test
+      (:class:`~chronofuse.discipline.plausibility.DragMonitor`) of each receiver (a refused one is excluded
+      from fusion and comes back with its weight earned anew) and of the fused reference (refused: the loop
+      holds over); None: off.
     """
 
     qualification: Qualification = field(default_factory=Qualification)
@@ -140,15 +141,40 @@ def discipline_run(servo: Servo, free_phase_s, pps_error_s, epochs: ReceiverEpoc
     ``pps_error_s`` (trials, receivers, steps): each receiver's raw 1PPS edge error (s; NaN without a
     pulse), corrected here with the epochs' qErr per ``config``. The servo's interval is the epoch step.
     """
+    return discipline_runs((servo,), free_phase_s, pps_error_s, epochs, config, seed=seed)[0]
+
+
+def discipline_runs(servos, free_phase_s, pps_error_s, epochs: ReceiverEpochs, config: ChainConfig = ChainConfig(),
+                    *, seed=None) -> list[GnssdoRun]:
+    """:func:`discipline_run` for each of ``servos`` on the same data: the stages before the loop (qualification,
+    integrity, the plausibility tests, fusion, the UTC label) see only the receivers and the free oscillator, so
+    they run once and each servo closes its own loop and state machine on their columns (the same runs as one
+    :func:`discipline_run` per servo, tested)."""
+    servos = tuple(servos)
+    if not servos or not all(isinstance(s, Servo) for s in servos):
+        raise TypeError(f"servos == {servos!r}, must be one or more Servo")
     free = check_array(free_phase_s, "free_phase_s", ndim=2)
     pps = check_array(pps_error_s, "pps_error_s", ndim=3, allow_nan=True)
     if not isinstance(epochs, ReceiverEpochs):
         raise TypeError(f"epochs == {epochs!r}, must be a ReceiverEpochs")
     if pps.shape != epochs.shape or free.shape != (pps.shape[0], pps.shape[2]):
         raise ValueError(f"shapes disagree: free_phase_s {free.shape}, pps_error_s {pps.shape}, epochs {epochs.shape}")
-    dt = float(servo.interval_s)
-    pipeline = gnssdo_pipeline(servo, config, int(round(dt * 1e9)), seed=seed).fit()
-    r = pipeline.run(gnssdo_frame(free, pps, epochs))
+    dt = float(servos[0].interval_s)
+    if any(float(s.interval_s) != dt for s in servos):
+        raise ValueError(f"the servos' intervals differ: {[float(s.interval_s) for s in servos]}")
+    shared = gnssdo_pipeline(servos[0], config, int(round(dt * 1e9)), seed=seed).fit()
+    names = [name for name, _ in shared.stages]
+    before = Pipeline(shared.stages[:names.index("loop")])
+    data = dict(before.run(gnssdo_frame(free, pps, epochs)).columns)
+    runs = []
+    for servo in servos:
+        own = Pipeline(gnssdo_pipeline(servo, config, int(round(dt * 1e9)), seed=seed).stages[names.index("loop"):])
+        r = own.fit().run(dict(data))
+        runs.append(_gnssdo_run(r, dt))
+    return runs
+
+
+def _gnssdo_run(r, dt: float) -> GnssdoRun:
     loop = LoopRun(r["phase_s"], r["offset_s"], r["freq_adj"], r["phase_step_s"], r["offset_estimate_s"],
                    r["innovation_s"], r["used"], r["near_rail"], interval_s=dt)
     fusion = FusionRun(r["reference_error_s"] * -1.0, r["reference_variance_s2"], r["weights"])

@@ -161,6 +161,9 @@ def apply_leap(gps_s, initial_leap_s: int, leap_pending, *, months: tuple[int, .
     pending = np.asarray(leap_pending, dtype=np.int64)
     leap = np.empty(gps.shape, dtype=np.int64)
     inserted = np.zeros(gps.shape, dtype=bool)
+    if not pending.any():  # nothing announced: nothing is ever armed (leap_step), the count stays as it is
+        leap[:] = int(initial_leap_s)
+        return LeapSchedule(leap, gps - leap, inserted)
     memory = {"current": int(initial_leap_s), "armed": 0, "spent": False}
     for k, g in enumerate(gps):
         leap[k], inserted[k] = leap_step(memory, int(g), int(pending[k]), months)

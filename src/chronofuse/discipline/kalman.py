@@ -203,6 +203,8 @@ class KalmanServo(Servo):
 
     learn_gauss_markov : Gauss-Markov measurement errors :meth:`fit` learns when nothing is given (0, 1, 2).
 
+    Notes
+    -----
     Learnt by :meth:`fit` (module docstring): ``h_`` and ``measurement_sigma_s_`` (the given values when
     given), ``gauss_markov_`` (with ``learn_gauss_markov``), ``n_fit_differences_``.
     """

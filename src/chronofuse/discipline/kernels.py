@@ -168,6 +168,16 @@ def _block(csum, tsum, count, start, end, m, L):
 
 
 @numba.njit(cache=True)
+def _stored_block(bh, th, j, end, m, start, L):
+    """:func:`_block` of horizon ``j``'s block ending at ``end``, as computed at second ``end`` and stored in the
+    rings ``bh``, ``th``: the same numbers (the cumulative rings it read are not yet overwritten, and a block that
+    passed the history's ``start`` then passes a later one only if it passes it now, the check made here)."""
+    if end < 0 or end - m < start - 1:
+        return np.nan, np.nan
+    return bh[j, end % L], th[j, end % L]
+
+
+@numba.njit(cache=True)
 def _avar(h0, hm1, hm2, tau):
     return h0 / (2.0 * tau) + 2.0 * math.log(2.0) * hm1 + 2.0 * math.pi**2 / 3.0 * hm2 * tau
 
@@ -187,6 +197,10 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     csum = np.zeros(L)
     tsum = np.zeros(L)
     count = np.zeros(L, dtype=np.int64)
+    # Each horizon's latest block mean and mean time by second: the blocks at k - W and k - 2 W are the ones this
+    # horizon computed W and 2 W seconds ago (the ring holds 4 W_max + 2 seconds).
+    bh = np.empty((nh, L))
+    th = np.empty((nh, L))
     for i in range(n_series):
         csum[:] = 0.0
         tsum[:] = 0.0
@@ -215,8 +229,10 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 w = horizons[j]
                 m = max(1, w // 4)
                 b0, t0 = _block(csum, tsum, count, start, k, m, L)
-                b1, t1 = _block(csum, tsum, count, start, k - w, m, L)
-                b2, t2 = _block(csum, tsum, count, start, k - 2 * w, m, L)
+                bh[j, k % L] = b0
+                th[j, k % L] = t0
+                b1, t1 = _stored_block(bh, th, j, k - w, m, start, L)
+                b2, t2 = _stored_block(bh, th, j, k - 2 * w, m, start, L)
                 ratio = abs(b0 - b1 - (b1 - b2) * (t0 - t1) / (t1 - t2)) / thresholds[j]
                 if math.isfinite(ratio):
                     if not math.isfinite(worst) or ratio > worst:
@@ -246,22 +262,25 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 for j in range(nh):
                     if horizons[j] == anchor_w:
                         anchor_j = j
-            bs, ts = _block(csum, tsum, count, start, k, ms, L)
-            h = ts - anchor_t if math.isfinite(ts) else k - (ms - 1) / 2.0 - anchor_t
-            wa = float(anchor_w)
-            he = max(h, wa)
-            h1 = max(h, 1.0)
-            lever = lever_var[anchor_j] if anchor_j >= 0 else 0.0
-            ablock = 0.0
-            for j in range(nh):
-                if max(1, horizons[j] // 4) == anchor_m:
-                    ablock = block_var[j]
-            var = (2.0 * h1 * h1 * _avar(h0, hm1, hm2, h1) + h1 * h1 * _avar(h0, hm1, hm2, wa) + check_var + ablock
-                   + lever * (h1 / wa) ** 2)
-            tol = readmit_k * math.sqrt(var) + drift * he * he
-            judged = have and math.isfinite(bs)
-            agree_now = judged and abs(bs - (anchor + anchor_f * h)) < tol
             refused = not trusted
+            judged = False
+            agree_now = False
+            if refused:  # the comparison with the holdover prediction counts only while refused
+                bs, ts = _block(csum, tsum, count, start, k, ms, L)
+                h = ts - anchor_t if math.isfinite(ts) else k - (ms - 1) / 2.0 - anchor_t
+                wa = float(anchor_w)
+                he = max(h, wa)
+                h1 = max(h, 1.0)
+                lever = lever_var[anchor_j] if anchor_j >= 0 else 0.0
+                ablock = 0.0
+                for j in range(nh):
+                    if max(1, horizons[j] // 4) == anchor_m:
+                        ablock = block_var[j]
+                var = (2.0 * h1 * h1 * _avar(h0, hm1, hm2, h1) + h1 * h1 * _avar(h0, hm1, hm2, wa) + check_var + ablock
+                       + lever * (h1 / wa) ** 2)
+                tol = readmit_k * math.sqrt(var) + drift * he * he
+                judged = have and math.isfinite(bs)
+                agree_now = judged and abs(bs - (anchor + anchor_f * h)) < tol
             if not refused:
                 agree = 0
             elif judged:

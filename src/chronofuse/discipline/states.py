@@ -107,7 +107,7 @@ class HoldoverModel:
 class StateConfig:
     """Lock criteria (module docstring).
 
-    ``lock_threshold_s`` (> 0): the |time error| LOCKED claims; ``criteria_fraction`` (0, 1]: the filtered
+    ``lock_threshold_s`` (> 0): the ``|time error|`` LOCKED claims; ``criteria_fraction`` (0, 1]: the filtered
     time error must stay within this fraction of it; ``lock_hold_s`` (>= 1 sample): seconds with every
     criterion met before LOCKED; ``te_filter_s`` (>= 1 sample): the filtered time error's averaging time;
     ``freq_threshold`` (fractional frequency, > 0; None: no frequency criterion) and ``freq_filter_s``;

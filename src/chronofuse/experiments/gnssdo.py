@@ -39,19 +39,21 @@ Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys)
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
-from collections.abc import Callable
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from chronofuse.analysis.metrics import pooled_oadev
+from chronofuse.analysis.metrics import pooled_dev, trial_avar
+from chronofuse.progress import Progress, silent, within
 from chronofuse.analysis.stability.taus import averaging_factors
 from chronofuse.analysis.montecarlo import mean_square_per_trial, ratio_ci, rms_ci
 from chronofuse.discipline.bound import ClairvoyantServo, time_error_bound
-from chronofuse.discipline.chain import ChainConfig, GnssdoRun, discipline_run
+from chronofuse.discipline.chain import ChainConfig, discipline_runs
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.design import clairvoyant_controller, design_measurement_sigma_s, equivalent_white_sigma_s
 from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
@@ -82,8 +84,6 @@ from chronofuse.experiments.gnssdo_controllers import (  # noqa: F401 (part of t
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
            "DESIGN_STEER_S"]
-
-Progress = Callable[[str], None]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
@@ -215,8 +215,9 @@ def is_gaussian(env: ReceiverEnvironment) -> bool:
     return m.outlier_prob == 0.0 and m.jump_prob == 0.0 and not spoofed
 
 
-def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> dict:
-    """Simulate the scenario and run the chosen controller and the clairvoyant one on the same data."""
+def design_gnssdo(setup: GnssdoSetup, progress: Progress = silent) -> dict:
+    """What every trial of ``setup`` shares: the oscillator, the environment, the chain's settings, the
+    controller (fitted once on its calibration record) and the clairvoyant yardstick."""
     root = root_seed(setup.seed)
     osc = preset(setup.oscillator) if setup.oscillator_model is None else setup.oscillator_model
     if setup.dac_bits is not None:
@@ -225,10 +226,6 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
     env = scenario_environment(setup.scenario, setup.duration_s)
     if setup.outage_start_s is not None:
         env = dataclasses.replace(env, jamming_start_s=setup.outage_start_s, jamming_duration_s=setup.outage_s)
-    progress("simulating the oscillator")
-    free, noise_only = _free_phase(osc, setup.duration_s, setup.trials, root)
-    progress("simulating the receivers")
-    rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=setup.trials)
     monitors = plausibility_monitors(osc, env, setup.receivers) if setup.plausibility else (None, None)
     config = ChainConfig(qualification=Qualification(gdop_max=setup.gdop_max), fusion=setup.fusion,
                          integrity_pfa=setup.integrity_pfa, states=state_config(osc), receiver_monitor=monitors[0],
@@ -236,35 +233,76 @@ def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = lambda s: None) -> 
     if setup.design == "fit":
         from chronofuse.experiments.gnssdo_design import fitted_controller
 
-        progress(f"fitting {setup.controller} on a calibration record")
+        progress(f"fitting {setup.controller} on a calibration record", 0.1)
         servo, design = fitted_controller(setup.controller, osc, env, setup.receivers, dac, root, config=config,
                                           loop_bandwidth_hz=setup.loop_bandwidth_hz)
     else:
         servo = make_controller(setup.controller, osc, env, setup.receivers, dac, setup.loop_bandwidth_hz)
         design = "datasheet"
-    progress(f"disciplining ({setup.controller})")
-    run = discipline_run(servo, free, rx.pps_error_s, rx.epochs, config)
-    progress("disciplining (clairvoyant)")
-    yardstick = clairvoyant_controller(osc, env, setup.receivers, dac)
-    best = discipline_run(yardstick, free, rx.pps_error_s, rx.epochs, config)
+    return {"setup": setup, "oscillator": osc, "environment": env, "config": config, "servo": servo,
+            "design": design, "clairvoyant_servo": clairvoyant_controller(osc, env, setup.receivers, dac)}
+
+
+def simulate_trials(plan: dict, first_trial: int, trials: int, progress: Progress = silent) -> dict:
+    """Trials ``first_trial .. first_trial + trials - 1`` of :func:`design_gnssdo`'s ``plan``: each trial's numbers
+    are those it has in a run of all of them (the seeding of :mod:`chronofuse.models`)."""
+    setup = plan["setup"]
+    root = root_seed(setup.seed)
+    osc, env = plan["oscillator"], plan["environment"]
+    progress("simulating the oscillator", 0.0)
+    free, noise_only = _free_phase(osc, setup.duration_s, trials, root, first_trial)
+    progress("simulating the receivers", 0.05)
+    rx = simulate_receivers(env, setup.duration_s, setup.receivers, child_seed(root, 1), trials=trials,
+                            first_trial=first_trial)
+    servo, yardstick = copy.deepcopy(plan["servo"]), plan["clairvoyant_servo"]
+    progress(f"disciplining ({setup.controller} and the clairvoyant servo)", 0.5)
+    run, best = discipline_runs((servo, yardstick), free, rx.pps_error_s, rx.epochs, plan["config"])
     return {"setup": setup, "oscillator": osc, "environment": env, "free_phase_s": free, "noise_phase_s": noise_only,
-            "receivers": rx, "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick, "design": design}
+            "receivers": rx, "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick, "design": plan["design"],
+            "first_trial": first_trial}
+
+
+def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = silent) -> dict:
+    """Simulate the scenario and run the chosen controller and the clairvoyant one on the same data."""
+    return simulate_trials(design_gnssdo(setup, progress), 0, setup.trials, progress)
+
+
+def _adev_taus(steps: int, start: int = int(SETTLE_S)) -> np.ndarray:
+    return averaging_factors((steps - start) // 4, "octave").astype(float)
+
+
+def adev_avar(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s: np.ndarray,
+              start: int = int(SETTLE_S)) -> dict:
+    """Each trial's Allan variance (trials, k) of the free-running oscillator, the GNSS reference and the
+    disciplined output from ``start`` (the seconds before it hold the acquisition's phase step), on the octave
+    grid up to a quarter of the record (``"tau"``), with the reference's missing seconds counted
+    (``"gnss_missing"``, ``"gnss_seconds"``)."""
+    taus = _adev_taus(phase_s.shape[1], start)
+    gnss = -reference_error_s[:, start:]  # the reference 1PPS's own time error
+    empty = np.isnan(gnss).all(axis=1)
+    gnss_avar = np.full((gnss.shape[0], taus.size), np.nan)
+    if not empty.all():
+        gnss_avar[~empty] = trial_avar(gnss[~empty], 1.0, taus)
+    return {"tau": taus, "free_run": trial_avar(free_phase_s[:, start:], 1.0, taus), "gnss": gnss_avar,
+            "disciplined": trial_avar(phase_s[:, start:], 1.0, taus),
+            "gnss_missing": int(np.isnan(gnss).sum()), "gnss_seconds": int(gnss.size)}
+
+
+def pooled_adev(avar: dict) -> dict:
+    """``{"free_run": {"tau", "dev"}, "gnss": ..., "disciplined": ...}``: the trials of :func:`adev_avar` pooled
+    (:func:`~chronofuse.analysis.metrics.pooled_dev`); the reference's NaN where it misses over half its seconds."""
+    taus = avar["tau"]
+    gnss = (np.full(taus.shape, np.nan) if avar["gnss_missing"] > 0.5 * avar["gnss_seconds"]
+            else pooled_dev(avar["gnss"]))
+    return {"free_run": {"tau": taus, "dev": pooled_dev(avar["free_run"])}, "gnss": {"tau": taus, "dev": gnss},
+            "disciplined": {"tau": taus, "dev": pooled_dev(avar["disciplined"])}}
 
 
 def adev_series(free_phase_s: np.ndarray, reference_error_s: np.ndarray, phase_s: np.ndarray,
                 start: int = int(SETTLE_S)) -> dict:
-    """``{"free_run": {"tau", "dev"}, "gnss": ..., "disciplined": ...}`` on one octave grid up to a quarter
-    of the record from ``start`` (the seconds before it hold the acquisition's phase step)."""
-    free_phase_s, reference_error_s, phase_s = free_phase_s[:, start:], reference_error_s[:, start:], phase_s[:, start:]
-    taus = averaging_factors(phase_s.shape[1] // 4, "octave").astype(float)
-    gnss = -reference_error_s  # the reference 1PPS's own time error
-    if np.isnan(gnss).mean() > 0.5:
-        gnss_dev = np.full(taus.shape, np.nan)
-    else:
-        gnss_dev = pooled_oadev(gnss, 1.0, taus).dev
-    return {"free_run": {"tau": taus, "dev": pooled_oadev(free_phase_s, 1.0, taus).dev},
-            "gnss": {"tau": taus, "dev": gnss_dev},
-            "disciplined": {"tau": taus, "dev": pooled_oadev(phase_s, 1.0, taus).dev}}
+    """``{"free_run": {"tau", "dev"}, "gnss": ..., "disciplined": ...}``: overlapping ADEV pooled over the trials
+    (:func:`adev_avar`, :func:`pooled_adev`)."""
+    return pooled_adev(adev_avar(free_phase_s, reference_error_s, phase_s, start))
 
 
 def te_window(has_reference: np.ndarray) -> np.ndarray:
@@ -278,34 +316,45 @@ def _ci_ns(interval) -> list | None:
     return None if not (math.isfinite(lo) and math.isfinite(hi)) else [lo * 1e9, hi * 1e9]
 
 
+def _convergence_s(phase_s: np.ndarray, has_reference: np.ndarray) -> np.ndarray:
+    """Per trial: the first second after which ``|TE| < CONVERGENCE_THRESHOLD_S`` at every later second with a
+    usable reference (NaN: never, or never disciplined)."""
+    bad = has_reference & (np.abs(phase_s) >= CONVERGENCE_THRESHOLD_S)
+    conv = np.empty(phase_s.shape[0])
+    for i, (row, seen) in enumerate(zip(bad, has_reference)):
+        idx = np.flatnonzero(row)
+        if not seen.any():  # never disciplined: it never converged
+            conv[i] = math.nan
+        else:
+            conv[i] = 0.0 if idx.size == 0 else (math.nan if idx[-1] == row.size - 1 else float(idx[-1] + 1))
+    return conv
+
+
+def _time_error_trials(phase_s: np.ndarray, has_reference: np.ndarray) -> dict:
+    """Per trial: the window's size, the mean square and peak-to-peak of TE over it, the convergence time."""
+    window = te_window(has_reference)
+    pp = np.full(phase_s.shape[0], np.nan)
+    rows = window.any(axis=1)
+    x = np.where(window, phase_s, np.nan)[rows]
+    pp[rows] = np.nanmax(x, axis=1) - np.nanmin(x, axis=1)
+    return {"count": window.sum(axis=1), "ms": mean_square_per_trial(phase_s, window), "pp": pp,
+            "convergence": _convergence_s(phase_s, has_reference)}
+
+
+def _time_error_summary(t: dict) -> dict:
+    count = t["count"]
+    ms = np.where(count > 0, t["ms"], 0.0)
+    rms = math.sqrt(float(np.sum(ms * count)) / float(np.sum(count))) if count.sum() > 0 else math.nan
+    pp = float(np.mean(t["pp"][np.isfinite(t["pp"])])) if np.isfinite(t["pp"]).any() else math.nan
+    conv = t["convergence"]
+    return {"time_error_rms_ns": rms * 1e9, "time_error_rms_ci_ns": _ci_ns(rms_ci(t["ms"])), "time_error_pp_ns": pp * 1e9,
+            "convergence_s": float(np.median(conv)) if np.isfinite(conv).all() else None}
+
+
 def time_error_metrics(phase_s: np.ndarray, has_reference: np.ndarray) -> dict:
     """TE rms (with its 95 % Monte Carlo interval over trials) and peak-to-peak after ``SETTLE_S`` with a
     usable reference, and the convergence time (s)."""
-    window = te_window(has_reference)
-    x = np.where(window, phase_s, np.nan)
-    rms = float(np.sqrt(np.nanmean(x**2))) if window.any() else math.nan
-    pp = float(np.nanmean(np.nanmax(x, axis=1) - np.nanmin(x, axis=1))) if window.any() else math.nan
-    bad = has_reference & (np.abs(phase_s) >= CONVERGENCE_THRESHOLD_S)
-    conv = []
-    for row, seen in zip(bad, has_reference):
-        idx = np.flatnonzero(row)
-        if not seen.any():  # never disciplined: it never converged
-            conv.append(math.nan)
-            continue
-        conv.append(0.0 if idx.size == 0 else (math.nan if idx[-1] == row.size - 1 else float(idx[-1] + 1)))
-    converged = [c for c in conv if math.isfinite(c)]
-    ci = _ci_ns(rms_ci(mean_square_per_trial(phase_s, window)))
-    return {"time_error_rms_ns": rms * 1e9, "time_error_rms_ci_ns": ci, "time_error_pp_ns": pp * 1e9,
-            "convergence_s": float(np.median(converged)) if len(converged) == len(conv) else None}
-
-
-def _holdover(run: GnssdoRun, env: ReceiverEnvironment) -> dict:
-    if env.jamming_start_s is None or env.jamming_duration_s <= 0:
-        return {}
-    start = int(env.jamming_start_s)
-    end = min(int(env.jamming_start_s + env.jamming_duration_s), run.phase_s.shape[1] - 1)
-    err = run.phase_s[:, end] - run.phase_s[:, start]
-    return {"holdover_error_ns": float(np.sqrt(np.mean(err**2))) * 1e9, "holdover_s": float(end - start)}
+    return _time_error_summary(_time_error_trials(phase_s, has_reference))
 
 
 def run_config_threshold_s(sim: dict) -> float:
@@ -313,18 +362,68 @@ def run_config_threshold_s(sim: dict) -> float:
     return float(state_config(sim["oscillator"]).lock_threshold_s)
 
 
-def optimal_metrics(phase_s: np.ndarray, clairvoyant_phase_s: np.ndarray, has_reference: np.ndarray,
-                    env: ReceiverEnvironment, clairvoyant: ClairvoyantServo) -> dict:
+def trial_stats(sim: dict) -> dict:
+    """Everything :func:`summarize` needs from :func:`simulate_trials`' result, per trial (arrays (trials, ...)) or
+    summed, so that blocks of trials merge (:func:`merge_stats`) without keeping their seconds."""
+    run, best = sim["run"], sim["clairvoyant"]
+    has_ref = np.isfinite(run.reference_error_s)
+    window = te_window(has_ref)
+    env = sim["environment"]
+    out = {"te": _time_error_trials(run.phase_s, has_ref), "ms_best": mean_square_per_trial(best.phase_s, window)}
+    if is_gaussian(env):
+        out["bound_ms"] = time_error_bound(sim["clairvoyant_servo"], has_ref).per_trial_mean_square_s2(window)
+    if env.jamming_start_s is not None and env.jamming_duration_s > 0:
+        start = int(env.jamming_start_s)
+        end = min(int(env.jamming_start_s + env.jamming_duration_s), run.phase_s.shape[1] - 1)
+        out["holdover_err"] = run.phase_s[:, end] - run.phase_s[:, start]
+        out["holdover_s"] = float(end - start)
+    states = run.states
+    locked = states.state == State.LOCKED
+    sigma = states.holdover_sigma_s
+    out.update(state_seconds=np.stack([(states.state == st).sum(axis=1) for st in State], axis=1),
+               locked_over=np.sum(locked & (np.abs(run.phase_s) >= run_config_threshold_s(sim)), axis=1),
+               ready=states.holdover_ready.sum(axis=1), rail=states.rail_alarm.sum(axis=1),
+               sigma=np.asarray(sigma[np.isfinite(sigma)]), any_reference=has_ref.any(axis=1),
+               changes_first=states.changes(0)[:50] if sim.get("first_trial", 0) == 0 else None,
+               adev=adev_avar(sim["noise_phase_s"], run.reference_error_s, run.phase_s))
+    return out
+
+
+def merge_stats(blocks: list[dict]) -> dict:
+    """:func:`trial_stats` of consecutive blocks of trials as one (the trials in order)."""
+    if len(blocks) == 1:
+        return blocks[0]
+
+    def cat(get):
+        return np.concatenate([get(b) for b in blocks])
+
+    first = blocks[0]
+    out = {"te": {k: cat(lambda b, k=k: b["te"][k]) for k in first["te"]}, "ms_best": cat(lambda b: b["ms_best"])}
+    for key in ("bound_ms", "holdover_err", "state_seconds", "locked_over", "ready", "rail", "sigma", "any_reference"):
+        if key in first:
+            out[key] = cat(lambda b, key=key: b[key])
+    if "holdover_s" in first:
+        out["holdover_s"] = first["holdover_s"]
+    out["changes_first"] = next((b["changes_first"] for b in blocks if b["changes_first"] is not None), None)
+    adev = {"tau": first["adev"]["tau"]}
+    for key in ("free_run", "gnss", "disciplined"):
+        adev[key] = cat(lambda b, key=key: b["adev"][key])
+    for key in ("gnss_missing", "gnss_seconds"):
+        adev[key] = sum(b["adev"][key] for b in blocks)
+    out["adev"] = adev
+    return out
+
+
+def optimal_summary(stats: dict, env: ReceiverEnvironment) -> dict:
     """``clairvoyant_rms_ns`` (+ CI), ``optimal_rms_ns``, ``optimal_kind`` and ``ratio_to_optimal`` (+ CI):
     the bound in a Gaussian scenario, the clairvoyant servo's TE otherwise (module docstring)."""
-    window = te_window(has_reference)
-    ms = mean_square_per_trial(phase_s, window)
-    ms_best = mean_square_per_trial(clairvoyant_phase_s, window)
+    ms, ms_best = stats["te"]["ms"], stats["ms_best"]
     best = rms_ci(ms_best)
     out = {"clairvoyant_rms_ns": best[0] * 1e9, "clairvoyant_rms_ci_ns": _ci_ns(best)}
     if is_gaussian(env):
-        bound = time_error_bound(clairvoyant, has_reference)
-        rms_bound = bound.rms_s(window)
+        count = stats["te"]["count"]
+        bound_ms = np.where(count > 0, stats["bound_ms"], 0.0)
+        rms_bound = math.sqrt(float(np.sum(bound_ms * count)) / float(np.sum(count))) if count.sum() > 0 else math.nan
         plain = rms_ci(ms)
         out.update(optimal_kind="bound", optimal_rms_ns=rms_bound * 1e9,
                    optimal_note="causal lower bound: the clairvoyant filter's phase-error covariance",
@@ -343,50 +442,117 @@ def optimal_metrics(phase_s: np.ndarray, clairvoyant_phase_s: np.ndarray, has_re
     return out
 
 
-def evaluate(sim: dict) -> dict:
-    """The summary (JSON keys of the command line) of :func:`simulate_gnssdo`'s result."""
-    run, best, setup = sim["run"], sim["clairvoyant"], sim["setup"]
-    has_ref = np.isfinite(run.reference_error_s)
+def summarize(plan: dict, stats: dict) -> dict:
+    """The summary (JSON keys of the command line) from a plan (:func:`design_gnssdo`, or a simulation's result)
+    and the trials' :func:`trial_stats`."""
+    setup, env = plan["setup"], plan["environment"]
+    trials = int(stats["te"]["count"].shape[0])
     summary = {"scenario": setup.scenario, "controller": setup.controller, "receivers": setup.receivers,
-               "duration_s": setup.duration_s, "trials": setup.trials, "seed": setup.seed,
-               "oscillator": sim["oscillator"].name, **time_error_metrics(run.phase_s, has_ref)}
-    summary["design"] = sim.get("design", "datasheet")
-    summary.update(optimal_metrics(run.phase_s, best.phase_s, has_ref, sim["environment"],
-                                   sim["clairvoyant_servo"]))
-    summary.update(_holdover(run, sim["environment"]))
-    summary["state_seconds"] = run.states.seconds_in()
-    locked = run.states.state == State.LOCKED
-    threshold = run_config_threshold_s(sim)
-    summary["locked_over_threshold_seconds"] = float(np.sum(locked & (np.abs(run.phase_s) >= threshold)) / setup.trials)
-    summary["holdover_ready_seconds"] = float(run.states.holdover_ready.sum() / setup.trials)
-    sigma = run.states.holdover_sigma_s
-    summary["predicted_holdover_sigma_ns"] = (float(np.nanmedian(sigma)) * 1e9 if np.isfinite(sigma).any() else None)
-    summary["state_changes_trial0"] = run.states.changes(0)[:50]
-    summary["dac_rail_alarm_seconds"] = float(run.states.rail_alarm.sum() / setup.trials)
-    summary["no_usable_receiver"] = bool(not has_ref.any())
-    summary["adev"] = adev_series(sim["noise_phase_s"], run.reference_error_s, run.phase_s)
+               "duration_s": setup.duration_s, "trials": trials, "seed": setup.seed,
+               "oscillator": plan["oscillator"].name, **_time_error_summary(stats["te"])}
+    summary["design"] = plan.get("design", "datasheet")
+    summary.update(optimal_summary(stats, env))
+    if "holdover_err" in stats:
+        summary.update(holdover_error_ns=float(np.sqrt(np.mean(stats["holdover_err"] ** 2))) * 1e9,
+                       holdover_s=stats["holdover_s"])
+    summary["state_seconds"] = {st.name.lower(): float(stats["state_seconds"][:, i].sum() / trials)
+                                for i, st in enumerate(State)}
+    summary["locked_over_threshold_seconds"] = float(stats["locked_over"].sum() / trials)
+    summary["holdover_ready_seconds"] = float(stats["ready"].sum() / trials)
+    sigma = stats["sigma"]
+    summary["predicted_holdover_sigma_ns"] = float(np.median(sigma)) * 1e9 if sigma.size else None
+    summary["state_changes_trial0"] = stats["changes_first"]
+    summary["dac_rail_alarm_seconds"] = float(stats["rail"].sum() / trials)
+    summary["no_usable_receiver"] = bool(not stats["any_reference"].any())
+    summary["adev"] = pooled_adev(stats["adev"])
     return summary
 
 
-def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progress = lambda s: None) -> dict:
-    """Simulate, evaluate and (with ``out_dir``) write ``summary.json`` and the PNG report; returns the summary."""
+def evaluate(sim: dict) -> dict:
+    """The summary (JSON keys of the command line) of :func:`simulate_gnssdo`'s result."""
+    return summarize(sim, trial_stats(sim))
+
+
+#: Trials simulated together: a block's seconds (the receivers' epochs, every stage's columns) are dropped once
+#: its :func:`trial_stats` are taken, so memory does not grow with the trial count (about 120 MB a trial-day
+#: with three receivers).
+BLOCK_TRIALS = 4
+
+
+def _block_stats(plan: dict, first: int, count: int) -> dict:
+    return trial_stats(simulate_trials(plan, first, count))
+
+
+def _workers(requested: int | None, blocks: int) -> int:
+    if requested is not None:
+        check_scalar(requested, "workers", min_val=1, integer=True)
+        return min(int(requested), blocks)
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, blocks))
+
+
+def gnssdo_stats(plan: dict, workers: int | None = None, progress: Progress = silent) -> dict:
+    """:func:`trial_stats` of every trial of ``plan`` (:func:`design_gnssdo`), simulated in blocks of
+    :data:`BLOCK_TRIALS` trials on ``workers`` processes (None: one per usable core); the same numbers
+    whatever the blocks or the workers (each trial's seeds are its own)."""
+    trials = plan["setup"].trials
+    blocks = [(first, min(BLOCK_TRIALS, trials - first)) for first in range(0, trials, BLOCK_TRIALS)]
+    n = _workers(workers, len(blocks))
+    if n == 1:
+        stats = []
+        for i, (first, count) in enumerate(blocks):
+            progress(f"trials {first + 1}-{first + count} of {trials}", first / trials)
+            stats.append(_block_stats(plan, first, count))
+        return merge_stats(stats)
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    # fork: the workers start with this process's imports and compiled kernels (spawn re-imports both, seconds)
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    progress(f"{trials} trials in {len(blocks)} blocks on {n} processes")
+    with ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context(method)) as pool:
+        stats = list(pool.map(_block_stats, [plan] * len(blocks), *zip(*blocks)))
+    return merge_stats(stats)
+
+
+def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progress = silent,
+               workers: int | None = None) -> dict:
+    """Simulate, evaluate and (with ``out_dir``) write ``summary.json`` and the PNG report; returns the summary.
+
+    Trials run in blocks on ``workers`` processes (:func:`gnssdo_stats`); the report's plots show trial 0."""
     from chronofuse.report.gnssdo import write_report
     from chronofuse.report.jsonio import dumps
 
-    sim = simulate_gnssdo(setup, progress)
-    progress("measuring")
-    summary = evaluate(sim)
+    plan = design_gnssdo(setup, within(progress, 0.0, 0.05))
+    if setup.trials <= BLOCK_TRIALS:
+        sim = simulate_trials(plan, 0, setup.trials, within(progress, 0.05, 0.4))
+        progress("measuring", 0.4)
+        summary = summarize(plan, trial_stats(sim))
+    else:
+        summary = summarize(plan, gnssdo_stats(plan, workers, within(progress, 0.05, 0.9)))
+        sim = simulate_trials(plan, 0, 1) if out_dir is not None else None
     if out_dir is not None:
         out_dir = Path(out_dir)
         out_dir.mkdir(parents=True, exist_ok=True)
-        summary["files"] = write_report(sim, summary, out_dir)
+        from chronofuse.analysis.masks import MASKS
+        from chronofuse.report.html import gnssdo_page
+
+        output = np.asarray(sim["run"].phase_s[0, int(SETTLE_S):], dtype=float)
+        summary["masks"] = {m: MASKS[m].check(output, 1.0).to_dict() for m in ("prtc-a", "prtc-b", "g811")}
+        summary["masks_record"] = (f"the disciplined 1PPS of trial 0 from {SETTLE_S:g} s (after settling) to the end, "
+                                   f"{output.size} s, any outage in holdover included")
+        summary["files"] = write_report(sim, summary, out_dir) + ["summary.json", "report.html"]
         (out_dir / "summary.json").write_text(dumps(summary) + "\n")
-        summary["files"].append("summary.json")
+        gnssdo_page(summary, out_dir)
     return summary
 
 
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
-                  progress: Progress = lambda s: None, oscillator: str = "ocxo") -> dict:
+                  progress: Progress = silent, oscillator: str = "ocxo",
+                  oscillator_model: OscillatorModel | None = None) -> dict:
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
     The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
@@ -397,10 +563,10 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
     e = e - np.mean(e)
     steps = e.size
-    osc = preset(oscillator)
+    osc = preset(oscillator) if oscillator_model is None else oscillator_model
     dac = Dac.for_oscillator(osc)
     root = root_seed(seed)
-    progress("simulating the oscillator")
+    progress("simulating the oscillator", 0.0)
     free, noise_only = _free_phase(osc, steps, trials, root)
     sigma = equivalent_white_sigma_s(e[:4 * 3600])
     env = dataclasses.replace(receiver_environment("open-sky"), name="reference")

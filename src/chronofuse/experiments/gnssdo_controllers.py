@@ -76,11 +76,12 @@ def initial_frequency_max(osc: OscillatorModel, duration_s: float) -> float:
     return min(INITIAL_FREQUENCY_MAX, INITIAL_FREQUENCY_FRACTION * room)
 
 
-def _free_phase(osc: OscillatorModel, steps: int, trials: int, root: np.random.SeedSequence) -> tuple[np.ndarray, np.ndarray]:
+def _free_phase(osc: OscillatorModel, steps: int, trials: int, root: np.random.SeedSequence,
+                first_trial: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """Free-running phase with each trial's initial offsets (the frequency one inside the EFC's range,
-    :func:`initial_frequency_max`), and the same without them (for ADEV)."""
-    truth = simulate_oscillator(osc, float(steps), 1.0, child_seed(root, 0), trials=trials)
+    :func:`initial_frequency_max`), and the same without them (for ADEV); trials ``first_trial`` on."""
+    truth = simulate_oscillator(osc, float(steps), 1.0, child_seed(root, 0), trials=trials, first_trial=first_trial)
     t = truth.t_s
-    offsets = np.array([child_rng(root, 2, i).uniform(-1.0, 1.0, 2) for i in range(trials)])
+    offsets = np.array([child_rng(root, 2, first_trial + i).uniform(-1.0, 1.0, 2) for i in range(trials)])
     free = truth.x_s + offsets[:, :1] * INITIAL_PHASE_MAX_S + offsets[:, 1:] * initial_frequency_max(osc, steps) * t
     return free, truth.x_s

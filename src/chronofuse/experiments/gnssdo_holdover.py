@@ -56,8 +56,15 @@ def _ci(t) -> list | None:
 
 def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_400.0), trials: int = 200, *,
                    oscillator: str = "ocxo", receivers: int = 2, controller: str = DEFAULT_CONTROLLER,
-                   seed: int = 3, chunk: int = 25, design: str = "fit", progress: Progress = lambda s: None) -> dict:
-    """Run the study (module docstring); returns horizons, each figure in ns with its interval, the ratio."""
+                   seed: int = 3, chunk: int = 25, design: str = "fit", progress: Progress = lambda s: None,
+                   temperature_amplitude_K: float = 0.0, compensation_error: float | None = None) -> dict:
+    """Run the study (module docstring); returns horizons, each figure in ns with its interval, the ratio.
+
+    ``temperature_amplitude_K``: a diurnal swing (:func:`chronofuse.models.temperature.diurnal_profile`, rising
+    through its mean at the holdover's start) acts through the preset's tempco on both loops' oscillator;
+    ``compensation_error``: a compensation table of the tempco times ``1 + compensation_error`` is applied
+    (feed-forward). Each row then carries ``temperature_theory_ns``, the tempco integral over the horizon
+    (:func:`chronofuse.models.temperature.holdover_temperature_error_s`, less the table's share)."""
     check_scalar(locked_s, "locked_s", min_val=3600, integer=True)
     check_scalar(trials, "trials", min_val=2, integer=True)
     check_scalar(chunk, "chunk", min_val=1, integer=True)
@@ -72,12 +79,26 @@ def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_40
         servo, how = fitted_controller(controller, osc, env, receivers, dac, root_seed(seed))
     else:
         servo, how = make_controller(controller, osc, env, receivers, dac), "datasheet"
+    from chronofuse.models.temperature import (CompensationTable, compensated_phase_s, diurnal_profile,
+                                               holdover_temperature_error_s)
+
+    temp_phase, temp_theory, table = 0.0, None, None
+    if temperature_amplitude_K:
+        temp = diurnal_profile(steps, mean_K=osc.temp_ref_K, amplitude_K=temperature_amplitude_K,
+                               phase_rad=-2.0 * math.pi * locked_s / 86_400.0)
+        if compensation_error is not None:
+            table = CompensationTable.from_tempco(osc.temp_coeff_per_K * (1.0 + compensation_error), osc.temp_ref_K,
+                                                  osc.temp_ref_K - 2 * temperature_amplitude_K,
+                                                  osc.temp_ref_K + 2 * temperature_amplitude_K)
+        temp_phase = compensated_phase_s(temp, osc.temp_coeff_per_K, osc.temp_ref_K, table)
+        temp_theory = holdover_temperature_error_s(temp, int(locked_s), horizons, osc.temp_coeff_per_K, table)
     ours_err, best_err = [], []
     for start in range(0, trials, chunk):
         n = min(chunk, trials - start)
         progress(f"holdover trials {start}..{start + n - 1} of {trials}")
         root = root_seed(seed + 1000 * (start // chunk))
         free, _ = _free_phase(osc, steps, n, root)
+        free = free + temp_phase
         rx = simulate_receivers(env, int(locked_s), receivers, child_seed(root, 1), trials=n)
         ref = np.full((n, steps), np.nan)
         ref[:, :locked_s] = np.nanmean(rx.pps_error_s + rx.epochs.qerr_s, axis=1)
@@ -102,10 +123,12 @@ def holdover_study(locked_s: int = 86_400, horizons_s=(3600.0, 4 * 3600.0, 86_40
         rows.append({"horizon_s": float(h), "ours_ns": o[0] * 1e9, "ours_ci_ns": _ci(tuple(v * 1e9 for v in o)),
                      "clairvoyant_ns": b[0] * 1e9, "clairvoyant_ci_ns": _ci(tuple(v * 1e9 for v in b)),
                      "clairvoyant_predicted_ns": float(predicted[locked_s + int(h)]) * 1e9,
-                     "floor_ns": float(floor[j]) * 1e9, "ratio": r[0], "ratio_ci": _ci(r)})
+                     "floor_ns": float(floor[j]) * 1e9, "ratio": r[0], "ratio_ci": _ci(r),
+                     **({} if temp_theory is None else {"temperature_theory_ns": float(temp_theory[j]) * 1e9})})
     return {"oscillator": oscillator, "receivers": receivers, "controller": controller, "design": how,
             "locked_s": int(locked_s),
-            "trials": int(trials), "seed": seed, "rows": rows}
+            "trials": int(trials), "seed": seed, "temperature_amplitude_K": temperature_amplitude_K,
+            "compensation_error": compensation_error, "rows": rows}
 
 
 def write_study(study: dict, out_dir) -> list[str]:

@@ -20,8 +20,12 @@ from chronofuse.experiments.scenario import Scenario, ScenarioError
 from chronofuse.experiments.swarm_network import follow_leader
 from chronofuse.models.environment import ReceiverEnvironment
 from chronofuse.models.oscillator import OscillatorModel
+from chronofuse.progress import within
 
-__all__ = ["discipline_and_swarm", "outage_window_s", "discipline_environment", "check_disciplinable",
+#: The clock classes the disciplined output is checked against, besides the scenario's own mask.
+OUTPUT_MASKS = ("prtc-a", "prtc-b", "g811")
+
+__all__ = ["OUTPUT_MASKS", "discipline_and_swarm", "outage_window_s", "discipline_environment", "check_disciplinable",
            "MIN_DURATION_S"]
 
 #: The shortest run the disciplining stage takes (the controller's settling time, twice).
@@ -79,8 +83,14 @@ def discipline_environment(scn: Scenario) -> ReceiverEnvironment:
 
 
 def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
-                         oscillator: OscillatorModel | None = None) -> tuple[dict, list[Path]]:
-    """Run both stages for ``scn``; returns the summary sections and the files written into ``out``.
+                         oscillator: OscillatorModel | None = None, span: tuple[float, float] = (0.0, 1.0)
+                         ) -> tuple[dict, list[Path]]:
+    """Run both stages for ``scn``; returns the summary sections, the files written into ``out`` and the
+    disciplined output's MTIE and TDEV (``{"mtie": Deviation, "tdev": Deviation}``, empty when skipped).
+
+    The disciplined 1PPS (trial 0, from :data:`~chronofuse.experiments.gnssdo.SETTLE_S` on, the outage in
+    holdover included) is checked against the scenario's mask and :data:`OUTPUT_MASKS`
+    (``sections["discipline"]["masks"]``: name -> ``ClockVerdict.to_dict()``).
 
     A run shorter than :data:`MIN_DURATION_S` has no room for the loop to settle: the section then says so.
     ``oscillator``: the scenario's oscillator with its overrides (default: the preset). The loop runs on the
@@ -91,22 +101,35 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
 
     if scn.duration_s < MIN_DURATION_S:
         return {"discipline": {"skipped": f"the run ({scn.duration_s:g} s) is shorter than the {MIN_DURATION_S:g} s "
-                                          "a disciplined oscillator needs to settle"}}, []
+                                          "a disciplined oscillator needs to settle"}}, [], {}
     check_disciplinable(scn)
     d = scn.discipline
     start, length = outage_window_s(scn)
     setup = GnssdoSetup(scenario=scn.receivers.scenario, controller=d.controller, receivers=scn.receivers.count,
                         duration_s=int(round(scn.duration_s)), seed=scn.seed, oscillator=scn.oscillator.preset,
                         oscillator_model=oscillator, outage_start_s=start if length > 0 else None, outage_s=length)
-    say(f"disciplining the {setup.oscillator} ({setup.controller}) through a {length:g} s GNSS outage")
-    sim = simulate_gnssdo(setup, say)
+    a, b = span
+    stage = within(say, a, a + 0.4 * (b - a))  # the simulation; measuring it takes as long again
+    stage(f"disciplining the {setup.oscillator} ({setup.controller}) through a {length:g} s GNSS outage")
+    sim = simulate_gnssdo(setup, stage)
+    say("measuring the disciplined output", a + 0.4 * (b - a))
     summary = evaluate(sim)
     sub = out / "discipline"
     sub.mkdir(parents=True, exist_ok=True)
     files = [sub / name for name in write_report(sim, summary, sub)]
     sections = {"discipline": {k: summary[k] for k in summary if k != "state_changes_trial0"}}
+    from chronofuse.analysis import stability
+    from chronofuse.analysis.masks import MASKS
+
+    output = np.asarray(sim["run"].phase_s[0, int(SETTLE_S):], dtype=float)
+    names = tuple(dict.fromkeys(((scn.analysis.mask,) if scn.analysis.mask else ()) + OUTPUT_MASKS))
+    sections["discipline"]["masks"] = {m: MASKS[m].check(output, 1.0).to_dict() for m in names}
+    sections["discipline"]["masks_record"] = (f"the disciplined 1PPS from {SETTLE_S:g} s (after settling) to the end, "
+                                              f"{output.size} s, the {length:g} s outage in holdover included")
+    curves = {stat: stability.compute(stat, output, 1.0, stability.tau_grid(scn.analysis.taus, output.size, 1.0, stat))
+              for stat in ("mtie", "tdev")}
     if scn.swarm.followers > 0:
-        say(f"{scn.swarm.followers} followers keeping the leader's time over two-way links")
+        say(f"{scn.swarm.followers} followers keeping the leader's time over two-way links", a + 0.9 * (b - a))
         leader = np.asarray(sim["run"].phase_s[0, 1:])  # after the first jam sync (the start-up phase step)
         n = scn.swarm.followers
         swarm = follow_leader(np.r_[leader, leader[-1], leader[-1]], interval_s=1.0, parents=(0,) * n,
@@ -123,4 +146,4 @@ def discipline_and_swarm(scn: Scenario, out: Path, say: Callable[[str], None],
             "to_leader_in_outage_rms_ns": [_rms_ns(e[outage]) for e in swarm.to_leader_s] if outage.any() else None,
         }
         files.append(plot_followers(swarm, outage, out / "swarm.png"))
-    return sections, files
+    return sections, files, curves

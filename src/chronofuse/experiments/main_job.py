@@ -10,7 +10,6 @@ this same job.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,10 +25,11 @@ from chronofuse.experiments.scenario import Scenario
 from chronofuse.models.oscillator import simulate_oscillator
 from chronofuse.models.oscillator_presets import preset
 from chronofuse.models.receiver import simulate_receivers
+from chronofuse.report.html import run_page
 from chronofuse.report.run_figures import write_run_figures
 from chronofuse.report.jsonio import dumps
 
-Progress = Callable[[str], None]
+from chronofuse.progress import Progress, silent
 
 
 @dataclass(frozen=True)
@@ -69,26 +69,26 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
 
     Returns the summary that is also written as ``summary.json``.
     """
-    say = progress or (lambda _msg: None)
+    say = progress or silent
     check_disciplinable(scn)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     seeds = np.random.SeedSequence(scn.seed).spawn(2)  # the children simulate_gnssdo draws the same run from
 
-    say("simulating the oscillator")
+    say("simulating the oscillator", 0.0)
     model = _oscillator_model(scn)
     osc = simulate_oscillator(model, scn.duration_s, scn.rate_hz, seeds[0], trials=1)
     t_s = osc.t_s
     osc_x = osc.x_s[0]
 
-    say(f"simulating {scn.receivers.count} receivers ({scn.receivers.scenario})")
+    say(f"simulating {scn.receivers.count} receivers ({scn.receivers.scenario})", 0.03)
     rx = simulate_receivers(discipline_environment(scn), int(round(scn.duration_s)), scn.receivers.count, seeds[1],
                             rate_hz=scn.rate_hz)
     pps = rx.pps_error_s[0] + rx.epochs.qerr_s[0]  # (receivers, steps): qErr-corrected 1PPS time error (u-blox sign)
     labels = [f"rx{i + 1}" for i in range(scn.receivers.count)]
     n = min(t_s.size, pps.shape[1])
 
-    say("analysing stability")
+    say("analysing stability", 0.12)
     taus = scn.analysis.taus
     osc_adev = stability.oadev(osc_x[:n], scn.rate_hz, stability.tau_grid(taus, n, scn.rate_hz, "oadev"))
     theory_tau = np.logspace(np.log10(osc_adev.tau_s[0]), np.log10(osc_adev.tau_s[-1]), 60)
@@ -110,7 +110,7 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
         grid = np.logspace(0, np.log10(max(scn.duration_s / 10, 10)), 200)
         mask_limits = {f"{scn.analysis.mask} {stat}": (grid, mask.limit_s(stat, grid)) for stat in ("mtie", "tdev")}
 
-    say("writing the report")
+    say("writing the report", 0.25)
     files = []
     frame = pd.DataFrame({"t_s": t_s[:n], "oscillator_x_ns": osc_x[:n] * 1e9})
     for label, series in zip(labels, pps[:, :n]):
@@ -129,13 +129,17 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
     files.append(out / "stability.csv")
     pd.DataFrame(rows).to_csv(files[-1], index=False, float_format="%.6g")
 
-    files += write_run_figures(out, t_s[:n], dict(zip(labels, pps[:, :n])), scn.receivers.scenario, model.name,
-                               osc_x[:n], osc_adev, (theory_tau, theory), rx_devs, mask_limits)
-
     chain: dict = {}
+    output_devs: dict = {}
     if scn.discipline.enabled:
-        chain, chain_files = discipline_and_swarm(scn, out, say, oscillator=model)
+        chain, chain_files, output_devs = discipline_and_swarm(scn, out, say, oscillator=model, span=(0.32, 1.0))
         files += chain_files
+    if output_devs and not mask_limits:  # the disciplined output is checked against the PRTC masks: draw them
+        grid = np.logspace(0, np.log10(max(scn.duration_s / 10, 10)), 200)
+        mask_limits = {f"{name} {stat}": (grid, MASKS[name].limit_s(stat, grid)) for name in ("prtc-a",)
+                       for stat in ("mtie", "tdev")}
+    files[2:2] = write_run_figures(out, t_s[:n], dict(zip(labels, pps[:, :n])), scn.receivers.scenario, model.name,
+                                   osc_x[:n], osc_adev, (theory_tau, theory), rx_devs, mask_limits, output_devs)
 
     summary = {
         "scenario": scn.model_dump(),
@@ -161,6 +165,8 @@ def run_scenario(scn: Scenario, out_dir: str | Path, progress: Progress | None =
         "files": [str(f.relative_to(out)) for f in files] + ["summary.json"],
     }
     files.append(out / "summary.json")
+    summary["files"].append("report.html")
     files[-1].write_text(dumps(summary))
+    files.append(run_page(summary, out))
     return RunReport(out_dir=out, summary=summary, files=tuple(files))
 

@@ -23,6 +23,7 @@ from chronofuse.models.earth_frame import EarthRotating
 from chronofuse.models.kinematics import climb, constant_velocity, manoeuvre, turn
 from chronofuse.models.link import Exchanges, LinkModel, node_clock_error_s, simulate_exchanges
 from chronofuse.models.oscillator_presets import preset
+from chronofuse.progress import Progress, silent
 from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.sync.base import measurement_array
 from chronofuse.sync.calibration import CalibrationConfig, UrtCalibration, calibrate_urt
@@ -212,8 +213,9 @@ def bound_of(sc: LinkScenario, ex: Exchanges, calibration: UrtCalibration | None
 
 def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, seed=0, urt_mode: str = "calibrated",
              threshold_s: float = 1e-9, networks: dict | None = None, outage: tuple[int, int] | None = None,
-             overrides: dict | None = None, variants: dict | None = None) -> dict:
-    """Run ``algorithms`` on ``trials`` links of ``sc`` (module docstring).
+             overrides: dict | None = None, variants: dict | None = None, progress: Progress = silent) -> dict:
+    """Run ``algorithms`` on ``trials`` links of ``sc`` (module docstring); ``progress(message, fraction)``
+    hears of each algorithm as it starts (:mod:`chronofuse.progress`).
 
     Returns a dict: per algorithm ``rmse_s`` and its interval ``rmse_ci_s``, ``ratio`` to the bound and
     ``ratio_ci``, ``convergence_epochs`` (K*: first exchange whose running RMSE over trials is below
@@ -241,7 +243,8 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
                                  "mse_per_trial_s2", "robustness")}
     runs = [(name, name, (overrides or {}).get(name, {})) for name in algorithms]
     runs += [(label, name, fields) for label, (name, fields) in (variants or {}).items()]
-    for name, algorithm, fields in runs:
+    for i, (name, algorithm, fields) in enumerate(runs):
+        progress(name, 0.1 + 0.9 * i / len(runs))
         alg = make_algorithm(algorithm, know, networks=networks, **fields).fit()
         err = alg.run(Z).offset_s - ex.offset_s
         mse = per_trial_mse(err)

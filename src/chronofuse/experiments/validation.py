@@ -280,14 +280,14 @@ def run_validation(data_dir=None, out_dir=None, *, quick: bool = False, seed: in
     settings = QUICK if quick else FULL
     timings, paths, numbers = {}, [], {"settings": settings.__dict__, "quick": bool(quick), "seed": seed}
     gps_x = read_record(stab / "gps" / "gps_1pps_phase_data.txt.gz", kind="phase", rate_hz=1.0).values
-    for key, run in (
+    for k, (key, run) in enumerate((
         ("gps", lambda: _gps_figures(out_dir, stab, gps_x, settings)),
         ("receiver", lambda: _receiver_figure(out_dir, stab, gps_x, settings, seed)),
         ("oscillators", lambda: _oscillator_figures(out_dir, settings, seed)),
         ("cs5071a", lambda: _cs_figures(out_dir, stab)),
-    ):
+    )):
         if progress is not None:
-            progress(key)
+            progress(key, k / 4)
         start = time.perf_counter()
         new_paths, numbers[key] = run()
         timings[key] = time.perf_counter() - start

@@ -89,6 +89,13 @@ class PointPositions:
     elevation_rad: np.ndarray
     source: str = ""
     problems: list[str] = field(default_factory=list)
+    #: The last pass's inputs, for integrity monitoring on the same measurements (epochs, sats): pseudoranges
+    #: corrected for satellite clock, ionosphere and troposphere (NaN: not usable), their 1-sigma (m), the
+    #: satellites' ECEF positions at emission (epochs, sats, 3) and each satellite's system index (sats,).
+    corrected_m: np.ndarray | None = None
+    sigma_m: np.ndarray | None = None
+    satellite_m: np.ndarray | None = None
+    system_index: np.ndarray | None = None
 
 
 def pseudoranges_for(obs, systems) -> tuple[list[str], np.ndarray, np.ndarray, dict[str, str]]:
@@ -220,7 +227,9 @@ def point_positions(obs, nav: GpsNavigation, systems=("G",), options: SppOptions
                           pdop=np.where(ok, fix.pdop, np.nan), hdop=np.where(ok, fix.hdop, np.nan),
                           vdop=np.where(ok, fix.vdop, np.nan), systems=systems, codes=codes, satellites=sats,
                           residual_m=np.where(ok[:, None], resid, np.nan), elevation_rad=el,
-                          source=getattr(obs, "source", ""))
+                          source=getattr(obs, "source", ""), corrected_m=np.where(usable, corrected, np.nan),
+                          sigma_m=np.where(usable, np.sqrt(var), np.nan), satellite_m=geo.satellite_m,
+                          system_index=np.asarray(sys_index))
 
 
 def enu_errors_m(position_m: np.ndarray, reference_m) -> np.ndarray:

@@ -146,6 +146,8 @@ class HodDetector:
         parameters fitted), so an underestimated noise level (the cause of the excess false alarms after
         short trainings) is covered. None (default): the fitted model as it is. The scale is ``inflation_``.
 
+    Notes
+    -----
     Learnt attributes (after :meth:`fit`): ``h0_``, ``hm2_``, ``sigma_rho_m_``, ``r_`` (r(0..2)),
     ``whitener_`` ((n, n), ``D = L^-1``), ``threshold_`` (gamma for ``n`` dof), ``thresholds_`` ((n+1,), per dof).
 

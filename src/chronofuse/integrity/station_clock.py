@@ -34,7 +34,7 @@ import numpy as np
 
 from chronofuse.integrity.common_mode import MIN_CLOCK_CHANNELS
 
-__all__ = ["CodeClock", "ClockEpoch", "leave_one_out_medians", "MIN_CLOCK_CHANNELS"]
+__all__ = ["CodeClock", "ClockEpoch", "leave_one_out_medians", "leave_one_out_medians_rows", "MIN_CLOCK_CHANNELS"]
 
 
 def leave_one_out_medians(values: np.ndarray, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -66,6 +66,35 @@ def leave_one_out_medians(values: np.ndarray, member: np.ndarray) -> tuple[np.nd
         lo = np.where(lo_pos < r, s[lo_pos], s[np.minimum(lo_pos + 1, m - 1)])
         hi = np.where(hi_pos < r, s[hi_pos], s[np.minimum(hi_pos + 1, m - 1)])
         out[idx] = 0.5 * (lo + hi)
+    return out, counts
+
+
+def leave_one_out_medians_rows(values: np.ndarray, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`leave_one_out_medians` of each row of ``values`` and ``member`` (R, C) at once, from one sort of
+    the rows (members first): ``(medians (R, C), counts (R, C))``."""
+    values = np.asarray(values, dtype=np.float64)
+    member = np.asarray(member, dtype=bool)
+    r, c = values.shape
+    m = member.sum(axis=1)  # (R,)
+    counts = np.where(member, m[:, None] - 1, m[:, None])
+    keyed = np.where(member, values, np.nan)
+    order = np.lexsort((keyed, ~member), axis=1)  # members first, each row's in ascending order (NaN last)
+    s = np.take_along_axis(keyed, order, axis=1)
+    rank = np.empty_like(order)
+    np.put_along_axis(rank, order, np.broadcast_to(np.arange(c), (r, c)), axis=1)
+    rows = np.arange(r)
+
+    def at(pos):
+        return s[rows[:, None] if np.ndim(pos) == 2 else rows, np.clip(pos, 0, c - 1)]
+
+    full = 0.5 * (at((m - 1) // 2) + at(m // 2))
+    k = m - 1
+    lo_pos, hi_pos = ((k - 1) // 2)[:, None], (k // 2)[:, None]
+    top = np.maximum(m - 1, 0)[:, None]
+    lo = np.where(lo_pos < rank, at(np.broadcast_to(lo_pos, (r, c))), at(np.minimum(lo_pos + 1, top)))
+    hi = np.where(hi_pos < rank, at(np.broadcast_to(hi_pos, (r, c))), at(np.minimum(hi_pos + 1, top)))
+    out = np.where(member, 0.5 * (lo + hi), full[:, None])
+    out = np.where((m[:, None] == 0) | (member & (m[:, None] < 2)), np.nan, out)
     return out, counts
 
 
@@ -119,10 +148,9 @@ class CodeClock:
         a = np.where(valid, b - offset, np.nan)
         # 3. leave-one-out clocks over the other channels
         pair = valid & np.isfinite(prev_a) & ~out
-        med_now, n_pair = leave_one_out_medians(np.where(pair, a, np.nan), pair)
-        med_prev, _ = leave_one_out_medians(np.where(pair, prev_a, np.nan), pair)
         now_set = valid & ~out
-        restart_level, n_now = leave_one_out_medians(np.where(now_set, a, np.nan), now_set)
+        meds, ns = leave_one_out_medians_rows(np.stack([a, prev_a, a]), np.stack([pair, pair, now_set]))
+        (med_now, med_prev, restart_level), n_pair, n_now = meds, ns[0], ns[2]
         moving = np.isfinite(loo) & (n_pair >= MIN_CLOCK_CHANNELS)
         restarting = ~moving & (n_now >= MIN_CLOCK_CHANNELS)
         new_loo = np.where(moving, loo + (med_now - med_prev), np.where(restarting, restart_level, np.nan))

@@ -171,6 +171,8 @@ class StationIdentification:
         self._groups = np.array([self.codes.index(c) for _, c in self.channels], dtype=np.intp)
         self.satellites = list(dict.fromkeys(s for s, _ in self.channels))
         self._sat_of = np.array([self.satellites.index(s) for s, _ in self.channels], dtype=np.intp)
+        self._group_mask = [self._groups == g for g in range(len(self.codes))]
+        self._group_idx = [np.flatnonzero(m) for m in self._group_mask]
 
     # -- fitting ---------------------------------------------------------------------------------------------
 
@@ -226,7 +228,7 @@ class StationIdentification:
         epochs = []
         common = np.nan
         for g, clock in enumerate(self._clocks):
-            idx = np.flatnonzero(self._groups == g)
+            idx = self._group_idx[g]
             e = clock.step(bias[idx], excl[idx])
             epochs.append(e)
             resid[idx] = e.residual_s
@@ -246,8 +248,9 @@ class StationIdentification:
             noise = self.noise_.get(code)
             if noise is None:
                 continue
-            for k in np.unique(dof[(self._groups == g) & ok]):
-                rows = np.flatnonzero((self._groups == g) & ok & (dof == k))
+            here = self._group_mask[g] & ok
+            for k in np.unique(dof[here]):
+                rows = np.flatnonzero(here & (dof == k))
                 dk = noise.whiteners[noise.whitener_index(el[rows])][:, :k, :k]
                 w = np.einsum("nij,nj->ni", dk, window[rows, n - k:])
                 innov[rows] = w[:, -1]
@@ -367,7 +370,7 @@ class StationIdentification:
         p = p_station.copy()
         for g, code in enumerate(self.codes):
             noise = self.noise_.get(code)
-            rows = np.flatnonzero((self._groups == g) & (st.arc_m > 0) & (dof > 0) & np.isfinite(stat))
+            rows = np.flatnonzero(self._group_mask[g] & (st.arc_m > 0) & (dof > 0) & np.isfinite(stat))
             if noise is None or rows.size == 0:
                 continue
             nu = noise.tail_dof if math.isfinite(noise.tail_dof) else 1e6

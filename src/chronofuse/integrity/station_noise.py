@@ -52,9 +52,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
-from scipy import linalg, optimize, stats
+from scipy import optimize, stats
 
 from chronofuse.integrity.noise_model import difference_autocorrelation, fit_noise_whittle
+from chronofuse.integrity.statistic import toeplitz_whiteners
 from chronofuse.validation import check_scalar
 
 __all__ = ["CodeNoise", "fit_code_noise", "DEFAULT_BANDS_DEG", "MIN_BAND_DIFFERENCES", "ELEVATION_GRID_DEG"]
@@ -69,13 +70,6 @@ MIN_BAND_DIFFERENCES = 400
 ELEVATION_GRID_DEG = np.arange(0, 91)
 
 _MIN_TAIL_WINDOWS = 50
-
-
-def _whitener(r: np.ndarray, n: int) -> np.ndarray:
-    col = np.zeros(n)
-    col[: min(3, n)] = r[: min(3, n)]
-    chol = linalg.cholesky(linalg.toeplitz(col), lower=True)
-    return linalg.solve_triangular(chol, np.eye(n), lower=True)
 
 
 @dataclass(frozen=True)
@@ -103,7 +97,7 @@ class CodeNoise:
 
     def __post_init__(self):
         if self.whiteners is None:
-            object.__setattr__(self, "whiteners", np.stack([_whitener(r, self.window) for r in self.r_at(ELEVATION_GRID_DEG)]))
+            object.__setattr__(self, "whiteners", toeplitz_whiteners(self.r_at(ELEVATION_GRID_DEG), self.window))
 
     def r_at(self, elevation_deg) -> np.ndarray:
         """``r(0..2)`` (m^2) at elevations (deg), shape ``elevation.shape + (3,)``: linear between band centres."""
@@ -112,8 +106,8 @@ class CodeNoise:
 
     def whitener_index(self, elevation_deg) -> np.ndarray:
         """The row of :attr:`whiteners` for each elevation (deg): the nearest whole degree, 0..90."""
-        e = np.nan_to_num(np.asarray(elevation_deg, dtype=np.float64), nan=0.0)
-        return np.clip(np.rint(e), 0, 90).astype(np.intp)
+        e = np.asarray(elevation_deg, dtype=np.float64)
+        return np.clip(np.rint(np.where(np.isnan(e), 0.0, e)), 0, 90).astype(np.intp)
 
     def p_value(self, statistic, dof) -> np.ndarray:
         """Tail probability of window statistics ``T`` of ``dof`` differences under the model (NaN where

@@ -32,6 +32,8 @@ tail probability; the window's last ``k`` rows are what :func:`signature_table` 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy import special
 
@@ -58,6 +60,12 @@ def signatures(n: int) -> np.ndarray:
 def f_tail(x: np.ndarray, dof, tail_dof: float) -> np.ndarray:
     """``P(F(dof, nu) > x)``, with ``nu = inf`` read as ``chi2(dof) / dof`` (scipy's ``fdtrc``/``chdtrc`` ufuncs:
     the same values as ``stats.f.sf``/``stats.chi2.sf`` without their per-call overhead)."""
+    if np.ndim(tail_dof) == 0:  # one tail for all (the identification's case): no broadcasting, one ufunc
+        x = np.maximum(np.asarray(x, dtype=np.float64), 0.0)
+        with np.errstate(invalid="ignore"):
+            if math.isinf(tail_dof):
+                return special.chdtrc(dof, x * np.asarray(dof, dtype=np.float64))
+            return special.fdtrc(dof, float(tail_dof), x)
     x, dof, nu = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(dof, dtype=np.float64),
                                      np.asarray(tail_dof, dtype=np.float64))
     gauss = np.isinf(nu)

@@ -84,6 +84,19 @@ def _field(layout: Layout, logical: int) -> int:
     return logical + 1 if layout.pair is not None and logical > layout.pair else logical
 
 
+def column_index(layout: Layout, path: Path, column: str) -> int:
+    """Logical index of ``column`` (a header name, or a 1-based number) in ``layout``; an unknown one is an
+    :class:`InputDataError` listing the columns."""
+    logical = layout.width - (layout.pair is not None)
+    names = layout.header if layout.header is not None else [str(i + 1) for i in range(logical)]
+    if column in names:
+        return names.index(column)
+    if column.isdigit() and 1 <= int(column) <= logical:
+        return int(column) - 1
+    raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{logical})", str(path),
+                         layout.header_line or layout.first_data_line)
+
+
 def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | None, facts: HeaderFacts,
                    first_row: list[str], is_stamp) -> ColumnChoice:
     """Pick the time and value columns of ``layout`` and resolve the kind and unit (module docstring)."""
@@ -106,13 +119,7 @@ def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | N
         elif 0 not in index:
             time_idx = 0
     if column is not None:
-        if column in names:
-            value_idx = names.index(column)
-        elif column.isdigit() and 1 <= int(column) <= logical:
-            value_idx = int(column) - 1
-        else:
-            raise InputDataError(f"column {column!r} not found; columns are {names} (or 1..{logical})", str(path),
-                                 layout.header_line or layout.first_data_line)
+        value_idx = column_index(layout, path, column)
     else:
         left = [i for i in range(logical) if i != time_idx and i not in index]
         if len(left) != 1:

@@ -438,3 +438,18 @@ def _si_name(name: str, kind: str) -> str:
 def column_names(path: str | Path) -> list[str] | None:
     """The header names of a record file as :func:`read_record` reads them, or None when it has no header."""
     return sniff(Path(path)).header
+
+
+def read_side_column(path: str | Path, column: str, size: int) -> np.ndarray:
+    """The values of one more column of a text record (a temperature beside the phase), as read, one per
+    sample of the record (``size`` of them: a record whose time column skips samples is refused)."""
+    path = Path(path)
+    from chronofuse.io.record_columns import _field, column_index
+
+    layout = sniff(path)
+    field = _field(layout, column_index(layout, path, column))
+    values, _, _ = read_columns(path, layout, field, None)
+    if values.size != size:
+        raise InputDataError(f"column {column!r} has {values.size} values where the record has {size} samples (a "
+                             "time column that skips samples): give it on a gap-free record", str(path))
+    return values

@@ -210,6 +210,7 @@ def simulate_oscillator(
     *,
     temperature_K=None,
     efc_V=None,
+    first_trial: int = 0,
 ) -> OscillatorTruth:
     """Simulate ``trials`` independent realisations of ``model`` (see the module docstring for the maths).
 
@@ -224,6 +225,9 @@ def simulate_oscillator(
         :func:`chronofuse.seeding.root_seed`; trial ``i`` uses the child ``spawn_key + (i,)`` of the
         root: its result does not depend on ``trials``.
     trials : int
+    first_trial : int
+        The first trial's index: the result's trial ``i`` is trial ``first_trial + i`` of a larger run (the
+        same numbers), so a run can be simulated in blocks of trials.
     temperature_K : array of shape (steps,) or (trials, steps), optional
         Oscillator temperature at each ``t_s``, K, held over the step.
     efc_V : array of shape (steps,) or (trials, steps), optional
@@ -240,6 +244,8 @@ def simulate_oscillator(
     check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
     check_scalar(trials, "trials", min_val=1, integer=True)
     trials = int(trials)
+    check_scalar(first_trial, "first_trial", min_val=0, integer=True)
+    first = int(first_trial)
     steps = int(round(duration_s * rate_hz))
     if steps < 2:
         raise InputError(f"{{duration_s}} * {{rate_hz}} == {duration_s * rate_hz}, must round to at least 2 steps",
@@ -256,18 +262,18 @@ def simulate_oscillator(
     phase = np.zeros((trials, steps + 1), dtype=np.float64) if (h.h2 > 0.0 or h.h1 > 0.0) else None
 
     if h.h0 > 0.0:
-        _add_white_fm(y, h.h0, f_h, base)
+        _add_white_fm(y, h.h0, f_h, base, first)
     if h.hm2 > 0.0:
-        _add_random_walk_fm(y, h.hm2, tau0, base)
+        _add_random_walk_fm(y, h.hm2, tau0, base, first)
     if h.h2 > 0.0:
         sigma = math.sqrt(h.h2 * f_h) / (2.0 * math.pi)
         for i in range(trials):
-            white = _component_rng(base, i, "h2").standard_normal(steps + 1)
+            white = _component_rng(base, first + i, "h2").standard_normal(steps + 1)
             white *= sigma
             phase[i] += white
             del white
     if h.hm1 > 0.0 or h.h1 > 0.0:
-        _add_flicker(y, phase, h, base)
+        _add_flicker(y, phase, h, base, first)
 
     # Deterministic terms.
     t_s = np.arange(steps, dtype=np.float64) * tau0
@@ -293,16 +299,16 @@ def simulate_oscillator(
     return OscillatorTruth(t_s=t_s, x_s=x, y=y, model=model, rate_hz=float(rate_hz))
 
 
-def _add_white_fm(y: np.ndarray, h0: float, f_h: float, base: np.random.SeedSequence) -> None:
+def _add_white_fm(y: np.ndarray, h0: float, f_h: float, base: np.random.SeedSequence, first: int = 0) -> None:
     """White FM: ``y`` white with variance ``h0 f_h`` (AVAR ``h0 / (2 tau)``), added in place."""
     sigma = math.sqrt(h0 * f_h)
     for i in range(y.shape[0]):
-        white = _component_rng(base, i, "h0").standard_normal(y.shape[1])
+        white = _component_rng(base, first + i, "h0").standard_normal(y.shape[1])
         white *= sigma
         y[i] += white
 
 
-def _add_random_walk_fm(y: np.ndarray, hm2: float, tau0: float, base: np.random.SeedSequence) -> None:
+def _add_random_walk_fm(y: np.ndarray, hm2: float, tau0: float, base: np.random.SeedSequence, first: int = 0) -> None:
     """Random-walk FM, exact discretisation of an integrated Wiener process, added to ``y`` in place.
 
     With ``q = 2 pi^2 hm2`` and ``z1, z2`` unit normals per step: ``y(t_{n+1}) = y(t_n) + sqrt(q tau0) z1``
@@ -311,7 +317,7 @@ def _add_random_walk_fm(y: np.ndarray, hm2: float, tau0: float, base: np.random.
     """
     q = 2.0 * math.pi**2 * hm2
     for i in range(y.shape[0]):
-        rng = _component_rng(base, i, "hm2")
+        rng = _component_rng(base, first + i, "hm2")
         kicks = rng.standard_normal(y.shape[1])
         kicks *= math.sqrt(q * tau0)
         walk = np.cumsum(kicks)
@@ -326,7 +332,8 @@ def _add_random_walk_fm(y: np.ndarray, hm2: float, tau0: float, base: np.random.
         del walk
 
 
-def _add_flicker(y: np.ndarray, phase: np.ndarray | None, h: PowerLaw, base: np.random.SeedSequence) -> None:
+def _add_flicker(y: np.ndarray, phase: np.ndarray | None, h: PowerLaw, base: np.random.SeedSequence,
+                 first: int = 0) -> None:
     """Flicker FM into ``y`` and flicker PM into ``phase`` (K-W, alpha = -1, shaped), in place.
 
     Flicker FM: ``sqrt(pi hm1)`` times K-W flicker shaped by ``flicker_fm_gain``; flicker PM:
@@ -337,9 +344,9 @@ def _add_flicker(y: np.ndarray, phase: np.ndarray | None, h: PowerLaw, base: np.
     if h.hm1 > 0.0:
         kw = KasdinWalterFilter(-1.0, steps, gain=tabulated_gain(flicker_fm_gain))
         for i in range(trials):
-            kw.add_row(y[i], _component_rng(base, i, "hm1"), math.sqrt(math.pi * h.hm1))
+            kw.add_row(y[i], _component_rng(base, first + i, "hm1"), math.sqrt(math.pi * h.hm1))
         del kw
     if h.h1 > 0.0:
         kw = KasdinWalterFilter(-1.0, steps + 1, gain=flicker_pm_gain)
         for i in range(trials):
-            kw.add_row(phase[i], _component_rng(base, i, "h1"), math.sqrt(h.h1 / (4.0 * math.pi)))
+            kw.add_row(phase[i], _component_rng(base, first + i, "h1"), math.sqrt(h.h1 / (4.0 * math.pi)))

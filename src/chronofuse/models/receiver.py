@@ -187,7 +187,7 @@ _STREAM_LAYOUT = (
 
 
 def _draw(root: np.random.SeedSequence, trials: int, receivers: int, steps: int,
-          outage_mean_steps: float) -> dict[str, np.ndarray]:
+          outage_mean_steps: float, first_trial: int = 0) -> dict[str, np.ndarray]:
     """Every stream's random numbers, each of shape (trials, receivers, length), filled in place."""
     draw = {}
     for name, law, extra in _STREAM_LAYOUT:
@@ -196,7 +196,7 @@ def _draw(root: np.random.SeedSequence, trials: int, receivers: int, steps: int,
     p_geometric = min(1.0, 1.0 / outage_mean_steps)
     for i in range(trials):
         for j in range(receivers):
-            rng = child_rng(root, i, j)
+            rng = child_rng(root, first_trial + i, j)
             for name, law, _ in _STREAM_LAYOUT:
                 out = draw[name][i, j]
                 if law == "normal":
@@ -315,6 +315,7 @@ def simulate_receivers(
     leap_s: int = GPS_MINUS_UTC_S,
     leap_event_gps_s: int | None = None,
     leap_announce_s: int = 86_400,
+    first_trial: int = 0,
 ) -> ReceiverTruth:
     """Simulate ``n_receivers`` receivers at one site, independent errors, ``trials`` times.
 
@@ -332,6 +333,8 @@ def simulate_receivers(
     leap_s : GPS - UTC at the start (s).
     leap_event_gps_s : first GPS second with ``leap_s + 1`` (a positive leap second); ``None``: none.
     leap_announce_s : ``leap_pending`` is +1 this long before the event.
+    first_trial : the first trial's index ``i`` in the seeding above: the result's trial ``t`` is trial
+        ``first_trial + t`` of a larger run (the same numbers), so a run can be simulated in blocks of trials.
 
     Returns
     -------
@@ -343,6 +346,7 @@ def simulate_receivers(
     model = env.model
     check_scalar(n_receivers, "n_receivers", min_val=1, integer=True)
     check_scalar(trials, "trials", min_val=1, integer=True)
+    check_scalar(first_trial, "first_trial", min_val=0, integer=True)
     period_s, gps_s = _epoch_grid(duration_s, rate_hz, start_gps_s)
     leap, pending = _leap_schedule(gps_s, leap_s, leap_event_gps_s, leap_announce_s)
     affected = env.affected_mask(n_receivers)
@@ -351,7 +355,7 @@ def simulate_receivers(
     shape = (int(trials), int(n_receivers), steps)
 
     # Random numbers: one SeedSequence child per (trial, receiver).
-    draw = _draw(root_seed(seed), shape[0], shape[1], steps, model.outage_mean_s / dt)
+    draw = _draw(root_seed(seed), shape[0], shape[1], steps, model.outage_mean_s / dt, int(first_trial))
     gdop, n_sats = _geometry(model, gauss_markov(draw.pop("geometry"), 1.0, model.gdop_tau_s, dt))
     error = _solution_error(model, draw, gdop / model.gdop_median, dt)
 

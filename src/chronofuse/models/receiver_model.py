@@ -76,7 +76,7 @@ class ReceiverModel:
     clock_freq_offset_max : bound of the oscillator's fractional frequency offset (uniform).
     clock_initial_bias_max_s : bound of the initial clock bias (uniform, s).
     clock_h0 : white FM level h0 of the receiver oscillator (s, i.e. 1/Hz).
-    clock_hm2 : random-walk FM level h_-2 (1/s, i.e. Hz).
+    clock_hm2 : random-walk FM level ``h_-2`` (1/s, i.e. Hz).
     """
 
     white_sigma_s: float = 3.33e-9

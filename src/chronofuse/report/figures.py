@@ -51,26 +51,47 @@ def save_figure(fig: Figure, path: str | Path) -> Path:
     return path
 
 
+def legend_outside(ax: Axes) -> None:
+    """The legend to the right of the axes, where it covers no data."""
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
+
+
 def log_log_axes(ax: Axes, xlabel: str, ylabel: str) -> None:
-    """Finish a log-log plot: both axes logarithmic, labelled, a light grid at every tick, a small legend."""
+    """Finish a log-log plot: both axes logarithmic, labelled, a light grid at every tick, the legend outside."""
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    legend_outside(ax)
+
+
+def time_axis(span_s: float) -> tuple[float, str]:
+    """(seconds per unit, unit) for a time axis that spans ``span_s``: s up to 10 min, min up to 3 h, h beyond."""
+    if span_s <= 600:
+        return 1.0, "s"
+    if span_s <= 3 * 3600:
+        return 60.0, "min"
+    return 3600.0, "h"
+
+
+#: Markers and line styles cycled per curve, so that equal curves drawn over each other all stay visible.
+CURVE_STYLES = (("o", "-"), ("s", "--"), ("^", ":"), ("D", "-."), ("v", (0, (5, 1))), ("x", (0, (1, 1))))
 
 
 def plot_time_error(t_s: np.ndarray, series_s: dict[str, np.ndarray], path: str | Path, *, title: str = "") -> Path:
-    """Plot time-error series (seconds in, nanoseconds on the axis) against time in hours."""
+    """Plot time-error series (seconds in, nanoseconds on the axis) against time in s, min or h (:func:`time_axis`)."""
     fig, ax = new_figure((9, 4.5))
+    t = np.asarray(t_s, float)
+    unit_s, unit = time_axis(float(np.nanmax(t) - np.nanmin(t)) if t.size else 0.0)
     for label, values in series_s.items():
-        tt, vv = _decimate(np.asarray(t_s, float), np.asarray(values, float) * 1e9)
-        ax.plot(tt / 3600.0, vv, lw=0.6, label=label)
-    ax.set_xlabel("time (h)")
+        tt, vv = _decimate(t, np.asarray(values, float) * 1e9)
+        ax.plot(tt / unit_s, vv, lw=0.6, label=label)
+    ax.set_xlabel(f"time ({unit})")
     ax.set_ylabel("time error (ns)")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    legend_outside(ax)
     if title:
         ax.set_title(title)
     return save_figure(fig, path)
@@ -84,27 +105,34 @@ def plot_deviations(
     limits: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
     ylabel: str = "deviation",
     title: str = "",
+    scale: float = 1.0,
 ) -> Path:
     """Log-log plot of deviations with their confidence intervals, theory curves and mask limits.
 
-    ``theory`` and ``limits`` map a label to ``(tau_s, value)`` arrays.
+    ``theory`` and ``limits`` map a label to ``(tau_s, value)`` arrays. ``scale`` multiplies every value
+    (1e9 for time quantities, MTIE and TDEV, drawn in ns with ``ylabel`` saying so). Each curve has its own
+    marker and line style (:data:`CURVE_STYLES`), the masks their own, so none hides another.
     """
-    fig, ax = new_figure((7.5, 5))
-    for label, dev in deviations.items():
+    fig, ax = new_figure((8.5, 5))
+    for i, (label, dev) in enumerate(deviations.items()):
         ok = np.isfinite(dev.dev) & (dev.dev > 0)
         if not ok.any():
             continue
+        marker, style = CURVE_STYLES[i % len(CURVE_STYLES)]
+        size = 3 + 1.5 * (len(deviations) - 1 - i)  # the first curves larger: the ones drawn over them leave them seen
         has_ci = np.isfinite(dev.lo[ok]).any()
         if has_ci:
-            yerr = np.vstack([dev.dev[ok] - dev.lo[ok], dev.hi[ok] - dev.dev[ok]])
+            yerr = np.vstack([dev.dev[ok] - dev.lo[ok], dev.hi[ok] - dev.dev[ok]]) * scale
             yerr = np.where(np.isfinite(yerr), yerr, 0.0)
-            ax.errorbar(dev.tau_s[ok], dev.dev[ok], yerr=yerr, fmt="o-", ms=3, lw=1, capsize=2, label=label)
+            ax.errorbar(dev.tau_s[ok], dev.dev[ok] * scale, yerr=yerr, marker=marker, ls=style, ms=size, lw=1,
+                        capsize=2, mfc="none", label=label)
         else:
-            ax.plot(dev.tau_s[ok], dev.dev[ok], "o-", ms=3, lw=1, label=label)
+            ax.plot(dev.tau_s[ok], dev.dev[ok] * scale, marker=marker, ls=style, ms=size, lw=1, mfc="none", label=label)
     for label, (tau, value) in (theory or {}).items():
-        ax.plot(tau, value, "--", lw=1.2, label=label)
-    for label, (tau, value) in (limits or {}).items():
-        ax.plot(tau, value, "k-", lw=1.5, alpha=0.7, label=label)
+        ax.plot(tau, np.asarray(value) * scale, "--", lw=1.2, label=label)
+    for i, (label, (tau, value)) in enumerate((limits or {}).items()):
+        colour, style = (("k", "-"), ("tab:red", "--"), ("tab:purple", ":"), ("tab:brown", "-."))[i % 4]
+        ax.plot(tau, np.asarray(value) * scale, color=colour, ls=style, lw=1.6, alpha=0.8, label=label)
     log_log_axes(ax, "tau (s)", ylabel)
     if title:
         ax.set_title(title)
@@ -125,7 +153,7 @@ def plot_with_references(deviations: dict[str, Deviation], references: dict[str,
     :func:`plot_deviations` draws references as dashed lines hidden under equal points, and every limit
     in one style, hence this variant.
     """
-    fig, ax = new_figure((7.5, 5))
+    fig, ax = new_figure((8.5, 5))
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for i, (label, dev) in enumerate(deviations.items()):
         yerr = np.vstack([dev.dev - dev.lo, dev.hi - dev.dev])

@@ -9,6 +9,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from chronofuse.discipline.states import State
+from chronofuse.report.figures import legend_outside
 
 _STATE_COLOURS = {State.FREE_RUN: "#dddddd", State.ACQUIRING: "#fde9b0", State.LOCKED: "#d8f0d8",
                   State.HOLDOVER: "#f7c6c6", State.RECOVERY: "#cfe0fb", State.ALARM: "#f4a259"}
@@ -21,7 +22,7 @@ def _decimated(t: np.ndarray, v: np.ndarray, keep: int = 20_000):
 
 def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> Path:
     """Time error of trial 0 (ns) against hours, the clairvoyant servo's beside it, states shaded."""
-    fig = Figure(figsize=(9, 4))
+    fig = Figure(figsize=(10.5, 4))
     FigureCanvasAgg(fig)
     ax = fig.subplots()
     hours = t_s / 3600.0
@@ -41,7 +42,7 @@ def plot_time_error(t_s, phase_s, optimal_s, states, path: Path, title: str) -> 
     ax.set_xlabel("time (h)")
     ax.set_ylabel("time error (ns)")
     ax.set_title(title)
-    ax.legend(loc="upper right", fontsize=7, ncol=3)
+    legend_outside(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -60,11 +61,16 @@ def plot_adev(adev: dict, path: Path, title: str) -> Path:
             ax.loglog(tau, dev, "o-", ms=3, color=colour, label=label)
     env = np.fmin(np.asarray(adev["free_run"]["dev"], dtype=float), np.asarray(adev["gnss"]["dev"], dtype=float))
     ax.loglog(adev["free_run"]["tau"], env, "k--", lw=0.8, label="lower envelope")
+    return _finish_adev(fig, ax, path, title)
+
+
+def _finish_adev(fig, ax, path: Path, title: str) -> Path:
+    """Label an ADEV plot's axes, title and legend, and write it (110 dpi)."""
     ax.set_xlabel("tau (s)")
     ax.set_ylabel("overlapping ADEV")
     ax.grid(True, which="both", lw=0.3)
     ax.set_title(title)
-    ax.legend(fontsize=8)
+    legend_outside(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -83,7 +89,7 @@ def plot_holdover(t_s, phase_s, optimal_s, start_s: float, stop_s: float, path: 
     ax.set_ylabel("accumulated time error (ns)")
     ax.set_title(title)
     ax.grid(True, lw=0.3)
-    ax.legend()
+    legend_outside(ax)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
@@ -103,3 +109,29 @@ def write_report(sim: dict, summary: dict, out_dir: Path) -> list[str]:
                                    env.jamming_start_s + env.jamming_duration_s, out_dir / "holdover.png",
                                    f"Holdover ({label})").name)
     return files
+
+
+def plot_characterization(doc: dict, path: Path, title: str) -> Path:
+    """A characterised oscillator: the measured ADEV with its simultaneous intervals, the fitted model's ADEV
+    and each power-law term's (``doc``: :meth:`~chronofuse.discipline.characterize.Characterization.to_dict`)."""
+    from chronofuse.analysis.theory import avar_components
+    from chronofuse.models.oscillator import PowerLaw
+
+    a = doc["adev"]
+    tau, dev = np.asarray(a["tau_s"]), np.asarray(a["measured"])
+    lo, hi = np.asarray(a["lo"]), np.asarray(a["hi"])
+    fig = Figure(figsize=(6.5, 4.5))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    ax.errorbar(tau, dev, yerr=[dev - lo, hi - dev], fmt="o", ms=3, color="C0", capsize=2,
+                label=f"measured OADEV ({a['family_ci']:.0%} simultaneous intervals)")
+    ax.loglog(tau, a["model"], "-", color="C3", label="fitted model")
+    dense = np.logspace(np.log10(tau[0]), np.log10(tau[-1]), 200)
+    parts = avar_components(PowerLaw(**doc["h"]), dense, doc["rate_hz"])
+    for key, label in (("h2", "white PM"), ("h1", "flicker PM"), ("h0", "white FM"), ("hm1", "flicker FM"),
+                       ("hm2", "random-walk FM")):
+        if doc["h"][key] > 0:
+            ax.loglog(dense, np.sqrt(parts[key]), ":", lw=0.9, label=label)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    return _finish_adev(fig, ax, path, title)

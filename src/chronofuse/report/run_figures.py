@@ -21,6 +21,7 @@ def write_run_figures(
     theory: tuple[np.ndarray, np.ndarray],
     receiver_devs: dict[str, dict[str, Deviation]],
     mask_limits: dict[str, tuple[np.ndarray, np.ndarray]],
+    output_devs: dict[str, Deviation] | None = None,
 ) -> list[Path]:
     """Write the run's PNGs into ``out``; return their paths in the order written.
 
@@ -28,7 +29,8 @@ def write_run_figures(
     ``oscillator_phase.png`` (the free-running phase ``oscillator_x_s``), ``adev.png`` (the oscillator's
     OADEV with ``theory`` = (tau_s, ADEV), and each receiver's OADEV when computed), and ``mtie.png`` /
     ``tdev.png`` when the receivers' deviations include them, with the ``mask_limits`` whose label ends in
-    that statistic.
+    that statistic, and the disciplined output's curve of ``output_devs`` (statistic -> Deviation) beside the
+    receivers'; MTIE and TDEV in ns.
     """
     files = [out / "time_error.png"]
     plot_time_error(t_s, pps_s, files[-1], title=f"1PPS time error after qErr correction ({receiver_scenario})")
@@ -40,10 +42,13 @@ def write_run_figures(
     files.append(out / "adev.png")
     plot_deviations(adev_curves, files[-1], theory={f"{oscillator_name} theory": theory},
                     ylabel="Allan deviation", title="Stability: oscillator (with theory) and receivers")
-    for stat, ylabel in (("mtie", "MTIE (s)"), ("tdev", "TDEV (s)")):
+    for stat, ylabel in (("mtie", "MTIE (ns)"), ("tdev", "TDEV (ns)")):
         curves = {label: devs[stat] for label, devs in receiver_devs.items() if stat in devs}
+        if stat in (output_devs or {}):
+            curves["disciplined output"] = output_devs[stat]
         if curves:
             files.append(out / f"{stat}.png")
             limits = {k: v for k, v in mask_limits.items() if k.endswith(stat)}
-            plot_deviations(curves, files[-1], limits=limits, ylabel=ylabel, title=f"Receivers' {stat.upper()}")
+            who = "Receivers and the disciplined output" if output_devs else "Receivers"
+            plot_deviations(curves, files[-1], limits=limits, ylabel=ylabel, title=f"{who}: {stat.upper()}", scale=1e9)
     return files

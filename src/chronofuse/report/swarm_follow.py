@@ -8,11 +8,13 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from chronofuse.report.figures import legend_outside
+
 
 def plot_followers(swarm, outage: np.ndarray, path: Path) -> Path:
     """Two panels over time: followers to the leader (ns), and leader and followers to true time (ns); the
     leader's GNSS outage shaded."""
-    fig = Figure(figsize=(9, 6))
+    fig = Figure(figsize=(10.5, 6))
     FigureCanvasAgg(fig)
     top, bottom = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2, sharex=None)
     t_h = swarm.t_s / 3600.0
@@ -29,8 +31,8 @@ def plot_followers(swarm, outage: np.ndarray, path: Path) -> Path:
     top.set_ylabel("to the leader (ns)")
     bottom.set_ylabel("to true time (ns)")
     bottom.set_xlabel("time (h)")
-    top.legend(loc="upper right", fontsize=8)
-    bottom.legend(loc="upper right", fontsize=8)
+    legend_outside(top)
+    legend_outside(bottom)
     top.set_title("Swarm: followers over two-way links")
     fig.tight_layout()
     fig.savefig(path, dpi=110)

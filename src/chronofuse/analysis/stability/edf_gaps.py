@@ -19,6 +19,7 @@ saves time): on records without gaps the two agree to the truncation's own accur
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy import fft as sfft
 
@@ -28,13 +29,50 @@ from chronofuse.analysis.stability.kernels_edf import weighted_sz_sum
 __all__ = ["pair_counts", "edf_from_terms"]
 
 
+#: Below this many (missing term, lag) pairs the counts come from the missing terms (:func:`_pairs_from_missing`)
+#: rather than the FFT: at 16384 terms the FFT takes 0.45 ms whatever the gaps, the direct count 1 ns a pair.
+_DIRECT_PAIRS = 200_000
+_FLOAT32_TERMS = 1 << 15
+
+
+@numba.njit(cache=True, nogil=True)
+def _pairs_from_missing(kept: np.ndarray, missing: np.ndarray, lags: int) -> np.ndarray:
+    """:func:`pair_counts` from the missing terms alone: ``c(j) = (M - j) - (a(j) + b(j) - both(j))`` with
+    ``a``/``b`` the missing terms among the first/last ``M - j`` and ``both`` the missing pairs ``j`` apart."""
+    size = kept.size
+    prefix = np.zeros(size + 1, dtype=np.int64)  # missing terms before each index
+    for i in range(size):
+        prefix[i + 1] = prefix[i] + (0 if kept[i] else 1)
+    both = np.zeros(lags + 1, dtype=np.int64)
+    for i in missing:
+        top = min(lags, size - 1 - i)
+        for j in range(1, top + 1):
+            if not kept[i + j]:
+                both[j] += 1
+    out = np.empty(lags + 1)
+    for j in range(lags + 1):
+        first = prefix[size - j]
+        second = prefix[size] - prefix[j]
+        out[j] = (size - j) - (first + second - (both[j] if j else prefix[size]))
+    return out
+
+
 def pair_counts(kept: np.ndarray, max_lag: int) -> np.ndarray:
-    """``c(j) = sum_i kept[i] kept[i+j]`` for ``j = 0..max_lag``, shape (max_lag + 1,), of a boolean array (M,)."""
-    k = np.asarray(kept, dtype=np.float64)
+    """``c(j) = sum_i kept[i] kept[i+j]`` for ``j = 0..max_lag``, shape (max_lag + 1,), of a boolean array (M,).
+
+    By the FFT, or from the missing terms where they are few (the same whole numbers)."""
     out = np.zeros(int(max_lag) + 1)
-    lags = int(min(max_lag, k.size - 1))
+    lags = int(min(max_lag, np.size(kept) - 1))
     if lags < 0:
         return out
+    flags = np.asarray(kept, dtype=bool)
+    missing = np.flatnonzero(~flags)
+    if missing.size * (lags + 1) <= _DIRECT_PAIRS:
+        out[: lags + 1] = _pairs_from_missing(flags, missing, lags)
+        return out
+    # In float32 where the counts stay far below the rounding step (the FFT's error is about
+    # eps * log2(n) * M: 0.03 at M = 2**15 terms, against the 0.5 that rint forgives), 1.8x faster.
+    k = flags.astype(np.float32 if flags.size <= _FLOAT32_TERMS else np.float64)
     n = sfft.next_fast_len(k.size + lags + 1, real=True)
     spectrum = sfft.rfft(k, n)
     corr = sfft.irfft(spectrum * np.conj(spectrum), n)[: lags + 1]

@@ -41,7 +41,7 @@ from chronofuse.analysis.stability.taus import taus_to_factors
 from chronofuse.validation import InputError, check_array, check_choice, check_scalar
 from chronofuse.registry import Config, Entry, Registry
 
-__all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM",
+__all__ = ["StatisticSpec", "STATISTICS", "compute", "kept_terms", "uncovered_samples", "GAP_POLICIES", "EDF_FAMILIES", "SIDE_BY_SIDE_FROM",
            "STATISTIC_REGISTRY", "Statistic", "StatisticConfig", "statistic_entry", "statistic_spec"]
 
 #: Records at least this long have their kernel and their noise identification run on two threads: at
@@ -122,6 +122,26 @@ def kept_terms(statistic: str, x: np.ndarray, m: int, gap_rule: str) -> np.ndarr
     return term_validity(x, m, d, 1 if overlapping else m, gap_rule)
 
 
+def uncovered_samples(statistic: str, x: np.ndarray, m: int, gap_rule: str = "samples") -> np.ndarray:
+    """The samples present in ``x`` (N,) that no term the gap rule keeps at factor ``m`` spans (boolean (N,)).
+
+    A term spans ``x[j .. j + 3m - 1]`` (MDEV, TDEV) or ``x[j .. j + d m]`` (the unmodified statistics). With
+    gaps a stretch between two missing samples shorter than a term is seen by no term: an event there (a
+    time-error burst next to a silence) is left out of the statistic, which then describes the rest of the
+    record. Greenhall-family statistics only (those of :func:`kept_terms`).
+    """
+    d, overlapping, modified = edf_mod.GREENHALL_PARAMETERS[statistic]
+    keep = kept_terms(statistic, x, int(m), gap_rule)
+    step = 1 if (modified or overlapping) else int(m)
+    starts = np.flatnonzero(keep) * step
+    span = 3 * int(m) if modified else d * int(m) + 1
+    edges = np.zeros(x.size + 1, dtype=np.int64)
+    np.add.at(edges, starts, 1)
+    np.add.at(edges, np.minimum(starts + span, x.size), -1)
+    covered = np.cumsum(edges[:-1]) > 0
+    return ~covered & ~np.isnan(x)
+
+
 def _edf_with_gaps(spec: StatisticSpec, x: np.ndarray, alpha: np.ndarray, m: np.ndarray, gap_rule: str) -> np.ndarray:
     """Greenhall-family EDF (k,) from the terms the gap rule kept (:func:`edf_from_terms`)."""
     d, overlapping, modified = edf_mod.GREENHALL_PARAMETERS[spec.name]
@@ -134,16 +154,16 @@ def _edf_with_gaps(spec: StatisticSpec, x: np.ndarray, alpha: np.ndarray, m: np.
 
 
 def _kernel_and_noise(spec: StatisticSpec, x: np.ndarray, x_id: np.ndarray, m: np.ndarray, tau0_s: float,
-                      gap_rule: str):
+                      gap_rule: str, gaps: bool | None = None):
     """``(dev, n, (alpha, method))``: the statistic's kernel on ``x`` and the noise identification on
     ``x_id``, side by side for records of :data:`SIDE_BY_SIDE_FROM` samples or more on a machine with
     more than one CPU (the identification on a helper thread, the kernel in this one)."""
     kwargs = {"gap_rule": gap_rule} if len(spec.gap_rules) > 1 else {}
     if x.size < SIDE_BY_SIDE_FROM or (os.cpu_count() or 1) < 2:
         dev, n = spec.kernel(x, m, tau0_s, **kwargs)
-        return dev, n, identify_noise_methods(x_id, m, spec.noise_dmax, spec.overlapping)
+        return dev, n, identify_noise_methods(x_id, m, spec.noise_dmax, spec.overlapping, gaps=gaps)
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="chronofuse-noise-id") as pool:
-        noise = pool.submit(identify_noise_methods, x_id, m, spec.noise_dmax, spec.overlapping)
+        noise = pool.submit(identify_noise_methods, x_id, m, spec.noise_dmax, spec.overlapping, gaps=gaps)
         dev, n = spec.kernel(x, m, tau0_s, **kwargs)
         return dev, n, noise.result()
 
@@ -218,7 +238,7 @@ def compute(
     n_points = int(x.size)  # after filling/trimming for the "fill" policy
 
     m = _factors(spec, tau_s, rate_hz, n_points)
-    dev, n, (alpha, alpha_method) = _kernel_and_noise(spec, x, x_id, m, tau0_s, rule)
+    dev, n, (alpha, alpha_method) = _kernel_and_noise(spec, x, x_id, m, tau0_s, rule, gaps=bool(skipped))
     dev = np.asarray(dev, dtype=float)
     n = np.asarray(n, dtype=np.int64)
     corrected = bool(bias_correction and spec.bias is not None)

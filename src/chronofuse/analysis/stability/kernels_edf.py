@@ -100,3 +100,80 @@ def weighted_sz_sum(pairs: np.ndarray, S: float, F: float, alpha: int, d: int, w
         else:
             acc += pairs[j] * sz2
     return acc, norm
+
+
+@numba.njit(cache=True, nogil=True)
+def greenhall_rows(alpha: np.ndarray, m: np.ndarray, n_points: int, d: int, overlapping: bool, modified: bool,
+                   weights: np.ndarray, table: np.ndarray, table3: np.ndarray, rho2: np.ndarray,
+                   j_max: int) -> np.ndarray:
+    """Greenhall's EDF of every row (``alpha``, ``m`` int64 (k,)) in one loop: the scalar twin of
+    :func:`chronofuse.analysis.stability.edf.greenhall_edf`'s array code (the same cases, in the same
+    order: Greenhall case 4 exact for white PM unmodified, Tables 1-3 for ``r > d + 1`` beyond ``J_max``
+    terms, else eq. (10) over ``J`` terms or truncated to ``J_max`` at ``m' = J_max / r``). ``table``
+    (7, 3, 2): Table 1 (modified) or 2 as indexed ``[2 - alpha, d - 1]``; ``table3`` (3, 2); ``rho2``
+    (2d+1,): the squared autocorrelation of the binomial difference coefficients. NaN where ``M < 1``."""
+    out = np.empty(alpha.size)
+    b0 = table3[d - 1, 0]
+    b1 = table3[d - 1, 1]
+    for r in range(alpha.size):
+        a = alpha[r]
+        mf = float(m[r])
+        S = mf if overlapping else 1.0
+        L = mf * (d + 1) if modified else 1.0 + mf * d
+        M = 1.0 + math.floor(S * (n_points - L) / mf)
+        if M < 1.0:
+            out[r] = np.nan
+            continue
+        J = min(M, (d + 1) * S)
+        rr = M / S
+        if not modified and a == 2:  # case 4, exact: M**2 rho0**2 / sum_p (M - |p| S)+ rho(p)**2
+            total = 0.0
+            for p in range(2 * d + 1):
+                total += max(M - abs(p - d) * S, 0.0) * rho2[p]
+            out[r] = M * M * rho2[d] / total
+            continue
+        summed = J <= j_max
+        if not summed and rr > d + 1:  # Tables 1-3
+            a0 = table[2 - a, d - 1, 0]
+            a1 = table[2 - a, d - 1, 1]
+            if not modified and a == 1:
+                g = b0 + b1 * math.log(mf)
+                out[r] = 1.0 / ((a0 - a1 / rr) / (g * g * rr))
+            else:
+                out[r] = 1.0 / ((a0 - a1 / rr) / rr)
+            continue
+        if modified:
+            f = 1.0
+        elif a > 0 or mf * (d + 1) <= j_max:
+            f = mf
+        else:
+            f = np.inf
+        last = int(J)
+        Mb, Sb = M, S
+        if not summed:  # eq. (10) truncated to J_max terms at m' = J_max / r
+            m_prime = j_max / rr
+            last = j_max
+            Mb = float(j_max)
+            Sb = m_prime
+            if not modified:
+                f = m_prime if a > 0 else np.inf
+        acc = 0.0
+        norm = 0.0
+        for j in range(last + 1):
+            t = j / Sb
+            sz = 0.0
+            for q in range(2 * d + 1):
+                sz += weights[q] * _sx(t + (q - d), f, a)
+            sz2 = sz * sz
+            if j == 0:
+                norm = sz2
+                acc += sz2
+            elif j < last:
+                acc += 2.0 * (1.0 - j / Mb) * sz2
+            else:
+                acc += (1.0 - j / Mb) * sz2
+        if not modified and not summed and a == 1:
+            g = b0 + b1 * math.log(mf)
+            norm = g * g
+        out[r] = 1.0 / (acc / (norm * Mb))
+    return out

@@ -1,0 +1,211 @@
+"""Each command's HTML report, opened in headless Chromium (Debian's, under chromedriver): every figure loads
+(``naturalWidth > 0``), every verdict is on the page with its reason, and the reasons say what the JSON
+beside the page says (which limit failed, at which tau, by how much).
+
+The runs are short: a one-hour scenario (the shortest the disciplining stage takes), a one-hour GNSSDO, two
+swarm links, a real 241,218 s 1PPS record, a simulated clock bias with and without an injected step, and a
+replayed u-blox recording for the monitor.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from selenium.webdriver.common.by import By
+from typer.testing import CliRunner
+
+from _helpers import receivers_dir
+from _real_parts import chromium
+from chronofuse.cli.main import app
+from chronofuse.integrity.inject import Anomaly, inject
+from chronofuse.integrity.simulate import ClockNoise, simulate_clock_bias
+from conftest import real_data_dir
+
+runner = CliRunner()
+
+SCENARIO = """
+name = "report-test"
+description = "one hour, for the report test"
+duration_s = 3600
+[receivers]
+count = 2
+scenario = "urban-canyon"
+[analysis]
+mask = "prtc-a"
+deviations = ["oadev", "mtie", "tdev"]
+[discipline]
+outage_s = 600
+[swarm]
+followers = 1
+"""
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    driver = chromium(tmp_path_factory.mktemp("profile"))
+    yield driver
+    driver.quit()
+
+
+def _page(browser, path: Path) -> dict:
+    """Open ``path``; return its images' natural widths and its verdict rows (subject, word, reason)."""
+    browser.get(path.resolve().as_uri())
+    browser.execute_async_script("""
+        const done = arguments[arguments.length - 1];
+        Promise.all([...document.images].map(i => i.complete ? 0 : new Promise(r => { i.onload = i.onerror = r; })))
+            .then(() => done());""")
+    widths = browser.execute_script("return [...document.images].map(i => [i.dataset.file, i.naturalWidth]);")
+    rows = [(tr.get_attribute("data-subject"), tr.get_attribute("data-verdict"),
+             tr.find_element(By.CSS_SELECTOR, "td.reason").text)
+            for tr in browser.find_elements(By.CSS_SELECTOR, "tr.verdict")]
+    return {"images": widths, "verdicts": {subject: (word, reason) for subject, word, reason in rows}}
+
+
+def _no_missing_image(page: dict, at_least: int) -> None:
+    assert len(page["images"]) >= at_least, page["images"]
+    assert all(width > 0 for _, width in page["images"]), page["images"]
+
+
+def _every_verdict_has_a_reason(page: dict) -> None:
+    assert page["verdicts"]
+    for subject, (word, reason) in page["verdicts"].items():
+        assert word in ("PASS", "FAIL", "NOT GIVEN") and len(reason) > 10, (subject, word, reason)
+
+
+def _worst(part: dict) -> tuple[float, float]:
+    """(tau, excess in ns) of a mask check's worst violation, from the JSON's arrays."""
+    k = min((i for i, used in enumerate(part["evaluated"]) if used), key=lambda i: part["margin"][i])
+    return part["tau"][k], -part["margin"][k] * 1e9
+
+
+def _says_where_and_how_much(reason: str, verdict: dict) -> None:
+    for metric in ("mtie", "tdev"):
+        part = verdict[metric]
+        if part is not None and not part["passed"]:
+            tau, excess = _worst(part)
+            assert f"{metric.upper()} over its limit" in reason
+            assert f"worst at tau {tau:g} s" in reason and f"{excess:.1f} ns over" in reason, reason
+
+
+def test_the_run_report_shows_every_figure_and_every_verdict_with_its_reason(browser, tmp_path):
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(SCENARIO)
+    out = tmp_path / "run"
+    result = runner.invoke(app, ["run", str(scenario), "--out", str(out), "--json"])
+    assert result.exit_code == 0, result.output[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    page = _page(browser, out / "report.html")
+    pngs = sorted(out.rglob("*.png"))
+    _no_missing_image(page, at_least=len(pngs))
+    assert {f for f, _ in page["images"]} == {p.name for p in pngs}
+    _every_verdict_has_a_reason(page)
+    verdicts = page["verdicts"]
+    for label, v in summary["mask"]["receivers"].items():
+        word, reason = verdicts[f"{label} against prtc-a"]
+        assert word == ("PASS" if v["passed"] else "FAIL")
+        _says_where_and_how_much(reason, v)
+    # raw urban-canyon receivers are no PRTC: the page must not pass them
+    assert any(verdicts[f"{label} against prtc-a"][0] == "FAIL" for label in summary["mask"]["receivers"])
+    for name in ("prtc-a", "prtc-b", "g811"):  # the disciplined output is checked against the masks
+        v = summary["discipline"]["masks"][name]
+        word, reason = verdicts[f"disciplined output against {name}"]
+        assert word == ("PASS" if v["passed"] else "FAIL")
+        _says_where_and_how_much(reason, v)
+    d = summary["discipline"]
+    word, reason = verdicts["time error within 1.1x of the clairvoyant bound"]
+    assert word == ("PASS" if d["time_error_rms_ns"] <= 1.1 * d["optimal_rms_ns"] else "FAIL")
+    assert f"{d['time_error_rms_ns']:.1f} ns rms" in reason
+    assert "locked only while its criteria hold" in verdicts
+    text = browser.find_element(By.TAG_NAME, "body").text
+    assert "stop well before the run's 3600 s" in text and "terms there" in text  # short curves explained
+    assert "follower" in text and "holdover" in text
+
+
+def test_the_gnssdo_report(browser, tmp_path):
+    out = tmp_path / "gnssdo"
+    result = runner.invoke(app, ["gnssdo", "--environment", "outage", "--duration", "3600", "--trials", "1",
+                                 "--seed", "1", "--out", str(out), "--json"])
+    assert result.exit_code == 0, result.output[-2000:]
+    summary = json.loads((out / "summary.json").read_text())
+    page = _page(browser, out / "report.html")
+    _no_missing_image(page, at_least=3)
+    _every_verdict_has_a_reason(page)
+    for name, v in summary["masks"].items():
+        assert page["verdicts"][f"disciplined output against {name}"][0] == ("PASS" if v["passed"] else "FAIL")
+
+
+def test_the_stability_report_of_a_real_receiver_fails_prtc_a_and_says_why(browser, tmp_path):
+    record = real_data_dir() / "stability" / "gps" / "gps_1pps_phase_data.txt.gz"
+    plot = tmp_path / "gps.png"
+    result = runner.invoke(app, ["stability", str(record), "--rate", "1", "--dev", "oadev,mtie", "--taus", "decade",
+                                 "--mask", "prtc-a", "--plot", str(plot), "--json"])
+    assert result.exit_code == 0, result.output[-2000:]
+    doc = json.loads(result.stdout)
+    page = _page(browser, plot.with_suffix(".html"))
+    _no_missing_image(page, at_least=1)
+    word, reason = page["verdicts"]["record against prtc-a"]
+    assert word == "FAIL" and not doc["mask"]["passed"]
+    _says_where_and_how_much(reason, doc["mask"])
+    assert "max |TE| 320.9 ns against 100 ns" in reason
+
+
+def test_the_swarm_report(browser, tmp_path):
+    out = tmp_path / "swarm"
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ptp-mls,rtt-rvc", "--trials", "2", "--seed", "1",
+                                 "--out", str(out), "--json"])
+    assert result.exit_code == 0, result.output[-2000:]
+    doc = json.loads(result.stdout)
+    page = _page(browser, out / "report.html")
+    _every_verdict_has_a_reason(page)
+    for name in ("ptp-mls", "rtt-rvc"):
+        word, reason = page["verdicts"][f"{name} does not beat the bound"]
+        assert word == ("PASS" if doc["ratio_ci"][name][0] >= 0.9 else "FAIL")
+        assert f"RMSE / bound {doc['ratio_to_bound'][name]:.3g}" in reason
+
+
+@pytest.mark.parametrize("step_ns", [0.0, 400.0])
+def test_the_detect_report_says_alarm_or_not_and_why(browser, tmp_path, step_ns):
+    x = simulate_clock_bias(ClockNoise(h0=2e-18, hm2=1e-22, sigma_rho_m=3.0), interval_s=1.0, steps=900, trials=1,
+                            seed=7).measured_s[0]
+    if step_ns:
+        x = inject(x, Anomaly("step", 600.0, offset_s=step_ns * 1e-9), 1.0)
+    csv = tmp_path / "bias.csv"
+    csv.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{v:.12e}\n" for k, v in enumerate(x)))
+    report = tmp_path / "detect.html"
+    result = runner.invoke(app, ["detect", str(csv), "--train", "300", "--report", str(report), "--json"])
+    assert result.exit_code in (0, 1), result.output[-2000:]
+    doc = json.loads(result.stdout)
+    page = _page(browser, report)
+    word, reason = page["verdicts"]["integrity"]
+    if step_ns:
+        assert result.exit_code == 1 and word == "FAIL" and f"{doc['n_alarms']} alarm(s)" in reason
+        assert "the first at t = " in reason
+    else:
+        assert result.exit_code == 0 and word == "PASS" and "no alarm" in reason
+
+
+def test_the_monitor_report_plots_each_receiver_on_a_time_axis_in_seconds(browser, tmp_path):
+    f9p = receivers_dir() / "gpsd" / "ublox-zed-f9p_hpg1.11.log"  # 655 s of NAV-CLOCK clock bias
+    db = tmp_path / "log.db"
+    result = runner.invoke(app, ["monitor", "--replay", str(f9p), "--replay-speed", "1000", "--db", str(db), "--json"])
+    assert result.exit_code == 0, result.output[-2000:]
+    out = tmp_path / "report"
+    result = runner.invoke(app, ["monitor", "--report", str(db), "--out", str(out), "--json"])
+    assert result.exit_code == 0, result.output[-2000:]
+    page = _page(browser, out / "report.html")
+    _no_missing_image(page, at_least=2)  # the clock bias and its ADEV
+    _every_verdict_has_a_reason(page)
+    assert any(subject.endswith(": no alarm") for subject in page["verdicts"])
+
+
+def test_the_time_axis_unit_follows_the_span():
+    from chronofuse.report.figures import time_axis
+
+    assert time_axis(152.0) == (1.0, "s")  # the monitor's 152 s replay: seconds, not 0.04 h
+    assert time_axis(3600.0) == (60.0, "min")
+    assert time_axis(86_400.0) == (3600.0, "h")
+    assert math.isclose(time_axis(600.0)[0], 1.0) and np.isfinite(time_axis(1e7)[0])
