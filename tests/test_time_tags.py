@@ -230,3 +230,27 @@ def test_a_receiver_simulation_becomes_a_record_with_its_gps_nanoseconds(chunk):
     back = ReceiverEpochs.from_record(record)
     np.testing.assert_array_equal(back.gps_ns, epochs.gps_ns)
     np.testing.assert_array_equal(back.leap_s, epochs.leap_s)
+
+
+def _dicts(node):
+    if isinstance(node, dict):
+        yield node
+        node = list(node.values())
+    if isinstance(node, list):
+        for item in node:
+            yield from _dicts(item)
+
+
+def test_every_time_a_document_gives_in_seconds_comes_with_its_exact_nanoseconds(tmp_path, real_data):
+    # "t" (seconds, a float: a convenience that loses odd nanoseconds of an absolute time) never stands alone:
+    # beside it "t_ns" holds the exact integer, in the detection document and in a clock product's table
+    path = _csv(tmp_path / "unix.csv", "t_s", lambda k: _seconds_text(T0_NS + k * 10**9))
+    docs = [json.loads(runner.invoke(app, ["detect", str(path), "--json", *MODEL]).stdout),
+            json.loads(runner.invoke(app, ["detect", str(real_data / "receivers/rinex/rtklib/igs15904.clk"), "--json",
+                                           "--window", "5", *MODEL]).stdout)]
+    timed = [d for doc in docs for d in _dicts(doc) if "t" in d]
+    assert len(timed) > 5
+    for d in timed:
+        assert isinstance(d["t_ns"], int) and d["t"] == d["t_ns"] / 1e9, d
+    lossy = [d for d in timed if round(d["t"] * 1e9) != d["t_ns"]]
+    assert lossy  # the float does lose them (why t_ns is there): the CSV's tags have odd nanoseconds

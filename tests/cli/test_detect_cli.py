@@ -196,7 +196,7 @@ def test_broken_ubx_captures_give_one_line_errors(real_data, name, fragment):
 
 def test_rinex_input_needs_nav_and_position_and_a_nav_file_is_not_observations(real_data):
     rtk = real_data / "receivers" / "rinex" / "rtklib"
-    _one_line_error(_invoke(rtk / "07590920.05o", "--rate", 1 / 30, *MODEL), "07590920.05o", "--nav")
+    _one_line_error(_invoke(rtk / "07590920.05o", *MODEL), "07590920.05o", "--nav")
     _one_line_error(_invoke(rtk / "07590920.05n", "--rate", 1 / 30, *MODEL), "navigation file")
 
 
@@ -237,7 +237,7 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     clean_obs.write_text((rtk / "07590920.05o").read_text())
     obs = tmp_path / "07590920.05o"
     obs.write_text(_inject_rinex2_pseudorange(clean_obs.read_text(), "G20", 80, 1.0))
-    args = ["--rate", 1 / 30, "--nav", rtk / "07590920.05n", "--position", "-3976219.5082,3382372.5671,3652512.9849",
+    args = ["--nav", rtk / "07590920.05n", "--position", "-3976219.5082,3382372.5671,3652512.9849",
             "--train", 1200, "--window", 10, "--json"]
     clean = _invoke(clean_obs, *args)
     assert clean.exit_code == 0, clean.output
@@ -292,7 +292,7 @@ def test_rinex_with_missing_epochs_counts_them_as_skipped(tmp_path, real_data):
 @pytest.mark.parametrize("position", ["1,2,3", "48.1,11.6,520", "-3976.2195,3382.3726,3652.5130"])
 def test_a_position_that_is_not_ecef_metres_on_the_earth_is_refused(tmp_path, real_data, position):
     rtk = real_data / "receivers" / "rinex" / "rtklib"
-    result = _invoke(rtk / "07590920.05o", "--rate", 1 / 30, "--nav", rtk / "07590920.05n", f"--position={position}",
+    result = _invoke(rtk / "07590920.05o", "--nav", rtk / "07590920.05n", f"--position={position}",
                      "--train", 1200, "--json")
     assert result.exit_code == 2 and "from the Earth's centre" in result.stderr
 

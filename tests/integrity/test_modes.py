@@ -47,7 +47,7 @@ def test_a_ubx_capture_with_training_gives_the_command_document(real_data):
 
 def test_rinex_observations_with_nav_and_position_select_identification(real_data):
     rtk = real_data / "receivers/rinex/rtklib"
-    doc = detect_file(rtk / "07590920.05o", 1 / 30, train_s=1200, window=10, nav=rtk / "07590920.05n",
+    doc = detect_file(rtk / "07590920.05o", None, train_s=1200, window=10, nav=rtk / "07590920.05n",
                       position_m=np.array([float(v) for v in STATION_0759_M.split(",")]))
     assert doc["mode"] == "identification" and doc["n_epochs"] == 120
     assert {"faulty", "untested"} <= set(doc)

@@ -70,6 +70,8 @@ def detect(
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     if train is not None and train <= 0:
         fail(f"--train {train:g}: must be > 0 seconds")
+    if follow is not None and not (json_lines or str(file) == "-"):
+        fail(f"--follow {follow:g}: a file still being written is read with --json-lines (or as -)")
     if not (max_tacc_ns >= 0 and math.isfinite(max_tacc_ns)):
         fail(f"--max-tacc-ns {max_tacc_ns:g}: must be >= 0 ns (0: not used)")
     from chronofuse.integrity.modes import detect_file, read_noise_file

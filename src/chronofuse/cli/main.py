@@ -56,6 +56,8 @@ SUMMARIES: dict[str, str] = {
            "OCXO disciplined to them through a GNSS outage, and followers keeping its time over two-way links.",
     "detect": "Detect clock-bias anomalies with the high-order-difference chi-square test.",
     "gnssdo": "GNSS-disciplined oscillator (the GNSSDO paper): time error, convergence, holdover, states and ADEV.",
+    "characterize": "Fit an oscillator's h-coefficients, drift and temperature coefficient to its record; loop and "
+                    "holdover.",
     "position": "Single-point fixes from a RINEX file (--obs), or a simulated drive comparing GNSS-only, GNSS/INS and\n"
                 "(with --smooth) RTS-smoothed positions.",
     "inspect": "Receivers, message counts per type, time span, gaps, checksum failures, unknown talkers.",

@@ -27,6 +27,7 @@ from chronofuse.integrity.streaming import EpochVerdict
 from chronofuse.integrity.watch import DetectionSettings, ClockWatch
 from chronofuse.io.arrival import arrival_warnings
 from chronofuse.io.capture_series import clock_epochs, clock_grid, no_bias_reason
+from chronofuse.io.formats import check_applies
 from chronofuse.io.grid import GridPlacer
 from chronofuse.io.record_streams import ClockProductLines, ReceiverBytes, TextLines, open_stream
 from chronofuse.io.rinex_clock import CLOCK_TOLERANCE
@@ -81,6 +82,7 @@ class StreamDetection:
                  rate_hz: float | None = None, column: str | None = None, station: str | None = None):
         self.settings, self.source, self.rate_hz, self.station = settings, source, rate_hz, station
         self.reader, self._chunks = open_stream(chunks, source, column=column, rate_hz=rate_hz)
+        check_applies(self.reader.kind, source, column=column, rate_hz=rate_hz)  # as detect FILE refuses them
         if station is not None and not isinstance(self.reader, ClockProductLines):
             raise InputError("{station} needs a RINEX clock product (.clk)", source, fields=("station",))
         self.clocks: dict[str | None, _Clock] = {}

@@ -73,7 +73,7 @@ from chronofuse.integrity.receiver_status import DEFAULT_MAX_TIME_ACC_S
 from chronofuse.integrity.watch import TRAINING_CONFIDENCE, DetectionSettings, watch_record
 from chronofuse.io.arrival import arrival_warnings
 from chronofuse.io.clockbias import n_skipped, read_clock_bias
-from chronofuse.io.formats import sniff_format
+from chronofuse.io.formats import check_applies, sniff_format
 from chronofuse.validation import InputDataError, InputError, check_choice, check_scalar
 
 #: The modes of :func:`detect_file`.
@@ -338,6 +338,7 @@ def detect_file(
     if kind == "rinex-nav":
         raise InputError("this is a RINEX navigation file: give the observation file, and this one as {nav}", str(path),
                          fields=("nav",))
+    check_applies(kind, str(path), column=column, rate_hz=rate_hz, codes=codes or None)
     if kind == "rinex-obs":
         _only_chi_square(detector, "identification mode (a RINEX observation file)")
         if nav is None or position_m is None:

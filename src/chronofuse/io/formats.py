@@ -8,9 +8,9 @@ import io
 import re
 from pathlib import Path
 
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
-__all__ = ["FORMATS", "CAPTURE_FORMATS", "LOG_FORMATS", "sniff_format", "format_of_head", "capture_format",
+__all__ = ["FORMATS", "CAPTURE_FORMATS", "LOG_FORMATS", "READ_SETTINGS", "check_applies", "sniff_format", "format_of_head", "capture_format",
            "log_format", "is_gzip", "open_data", "open_text"]
 
 #: The field's own logs, read by :mod:`chronofuse.io.field_logs` (told apart by :func:`chronofuse.io.log_sniff.sniff_log`).
@@ -20,6 +20,32 @@ FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock", "csv") + LOG_
 #: Recordings :func:`chronofuse.io.inspect.read_capture` reads into receiver epochs (every kind but CSV text;
 #: a RINEX navigation file is refused there, naming the file).
 CAPTURE_FORMATS = ("ubx", "nmea", "rinex-obs", "rinex-nav", "rinex-clock")
+
+#: The reading settings that apply to some kinds of input only, and those kinds (a stream's reader kind
+#: ``receiver`` is a UBX/NMEA one, ``text`` a CSV): given for any other kind, a setting is refused by name
+#: rather than silently left unused.
+READ_SETTINGS = {
+    "column": ("csv", "text") + LOG_FORMATS,  # the clock-bias column of a table
+    "rate_hz": ("ubx", "nmea", "receiver", "csv", "text") + LOG_FORMATS,  # the grid of epochs without one of their own
+    "codes": ("rinex-obs",),  # the codes an observation file's channels are tested on
+}
+
+_KIND_WORDS = {"ubx": "a receiver recording (UBX/NMEA)", "nmea": "a receiver recording (UBX/NMEA)",
+               "receiver": "a receiver recording (UBX/NMEA)", "csv": "a CSV/text file", "text": "a CSV/text file",
+               "rinex-obs": "a RINEX observation file", "rinex-clock": "a RINEX clock product",
+               "rinex-nav": "a RINEX navigation file"}
+
+
+def check_applies(kind: str, source: str | None = None, **given) -> None:
+    """Refuse, naming it, a setting of :data:`READ_SETTINGS` given (not None) for an input of ``kind`` it does
+    not apply to (:class:`~chronofuse.validation.InputError`, its field named as ``{field}``)."""
+    for name, value in given.items():
+        if value is None or kind in READ_SETTINGS[name]:
+            continue
+        what = _KIND_WORDS.get(kind, f"a {kind} log")
+        kinds = sorted({_KIND_WORDS.get(k, "a field log") for k in READ_SETTINGS[name]})
+        raise InputError(f"{{{name}}} does not apply to {what}: it is for {' or '.join(kinds)}", source, fields=(name,))
+
 
 _SNIFF_BYTES = 4096
 _GZIP_MAGIC = b"\x1f\x8b"  # RFC 1952 section 2.3.1: ID1 = 31, ID2 = 139
