@@ -104,5 +104,7 @@ def test_swarm_run_and_network_write_their_document_with_out(tmp_path):
         result = CliRunner().invoke(app, [*args, "--out", str(out), "--json", "--quiet"])
         assert result.exit_code == 0, result.output
         doc = json.loads(result.stdout)
-        assert doc["files"] == [str(out / "summary.json")]
+        # swarm run also writes its HTML report (swarm network has none)
+        assert doc["files"][0] == str(out / "summary.json")
+        assert doc["files"][1:] == ([str(out / "report.html")] if args[1] == "run" else [])
         assert json.loads((out / "summary.json").read_text()) == {k: v for k, v in doc.items() if k != "files"}

@@ -62,7 +62,8 @@ def test_the_numba_doppler_kf_loop_equals_its_numpy_core_with_losses_outliers_an
     ref = np.where(np.arange(400) % 50 == 0, ex.offset_s, np.nan)
     fast, slow = kf.run(Z, ref), SyncAlgorithm.run(kf, Z, ref)
     np.testing.assert_allclose(fast.offset_s, slow.offset_s, rtol=0, atol=1e-18)
-    np.testing.assert_allclose(fast.uncertainty_s, slow.uncertainty_s, rtol=1e-12)
+    # the compiled Kalman step's expanded Joseph update sums in another order than the twin's matrix form
+    np.testing.assert_allclose(fast.uncertainty_s, slow.uncertainty_s, rtol=1e-9)
     np.testing.assert_array_equal(fast.node_state, slow.node_state)
     one = make_algorithm("doppler-kf", knowledge_of(sc, None)).fit()
     assert compare_streaming_to_batch(one, Z[:2, :150]) == []
