@@ -18,11 +18,6 @@ in the numpy twin::
               K = P- h / S                      x+ = x- + K y
               P+ = (I - K h') P- (I - K h')' + K r K'     (Joseph form), then (P+ + P+') / 2
 
-The compiled update computes the Joseph form expanded for a scalar measurement, which costs n^2 instead of
-n^3: with ``v = P- h`` and ``P-`` symmetrized, ``P+ = P- - K v' - v K' + S K K'`` (``S K K'`` is
-``K (h' P- h) K' + K r K'``), each entry once for both triangles (exactly symmetric); the numpy twin
-multiplies the matrices out (equal to rounding, tested).
-
 Every product is summed over its inner index in increasing order, so a caller that needs bit-for-bit
 reproducible numbers (the servos' streaming and batch paths) gets them. A product skips the terms whose
 sparse factor (``F`` in the prediction) is zero: with finite entries adding
@@ -156,14 +151,16 @@ def update_flat(x, P, z, h, r, x_out, P_out, work):
     K = work[n:2 * n]
     for a in range(n):
         K[a] = PHt[a] / S
-    # The Joseph form for one scalar measurement, expanded (module docstring): each pair (a, b), (b, a) is read
-    # before either is written, so P_out may be P.
+    IKH = work[2 * n:2 * n + nn]
+    KrK = work[2 * n + nn:2 * n + 2 * nn]
     for a in range(n):
-        for b in range(a, n):
-            sym = 0.5 * (P[a * n + b] + P[b * n + a])
-            value = sym - K[a] * PHt[b] - PHt[a] * K[b] + S * K[a] * K[b]
-            P_out[a * n + b] = value
-            P_out[b * n + a] = value
+        for b in range(n):
+            IKH[a * n + b] = (1.0 if a == b else 0.0) - K[a] * h[b]
+            KrK[a * n + b] = K[a] * r * K[b]
+    IKHP = work[2 * n + 2 * nn:2 * n + 3 * nn]
+    _product(IKH, P, IKHP, n)
+    _product_transposed(IKHP, IKH, KrK, P_out, n)
+    symmetrize_flat(P_out, P_out)
     for a in range(n):
         x_out[a] = x[a] + K[a] * y
     return y, S
