@@ -40,6 +40,10 @@ _LEAP_DEFAULT = ("gpsd labels the first epoch with its compiled-in GPS-UTC (18 s
 _ZDA_AHEAD = ("this receiver stamps ZDA one second ahead of its burst's GGA/RMC; gpsd gives the ZDA time the "
               "last fix mode it saw, our ZDA-only epoch has no fix report (mode 0, unknown)")
 
+_TIME_BACK = ("the receiver's time jumps back at its cold boot (its clock corrected); gpsd reports every TPV in "
+              "arrival order, we leave out an epoch that comes behind one already released by more than the reorder "
+              "buffer holds (io/arrival.py), counted as late, live and batch alike")
+
 #: file -> {"missing": (count, reason), "mode": (count, reason), "dop": {reason: count}, "reference": True}
 #: (the DOP reasons are the keys of gpsd_dop_reasons.REASONS, each checked value by value)
 GPSD_CHOICES: dict[str, dict] = {
@@ -47,9 +51,10 @@ GPSD_CHOICES: dict[str, dict] = {
     "ac12_binary.log": {"mode": (4, _ZDA_AHEAD)},
     "eXplorist210.log": {"mode": (2, _FIX_TRANSITION)},
     "garmin25lp.log": {"mode": (1, _FIX_TRANSITION)},
+    "bt451.log": {"missing": (5, _TIME_BACK)},
     "gp-320fw-2019-04-07-coldboot.log": {
-        "missing": (1, "gpsd dates this epoch from a ZDA of the next burst; the RMC of its own burst has a bad "
-                       "checksum and is not trusted"),
+        "missing": (8, "7 epochs: " + _TIME_BACK + "; 1: gpsd dates this epoch from a ZDA of the next burst; the RMC "
+                       "of its own burst has a bad checksum and is not trusted"),
         "mode": (1, _FIX_TRANSITION)},
     "hemi.log": {"mode": (15, _FIX_TRANSITION)},
     "meinberg-gps164.log": {"mode": (1, _FIX_TRANSITION)},

@@ -97,8 +97,9 @@ def test_a_receiver_that_goes_silent_with_its_link_open_becomes_stale_and_unusab
             rx.send(data)
             time.sleep(0.2)
         deadline = time.monotonic() + 5
-        while status_document(mon)["receivers"][0]["usable"] is None and time.monotonic() < deadline:
+        while mon.acknowledged < len(epochs) and time.monotonic() < deadline:  # the held epochs come too
             time.sleep(0.05)
+        assert mon.acknowledged == len(epochs)
         fresh = status_document(mon)["receivers"][0]
         assert fresh["usable"] is True and not fresh["stale"] and fresh["link"] == "up"
         time.sleep(2.0)  # the link stays up; nothing comes

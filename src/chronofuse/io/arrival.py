@@ -10,8 +10,10 @@ when one more arrives, so an epoch that comes at most that many epochs late is p
 and one whose time repeats an epoch held or just released is dropped too (``n_repeated``, the first kept).
 
 Every decision depends on the epochs before it in stream order only, so a stream pushed whole or in any
-chunks gives the same epochs: the live path waits :data:`REORDER_EPOCHS` epochs longer before an epoch is
-decided (at 1 Hz, 2 s), the price of the same verdict on every path.
+chunks gives the same epochs. Live (the monitor), an epoch is also released once it has been held
+:data:`REORDER_HOLD_S` of wall time, so the output is not two epochs behind a slow receiver; the same bytes
+arriving at the same times give the same epochs on every run, and a replay or a file, which arrives faster
+than that, gives the batch reader's.
 """
 
 from __future__ import annotations
@@ -21,10 +23,16 @@ from collections.abc import Iterable
 
 import numpy as np
 
-__all__ = ["REORDER_EPOCHS", "ArrivalOrder", "arrival_warnings", "in_arrival_order", "sorted_on_arrival"]
+__all__ = ["REORDER_EPOCHS", "REORDER_HOLD_S", "ArrivalOrder", "arrival_warnings", "in_arrival_order", "sorted_on_arrival"]
 
 #: How many epochs the buffer holds: an epoch up to this many epochs late is put back in order.
 REORDER_EPOCHS = 2
+
+#: Live, the longest an epoch is held (wall time since it closed, s) before it is released without waiting
+#: for more epochs: a monitor's output (its page, its time-server feed) is at most this much later than the
+#: receiver, and an epoch that arrives behind one released sooner is late (left out and counted). A file or
+#: a replay arrives faster than this, so the epoch count alone decides, as the batch reader does.
+REORDER_HOLD_S = 0.5
 
 
 class ArrivalOrder:
@@ -79,6 +87,11 @@ class ArrivalOrder:
     @property
     def n_held(self) -> int:
         return len(self._heap)
+
+    @property
+    def held(self) -> frozenset[int]:
+        """The times of the epochs held."""
+        return frozenset(self._held)
 
 
 def in_arrival_order(rows: dict, order: ArrivalOrder, *, final: bool) -> dict:

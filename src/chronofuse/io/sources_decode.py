@@ -111,6 +111,12 @@ class StreamDecoder(_OneReceiverStream):
         # each protocol's epochs put in time order as the batch reader puts them (io/arrival.py)
         self._order = {"ubx": ArrivalOrder(), "nmea": ArrivalOrder()}
         self._columns: dict[str, dict] = {}
+        # chunks counted as fed (close counts as one): where each epoch began and closed, for a live driver
+        # that stamps arrivals by the chunk's wall time and releases what the buffer holds after a wall time
+        self.n_chunks = 0
+        self._open_chunk: int | None = None  # the chunk in which the epoch now in progress began
+        self.began_in: dict[int, int] = {}  # gps_ns -> the chunk in which its first bytes came
+        self._closed_in: dict[int, int] = {}  # gps_ns -> the chunk that closed it (while the buffer holds it)
 
     @property
     def n_reordered(self) -> int:
@@ -133,11 +139,52 @@ class StreamDecoder(_OneReceiverStream):
 
     def feed_record(self, data: bytes) -> EpochRecord | None:
         """:meth:`feed`, the epochs as one record chunk (with ``time_acc_s`` and each epoch's byte offset)."""
+        self._count_chunk()
         return self._decode(self.scanner.feed(data), final=False)
 
     def close_record(self) -> EpochRecord | None:
         """:meth:`close`, as one record chunk."""
+        self._count_chunk()
         return self._decode(self.scanner.close(), final=True)
+
+    def release_held(self) -> EpochRecord | None:
+        """Release every epoch the reorder buffer holds (a live driver's call once the oldest has waited its
+        wall time, :attr:`oldest_held_chunk`): an epoch that comes behind them afterwards is late and left
+        out, as one more than :data:`~chronofuse.io.arrival.REORDER_EPOCHS` epochs late is."""
+        if self.protocols == ("ubx",) and not self._pending["ubx"]:
+            return self._ubx_only(final=False, flush=True)
+        for name in ("ubx", "nmea"):
+            if self._order[name].n_held:
+                self._take(name, None, final=True)
+        return self._release(self._horizon())
+
+    @property
+    def oldest_held_chunk(self) -> int | None:
+        """The chunk that closed the oldest epoch the reorder buffer holds (None: it holds none)."""
+        held = set().union(*(o.held for o in self._order.values()))
+        self._closed_in = {g: c for g, c in self._closed_in.items() if g in held}  # not dropped ones
+        return min(self._closed_in.values()) if self._closed_in else None
+
+    def _count_chunk(self) -> None:
+        self.n_chunks += 1
+        if self._open_chunk is None:
+            self._open_chunk = self.n_chunks
+
+    def _closing(self, times) -> None:
+        """Note the epochs closed in this chunk: each began in the chunk that closed the one before it."""
+        for g in times:
+            g = int(g)
+            if g not in self.began_in:
+                self.began_in[g] = self._open_chunk
+                self._closed_in[g] = self.n_chunks
+            self._open_chunk = self.n_chunks
+        if len(self.began_in) > 4096:  # a driver that never asks: keep the newest
+            for g in sorted(self.began_in)[:2048]:
+                del self.began_in[g]
+
+    def _released(self, times) -> None:
+        for g in times:
+            self._closed_in.pop(int(g), None)
 
 
     @property
@@ -162,14 +209,16 @@ class StreamDecoder(_OneReceiverStream):
             self._take("nmea", self._nmea.pop_all(), final=True)
         return self._release(np.iinfo(np.int64).max if final else self._horizon())
 
-    def _ubx_only(self, final: bool) -> EpochRecord | None:
+    def _ubx_only(self, final: bool, flush: bool = False) -> EpochRecord | None:
         """A stream of UBX alone: the epochs straight from the builder's scalar path (no merge to wait for,
         no arrays to set up per column for the one or two epochs a chunk closes), as one record chunk."""
-        records = self._ubx.pop_complete_records(self.ubx_stats)
+        records = [] if flush else self._ubx.pop_complete_records(self.ubx_stats)
         if final:
             records += self._ubx.pop_all_records(self.ubx_stats)
         order = self._order["ubx"]
-        records = order.push([r["gps_ns"] for r in records], records) + (order.flush() if final else [])
+        self._closing(r["gps_ns"] for r in records)
+        records = order.push([r["gps_ns"] for r in records], records) + (order.flush() if final or flush else [])
+        self._released(r["gps_ns"] for r in records)
         kept = []
         for epoch in records:
             if epoch["gps_ns"] > self._last_gps_ns:
@@ -191,10 +240,12 @@ class StreamDecoder(_OneReceiverStream):
         order = self._order[name]
         if rows is not None and rows["gps_ns"].size:
             self._columns[name] = {k: v[:0] for k, v in rows.items()}  # the columns of what the buffer holds
+            self._closing(rows["gps_ns"].tolist())
             rows = in_arrival_order(rows, order, final=final)
         elif final and order.n_held:
             rows = in_arrival_order(self._columns[name], order, final=True)
         if rows is not None and rows["gps_ns"].size:
+            self._released(rows["gps_ns"].tolist())
             self._pending[name].append(rows)
             last = int(rows["gps_ns"].max())
             previous = self._closed.get(name)

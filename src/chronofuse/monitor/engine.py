@@ -10,7 +10,9 @@ hands them to ``on_ack`` (the ``--json-lines`` printer): what was acknowledged i
 Freshness: each record carries ``received_unix_ns``, the system clock when the first bytes of its epoch
 arrived (the start of the chunk in which the receiver began that epoch: an epoch closes when the next one
 starts, so the chunk that closes epoch k is the one in which epoch k+1 began; a gpsd source gives gpsd's
-own receipt time, its TOFF report). A receiver whose last epoch is older than ``stale_s`` is stale (an
+own receipt time, its TOFF report). An epoch the decoder's reorder buffer holds (:mod:`chronofuse.io.arrival`)
+keeps that arrival and is released after at most :data:`~chronofuse.io.arrival.REORDER_HOLD_S` of wall time
+since it closed. A receiver whose last epoch is older than ``stale_s`` is stale (an
 event, and a reason in its verdict) until epochs come again.
 
 Sources that cannot be had: a source that has not come up within ``connect_timeout_s`` of the start
@@ -28,6 +30,7 @@ from collections import defaultdict
 from datetime import datetime, timedelta
 
 from chronofuse.discipline.verdict import ReceiverVerdict, reasons
+from chronofuse.io.arrival import REORDER_HOLD_S
 from chronofuse.io.record_streams import decoder_for
 from chronofuse.io.sources import SourceGroup
 from chronofuse.monitor.decisions import MonitorSettings, ReceiverMonitor, decide_second
@@ -89,6 +92,7 @@ class Monitor:
         self._ended: set[str] = set()
         self._ever_up: set[str] = set()
         self._epoch_start_ns: dict[str, int] = {}  # receiver -> arrival (UNIX ns) of the epoch in progress
+        self._chunk_wall: dict[str, dict[int, int]] = defaultdict(dict)  # source -> decoder chunk -> UNIX ns
         self._last_arrival_s: dict[str, float] = {}  # receiver -> monotonic arrival of its last epoch
         self._started_s = time.monotonic()
         self._last_checks_s = self._last_flush_s = 0.0
@@ -167,6 +171,7 @@ class Monitor:
             notices += self.tracker.link(ev.source, ev.kind, reason, wall_s)
             if ev.kind in ("down", "end") and ev.source not in self._ever_up:
                 self._check_connect(ev.source, reason, final=ev.kind == "end")
+        self._release_held()
         now = time.monotonic()
         if now - self._last_checks_s >= self.check_s:  # freshness and the retry policy: a few times a second
             self._last_checks_s = now
@@ -196,10 +201,32 @@ class Monitor:
             for row in rx.take(record):
                 self._add(row)
 
+    def _release_held(self) -> None:
+        """Epochs a decoder's reorder buffer has held for :data:`~chronofuse.io.arrival.REORDER_HOLD_S` of
+        wall time since they closed are released (module docstring): live, an epoch waits for a late one at
+        most that long, not for the epochs after it."""
+        now_ns = time.time_ns()
+        for source, decoder in self.decoders.items():
+            chunk = getattr(decoder, "oldest_held_chunk", None)
+            if chunk is None or source in self._ended:
+                continue
+            closed_ns = self._chunk_wall[source].get(chunk)
+            if closed_ns is not None and now_ns - closed_ns < REORDER_HOLD_S * 1e9:
+                continue
+            record = decoder.release_held()
+            parts = [] if record is None else [(None, record)]
+            self._received(source, parts, now_ns, time.monotonic())
+            self._take(source, parts)
+
     def _received(self, source: str, parts: list, wall_ns: int, mono_s: float) -> None:
         """Note the arrival of each epoch decoded from this chunk (module docstring): epoch k began in the
-        chunk that closed epoch k-1."""
+        chunk that closed epoch k-1 (a decoder that counts its chunks says which chunk that was, so an epoch
+        its reorder buffer released later keeps its own arrival)."""
         decoder = self.decoders[source]
+        began_in = getattr(decoder, "began_in", None)
+        if began_in is not None:
+            self._arrived(source, decoder, began_in, parts, wall_ns, mono_s)
+            return
         if not parts:
             self._epoch_start_ns.setdefault(source, wall_ns)
             return
@@ -217,6 +244,22 @@ class Monitor:
                 self._epoch_start_ns[source] = wall_ns
             self._last_arrival_s[name] = mono_s
         self._last_arrival_s[source] = mono_s
+
+    def _arrived(self, source: str, decoder, began_in: dict, parts: list, wall_ns: int, mono_s: float) -> None:
+        walls = self._chunk_wall[source]
+        walls.setdefault(decoder.n_chunks, wall_ns)  # the chunk just fed (a release adds no chunk)
+        for key, record in parts:
+            name = source if key is None else f"{source}/{key}"
+            for t in record.t_ns.tolist():
+                chunk = began_in.pop(t, None)
+                self._arrivals[(name, t)] = walls.get(chunk, wall_ns)
+            # its age counts from its bytes, not from the buffer's release
+            last = mono_s - (wall_ns - self._arrivals[(name, record.t_ns[-1].item())]) / 1e9
+            self._last_arrival_s[name] = self._last_arrival_s[source] = max(last, self._last_arrival_s.get(name, last))
+        if len(walls) > 256:  # forget chunks no held or open epoch began or closed in
+            keep = min(list(began_in.values()) + [decoder.n_chunks])
+            for chunk in [c for c in walls if c < keep]:
+                del walls[chunk]
 
     def _freshness(self, wall_s: float) -> list[MonitorEvent]:
         now = time.monotonic()
