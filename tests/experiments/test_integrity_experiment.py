@@ -19,10 +19,26 @@ SMALL = IntegrityConfig(pfa_trials=60, pfa_steps=3_000, training_lengths=(200, 5
                         training_test_trials=10, training_test_steps=3_000, detection_trials=40)
 
 
+HEARD = []
+
+
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("integrity")
-    return out, run_integrity(out, config=SMALL)
+    return out, run_integrity(out, config=SMALL, progress=lambda message, fraction=None: HEARD.append((message, fraction)))
+
+
+def test_the_run_says_each_stage_with_the_fraction_of_the_whole_done(small_run):
+    fractions = [f for _, f in HEARD]
+    assert None not in fractions and fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] < 1.0
+    messages = [m for m, _ in HEARD]
+    assert messages[:4] == [f"false alarms at P_fa {p:g}" for p in (1e-1, 1e-2, 1e-3, 1e-4)]
+    assert messages[-1] == "figures" and "training on 5000 epochs" in messages and "detection of drag" in messages
+    # the stages' shares are their detector-epochs: the detection stage (4 kinds x 11 sizes x 4 detectors x 40 x 260)
+    # starts where the false alarms (4 x 4 x 60 x 3000) and the training (2 x 2 x 4 x 10 x 3000) end
+    at = dict(HEARD)
+    assert at["false alarms at P_fa 0.001"] == pytest.approx(at["training on 200 epochs"] / 2, rel=0.05)
+    assert 0.5 < at["training on 200 epochs"] < at["detection of step"] < at["figures"] < 1.0
 
 
 def test_report_folder_holds_figures_tables_summary_and_markdown(small_run):
