@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from chronofuse.analysis.metrics import clopper_pearson
 from chronofuse.cli import reproduce as reproduce_cli
 from chronofuse.experiments.integrity import (
+    STAGE_S_PER_UNIT,
     IntegrityConfig,
     independent_epochs,
     run_integrity,
@@ -34,11 +35,15 @@ def test_the_run_says_each_stage_with_the_fraction_of_the_whole_done(small_run):
     messages = [m for m, _ in HEARD]
     assert messages[:4] == [f"false alarms at P_fa {p:g}" for p in (1e-1, 1e-2, 1e-3, 1e-4)]
     assert messages[-1] == "figures" and "training on 5000 epochs" in messages and "detection of drag" in messages
-    # the stages' shares are their detector-epochs: the detection stage (4 kinds x 11 sizes x 4 detectors x 40 x 260)
-    # starts where the false alarms (4 x 4 x 60 x 3000) and the training (2 x 2 x 4 x 10 x 3000) end
+    # the stages' shares are their detector-epochs at the measured rates: false alarms 4 P_fa x 4 detectors x
+    # 60 x 3000, training 2 lengths x 2 fits x 4 x 10 x 3000, detection 4 kinds x 11 sizes x 4 x 40 x 260
+    rate = STAGE_S_PER_UNIT
+    s = [2.88e6 * rate[0], 4.8e5 * rate[1], 1.8304e6 * rate[2], rate[3]]
     at = dict(HEARD)
-    assert at["false alarms at P_fa 0.001"] == pytest.approx(at["training on 200 epochs"] / 2, rel=0.05)
-    assert 0.5 < at["training on 200 epochs"] < at["detection of step"] < at["figures"] < 1.0
+    assert at["false alarms at P_fa 0.001"] == pytest.approx(s[0] / 2 / sum(s))
+    assert at["training on 200 epochs"] == pytest.approx(s[0] / sum(s))
+    assert at["detection of step"] == pytest.approx((s[0] + s[1]) / sum(s))
+    assert at["figures"] == pytest.approx(1.0 - s[3] / sum(s))
 
 
 def test_report_folder_holds_figures_tables_summary_and_markdown(small_run):
