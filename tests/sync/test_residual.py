@@ -74,10 +74,11 @@ def test_a_saved_model_loads_back_and_a_mismatching_file_is_refused(bp, tmp_path
 
 def test_the_swarm_report_names_a_model_file_by_its_name_digest_and_training_command_not_its_path(bp, tmp_path):
     from chronofuse.experiments.swarm_reproduce import _models_text, model_records
+    from chronofuse.cli.swarm import training_command
     from chronofuse.experiments.swarm_training import training_record
 
     where = tmp_path / "machine-only" / "bp.pt"
-    bp.save(where, training=training_record(seed=4))
+    bp.save(where, training=training_record(seed=4, command=training_command(4)))
     records = model_records({"bp": where})
     assert records == {"bp": {"file": "bp.pt", "sha256": bp.digest_, "trained_by": "chronofuse swarm train --seed 4"}}
     text = _models_text(records)
@@ -96,8 +97,8 @@ def test_the_swarm_report_names_a_model_file_by_its_name_digest_and_training_com
     model.load_state_dict(doc["state_dict"])
     retrained._set_model(model)
     assert retrained.digest_ != bp.digest_
-    assert training_record(seed=0, quick=True, urt_mode="paper")["command"] == \
-        "chronofuse swarm train --quick --seed 0 --urt-mode paper"
+    assert training_command(0, quick=True, urt_mode="paper") == "chronofuse swarm train --quick --seed 0 --urt-mode paper"
+    assert training_record(seed=0)["command"] is None  # the library names no command line of its own
 
 
 def test_the_cli_refuses_a_mismatching_model_file_in_one_line(bp, tmp_path):

@@ -231,7 +231,8 @@ def train(
             fail(f"--device == {device!r}, must be cpu, cuda or auto")
         _urt_mode(urt_mode)
         with progress_reporter("swarm train") as say:
-            summary = train_networks(out, quick=quick, seed=seed, device=device, urt_mode=urt_mode, progress=say)
+            summary = train_networks(out, quick=quick, seed=seed, device=device, urt_mode=urt_mode, progress=say,
+                                     command=training_command(seed, quick, urt_mode))
         (Path(out) / "training.json").write_text(json.dumps(summary, indent=2))
     if json_out:
         print_json(summary)
@@ -361,3 +362,10 @@ def reproduce_swarm_command(
         print_json({"out": str(out), **doc})
         return
     human_console(False).print(f"report -> {out}/README.md ({len(doc['figures'])} figure(s))")
+
+
+def training_command(seed=0, quick: bool = False, urt_mode: str = "calibrated") -> str:
+    """The command line that trains networks of these settings, kept in each model file; ``--out`` and
+    ``--device`` change where they go and how fast, not what they are."""
+    return " ".join(["chronofuse swarm train", *(["--quick"] if quick else []), f"--seed {seed}",
+                     *([] if urt_mode == "calibrated" else [f"--urt-mode {urt_mode}"])])

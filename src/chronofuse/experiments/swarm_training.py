@@ -28,8 +28,7 @@ from chronofuse.sync.metrics import per_trial_mse
 from chronofuse.sync.prior import LinkPrior
 from chronofuse.sync.registry import make_algorithm
 
-__all__ = ["TRAIN_WINDOW", "residual_dataset", "split_by_group", "ablation", "train_networks", "training_command",
-           "training_record"]
+__all__ = ["TRAIN_WINDOW", "residual_dataset", "split_by_group", "ablation", "train_networks", "training_record"]
 
 TRAIN_WINDOW = 16
 
@@ -119,20 +118,14 @@ def ablation(network, *, runs: int = 40, exchanges: int = 2000, seed=0, urt_mode
             "offset_shift_s": offset_shift_s, "earns_its_place": bool(hi < 1.0)}
 
 
-def training_command(seed=0, quick: bool = False, urt_mode: str = "calibrated") -> str:
-    """The command line that trains (and writes) networks of these settings; ``--out`` and ``--device`` change
-    where they go and how fast, not what they are."""
-    return " ".join(["chronofuse swarm train", *(["--quick"] if quick else []), f"--seed {seed}",
-                     *([] if urt_mode == "calibrated" else [f"--urt-mode {urt_mode}"])])
-
-
-def training_record(*, seed=0, quick: bool = False, urt_mode: str = "calibrated") -> dict:
-    """What a model file keeps of its training: the command that writes it and its settings."""
-    return {"command": training_command(seed, quick, urt_mode), "seed": seed, "quick": quick, "urt_mode": urt_mode}
+def training_record(*, seed=0, quick: bool = False, urt_mode: str = "calibrated", command: str | None = None) -> dict:
+    """What a model file keeps of its training: its settings and, where the caller gives it, the command line
+    that wrote it (the library knows no command line: the command passes its own)."""
+    return {"command": command, "seed": seed, "quick": quick, "urt_mode": urt_mode}
 
 
 def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt_mode: str = "calibrated",
-                   progress=None) -> dict:
+                   progress=None, command: str | None = None) -> dict:
     """Build the data set, train the BP 9-32-1 network and the LSTM baseline on it, save both to ``out``
     (``bp.pt``, ``lstm.pt``) and return a summary: parameter counts, training seconds and device, held-out
     test RMS of the target and of what each network leaves, and the ablation at the prior and with the
@@ -154,7 +147,8 @@ def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt
         part = {k: v["X"][:, -window:, :] for k, v in split.items()}
         net = ResidualNetwork(cfg).fit(part["train"], split["train"]["y_ns"], part["validation"],
                                        split["validation"]["y_ns"])
-        path = net.save(out / f"{kind}.pt", training=training_record(seed=seed, quick=quick, urt_mode=urt_mode))
+        path = net.save(out / f"{kind}.pt", training=training_record(seed=seed, quick=quick, urt_mode=urt_mode,
+                                                                          command=command))
         left = y_test - net.predict_ns(part["test"])
         say(f"ablation {kind}")
         runs = 6 if quick else 40
