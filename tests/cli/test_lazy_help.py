@@ -25,7 +25,7 @@ try:
     main()
 except SystemExit:
     pass
-print(json.dumps(sorted(m for m in sys.modules if m.startswith(("chronofuse", "numpy", "scipy", "pandas")))))
+print(json.dumps(sorted(m for m in sys.modules if m.startswith(("chronofuse", "numpy", "scipy", "pandas", "pydantic")))))
 """
 
 
@@ -59,4 +59,15 @@ def test_a_subcommands_help_imports_that_subcommand_only():
     assert "chronofuse.cli.detect" in loaded
     assert [m for m in loaded if m.startswith("chronofuse.cli.") and m.split(".")[-1] in COMMANDS] == \
         ["chronofuse.cli.detect"]
-    assert [m for m in loaded if m.startswith(("numpy", "scipy", "pandas"))] == []
+    # nor pydantic: typer built a pydantic TypeAdapter to coerce the root's flags left out (None), 1 s of it
+    assert [m for m in loaded if m.startswith(("numpy", "scipy", "pandas", "pydantic"))] == []
+
+
+@pytest.mark.parametrize("argv, out", [(["--version"], "0."), (["--debug", "--version"], "0.")])
+def test_the_roots_flags_still_work_without_typers_coercion(argv, out):
+    done = subprocess.run([sys.executable, "-m", "chronofuse", *argv], capture_output=True, text=True, timeout=300,
+                          env={"PYTHONPATH": str(REPO / "src"), "PATH": "/usr/bin:/bin"})
+    assert done.returncode == 0 and done.stdout.startswith(out), done.stderr
+    bad = subprocess.run([sys.executable, "-m", "chronofuse", "--version=3"], capture_output=True, text=True,
+                         timeout=300, env={"PYTHONPATH": str(REPO / "src"), "PATH": "/usr/bin:/bin"})
+    assert bad.returncode == 2 and "--version" in bad.stderr
