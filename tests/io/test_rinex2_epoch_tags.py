@@ -94,3 +94,10 @@ def test_identification_on_rinex2_reports_absolute_gps_ns_like_rinex3(rtk):
     first = _line_ns(" 05  4  2  0  0  0.0000000")
     assert doc["state"] == "ok" and doc["t0_gps_ns"] == first
     assert doc["unavailable"][0] == {"from_ns": first, "to_ns": first + 39 * 30 * 10**9, "reason": "training"}
+
+
+def test_a_blank_inside_the_seconds_is_read_as_georinex_reads_it_and_an_unreadable_line_left_to_georinex(real_data):
+    path = real_data / "receivers" / "rinex" / "georinex" / "badtime.10o"  # " 0 .0000000", then a 60 s line
+    obs = read_gps_observations(path)
+    first = datetime(2010, 3, 5) - GPS_EPOCH
+    assert obs.gps_ns.tolist() == [first.days * 86400 * 10**9] and obs.n_unreadable_epochs == 1

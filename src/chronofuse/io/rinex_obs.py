@@ -48,7 +48,8 @@ _TIME_SYSTEM_OFFSET_NS = {"GPS": 0, "GAL": 0, "QZS": 0, "BDT": 14 * NS_PER_S, ""
 _EPOCH = re.compile(rb"^> ?(\d{4}) +(\d{1,2}) +(\d{1,2}) +(\d{1,2}) +(\d{1,2}) +(\d+\.\d+) +(\d) *(\d+)")
 _FIELD = 16
 # RINEX 2.11 epoch line (section 5.2, Table A2): " yy mm dd hh mm ss.sssssss  f nnn", flag 0 or 1 (observations)
-_EPOCH2 = re.compile(rb"^ ([ \d]\d) ([ \d]\d) ([ \d]\d) ([ \d]\d) ([ \d]\d)( *\d+\.\d+)  ([01])([ \d]{2}\d)")
+_EPOCH2 = re.compile(rb"^ ([ \d]\d) ([ \d]\d) ([ \d]\d) ([ \d]\d) ([ \d]\d)(.{11})  ([01])([ \d]{2}\d)")
+_SECONDS = re.compile(rb"\d+\.\d+")
 #: georinex reads a RINEX 2 epoch's seconds through a float truncated to microseconds, then keeps its times as
 #: ``datetime64[ms]`` (obs2.py): its time is up to a millisecond and a microsecond below the epoch line's exact
 #: value (measured: RTKLIB's 07590920.05o line ``05  4  2  0 21 30.0020000`` comes back as 00:21:30.001, as
@@ -220,8 +221,11 @@ def rinex2_epoch_tags_ns(lines: list[bytes]) -> np.ndarray:
         match = _EPOCH2.match(line)
         if match is None:
             continue
+        seconds = match.group(6).replace(b" ", b"")  # F11.7; a blank inside (" 0 .0000000") as georinex reads it
+        if not _SECONDS.fullmatch(seconds):
+            continue
         yy, mo, d, h, mi = (int(match.group(k)) for k in range(1, 6))
-        whole, _, frac = match.group(6).decode().strip().partition(".")
+        whole, _, frac = seconds.decode().partition(".")
         try:
             stamp = np.datetime64(f"{yy + (2000 if yy < 80 else 1900):04d}-{mo:02d}-{d:02d}T{h:02d}:{mi:02d}:00", "ns")
         except ValueError:
