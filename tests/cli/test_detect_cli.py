@@ -244,7 +244,7 @@ def test_identification_mode_names_the_satellite_with_an_injected_drag_off_on_re
     faulty = _invoke(obs, *args)
     assert faulty.exit_code == 1, faulty.output
     doc = json.loads(faulty.stdout)
-    assert set(doc) == KEYS | {"faulty", "untested", "codes", "channel_events"} and doc["mode"] == "identification"
+    assert set(doc) == KEYS | {"faulty", "untested", "codes", "channel_events", "t0_gps_ns"} and doc["mode"] == "identification"
     assert doc["n_epochs"] == 120 and doc["codes"] == ["C1", "P2"]
     assert doc["state"] == "alarm" and json.loads(clean.stdout)["state"] == "ok"
     # the drag is on both code observables: each is named, alone, after the onset

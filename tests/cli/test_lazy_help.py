@@ -25,7 +25,7 @@ try:
     main()
 except SystemExit:
     pass
-print(json.dumps(sorted(m for m in sys.modules if m.startswith(("chronofuse", "numpy", "scipy", "pandas")))))
+print(json.dumps(sorted(m for m in sys.modules if m.startswith(("chronofuse", "numpy", "scipy", "pandas", "pydantic", "numba", "matplotlib")))))
 """
 
 
@@ -59,4 +59,39 @@ def test_a_subcommands_help_imports_that_subcommand_only():
     assert "chronofuse.cli.detect" in loaded
     assert [m for m in loaded if m.startswith("chronofuse.cli.") and m.split(".")[-1] in COMMANDS] == \
         ["chronofuse.cli.detect"]
-    assert [m for m in loaded if m.startswith(("numpy", "scipy", "pandas"))] == []
+    # nor pydantic: typer built a pydantic TypeAdapter to coerce the root's flags left out (None), 1 s of it
+    assert [m for m in loaded if m.startswith(("numpy", "scipy", "pandas", "pydantic"))] == []
+
+
+@pytest.mark.parametrize("argv, out", [(["--version"], "0."), (["--debug", "--version"], "0.")])
+def test_the_roots_flags_still_work_without_typers_coercion(argv, out):
+    done = subprocess.run([sys.executable, "-m", "chronofuse", *argv], capture_output=True, text=True, timeout=300,
+                          env={"PYTHONPATH": str(REPO / "src"), "PATH": "/usr/bin:/bin"})
+    assert done.returncode == 0 and done.stdout.startswith(out), done.stderr
+    bad = subprocess.run([sys.executable, "-m", "chronofuse", "--version=3"], capture_output=True, text=True,
+                         timeout=300, env={"PYTHONPATH": str(REPO / "src"), "PATH": "/usr/bin:/bin"})
+    assert bad.returncode == 2 and "--version" in bad.stderr
+
+
+@pytest.mark.parametrize("command", ["simulate", "position", "validate"])
+def test_a_help_naming_registry_entries_imports_no_simulation_or_analysis(command):
+    # simulate --help took 28 s on a loaded machine (scipy.signal, numba, pandas for the preset names), validate
+    # --help 29 s (the whole validation suite for its seed), position --help 20 s
+    loaded = _loaded(command, "--help")
+    assert [m for m in loaded if m.startswith(("scipy.signal", "numba", "pandas", "matplotlib"))] == [], command
+    assert not [m for m in loaded if m.startswith(("chronofuse.experiments.", "chronofuse.gnss.simulate",
+                                                   "chronofuse.positioning.scenario")) or m == "chronofuse.models.receiver"]
+
+
+def test_the_names_in_those_helps_are_the_registries_own():
+    from chronofuse.cli import position, validate  # noqa: F401
+    from chronofuse.experiments.validation import SEED
+    from chronofuse.experiments import VALIDATION_SEED
+    from chronofuse.gnss.simulate import ENVIRONMENTS
+    from chronofuse.positioning.scenario import MAX_SPEED_M_PER_S, SYSTEMS
+
+    assert sorted(position.ENVIRONMENTS) == sorted(ENVIRONMENTS)
+    assert (position.SYSTEMS, position.MAX_SPEED_M_PER_S) == (SYSTEMS, MAX_SPEED_M_PER_S)
+    assert SEED == VALIDATION_SEED
+    help_text = runner.invoke(app, ["validate", "--help"], env={"COLUMNS": "200"}).stdout
+    assert str(SEED) in help_text

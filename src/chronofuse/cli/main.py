@@ -22,6 +22,7 @@ import traceback
 import typer
 from typer.core import TyperGroup
 from typer._click.exceptions import ClickException  # typer's click; the version is pinned
+from typer._coercion import PassThroughRuntimeParam  # see _Program.parse_args
 from typer.exceptions import Abort, Exit, TyperException
 
 from chronofuse import __version__
@@ -104,6 +105,17 @@ class _Program(TyperGroup):
             sys.stderr.write("Aborted!\n")
             sys.exit(1)
         sys.exit(code if isinstance(code, int) else 0)
+
+    def parse_args(self, ctx, args):
+        # The root's own options are bool flags (--help, --version, --debug and the completion pair). Typer
+        # coerces a flag left out (None) through a pydantic TypeAdapter it builds on first use, which imports
+        # pydantic (about 1 s of ``chronofuse detect --help`` on a loaded machine, half its time) to turn None
+        # into None. A flag's value is a bool or None: no coercion to build.
+        for param in self.get_params(ctx):  # with the help option click adds
+            if getattr(param, "_runtime_param", False) is None and param.type_descriptor.annotation is bool:
+                param._runtime_param = PassThroughRuntimeParam(parameter_info=param.type_descriptor.parameter_info,
+                                                               annotation=bool)
+        return super().parse_args(ctx, args)
 
     def invoke(self, ctx):
         try:

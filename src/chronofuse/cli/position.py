@@ -17,8 +17,11 @@ from chronofuse.cli.common import (
     user_errors,
 )
 from chronofuse.cli.reproduce import reproduce_app
-from chronofuse.gnss.simulate import ENVIRONMENTS
-from chronofuse.positioning.scenario import MAX_SPEED_M_PER_S, SYSTEMS
+# what the help text names, without the simulation (chronofuse.gnss.simulate.ENVIRONMENTS is this same table)
+from chronofuse.models.environment import signal_environments
+from chronofuse.positioning import MAX_SPEED_M_PER_S, SYSTEMS
+
+ENVIRONMENTS = tuple(signal_environments())
 
 
 def register(app: typer.Typer) -> None:

@@ -9,15 +9,10 @@ import numpy as np
 import typer
 from rich.table import Table
 
-from chronofuse.analysis.stability.taus import averaging_factors
-from chronofuse.analysis.theory import adev_theory
 from chronofuse.cli.common import human_console, print_json, progress_reporter, quiet_output, user_errors
-from chronofuse.analysis.metrics import gdop_over_5_fraction
-from chronofuse.io.tables import write_table
-from chronofuse.models.oscillator import simulate_oscillator
+# the help text names the presets and environments; what simulates and analyses is imported by the command
 from chronofuse.models.oscillator_presets import PRESETS, preset
 from chronofuse.models.environment import ENVIRONMENTS
-from chronofuse.models.receiver import simulate_receivers
 
 simulate_app = typer.Typer(help="Simulate clocks and receivers (truth models) and write them to a file.",
                            no_args_is_help=True)
@@ -44,6 +39,11 @@ def oscillator(
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate a free-running oscillator's phase x(t) in seconds."""
+    from chronofuse.analysis.stability.taus import averaging_factors
+    from chronofuse.analysis.theory import adev_theory
+    from chronofuse.io.tables import write_table
+    from chronofuse.models.oscillator import simulate_oscillator
+
     quiet_output(quiet)
     with user_errors():
         model = preset(preset_name)
@@ -83,6 +83,10 @@ def receiver(
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
 ) -> None:
     """Simulate GNSS timing receivers: 1PPS error, qErr, fix, satellites, GDOP, UTC and leap seconds."""
+    from chronofuse.analysis.metrics import gdop_over_5_fraction
+    from chronofuse.io.tables import write_table
+    from chronofuse.models.receiver import simulate_receivers
+
     quiet_output(quiet)
     with user_errors():
         with progress_reporter("simulate receiver") as say:

@@ -10,7 +10,7 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
-from chronofuse.experiments.validation import SEED
+from chronofuse.experiments import VALIDATION_SEED as SEED
 
 
 def register(app: typer.Typer) -> None:

@@ -34,6 +34,7 @@ import scipy.signal
 import scipy.stats
 
 import chronofuse.analysis.stability as st
+from chronofuse.experiments import VALIDATION_SEED
 from chronofuse.analysis.masks import MASKS
 from chronofuse.analysis.metrics import pooled_oadev
 from chronofuse.analysis.theory import adev_theory
@@ -59,7 +60,7 @@ __all__ = [
 ]
 
 #: Root seed of every simulation here (one SeedSequence per experiment).
-SEED = 20261124
+SEED = VALIDATION_SEED
 
 
 @dataclass(frozen=True)

@@ -160,7 +160,9 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
         runs.append((code, identify(biases, detector, **options), biases))
     label = (lambda sat, code: sat) if len(codes) == 1 else (lambda sat, code: f"{sat} {code}")
     step_ns = int(round(interval_s * 1e9))
-    t_ns = np.arange(n_epochs, dtype=np.int64) * step_ns
+    # absolute GPS ns of the grid epochs (as RINEX 3's station mode gives them); "t" is seconds since the first
+    t_ns = int(observations.gps_ns[0]) + np.arange(n_epochs, dtype=np.int64) * step_ns
+    t_s = (t_ns - t_ns[0]) / 1e9
     offsets = position_offsets_m(observations, navigation, position)
     slots = np.round((observations.gps_ns - observations.gps_ns[0]) / step_ns).astype(np.int64)
     offset_at = np.full(n_epochs, np.nan)
@@ -173,7 +175,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     for code, result, _ in runs:
         mask, events = latch_channels(result)
         latched |= mask.any(axis=1)
-        channel_events += [{"t_ns": int(t_ns[e.epoch]), "t": t_ns[e.epoch] / 1e9, "channel": label(e.channel, code),
+        channel_events += [{"t_ns": int(t_ns[e.epoch]), "t": float(t_s[e.epoch]), "channel": label(e.channel, code),
                             "kind": e.kind, "reason": e.reason} for e in events]
     states = np.full(n_epochs, "unavailable", dtype=object)
     states[(tested >= MIN_TESTED_CHANNELS) & ~far] = "ok"
@@ -192,10 +194,10 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     state = overall_state(states, n_train, reasons, present=np.isfinite(runs[0][2].bias_s).any(axis=1))
     alarms, faulty, untested = [], [], []
     for code, result, _ in runs:
-        alarms += [{"t_ns": int(t_ns[a["epoch"]]), "t": t_ns[a["epoch"]] / 1e9, "statistic": a["statistic"],
+        alarms += [{"t_ns": int(t_ns[a["epoch"]]), "t": float(t_s[a["epoch"]]), "statistic": a["statistic"],
                     "channel": label(a["channel"], code)} for a in result.alarms]
         faulty += [{"channel": label(ch, code), "t_ns": int(t_ns[result.blamed_at[result.satellites.index(ch)]]),
-                    "t": t_ns[result.blamed_at[result.satellites.index(ch)]] / 1e9} for ch in result.faulty]
+                    "t": float(t_s[result.blamed_at[result.satellites.index(ch)]])} for ch in result.faulty]
         untested += [label(ch, code) for ch in result.untested]
     alarms.sort(key=lambda a: (a["t_ns"], a["channel"]))
     faulty.sort(key=lambda f: (f["t_ns"], f["channel"]))
@@ -207,6 +209,7 @@ def identification_document(obs: str | Path, nav: str | Path, position_m, detect
     doc["untested"] = untested
     doc["codes"] = codes
     doc["interval_s"] = interval_s
+    doc["t0_gps_ns"] = int(t_ns[0])
     return doc
 
 

@@ -158,6 +158,16 @@ def _load(path: Path, **kwargs):
     return data, collector.messages
 
 
+def _major_version(path: Path) -> int:
+    """The RINEX major version of a plain file's first line (0 when unreadable)."""
+    with open(path, "rb") as f:
+        head = f.readline(200)
+    try:
+        return int(float(head[:9]))
+    except ValueError:
+        return 0
+
+
 def count_epoch_records(path) -> int:
     """Observation epoch records in the file's text (see the module docstring), header excluded."""
     text = Path(path).read_text(errors="replace").splitlines()
@@ -230,8 +240,13 @@ def _read_gps_observations(path: Path, codes) -> GpsObservations:
     interval = obs.attrs.get("interval")
     interval_s = float(interval) if interval is not None and np.isfinite(interval) and interval > 0 else None
     declared = count_epoch_records(path)
+    gps_ns = to_gps_ns(obs.time.values)
+    if _major_version(path) < 3:  # georinex's RINEX 2 seconds went through a float: the epoch lines' own digits
+        from chronofuse.io.rinex_obs import exact_rinex2_times
+
+        gps_ns = exact_rinex2_times(gps_ns, path.read_bytes().splitlines(), str(path))
     return GpsObservations(
-        gps_ns=to_gps_ns(obs.time.values),
+        gps_ns=gps_ns,
         satellites=sats,
         pseudorange_m=rho[:, keep],
         code=code,

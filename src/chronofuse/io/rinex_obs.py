@@ -39,7 +39,7 @@ from chronofuse.timescale import NS_PER_S, datetime64_to_gps_ns
 from chronofuse.validation import InputDataError
 
 __all__ = ["ObservationHeader", "GnssObservations", "read_observations", "read_any_observations", "parse_header",
-           "SYSTEM_LETTERS"]
+           "SYSTEM_LETTERS", "rinex2_epoch_tags_ns", "exact_rinex2_times"]
 
 #: RINEX system letters and the names used on the command line.
 SYSTEM_LETTERS = {"gps": "G", "glo": "R", "gal": "E", "bds": "C", "qzss": "J", "sbas": "S", "navic": "I"}
@@ -47,6 +47,14 @@ SYSTEM_LETTERS = {"gps": "G", "glo": "R", "gal": "E", "bds": "C", "qzss": "J", "
 _TIME_SYSTEM_OFFSET_NS = {"GPS": 0, "GAL": 0, "QZS": 0, "BDT": 14 * NS_PER_S, "": 0}
 _EPOCH = re.compile(rb"^> ?(\d{4}) +(\d{1,2}) +(\d{1,2}) +(\d{1,2}) +(\d{1,2}) +(\d+\.\d+) +(\d) *(\d+)")
 _FIELD = 16
+# RINEX 2.11 epoch line (section 5.2, Table A2): " yy mm dd hh mm ss.sssssss  f nnn", flag 0 or 1 (observations)
+_EPOCH2 = re.compile(rb"^ ([ \d]\d) ([ \d]\d) ([ \d]\d) ([ \d]\d) ([ \d]\d)(.{11})  ([01])([ \d]{2}\d)")
+_SECONDS = re.compile(rb"\d+\.\d+")
+#: georinex reads a RINEX 2 epoch's seconds through a float truncated to microseconds, then keeps its times as
+#: ``datetime64[ms]`` (obs2.py): its time is up to a millisecond and a microsecond below the epoch line's exact
+#: value (measured: RTKLIB's 07590920.05o line ``05  4  2  0 21 30.0020000`` comes back as 00:21:30.001, as
+#: float 30.002 % 1 is 0.0019999...).
+GEORINEX_TIME_SLACK_NS = 1_001_000
 
 
 @dataclass(frozen=True)
@@ -200,6 +208,54 @@ def _epoch_ns(match) -> int | None:
         return None
     frac_ns = int((frac + "000000000")[:9])
     return int(datetime64_to_gps_ns(np.array([stamp]))[0]) + int(whole) * NS_PER_S + frac_ns
+
+
+def rinex2_epoch_tags_ns(lines: list[bytes]) -> np.ndarray:
+    """Every observation epoch (flag 0 or 1) of a RINEX 2 file's lines (the whole text, header included), in file
+    order, as int64 GPS ns read from the epoch line's digits (``yy`` < 80 is 20yy, as RINEX 2.11 says): the
+    seconds' seven decimals are kept exactly, never read through a float. Lines that are no readable epoch line
+    are skipped (the callers count unreadable epochs against georinex)."""
+    body = next((i + 1 for i, line in enumerate(lines) if b"END OF HEADER" in line[60:]), len(lines))
+    tags: list[int] = []
+    for line in lines[body:]:
+        match = _EPOCH2.match(line)
+        if match is None:
+            continue
+        seconds = match.group(6).replace(b" ", b"")  # F11.7; a blank inside (" 0 .0000000") as georinex reads it
+        if not _SECONDS.fullmatch(seconds):
+            continue
+        yy, mo, d, h, mi = (int(match.group(k)) for k in range(1, 6))
+        whole, _, frac = seconds.decode().partition(".")
+        try:
+            stamp = np.datetime64(f"{yy + (2000 if yy < 80 else 1900):04d}-{mo:02d}-{d:02d}T{h:02d}:{mi:02d}:00", "ns")
+        except ValueError:
+            continue
+        tags.append(int(datetime64_to_gps_ns(np.array([stamp]))[0]) + int(whole) * NS_PER_S
+                    + int((frac + "000000000")[:9]))
+    return np.asarray(tags, dtype=np.int64)
+
+
+def exact_rinex2_times(georinex_ns: np.ndarray, lines: list[bytes], source: str) -> np.ndarray:
+    """georinex's RINEX 2 epoch times (int64 GPS ns, truncated to milliseconds: :data:`GEORINEX_TIME_SLACK_NS`)
+    replaced by the exact tags of the file's own epoch lines (:func:`rinex2_epoch_tags_ns`): each georinex time
+    takes the first epoch line at or above it, which must lie at most :data:`GEORINEX_TIME_SLACK_NS` above it.
+    Raises :class:`InputDataError` naming the file when a time matches no epoch line (georinex read an epoch this
+    reader cannot see: never guessed)."""
+    georinex_ns = np.asarray(georinex_ns, dtype=np.int64)
+    tags = np.unique(rinex2_epoch_tags_ns(lines))
+    if georinex_ns.size == 0:
+        return georinex_ns
+    k = np.clip(np.searchsorted(tags, georinex_ns), 0, max(tags.size - 1, 0))
+    if tags.size:
+        exact = tags[k]
+        ok = (exact - georinex_ns >= 0) & (exact - georinex_ns <= GEORINEX_TIME_SLACK_NS)
+    else:
+        exact, ok = georinex_ns, np.zeros(georinex_ns.size, dtype=bool)
+    if not ok.all():
+        bad = int(np.flatnonzero(~ok)[0])
+        raise InputDataError(f"epoch {bad + 1} (GPS {int(georinex_ns[bad])} ns as georinex reads it) is on no "
+                             "readable RINEX 2 epoch line", source)
+    return exact
 
 
 def _wanted(name: str, observables) -> bool:
@@ -387,7 +443,7 @@ def read_any_observations(path, *, systems=None, observables=("C",)) -> GnssObse
                 continue
             values.setdefault(code, np.full(data.shape, np.nan))[:, cols] = data[:, cols]
     head = parse_header([b"     3.00           O" + ln[21:] if i == 0 else ln for i, ln in enumerate(lines)], source)
-    gps_ns = datetime64_to_gps_ns(ds.time.values)
+    gps_ns = exact_rinex2_times(datetime64_to_gps_ns(ds.time.values), text.splitlines(), source)
     zeros = {k: np.zeros(v.shape, dtype=np.uint8) for k, v in values.items()}
     header = ObservationHeader(version=version, marker=head.marker, receiver=head.receiver,
                                receiver_version=head.receiver_version, antenna=head.antenna,

@@ -41,7 +41,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.fft
 from scipy import special
-from scipy.signal import lfilter
 
 from chronofuse.validation import check_scalar
 
@@ -309,5 +308,7 @@ def gauss_markov(w: np.ndarray, sigma: float, tau_s: float, dt_s: float) -> np.n
     w = np.asarray(w, dtype=np.float64)
     phi = float(np.exp(-dt_s / tau_s))
     x_prev = sigma * w[..., :1]
+    from scipy.signal import lfilter  # scipy.signal takes seconds to import; only this filter needs it
+
     out, _ = lfilter([sigma * np.sqrt(1.0 - phi * phi)], [1.0, -phi], w[..., 1:], axis=-1, zi=phi * x_prev)
     return out

@@ -41,6 +41,8 @@ COUNTERS = (
     ("chronofuse_receiver_epochs", "epochs decided", lambda r: r["epochs"]),
     ("chronofuse_receiver_alarm_epochs", "epochs in alarm", lambda r: r["alarms"]),
     ("chronofuse_receiver_outages", "link outages", lambda r: r["outages"]),
+    ("chronofuse_receiver_reordered_epochs", "epochs put back in time order", lambda r: r["reordered"]),
+    ("chronofuse_receiver_late_epochs", "epochs that came too late, left out", lambda r: r["late"]),
 )
 
 

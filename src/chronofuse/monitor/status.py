@@ -7,7 +7,9 @@ it is stale, its last record, its counters, and the verdict: ``usable`` (a boole
 first epoch) with ``reasons``, every reason that withholds it. The record's own reasons (fix, time
 validity, GDOP, alarm, dissent ...: the per-epoch decisions) are joined by what only the live monitor
 knows: the receiver is stale, its link is down, its recording has ended. ``unavailable`` lists the
-quantities its kind of source cannot give (a gpsd source has no clock bias, drift or qErr).
+quantities its kind of source cannot give (a gpsd source has no clock bias, drift or qErr). ``reordered``
+and ``late`` count the epochs its decoder's reorder buffer (:mod:`chronofuse.io.arrival`) put back in time
+order and left out as too late (0 for a source without that buffer: gpsd JSON, a replayed clock product).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import time
 from collections import deque
 from pathlib import Path
 
-__all__ = ["status_document", "SCHEMA_PATH", "load_schema", "RECORD_FIELDS", "unavailable_fields", "verdict"]
+__all__ = ["status_document", "arrival_counts", "SCHEMA_PATH", "load_schema", "RECORD_FIELDS", "unavailable_fields", "verdict"]
 
 SCHEMA_PATH = Path(__file__).with_name("status.schema.json")
 SCHEMA_ID = "chronofuse.monitor.status/1"
@@ -68,6 +70,12 @@ def verdict(record: dict | None, *, stale: bool, link: str, age_s: float | None,
     return bool(record.get("usable")) and not reasons, reasons
 
 
+def arrival_counts(monitor, receiver: str) -> tuple[int, int]:
+    """``(reordered, late)`` epochs of ``receiver``'s decoder (module docstring)."""
+    decoder = monitor.decoders.get(monitor.source_of(receiver))
+    return int(getattr(decoder, "n_reordered", 0)), int(getattr(decoder, "n_late", 0))
+
+
 def status_document(monitor, events=(), chrony=None, now_s: float | None = None) -> dict:
     """The status of ``monitor`` (a :class:`~chronofuse.monitor.engine.Monitor`) now: see the module
     docstring and the schema. ``events``: recent :class:`~chronofuse.monitor.events.MonitorEvent` s;
@@ -82,6 +90,7 @@ def status_document(monitor, events=(), chrony=None, now_s: float | None = None)
         stale = monitor.is_stale(name)
         last = monitor.decided.get(name)  # decided: its verdict is known (a record may wait for it)
         usable, reasons = verdict(last, stale=stale, link=link, age_s=age, stale_s=monitor.stale_s)
+        reordered, late = arrival_counts(monitor, name)
         receivers.append({
             "receiver": name,
             "source": getattr(sources.get(monitor.source_of(name)), "kind", "raw"),
@@ -93,6 +102,8 @@ def status_document(monitor, events=(), chrony=None, now_s: float | None = None)
             "epochs": rx.epochs,
             "alarms": rx.alarms,
             "outages": rx.outages,
+            "reordered": reordered,
+            "late": late,
             "unavailable": unavailable_fields(sources.get(monitor.source_of(name))),
             "last": None if last is None else {k: _clean(last.get(k)) for k in RECORD_FIELDS},
         })

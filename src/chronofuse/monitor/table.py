@@ -7,7 +7,8 @@ middle, never cut to three letters):
 
 - 80 columns: receiver, link, age, fix, satellites, GDOP, ok (usable), bias, alarms, and why not usable;
 - 100 columns: adds the UTC time of day, the leap count and qErr;
-- 140 and more: the whole record (date and time, drift, flags, outages).
+- 140 and more: the whole record (date and time, drift, flags, outages); the flags say ``late N`` when N epochs
+  came too late to be put back in order and were left out.
 
 A quantity the receiver's kind of source cannot give (gpsd: clock bias, drift, qErr) shows ``n/a``,
 one it has not sent ``-``.
@@ -74,6 +75,8 @@ def _cells(entry: dict, name_width: int) -> dict:
         flags.append("[yellow]jump[/yellow]")
     if entry["stale"]:
         flags.append("[magenta]stale[/magenta]")
+    if entry.get("late"):
+        flags.append(f"[yellow]late {entry['late']}[/yellow]")
     utc = last.get("utc") or "-"
     pending = last.get("leap_pending") or 0
     link = {"up": "[green]up[/green]", "down": "[red]down[/red]"}.get(entry["link"], entry["link"])

@@ -17,6 +17,7 @@ import pymap3d
 
 from chronofuse.gnss.lsq_position import least_squares_position
 from chronofuse.gnss.ephemeris import GpsNavigation
+from chronofuse.positioning import MAX_SPEED_M_PER_S, SYSTEMS
 from chronofuse.gnss.simulate import ENVIRONMENTS, broadcast_satellites, model_satellites, simulate_pseudoranges
 from chronofuse.models.imu import ImuModel, imu_grade, simulate_imu
 from chronofuse.models.kinematics import Trajectory, manoeuvre
@@ -28,9 +29,6 @@ __all__ = ["DriveData", "city_loop", "simulate_drive", "DEFAULT_ORIGIN", "SYSTEM
 
 #: Wuhan, 30.5 N 114.3 E, 30 m: under the BDS GEO and IGSO arcs.
 DEFAULT_ORIGIN = np.array([math.radians(30.5), math.radians(114.3), 30.0])
-SYSTEMS = {"gps": ("gps",), "gps+bds": ("gps", "bds")}
-#: The scenarios' limit on a road vehicle's speed (m/s).
-MAX_SPEED_M_PER_S = 70.0
 _ENU_TO_NED = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
 
 
