@@ -108,3 +108,35 @@ def test_swarm_run_and_network_write_their_document_with_out(tmp_path):
         assert doc["files"][0] == str(out / "summary.json")
         assert doc["files"][1:] == ([str(out / "report.html")] if args[1] == "run" else [])
         assert json.loads((out / "summary.json").read_text()) == {k: v for k, v in doc.items() if k != "files"}
+
+
+def test_one_trial_gives_no_interval_and_says_so_naming_trials():
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc", "--exchanges", "100", "--trials", "1",
+                                 "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["rmse_ci_ns"]["rtt-rvc"] == [None, None] and doc["ratio_ci"]["rtt-rvc"] == [None, None]
+    assert doc["rmse_ns"]["rtt-rvc"] > 0.0
+    assert any(w.startswith("--trials == 1 is below 10") for w in doc["warnings"]), doc["warnings"]
+    human = runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc", "--exchanges", "100", "--trials", "1"])
+    assert human.exit_code == 0 and "warning: --trials == 1" in human.stdout
+    words = human.stdout.split()  # the table may wrap "not available" over two lines
+    assert words.count("not") >= 2 and words.count("available") >= 2 and "nan" not in human.stdout
+
+
+def test_a_loss_its_bursts_cannot_reach_is_one_line_and_links_that_never_got_an_exchange_are_reported():
+    bad = runner.invoke(app, ["swarm", "run", "--loss", "0.999", "--exchanges", "50", "--trials", "1"])
+    assert bad.exit_code == 2
+    lines = [line for line in bad.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: --loss == 0.999 needs --loss-burst >= 999"), bad.stderr
+    result = runner.invoke(app, ["swarm", "run", "--loss", "0.999", "--loss-burst", "1000", "--exchanges", "120",
+                                 "--trials", "12", "--algorithm", "rtt-rvc-kf,doppler-kf", "--json"])
+    assert result.exit_code == 0, result.output
+    assert "RuntimeWarning" not in result.stderr
+    doc = json.loads(result.stdout)
+    unscored = doc["unscored_trials"]["rtt-rvc-kf"]
+    assert 0 < len(unscored) < 12 and doc["rmse_ns"]["rtt-rvc-kf"] > 0.0
+    assert any(w.startswith(f"rtt-rvc-kf: {len(unscored)} of 12 trials had no estimate") for w in doc["warnings"])
+    human = runner.invoke(app, ["swarm", "run", "--loss", "0.999", "--loss-burst", "1000", "--exchanges", "120",
+                                "--trials", "12", "--algorithm", "rtt-rvc-kf"])
+    assert human.exit_code == 0 and f"{12 - len(unscored)}/12" in human.stdout
