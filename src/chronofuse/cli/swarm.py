@@ -132,7 +132,7 @@ def run(
         return
     con = human_console(False)
     for note in notes:
-        con.print(f"warning: {note}", markup=False)
+        con.print(f"warning: {note}", markup=False, emoji=False)
     table = Table("algorithm", "trials scored", "RMSE (ns)", "95 % interval", "RMSE / bound", "95 % interval", "K*",
                   title=f"{trials} links, URT {urt_mode}")
     for name, value in doc["rmse_ns"].items():
@@ -222,7 +222,7 @@ def sweep(
                           _span(row["rmse_lo_ns"], row["rmse_hi_ns"]), f"{row['bound_rms_ns']:.4g}",
                           f"{_num(row['ratio'], '.3g')} ({_span(row['ratio_lo'], row['ratio_hi'])})")
     for note in notes:
-        con.print(f"warning: {note}", markup=False)
+        con.print(f"warning: {note}", markup=False, emoji=False)
     con.print(table_out)
     con.print(f"{len(written)} files -> {out}/ in {elapsed:.1f} s")
 

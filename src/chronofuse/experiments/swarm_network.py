@@ -75,17 +75,30 @@ class SwarmScenario:
         check_scalar(self.nodes, "nodes", min_val=2, max_val=5000, integer=True)
         check_scalar(self.interval_s, "interval_s", min_val=1e-3, max_val=60.0)
         check_scalar(self.duration_s, "duration_s", min_val=3 * self.interval_s)
-        check_scalar(self.area_m, "area_m", min_val=0.0)
+        check_scalar(self.area_m, "area_m", min_val=0.0, include_min=False)  # 0: every node at one point
         check_scalar(self.radio_range_m, "radio_range_m", min_val=0.0, include_min=False)
         check_scalar(self.neighbours, "neighbours", min_val=1, integer=True)
         check_choice(self.topology, "topology", ("tree", "consensus"))
-        preset(self.oscillator), preset(self.leader_oscillator)
+        # a mean time is checked whether or not it is used (an infinite mean-up leaves mean-down unused)
+        if not (isinstance(self.mean_up_s, (int, float)) and self.mean_up_s == math.inf):
+            check_scalar(self.mean_up_s, "mean_up_s", min_val=0.0, include_min=False)
+        check_scalar(self.mean_down_s, "mean_down_s", min_val=0.0, include_min=False)
+        preset(self.oscillator)
+        try:
+            preset(self.leader_oscillator)
+        except InputError as exc:
+            raise InputError(exc.message.replace("{oscillator}", "{leader_oscillator}"),
+                             fields=("leader_oscillator",)) from None
         if self.leader_loss_at_s is not None:
             check_scalar(self.leader_loss_at_s, "leader_loss_at_s", min_val=0.0, max_val=self.duration_s)
         for item in self.cut_off:
+            text = ":".join(f"{v:g}" if isinstance(v, float) else str(v) for v in item)
             if len(item) != 3 or not 0 <= int(item[0]) < self.nodes:
-                raise InputError(f"{{cut_off}} == {self.cut_off!r}, must be (node, from_s, to_s) triples of existing "
-                                 f"nodes (0 to {self.nodes - 1} of {{nodes}})", fields=("cut_off", "nodes"))
+                raise InputError(f"{{cut_off}} == {text}, must be NODE:FROM:TO with NODE an existing node "
+                                 f"(0 to {self.nodes - 1} of {{nodes}})", fields=("cut_off", "nodes"))
+            if not 0.0 <= float(item[1]) < float(item[2]):
+                raise InputError(f"{{cut_off}} == {text}, must be NODE:FROM:TO with 0 <= FROM < TO (s)",
+                                 fields=("cut_off",))
 
     @property
     def steps(self) -> int:

@@ -124,8 +124,9 @@ def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt
     (``bp.pt``, ``lstm.pt``) and return a summary: parameter counts, training seconds and device, held-out
     test RMS of the target and of what each network leaves, and the ablation at the prior and with the
     offsets shifted by 1 us."""
-    from chronofuse.sync.residual import ResidualConfig, ResidualNetwork
+    from chronofuse.sync.residual import ResidualConfig, ResidualNetwork, _device
 
+    _device(ResidualConfig(device=device))  # an absent GPU is refused now, not after the data set is built
     out = Path(out)
     size = dict(samples=6000, groups=10, runs_per_group=6, exchanges=1000) if quick else {}
     say = progress or (lambda message: None)

@@ -66,6 +66,11 @@ def sweep_tasks(base: LinkScenario, param: str, values, algorithms, *, trials: i
     check_scalar(trials, "trials", min_val=1, integer=True)
     check_scalar(chunk_trials, "chunk_trials", min_val=1, integer=True)
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
+    values = [float(v) for v in values]
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:  # a repeated value draws the same seeds: the same trials twice, counted as twice the trials
+        raise InputError(f"{{values}} == {','.join(f'{v:g}' for v in values)} repeats "
+                         f"{', '.join(f'{v:g}' for v in repeated)}: give each value once", fields=("values",))
     root = root_seed(seed)
     tasks = []
     for value in values:
@@ -113,13 +118,14 @@ def _client(scheduler: str | None, n_tasks: int):
     distributed = require("distributed", "a parameter sweep on Dask")
     Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
-    if scheduler is None:
+    if scheduler is None or scheduler == "local":
         workers = max(1, min(os.cpu_count() or 1, n_tasks))
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                host="127.0.0.1")
         return Client(cluster), cluster
     if not scheduler.startswith("tcp://"):
-        raise InputError(f"{{scheduler}} == {scheduler!r}, must be tcp://HOST:PORT or 'serial'", fields=("scheduler",))
+        raise InputError(f"{{scheduler}} == {scheduler!r}, must be 'local', 'serial' or tcp://HOST:PORT",
+                         fields=("scheduler",))
     try:
         return Client(scheduler, timeout="5s"), None
     except (OSError, TimeoutError) as exc:
