@@ -7,8 +7,8 @@ area; each a free-running oscillator since GNSS was jammed (its time and frequen
 neighbours within radio range (:func:`~chronofuse.sync.swarm.graph.neighbour_links`); each link is calibrated
 (:func:`~chronofuse.experiments.swarm.calibrate_scenario`'s procedure, before the jamming), then exchanges
 every ``interval_s`` while it is up (its own two-state availability chain, independent of every other link,
-within range, both nodes there); its ``doppler-kf`` predicts through its gaps. The leader can leave the
-swarm (``leader_loss_at_s``), and a node can be cut off (``cut_off``).
+within range, both nodes there); its ``doppler-kf`` predicts through its gaps. The leader elected at
+``leader_loss_at_s`` can leave the swarm then, and a node can be cut off (``cut_off``).
 
 Every link's work is one task (its seeds: ``child_seed(root, LINK, index)``), so the links run in chunks on
 Dask (``scheduler``) or here, with identical numbers; composing the node times is cheap and runs here.
@@ -159,10 +159,16 @@ def swarm_truth(sc: SwarmScenario, seed) -> dict:
     return {"positions_m": pos, "velocities_m_s": vel, "links": links, "clocks_s": clocks}
 
 
-def _alive(sc: SwarmScenario) -> np.ndarray:
+def _alive(sc: SwarmScenario, qualities) -> np.ndarray:
+    """Who is there (nodes, steps): everyone, but the leader elected at ``leader_loss_at_s`` leaves then (the
+    leader the election chose, which is node 0 only where node 0 has the best clock)."""
     alive = np.ones((sc.nodes, sc.steps), dtype=bool)
     if sc.leader_loss_at_s is not None:
-        alive[0, int(round(sc.leader_loss_at_s / sc.interval_s)):] = False
+        k = int(round(sc.leader_loss_at_s / sc.interval_s))
+        lead = leader_timeline(qualities, alive, sc.steps, sc.interval_s)[:min(k, sc.steps - 1) + 1]
+        elected = lead[lead >= 0]
+        if elected.size:  # the leader then (the last one elected before, while the election is pending)
+            alive[elected[-1], k:] = False
     return alive
 
 
@@ -296,7 +302,7 @@ def run_swarm(sc: SwarmScenario, seed=0, *, scheduler: str | None = "serial", ch
     for part in parts:
         for k in merged:
             merged[k][part["ids"]] = part[k]
-    alive = _alive(sc)
+    alive = _alive(sc, _qualities(sc))
     leader = leader_timeline(_qualities(sc), alive, steps, sc.interval_s)
     time = compose_network_time(truth["links"], merged["estimate_s"], merged["sigma_s"], merged["usable"], leader,
                                 alive, link_fault=merged["fault"], topology=sc.topology,
