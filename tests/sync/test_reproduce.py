@@ -37,3 +37,11 @@ def test_a_quick_reproduction_writes_its_figures_and_a_report_that_replots_from_
     again = runner.invoke(app, ["reproduce", "swarm", "--replot", "--out", str(tmp_path)])
     assert again.exit_code == 0, again.output
     assert (tmp_path / "fig9.png").exists() and (tmp_path / "README.md").read_text() == text
+
+
+def test_a_claim_without_an_interval_gets_no_interval_based_verdict():
+    nan = float("nan")
+    assert verdict("<", 0.2, _row(0.1, nan, nan, 0.05)).startswith("no verdict: 0.1 ns without an interval")
+    assert verdict("<", 0.2, _row(0.1, None, None, 0.3)) == "not reachable: the bound is 0.3 ns"
+    assert verdict("~", 1.8, _row(2.0, None, None, 0.3)) == "reproduced"  # within 25 %, no interval needed
+    assert verdict("~", 13.0, _row(22.0, nan, nan, 0.3)) == "not reproduced: ours is 1.7x the paper's"

@@ -86,7 +86,7 @@ def run(
     algorithm: str = typer.Option("all", "--algorithm", help="Comma-separated algorithm names, or 'all'."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode",
                                  help="paper (the paper's batch URT estimate) or calibrated (per link, under GNSS)."),
-    trials: int = typer.Option(20, "--trials", help="Monte Carlo trials (links, each its own prior draw)."),
+    trials: int = typer.Option(20, "--trials", help="Monte Carlo trials (links, each its own prior draw); intervals need at least 10."),
     seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
     threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K* (s)."),
     model: Path = typer.Option(None, "--model", help="BP model file for rtt-rvc-kf-bp (chronofuse swarm train)."),
@@ -155,7 +155,7 @@ def sweep(
     algorithm: str = typer.Option("ptp-mls,rtt-rvc,rtt-rvc-kf,doppler-kf", "--algorithm",
                                   help="Comma-separated algorithm names."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
-    trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
+    trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value; intervals need at least 10."),
     chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     scheduler: str = typer.Option("local", "--scheduler",
@@ -341,7 +341,7 @@ def network(
 
 def reproduce_swarm_command(
     figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
-    quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
+    quick: bool = typer.Option(False, "--quick", help="10 trials x 1000 exchanges per point."),
     out: Path = typer.Option(Path("out/reproduce/swarm"), "--out",
                              help="Report folder (created; docs/sync holds the published run)."),
     model: Path = typer.Option(None, "--model", help="BP model file (rtt-rvc-kf-bp curves)."),
