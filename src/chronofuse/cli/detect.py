@@ -51,6 +51,11 @@ def detect(
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),
     follow: float | None = typer.Option(None, "--follow", help="With --json-lines: FILE is still being written; wait for new lines, stop after this long without any (s)."),
     json_lines: bool = typer.Option(False, "--json-lines", help="Stream: one JSON line per epoch as it is decided (FILE may be - for stdin, a pipe or a FIFO)."),
+    raim: bool = typer.Option(False, "--raim", help="RINEX observations with --nav: position-domain integrity (protection levels against alert limits, fault detection and exclusion by solution separation); --position, if given, only checks the levels; no noise model or --train needed."),
+    horizontal_alert_limit_m: float = typer.Option(40.0, "--horizontal-alert-limit-m", help="--raim: horizontal alert limit (m)."),
+    vertical_alert_limit_m: float = typer.Option(50.0, "--vertical-alert-limit-m", help="--raim: vertical alert limit (m)."),
+    integrity_risk: float = typer.Option(1e-4, "--integrity-risk", help="--raim: per-epoch budget of P(error beyond the protection level and no alarm)."),
+    p_md: float = typer.Option(1e-3, "--p-md", help="--raim: missed-detection probability of the stated minimum detectable bias."),
     detector: str = typer.Option("chi-square", "--detector", help="Detector: chi-square (default), single-epoch, cusum, or one a plugin registers (group chronofuse.detectors)."),
 ) -> None:
     """Detect clock-bias anomalies with the high-order-difference chi-square test.
@@ -75,6 +80,10 @@ def detect(
     if not (max_tacc_ns >= 0 and math.isfinite(max_tacc_ns)):
         fail(f"--max-tacc-ns {max_tacc_ns:g}: must be >= 0 ns (0: not used)")
     from chronofuse.integrity.modes import detect_file, read_noise_file
+
+    if raim:
+        _raim(file, nav, position, pfa, horizontal_alert_limit_m, vertical_alert_limit_m, integrity_risk, p_md,
+              elevation_mask_deg, json_out, report, json_lines=json_lines, train=train, detector=detector)
     from chronofuse.integrity.registry import DETECTORS
 
     if detector not in DETECTORS:
@@ -189,6 +198,71 @@ def _print_stations(file: Path, doc: dict) -> None:
         for key, label in (("clock_event", "clock events"), ("noise_changed", "noise changed after training"),
                            ("untested", "not tested"), ("no_event", "no event")):
             con.print(f"  {label} ({len(fa[key])}): {', '.join(fa[key]) or '-'}", soft_wrap=False)
+
+
+def _raim(file: Path, nav, position, pfa, hal_m, val_m, integrity_risk, p_md, elevation_mask_deg, json_out, report,
+          *, json_lines, train, detector) -> None:
+    """``detect OBS --nav NAV --raim``: :func:`chronofuse.integrity.raim_station.raim_document`, printed."""
+    from chronofuse.cli.common import fail, print_json, progress_reporter, user_errors
+    from chronofuse.integrity.modes import detect_file
+    from chronofuse.integrity.raim import RaimSettings
+
+    if json_lines or str(file) == "-":
+        fail("--raim reads a whole RINEX observation file: not with --json-lines or -")
+    if train is not None or detector != "chi-square":
+        fail("--raim needs no noise model: --train and --detector are for clock-bias detection")
+    for flag, value in (("--integrity-risk", integrity_risk), ("--p-md", p_md)):
+        if not 0.0 < value <= 0.5:
+            fail(f"{flag} {value:g}: must be in (0, 0.5]")
+    if not 0.0 < pfa <= 0.5:
+        fail(f"--pfa {pfa:g}: must be in (0, 0.5] with --raim")
+    for flag, value in (("--horizontal-alert-limit-m", hal_m), ("--vertical-alert-limit-m", val_m)):
+        if not (value > 0 and math.isfinite(value)):
+            fail(f"{flag} {value:g}: must be a positive number of metres")
+    settings = RaimSettings(pfa=pfa, integrity_risk=integrity_risk, p_md=p_md, horizontal_alert_limit_m=hal_m,
+                            vertical_alert_limit_m=val_m)
+    with user_errors(), progress_reporter("detect") as say:
+        say(f"RAIM on {file.name}")
+        doc = detect_file(file, nav=nav or None, position_m=position, raim=True, raim_settings=settings,
+                          elevation_mask_deg=elevation_mask_deg)
+        if report is not None:
+            from chronofuse.report.html import detect_page
+
+            detect_page(doc, report, str(file), command=f"chronofuse detect {file} --raim")
+    if json_out:
+        print_json(doc)
+    else:
+        _print_raim(file, doc)
+    raise typer.Exit(_EXIT_CODES[doc["state"]])
+
+
+def _print_raim(file: Path, doc: dict) -> None:
+    from chronofuse.cli.common import human_console
+
+    con = human_console(False)
+    states = doc["epoch_states"]
+    con.print(f"[bold]{file}[/bold]: RAIM ({'+'.join(doc['systems'])}), {doc['n_epochs']:,} epochs: "
+              + ", ".join(f"{states[s]:,} {s}" for s in states) + f"; availability {doc['availability']:.1%}")
+    con.print(f"alert limits H {doc['horizontal_alert_limit_m']:g} m, V {doc['vertical_alert_limit_m']:g} m; "
+              f"P_fa {doc['pfa']:g}, integrity risk {doc['integrity_risk']:g}")
+    hpl, vpl, mdb = doc["hpl_m"], doc["vpl_m"], doc["mdb_m"]
+    con.print(f"HPL median {_num(hpl['median'], '.1f')} m (95 % {_num(hpl['p95'], '.1f')} m), VPL median "
+              f"{_num(vpl['median'], '.1f')} m (95 % {_num(vpl['p95'], '.1f')} m), minimum detectable bias median "
+              f"{_num(mdb['median'], '.1f')} m (at P_md {doc['p_md']:g})")
+    check = doc.get("position_check")
+    if check is not None:
+        lo, hi = check["rate_ci95"]
+        con.print(f"against the position given: horizontal error median {_num(check['horizontal_error_m']['median'], '.2f')} m, "
+                  f"max {_num(check['horizontal_error_m']['max'], '.2f')} m; {check['n_beyond_level']} of "
+                  f"{check['n_epochs']:,} available epochs beyond a level (95 % CI {_num(lo, '.2g')}..{_num(hi, '.2g')})")
+    if doc["excluded"]:
+        con.print("excluded: " + ", ".join(doc["excluded"]))
+    if doc["state"] == "unavailable":
+        con.print("[red]integrity unavailable[/red]: " + "; ".join(doc["unavailable_reasons"]))
+    elif doc["state"] == "alarm":
+        con.print(f"[red]integrity alarm[/red]: {doc['n_alarms']} epoch(s) detected a fault")
+    else:
+        con.print("[green]integrity ok: no alarm[/green]")
 
 
 def _num(value: float | None, spec: str) -> str:

@@ -246,6 +246,21 @@ def _station_mode(path, nav, position_m, *, train_s, window, pfa, test, codes, e
                             test=test)
 
 
+def _raim_mode(path, nav, position_m, settings, elevation_mask_deg: float) -> dict:
+    """``raim``: position-domain integrity of a RINEX observation file whose position need not be known
+    (:mod:`chronofuse.integrity.raim_station`; a position given is used only to check the levels)."""
+    from chronofuse.integrity.raim_station import raim_document
+
+    if sniff_format(path) != "rinex-obs":
+        raise InputError("{raim} needs a RINEX observation file (pseudoranges) with its navigation file ({nav})",
+                         str(path), fields=("raim", "nav"))
+    if nav is None:
+        raise InputError("{raim} needs the navigation file ({nav}) of the observation file", str(path), fields=("nav",))
+    check_scalar(elevation_mask_deg, "elevation_mask_deg", min_val=0.0, max_val=90.0, include_max=False)
+    navs = [nav] if isinstance(nav, (str, Path)) else list(nav)
+    return raim_document(path, navs, settings=settings, position_m=position_m, elevation_mask_deg=elevation_mask_deg)
+
+
 def _forward_fill(values: np.ndarray) -> np.ndarray:
     idx = np.where(np.isfinite(values), np.arange(values.size), 0)
     idx = np.maximum.accumulate(idx)
@@ -271,6 +286,8 @@ def detect_file(
     test: str = "chi-square",
     codes=None,
     elevation_mask_deg: float = 10.0,
+    raim: bool = False,
+    raim_settings=None,
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -329,6 +346,8 @@ def detect_file(
     """
     if rate_hz is not None:
         check_scalar(rate_hz, "rate_hz", min_val=0.0, include_min=False)
+    if raim:
+        return _raim_mode(path, nav, position_m, raim_settings, elevation_mask_deg)
     if train_s is not None:
         check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     elif None in (h0, hm2, sigma_rho_m):

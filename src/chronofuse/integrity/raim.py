@@ -130,7 +130,14 @@ def _separations(g, w, y, system, n_systems, k_axis, pfa):
         gg = g if weights.ndim == 2 else g[:, None]  # (E, S, U) or (E, 1, S, U) against subsets
         gw = gg * weights[..., None]
         normal = np.swapaxes(gw, -1, -2) @ gg + hold
-        return np.linalg.inv(normal), gw
+        # fewer satellites than unknowns (an epoch of 3, a subset of an epoch of 4): no solution; the
+        # identity keeps the batch invertible and those epochs are unavailable (not enough satellites)
+        short = (weights > 0).sum(-1) < 3 + present.sum(-1)
+        normal[short] = np.eye(u)
+        try:
+            return np.linalg.inv(normal), gw
+        except np.linalg.LinAlgError:  # a degenerate geometry among them (satellites in one plane)
+            return np.linalg.pinv(normal), gw
 
     p0, gw0 = normal_inv(w)
     s0 = p0 @ np.swapaxes(gw0, -1, -2)  # (E, U, S)
