@@ -241,8 +241,6 @@ def train(
     samples, v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure what
     each is worth on held-out links, with intervals."""
     quiet_output(quiet)
-    import json
-
     from chronofuse.experiments.swarm_training import train_networks
 
     with user_errors():
@@ -254,7 +252,9 @@ def train(
         _urt_mode(urt_mode)
         with progress_reporter("swarm train") as say:
             summary = train_networks(out, quick=quick, seed=seed, device=device, urt_mode=urt_mode, progress=say)
-        (Path(out) / "training.json").write_text(json.dumps(summary, indent=2))
+        from chronofuse.report.jsonio import dumps
+
+        (Path(out) / "training.json").write_text(dumps(summary))  # strict JSON: a missing interval is null
     if json_out:
         print_json(summary)
         return
@@ -265,8 +265,7 @@ def train(
         a, b = r["ablation"], r["ablation_offset_1us"]
         table.add_row(kind, str(r["parameters"]), f"{r['train_seconds']:.1f}", r["device"],
                       f"{r['test_left_rms_ns']:.3g} of {r['test_target_rms_ns']:.3g}",
-                      f"{a['ratio']:.3g} ({a['ratio_ci'][0]:.3g}-{a['ratio_ci'][1]:.3g})",
-                      f"{b['ratio']:.3g} ({b['ratio_ci'][0]:.3g}-{b['ratio_ci'][1]:.3g})")
+                      f"{a['ratio']:.3g} ({_span(*a['ratio_ci'])})", f"{b['ratio']:.3g} ({_span(*b['ratio_ci'])})")
     con.print(table)
     con.print(f"models -> {out}/")
 
