@@ -2,10 +2,10 @@
 
 Baseline for each: the same computation through the numpy twins (``fast=False`` for the servo, the
 fusion and the state machine: a plain Python loop over seconds calling numpy on (trials,) arrays, the
-readable reference path), timed in the same process on a slice and scaled to the full length. Targets (issue 9): a day < 5 s; 100 trials of a day < 60 s on
+readable reference path), timed in the same process on a slice and scaled to the full length. Targets: a day < 5 s; 100 trials of a day < 60 s on
 2 cores; a streaming controller step < 20 us median.
 
-The whole command (issue 17): ``chronofuse gnssdo --trials 100`` (a day, 3 receivers, the fitted default
+The whole command: ``chronofuse gnssdo --trials 100`` (a day, 3 receivers, the fitted default
 controller, the clairvoyant servo, the bound and every summary figure) < 30 s on 2 cores and < 2 GB, run in a
 child process (:func:`whole_run`) so that its memory is its own: the trials in blocks on every usable core
 against the same code on one process (8 trials, scaled; the calibration fit once in each), with the peak RSS

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-__all__ = ["Progress", "silent", "within"]
+__all__ = ["Progress", "silent", "stages", "within"]
 
 #: ``progress(message, fraction=None)``; ``fraction`` is of the whole job, 0..1, None where unknown.
 Progress = Callable[..., None]
@@ -33,3 +33,17 @@ def within(progress: Progress, start: float, stop: float) -> Progress:
         progress(message, start + (stop - start) * last[0])
 
     return inner
+
+
+def stages(progress: Progress, weights) -> list[Progress]:
+    """One :func:`within` per stage of a job, in order, each spanning its share of the whole: ``weights`` are
+    the stages' expected costs in any one unit (epochs simulated, trials x steps), so the ETA a display
+    draws from the fractions is that of the work left, not of the stages left."""
+    weights = [float(w) for w in weights]
+    if not weights or min(weights) < 0 or sum(weights) <= 0:
+        raise ValueError(f"weights == {weights}, must be >= 0 with a positive sum")
+    total, edges = sum(weights), [0.0]
+    for w in weights:
+        edges.append(edges[-1] + w / total)
+    edges[-1] = 1.0
+    return [within(progress, a, b) for a, b in zip(edges[:-1], edges[1:])]

@@ -1,4 +1,4 @@
-"""The stability engine through the public API, against every Stable32 table in shared/data/stability.
+"""The stability engine through the public API, against every Stable32 table in tests/data/stability.
 
 Deviations, term counts and averaging times are compared to Stable32's printed precision (5
 significant digits). Known differences, each explained where it is tested:

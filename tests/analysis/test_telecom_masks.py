@@ -231,7 +231,7 @@ def test_the_real_records_pass_or_fail_each_filtered_mask_as_a_second_filter_doe
 
 
 def test_ts2phc_reject_tdev_from_128_s_is_the_quiet_record_because_no_kept_term_sees_the_burst(data_dir):
-    """Issue 20, E: the rejected ts2phc capture's TDEV drops from 1.6e-4 s at 64 s to 3.2e-12 s at 128 s while
+    """The rejected ts2phc capture's TDEV drops from 1.6e-4 s at 64 s to 3.2e-12 s at 128 s while
     MTIE fails. The units are right (seconds, from the log's ns) and the kernel is right: the 82 samples of
     the 1 s error and its recovery lie between the log's silences (samples 4649-4659, 5007-5019, 5202-5220,
     segments of 347 and 182 samples), shorter than a TDEV term's 3 tau = 384 samples, so from tau = 128 s no

@@ -80,3 +80,17 @@ def test_on_a_terminal_progress_is_a_bar_with_percent_and_eta():
     assert re.search(r"swarm run: (ptp-mls|rtt-rvc).*\b\d{1,3}%.*ETA", screen), screen[-2000:]
     assert re.search(r"ETA\s+(\d+:\d\d:\d\d|-:--:--)", screen)
     assert "RMSE" in screen  # the table follows the bar
+
+
+def test_the_eta_does_not_grow_while_a_long_stage_reports_no_fraction():
+    import pytest
+
+    from chronofuse.cli.common import _eta
+
+    # 10 % reached at 2 s: 18 s left by that rate; 5 s later, 13 s; once the stage has outlasted the rate
+    # (20 s and more after the start with still 10 %), no ETA rather than one that grows with the wait
+    assert _eta(2.0, 0.1, 2.0) == pytest.approx(18.0)
+    assert _eta(7.0, 0.1, 2.0) == pytest.approx(13.0)
+    assert _eta(25.0, 0.1, 2.0) is None
+    assert _eta(3.0, None) is None and _eta(3.0, 0.0) is None
+    assert _eta(9.0, 1.0, 9.0) == 0.0

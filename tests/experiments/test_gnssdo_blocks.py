@@ -1,4 +1,4 @@
-"""The gnssdo trials in blocks on several processes give the numbers of one run of all of them (issue 17, item 10).
+"""The gnssdo trials in blocks on several processes give the numbers of one run of all of them.
 
 Oracles: the unblocked path (``evaluate(simulate_gnssdo(...))``, every trial's seconds at once); each model's
 own run of more trials (a block's trial ``i`` is trial ``first_trial + i``); one :func:`discipline_run` per servo

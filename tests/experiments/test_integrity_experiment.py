@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from chronofuse.analysis.metrics import clopper_pearson
 from chronofuse.cli import reproduce as reproduce_cli
 from chronofuse.experiments.integrity import (
+    STAGE_S_PER_UNIT,
     IntegrityConfig,
     independent_epochs,
     run_integrity,
@@ -19,10 +20,30 @@ SMALL = IntegrityConfig(pfa_trials=60, pfa_steps=3_000, training_lengths=(200, 5
                         training_test_trials=10, training_test_steps=3_000, detection_trials=40)
 
 
+HEARD = []
+
+
 @pytest.fixture(scope="module")
 def small_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("integrity")
-    return out, run_integrity(out, config=SMALL)
+    return out, run_integrity(out, config=SMALL, progress=lambda message, fraction=None: HEARD.append((message, fraction)))
+
+
+def test_the_run_says_each_stage_with_the_fraction_of_the_whole_done(small_run):
+    fractions = [f for _, f in HEARD]
+    assert None not in fractions and fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] < 1.0
+    messages = [m for m, _ in HEARD]
+    assert messages[:4] == [f"false alarms at P_fa {p:g}" for p in (1e-1, 1e-2, 1e-3, 1e-4)]
+    assert messages[-1] == "figures" and "training on 5000 epochs" in messages and "detection of drag" in messages
+    # the stages' shares are their detector-epochs at the measured rates: false alarms 4 P_fa x 4 detectors x
+    # 60 x 3000, training 2 lengths x 2 fits x 4 x 10 x 3000, detection 4 kinds x 11 sizes x 4 x 40 x 260
+    rate = STAGE_S_PER_UNIT
+    s = [2.88e6 * rate[0], 4.8e5 * rate[1], 1.8304e6 * rate[2], rate[3]]
+    at = dict(HEARD)
+    assert at["false alarms at P_fa 0.001"] == pytest.approx(s[0] / 2 / sum(s))
+    assert at["training on 200 epochs"] == pytest.approx(s[0] / sum(s))
+    assert at["detection of step"] == pytest.approx((s[0] + s[1]) / sum(s))
+    assert at["figures"] == pytest.approx(1.0 - s[3] / sum(s))
 
 
 def test_report_folder_holds_figures_tables_summary_and_markdown(small_run):

@@ -135,7 +135,7 @@ def _verdicts_up_to(res, last: int) -> tuple:
 @pytest.mark.slow
 @pytest.mark.parametrize("sat, start_s", [("G28", 1800.0), ("G11", 3040.0 - 40.0)])
 def test_no_verdict_changes_when_the_record_grows_on_every_prefix_of_a_real_station(real, sat, start_s):
-    # issue 10, point 1: on 0759 a 30 ns step on G28 at 1800 s named G20 from 60 s, and a G11 fault
+    # A case once wrong: on 0759 a 30 ns step on G28 at 1800 s named G20 from 60 s, and a G11 fault
     # near the end raised G11 alarms at 1260-1290 s, before it existed. Every prefix must agree with
     # the full record on every epoch it holds.
     _, biases = real["07590920"]

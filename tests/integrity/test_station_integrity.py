@@ -167,3 +167,24 @@ def test_clopper_pearson_matches_the_beta_quantiles_at_the_edges():
     assert hi == pytest.approx(1 - 0.025 ** (1 / 100), rel=1e-9)
     lo, hi = clopper_pearson(5, 100)
     assert lo < 0.05 < hi
+
+
+def test_a_station_run_says_its_stages_and_the_fraction_of_its_epochs_done(channels_of):
+    name = STATIONS[0]
+    ch = channels_of(name).epochs(0, 300)  # 2 h of training, 30 min tested: a short run
+    heard = []
+    doc, _ = station_integrity(None, None, ch.position_m, channels=ch, train_s=240 * 30.0, check_position=False,
+                               progress=lambda message, fraction=None: heard.append((message, fraction)))
+    assert doc["n_epochs"] == 300
+    fractions = [f for _, f in heard]
+    assert None not in fractions and fractions == sorted(fractions) and 0.0 <= fractions[0] and fractions[-1] < 1.0
+    assert heard[0][0].startswith("fitting the noise of ") and heard[-1][0].startswith("checking the position")
+    epochs = [(m, f) for m, f in heard if m.startswith("epoch ")]
+    steps = 300
+    every = steps // 200
+    assert [m for m, _ in epochs] == [f"epoch {k + 1:,} of {steps:,}" for k in range(0, steps, every)]
+    # the epochs span most of the job (the stage the time goes to), linearly: no channels read here, so the
+    # fit starts at 0 and the epochs run from 0.12/0.92 to 0.90/0.92 of the whole
+    first, last = epochs[0][1], epochs[-1][1]
+    assert first == pytest.approx(0.12 / 0.92) and last == pytest.approx((0.12 + 0.78 * (steps - every) / steps) / 0.92)
+    assert fractions[-1] == pytest.approx(0.90 / 0.92)

@@ -1,4 +1,4 @@
-"""False alarms after training on real station clocks (issue 10, "Must show"): the threshold's margin for a
+"""False alarms after training on real station clocks: the threshold's margin for a
 noise fitted from few differences, the noise-change screen, and the rate over the stations with no event."""
 
 import math

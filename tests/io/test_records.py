@@ -125,7 +125,7 @@ def test_a_column_number_picks_the_column_even_with_a_header(tmp_path):
         read_record(path, column="4")
 
 
-# --- Layouts met in practice, and the cases a new user hit (issue 8) ---------------------------------
+# --- Layouts met in practice, and the cases a new user hit ---------------------------------
 
 
 def test_a_utf8_bom_does_not_turn_the_first_sample_into_a_header(tmp_path):

@@ -45,3 +45,28 @@ def test_a_claim_without_an_interval_gets_no_interval_based_verdict():
     assert verdict("<", 0.2, _row(0.1, None, None, 0.3)) == "not reachable: the bound is 0.3 ns"
     assert verdict("~", 1.8, _row(2.0, None, None, 0.3)) == "reproduced"  # within 25 %, no interval needed
     assert verdict("~", 13.0, _row(22.0, nan, nan, 0.3)) == "not reproduced: ours is 1.7x the paper's"
+
+
+def test_the_progress_of_a_reproduction_shares_its_stages_by_their_measured_costs():
+    from chronofuse.experiments.swarm_reproduce import stage_weights
+
+    algs = ("ptp-mls", "rtt-rvc", "rtt-rvc-kf", "doppler-kf")
+    quick = stage_weights({"9": algs}, 8, 1000, 8, 12)
+    assert quick == pytest.approx([224.0, 136.0, 56.0])  # the quick run these rates were measured on
+    assert stage_weights({"9": algs}, 8, 1000, 0, 12) == pytest.approx([224.0])  # no checks: no such stages
+    full = stage_weights({"6": algs, "9": algs + ("rtt-rvc-kf-bp",)}, 100, 2000, 30, 50)
+    assert full[0] == pytest.approx(6 * 4 * 100 * 2000 * 224.0 / 224000) and full[1] / full[0] == pytest.approx(7 * 5 / 24)
+
+
+def test_a_quick_figure_says_the_fraction_of_its_links_done(tmp_path, monkeypatch):
+    import chronofuse.experiments.swarm_reproduce as rep
+
+    heard = []
+    param, _, base, _ = rep.FIGURES["9"]
+    monkeypatch.setitem(rep.FIGURES, "9", (param, [0.0, 20e-9], base, ("doppler-kf",)))  # 16 link-runs, not 224
+    rep.reproduce_swarm(tmp_path, figures=("9",), quick=True, checks=False,
+                        progress=lambda message, fraction=None: heard.append((message, fraction)))
+    assert {m for m, _ in heard} == {"figure 9"}
+    fractions = [f for _, f in heard]
+    assert fractions[0] == 0.0 and fractions[-1] == pytest.approx(1.0) and fractions == sorted(fractions)
+    assert fractions == [0.0, 0.5, 1.0]  # one step per task (a point's 10 links) as it ends

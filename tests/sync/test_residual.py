@@ -72,6 +72,34 @@ def test_a_saved_model_loads_back_and_a_mismatching_file_is_refused(bp, tmp_path
         load_residual_network(path, chain={**bp.config.chain, "urt_mode": "paper"})
 
 
+def test_the_swarm_report_names_a_model_file_by_its_name_digest_and_training_command_not_its_path(bp, tmp_path):
+    from chronofuse.experiments.swarm_reproduce import _models_text, model_records
+    from chronofuse.experiments.swarm_training import training_record
+
+    where = tmp_path / "machine-only" / "bp.pt"
+    bp.save(where, training=training_record(seed=4))
+    records = model_records({"bp": where})
+    assert records == {"bp": {"file": "bp.pt", "sha256": bp.digest_, "trained_by": "chronofuse swarm train --seed 4"}}
+    text = _models_text(records)
+    assert str(tmp_path) not in text and "machine-only" not in text
+    assert text == f"bp = bp.pt (weights' SHA-256 {bp.digest_[:12]}..., written by `chronofuse swarm train --seed 4`), " \
+                   "given as --model FILE"
+    # a file saved without its training names none; an old swarm.json's path shows as the file's name
+    bp.save(tmp_path / "plain.pt")
+    assert model_records({"bp": tmp_path / "plain.pt"})["bp"]["trained_by"] is None
+    assert _models_text({"bp": "/tmp/x/y/bp.pt"}) == "bp = bp.pt, given as --model FILE"
+    # the digest names the content: other weights, another digest
+    doc = torch.load(where, weights_only=True)
+    doc["state_dict"]["0.bias"] = doc["state_dict"]["0.bias"] + 1.0
+    retrained = ResidualNetwork(bp.config)
+    model = load_residual_network(where).model_
+    model.load_state_dict(doc["state_dict"])
+    retrained._set_model(model)
+    assert retrained.digest_ != bp.digest_
+    assert training_record(seed=0, quick=True, urt_mode="paper")["command"] == \
+        "chronofuse swarm train --quick --seed 0 --urt-mode paper"
+
+
 def test_the_cli_refuses_a_mismatching_model_file_in_one_line(bp, tmp_path):
     doc = torch.load(bp.save(tmp_path / "bp.pt"), weights_only=True)
     doc["config"]["hidden"] = 8

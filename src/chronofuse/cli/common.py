@@ -126,11 +126,15 @@ def human_console(json_mode: bool) -> Console:
 PLAIN_PROGRESS_S = 5.0
 
 
-def _eta(elapsed_s: float, fraction: float | None) -> float | None:
-    """Seconds left by the rate so far; None before any fraction is known."""
+def _eta(elapsed_s: float, fraction: float | None, reached_s: float | None = None) -> float | None:
+    """Seconds left by the rate up to when ``fraction`` was reached (``reached_s`` after the start; default
+    now), less the time since; None before any fraction is known, or once a stage has outlasted that rate
+    (a long stage reports no fraction of its own: an ETA that grows while it runs would mislead)."""
     if fraction is None or fraction <= 0.0:
         return None
-    return max(elapsed_s * (1.0 - fraction) / fraction, 0.0)
+    reached_s = elapsed_s if reached_s is None else reached_s
+    left = reached_s * (1.0 - fraction) / fraction - (elapsed_s - reached_s)
+    return left if left > 0.0 or fraction >= 1.0 else None
 
 
 def _clock(seconds: float | None) -> str:
@@ -151,6 +155,7 @@ class _PlainProgress:
         self.label, self.interval_s = label, interval_s
         self.start = self.last_line = time.monotonic()
         self.message, self.fraction, self.printed_tenth = "working", None, -1
+        self.reached = self.start  # when the fraction last changed
         self.lock = threading.Lock()
         self.stop = threading.Event()
         self.ticker = threading.Thread(target=self._tick, name="chronofuse-progress", daemon=True)
@@ -159,7 +164,7 @@ class _PlainProgress:
     def _line(self, now: float) -> None:
         elapsed = now - self.start
         done = "" if self.fraction is None else f", {100 * self.fraction:.0f} %"
-        eta = _eta(elapsed, self.fraction)
+        eta = _eta(elapsed, self.fraction, self.reached - self.start)
         tail = f" ({_clock(elapsed)} gone" + ("" if eta is None else f", ETA {_clock(eta)}") + ")"
         err_console.print(f"{self.label}: {self.message}{done}{tail}", markup=False, highlight=False, soft_wrap=True)
         self.last_line = now
@@ -169,8 +174,9 @@ class _PlainProgress:
     def update(self, message: str | None = None, fraction: float | None = None) -> None:
         with self.lock:
             self.message = message or self.message
-            self.fraction = self.fraction if fraction is None else min(max(float(fraction), 0.0), 1.0)
             now = time.monotonic()
+            if fraction is not None and min(max(float(fraction), 0.0), 1.0) != self.fraction:
+                self.fraction, self.reached = min(max(float(fraction), 0.0), 1.0), now
             new_tenth = self.fraction is not None and int(10 * self.fraction) > self.printed_tenth
             if now - self.start >= self.interval_s and new_tenth:
                 self._line(now)

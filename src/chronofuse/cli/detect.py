@@ -108,8 +108,8 @@ def detect(
     from chronofuse.cli.common import progress_reporter
 
     with user_errors(), progress_reporter("detect") as say:
-        say(f"testing {file.name}")  # stage only: detect_file reports no fraction yet
-        doc = detect_file(file, rate, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
+        say(f"testing {file.name}")  # a RINEX 3 station's stages and epochs say their fraction (the long one)
+        doc = detect_file(file, rate, progress=say, column=column, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho, train_s=train,
                           window=window, pfa=pfa, position_m=position, nav=nav or None, station=station,
                           max_time_acc_s=max_tacc_s, detector=detector, test=test,
                           codes=[c.strip() for c in codes.split(",") if c.strip()] if codes else None,

@@ -13,7 +13,6 @@ Everything in the note is written by this module from what it measured in this r
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -31,13 +30,13 @@ from chronofuse.experiments.gnssdo import (
     simulate_gnssdo,
 )
 from chronofuse.models.receiver import simulate_receivers
+from chronofuse.progress import Progress, silent, stages
 from chronofuse.report.gnssdo import plot_adev, plot_time_error
 from chronofuse.report.jsonio import dumps
 from chronofuse.validation import check_scalar
 
 __all__ = ["reproduce_gnssdo", "DEFAULT_CONTROLLER"]
 
-Progress = Callable[[str], None]
 
 RECEIVERS = 2  # the source paper's dual-mode (GPS + BeiDou) receiver
 SETTLE = 1800  # seconds left out of the ADEV: the acquisition's phase step
@@ -51,29 +50,30 @@ def _stream(seed: int, part: int) -> int:
 
 def _controller_table(duration: int, trials: int, say: Progress, seed: int = 0) -> tuple[list[dict], dict]:
     rows, sims = [], {}
-    for scenario in ("open-sky", "urban-canyon", "outliers"):
-        for controller in CONTROLLERS:
-            say(f"controller table: {scenario}, {controller}")
-            sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
-                                              duration_s=duration, trials=trials, seed=_stream(seed, 1)))
-            summary = evaluate(sim)
-            sims[(scenario, controller)] = (sim, summary)
-            rows.append({"scenario": scenario, "controller": controller,
-                         "rms_ns": summary["time_error_rms_ns"], "rms_ci_ns": summary["time_error_rms_ci_ns"],
-                         "pp_ns": summary["time_error_pp_ns"],
-                         "optimal_rms_ns": summary["optimal_rms_ns"], "optimal_kind": summary["optimal_kind"],
-                         "clairvoyant_rms_ns": summary["clairvoyant_rms_ns"],
-                         "ratio": summary["ratio_to_optimal"], "ratio_ci": summary["ratio_to_optimal_ci"],
-                         "convergence_s": summary["convergence_s"]})
+    runs = [(s, c) for s in ("open-sky", "urban-canyon", "outliers") for c in CONTROLLERS]
+    for i, (scenario, controller) in enumerate(runs):
+        say(f"controller table: {scenario}, {controller}", i / len(runs))
+        sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
+                                          duration_s=duration, trials=trials, seed=_stream(seed, 1)))
+        summary = evaluate(sim)
+        sims[(scenario, controller)] = (sim, summary)
+        rows.append({"scenario": scenario, "controller": controller,
+                     "rms_ns": summary["time_error_rms_ns"], "rms_ci_ns": summary["time_error_rms_ci_ns"],
+                     "pp_ns": summary["time_error_pp_ns"],
+                     "optimal_rms_ns": summary["optimal_rms_ns"], "optimal_kind": summary["optimal_kind"],
+                     "clairvoyant_rms_ns": summary["clairvoyant_rms_ns"],
+                     "ratio": summary["ratio_to_optimal"], "ratio_ci": summary["ratio_to_optimal_ci"],
+                     "convergence_s": summary["convergence_s"]})
     return rows, sims
 
 
 def _before_after(duration: int, trials: int, say: Progress, seed: int = 0) -> dict:
     """The GNSSDO paper's "before" (selection + PI preset) and "after" (fusion + default) in both environments."""
     out = {}
-    for scenario in ("open-sky", "urban-canyon"):
-        for label, fusion, controller in (("before", "selection", "pi"), ("after", "fusion", DEFAULT_CONTROLLER)):
-            say(f"{scenario}: {label}")
+    for i, scenario in enumerate(("open-sky", "urban-canyon")):
+        for j, (label, fusion, controller) in enumerate((("before", "selection", "pi"),
+                                                         ("after", "fusion", DEFAULT_CONTROLLER))):
+            say(f"{scenario}: {label}", (2 * i + j) / 4)
             sim = simulate_gnssdo(GnssdoSetup(scenario=scenario, controller=controller, receivers=RECEIVERS,
                                               duration_s=duration, trials=trials, seed=_stream(seed, 2),
                                               fusion=fusion))
@@ -85,8 +85,9 @@ def _holdover(locked_stretches_s, trials: int, say: Progress, seed: int = 0) -> 
     """Holdover at 1, 4, 24 h after locked stretches of the given lengths: ours beside the causal optimal
     predictor and the analytic floor (:func:`chronofuse.experiments.gnssdo_holdover.holdover_study`)."""
     rows = []
-    for locked in locked_stretches_s:
-        say(f"holdover after {locked / 3600:g} h locked")
+    cost = [locked + max(HOLDOVER_HORIZONS_S) for locked in locked_stretches_s]
+    for i, locked in enumerate(locked_stretches_s):
+        say(f"holdover after {locked / 3600:g} h locked", sum(cost[:i]) / sum(cost))
         study = holdover_study(int(locked), HOLDOVER_HORIZONS_S, trials, receivers=RECEIVERS,
                                seed=_stream(seed, 3), chunk=max(trials // 2, 1))
         rows.append({"locked_s": float(locked), "trials": trials, "rows": study["rows"]})
@@ -108,8 +109,8 @@ def _smoothing(sim: dict) -> dict:
 
 def _fusion_gain(duration: int, trials: int, say: Progress, seed: int = 0) -> dict:
     out = {}
-    for fusion in ("fusion", "selection"):
-        say(f"urban canyon, 4 receivers: {fusion}")
+    for i, fusion in enumerate(("fusion", "selection")):
+        say(f"urban canyon, 4 receivers: {fusion}", i / 2)
         sim = simulate_gnssdo(GnssdoSetup(scenario="urban-canyon", controller=DEFAULT_CONTROLLER, receivers=4,
                                           duration_s=duration, trials=trials, seed=_stream(seed, 4), fusion=fusion))
         ref = sim["run"].reference_error_s
@@ -139,7 +140,7 @@ def _learned(steps: int, say: Progress, seed: int = 0) -> list[dict]:
                               np.concatenate([np.nan_to_num(d[1].T) for d in train]))
     rows = []
     for env in ("open-sky", "urban-canyon"):
-        say(f"learnt fusion: held-out {env}")
+        say(f"learnt fusion: held-out {env}", 0.95 if env == "open-sky" else 0.975)  # the training: 95 %
         z1, _, u1, _, _ = data(env, _stream(seed, 11))
         ica = IcaFusion().fit(z1[:, u1.all(axis=0)])
         for held_out in (_stream(seed, 21), _stream(seed, 22)):
@@ -166,7 +167,15 @@ def _verdict(measured: float, claim: float, limit: float | None, better: str = "
     return "reproduced" if ok else "not reproduced"
 
 
-def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = lambda s: None, seed: int = 0) -> dict:
+#: Seconds per unit of work of each stage of :func:`reproduce_gnssdo` (only their ratios matter), measured on
+#: ``chronofuse reproduce gnssdo --quick`` on a loaded 2-core machine (numba's first compilation, 5 min, left
+#: out): controller table 218 s, before/after 38 s, holdover 15 s, smoothing 12 s, 4 receivers 23 s,
+#: learnt fusion 104 s (its graph model's training 99 s), the figures and the report 5.5 s.
+STAGE_S_PER_UNIT = (218.0 / (15 * 21600 * 2), 38.0 / (4 * 21600 * 2), 15.3 / (2 * (7200 + 21600 + 2 * 86400)),
+                    11.9 / (21600 * 2), 22.8 / (2 * 2 * 10800 * 2), 104.2 / (12 * 2 * 6000), 5.5)
+
+
+def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = silent, seed: int = 0) -> dict:
     """Run the experiment and write ``README.md``, ``summary.json`` and PNGs into ``out_dir``; ``seed`` (>= 0)
     roots every random stream (0: the published run)."""
     check_scalar(seed, "seed", min_val=0, integer=True)
@@ -174,13 +183,25 @@ def reproduce_gnssdo(out_dir: Path, quick: bool = False, progress: Progress = la
     out_dir.mkdir(parents=True, exist_ok=True)
     duration = 6 * 3600 if quick else 86_400
     trials = 2 if quick else 4
-    table, sims = _controller_table(duration, trials, progress, seed)
-    ba = _before_after(duration, trials, progress, seed)
-    hold = _holdover((2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600), 2 if quick else 16, progress,
-                     seed)
+    locked = (2 * 3600, 6 * 3600) if quick else (2 * 3600, 6 * 3600, 24 * 3600)
+    hold_trials = 2 if quick else 16
+    steps = 6000 if quick else 20_000
+    # the stages' expected seconds: their trial-seconds simulated (15 and 4 runs of the controller table and
+    # before/after, the holdover studies' locked stretch and longest horizon, the smoother over one run,
+    # the 4-receiver runs, the learnt fusion's runs of 4 receivers) times the rates of STAGE_S_PER_UNIT
+    work = [len(CONTROLLERS) * 3 * duration * trials, 4 * duration * trials,
+            hold_trials * sum(s + max(HOLDOVER_HORIZONS_S) for s in locked), duration * trials,
+            2 * 2 * (duration // 2) * trials, 12 * 2 * steps, 1]
+    table_say, ba_say, hold_say, smooth_say, fusion_say, learned_say, plot_say = stages(
+        progress, [w * r for w, r in zip(work, STAGE_S_PER_UNIT)])
+    table, sims = _controller_table(duration, trials, table_say, seed)
+    ba = _before_after(duration, trials, ba_say, seed)
+    hold = _holdover(locked, hold_trials, hold_say, seed)
+    smooth_say("RTS smoothing of a recorded run")
     smooth = _smoothing(sims[("open-sky", "kalman")][0])
-    fusion = _fusion_gain(duration // 2, trials, progress, seed)
-    learned = _learned(6000 if quick else 20_000, progress, seed)
+    fusion = _fusion_gain(duration // 2, trials, fusion_say, seed)
+    learned = _learned(steps, learned_say, seed)
+    plot_say("figures and the report")
 
     taus = np.array([1.0, 10.0, 100.0])
     adev = {}

@@ -1,4 +1,4 @@
-"""Identification on the two real Trimble 5700 stations with injected faults (issue 10, "must show").
+"""Identification on the two real Trimble 5700 stations with injected faults.
 
 For each station (RTKLIB's ``07590920`` and ``30400920``: RINEX 2.10, 120 epochs at 30 s, C1 and P2),
 each satellite observed at every epoch above the 15 deg mask, each code (C1, P2) and each kind of fault

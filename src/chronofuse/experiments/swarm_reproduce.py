@@ -19,9 +19,10 @@ import numpy as np
 from chronofuse.experiments.swarm import LinkScenario
 from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
 from chronofuse.models.link import LinkModel
+from chronofuse.progress import silent, stages
 from chronofuse.report.swarm import DISPLAY_UNITS, plot_sweep, write_sweep
 
-__all__ = ["FIGURES", "PAPER_NUMBERS", "reproduce_swarm", "replot_swarm", "verdict"]
+__all__ = ["FIGURES", "PAPER_NUMBERS", "model_records", "reproduce_swarm", "replot_swarm", "verdict"]
 
 _CLASSIC = ("ptp-mls", "rtt-rvc", "rtt-rvc-kf", "doppler-kf")
 _BP, _LSTM = "rtt-rvc-kf-bp", "rtt-rvc-kf-lstm"
@@ -89,30 +90,36 @@ def reproduce_swarm(out, *, figures=("6", "7", "8", "9", "10"), quick: bool = Fa
     out.mkdir(parents=True, exist_ok=True)
     trials, exchanges = (10, 1000) if quick else (100, 2000)  # 10: the fewest given an interval
     files = dict(model_files or {})
-    say = progress or (lambda message: None)
+    runs = {fig: tuple(a for a in FIGURES[fig][3] if a not in (_BP, _LSTM) or {_BP: "bp", _LSTM: "lstm"}[a] in files)
+            for fig in figures}
+    urt_trials, nodes = (8, 12) if quick else (30, 50)
+    stage = stages(progress or silent, stage_weights(runs, trials, exchanges, urt_trials if checks else 0, nodes))
     results = {}
-    for fig in figures:
-        param, values, base, algorithms = FIGURES[fig]
-        algorithms = tuple(a for a in algorithms if a not in (_BP, _LSTM) or {_BP: "bp", _LSTM: "lstm"}[a] in files)
+    for i, fig in enumerate(figures):
+        param, values, base, _ = FIGURES[fig]
+        algorithms = runs[fig]
         base = LinkScenario(**{**base.__dict__, "exchanges": exchanges})
+        say = stage[i]
         say(f"figure {fig}")
         table = run_sweep(base, param, values, algorithms, trials=trials, seed=seed, chunk_trials=25,
-                          urt_mode="calibrated", scheduler=scheduler, model_files=files)
+                          urt_mode="calibrated", scheduler=scheduler, model_files=files,
+                          progress=lambda done, total, say=say, fig=fig: say(f"figure {fig}", done / total))
         summary = summarize(table)
         write_sweep(table, summary, out, stem=f"fig{fig}")
         _plot(fig, summary, out, trials, exchanges, base.link.snr_db)
         results[fig] = {"param": param, "algorithms": list(algorithms), "summary": summary.to_dict(orient="records"),
                         "snr_db": base.link.snr_db}
-    doc = {"quick": quick, "trials": trials, "exchanges": exchanges, "seed": seed, "models": files, "figures": results}
+    doc = {"quick": quick, "trials": trials, "exchanges": exchanges, "seed": seed, "models": model_records(files),
+           "figures": results}
     if checks:
         from chronofuse.experiments.swarm_documents import network_document
         from chronofuse.experiments.swarm_network import SwarmScenario
         from chronofuse.experiments.swarm_urt import urt_change_table
 
-        say("URT changes")
-        doc["urt_changes"] = urt_change_table(seed=seed, trials=8 if quick else 30)
-        say("50-node leader loss")
-        sc = SwarmScenario(nodes=12 if quick else 50, duration_s=240.0, leader_loss_at_s=120.0, area_m=150e3,
+        stage[-2]("URT changes")
+        doc["urt_changes"] = urt_change_table(seed=seed, trials=urt_trials)
+        stage[-1](f"{nodes}-node leader loss")
+        sc = SwarmScenario(nodes=nodes, duration_s=240.0, leader_loss_at_s=120.0, area_m=150e3,
                            cut_off=((3, 3.0, 240.0),))
         net = network_document(sc, seed=seed, scheduler=scheduler)
         doc["network"] = {k: net[k] for k in ("nodes", "links", "steps", "leader_changes", "link_up_fraction")}
@@ -121,6 +128,25 @@ def reproduce_swarm(out, *, figures=("6", "7", "8", "9", "10"), quick: bool = Fa
     (out / "swarm.json").write_text(json.dumps(doc, indent=2, default=float))
     (out / "README.md").write_text(_report(doc))
     return doc
+
+
+#: Seconds per unit of each stage (only their ratios matter), from ``chronofuse reproduce swarm --quick
+#: --figure 9`` on a loaded 2-core machine: figure 9's 7 points x 4 algorithms x 8 links x 1000 exchanges in
+#: 224 s, the URT table's 8 trials x (2 x 1500 + 4 x 50000) exchanges in 136 s, the 12-node swarm in 56 s.
+FIGURE_S_PER_LINK_EXCHANGE = 224.0 / (7 * 4 * 8 * 1000)
+URT_S_PER_LINK_EXCHANGE = 136.0 / (8 * (2 * 1500 + 4 * 50000))
+NETWORK_S_PER_NODE = 56.0 / 12
+
+
+def stage_weights(runs: dict, trials: int, exchanges: int, urt_trials: int, nodes: int) -> list[float]:
+    """The stages' expected seconds, for the progress display: each figure's points x algorithms (``runs``:
+    figure -> algorithms) x links x exchanges; with ``urt_trials`` > 0 the URT table's link-exchanges and
+    the swarm of ``nodes`` (the rates above)."""
+    weights = [len(FIGURES[fig][1]) * len(algs) * trials * exchanges * FIGURE_S_PER_LINK_EXCHANGE
+               for fig, algs in runs.items()]
+    if urt_trials > 0:
+        weights += [urt_trials * (2 * 1500 + 4 * 50000) * URT_S_PER_LINK_EXCHANGE, nodes * NETWORK_S_PER_NODE]
+    return weights
 
 
 def _plot(fig: str, summary, out: Path, trials: int, exchanges: int, snr_db: float) -> Path:
@@ -160,8 +186,36 @@ def _at(res, value):
     return "worst over the sweep" if value is None else f"{res['param']} = {value * factor:g} {shown}"
 
 
+def model_records(files: dict) -> dict:
+    """What the report keeps of each model file (``{"bp": path, "lstm": path}``): its name, the SHA-256 of its
+    weights and the command that trained it (None for a file written before model files kept it). Not the
+    path: a path on the machine that ran the report means nothing to its reader."""
+    from chronofuse.sync.residual import load_residual_network
+
+    records = {}
+    for kind, path in files.items():
+        net = load_residual_network(path)
+        records[kind] = {"file": Path(path).name, "sha256": net.digest_, "trained_by": net.training_.get("command")}
+    return records
+
+
+def _models_text(models: dict) -> str:
+    if not models:
+        return "none, so no curves of the chains with networks"
+    parts = []
+    for kind, rec in models.items():
+        if isinstance(rec, str):  # a swarm.json written before the records: the path as given
+            parts.append(f"{kind} = {Path(rec).name}")
+            continue
+        said = ([f"weights' SHA-256 {rec['sha256'][:12]}..."] if rec.get("sha256") else []) + \
+               ([f"written by `{rec['trained_by']}`"] if rec.get("trained_by") else [])
+        parts.append(f"{kind} = {rec['file']}" + (f" ({', '.join(said)})" if said else ""))
+    flags = " ".join(f"--{'model' if k == 'bp' else 'lstm-model'} FILE" for k in models)
+    return "; ".join(parts) + f", given as {flags}"
+
+
 def _report(doc: dict) -> str:
-    models = ", ".join(f"{k} = {v}" for k, v in doc["models"].items()) or "none, so no curves of the chains with networks"
+    models = _models_text(doc["models"])
     lines = [
         "# The swarm paper reproduced: two-way sync over moving radio links",
         "",

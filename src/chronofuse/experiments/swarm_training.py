@@ -28,7 +28,8 @@ from chronofuse.sync.metrics import per_trial_mse
 from chronofuse.sync.prior import LinkPrior
 from chronofuse.sync.registry import make_algorithm
 
-__all__ = ["TRAIN_WINDOW", "residual_dataset", "split_by_group", "ablation", "train_networks"]
+__all__ = ["TRAIN_WINDOW", "residual_dataset", "split_by_group", "ablation", "train_networks", "training_command",
+           "training_record"]
 
 TRAIN_WINDOW = 16
 
@@ -118,6 +119,18 @@ def ablation(network, *, runs: int = 40, exchanges: int = 2000, seed=0, urt_mode
             "offset_shift_s": offset_shift_s, "earns_its_place": bool(hi < 1.0)}
 
 
+def training_command(seed=0, quick: bool = False, urt_mode: str = "calibrated") -> str:
+    """The command line that trains (and writes) networks of these settings; ``--out`` and ``--device`` change
+    where they go and how fast, not what they are."""
+    return " ".join(["chronofuse swarm train", *(["--quick"] if quick else []), f"--seed {seed}",
+                     *([] if urt_mode == "calibrated" else [f"--urt-mode {urt_mode}"])])
+
+
+def training_record(*, seed=0, quick: bool = False, urt_mode: str = "calibrated") -> dict:
+    """What a model file keeps of its training: the command that writes it and its settings."""
+    return {"command": training_command(seed, quick, urt_mode), "seed": seed, "quick": quick, "urt_mode": urt_mode}
+
+
 def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt_mode: str = "calibrated",
                    progress=None) -> dict:
     """Build the data set, train the BP 9-32-1 network and the LSTM baseline on it, save both to ``out``
@@ -142,7 +155,7 @@ def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt
         part = {k: v["X"][:, -window:, :] for k, v in split.items()}
         net = ResidualNetwork(cfg).fit(part["train"], split["train"]["y_ns"], part["validation"],
                                        split["validation"]["y_ns"])
-        path = net.save(out / f"{kind}.pt")
+        path = net.save(out / f"{kind}.pt", training=training_record(seed=seed, quick=quick, urt_mode=urt_mode))
         left = y_test - net.predict_ns(part["test"])
         say(f"ablation {kind}")
         runs = 10 if quick else 40  # 10: the fewest held-out links given an interval (MIN_INTERVAL_TRIALS)
@@ -151,7 +164,7 @@ def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt
         shifted = ablation(net, runs=runs, exchanges=exchanges, seed=child_seed(root_seed(seed), 3), urt_mode=urt_mode,
                            offset_shift_s=1e-6)
         summary["networks"][kind] = {
-            "file": str(path), "parameters": net.parameter_count_, "train_seconds": net.train_seconds_,
+            "file": path.name, "sha256": net.digest_, "parameters": net.parameter_count_, "train_seconds": net.train_seconds_,
             "device": net.device_, "epochs": len(net.history_),
             "test_target_rms_ns": float(np.sqrt(np.mean(y_test**2))),
             "test_left_rms_ns": float(np.sqrt(np.mean(left**2))),

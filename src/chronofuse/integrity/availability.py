@@ -20,7 +20,7 @@ MIN_TESTED_FRACTION = 0.5
 
 #: Largest distance (m) between the position given and the data's own single-point fix (median over the
 #: epochs so far): the fix of the two Trimble stations is within 5.3 m of their header position at every
-#: epoch; 1 km off makes healthy channels alarm (issue 10).
+#: epoch; 1 km off makes healthy channels alarm.
 POSITION_TOLERANCE_M = 50.0
 
 #: Fewer training differences than this: a warning (the P_fa margin is then large, see ``noise.inflation``).

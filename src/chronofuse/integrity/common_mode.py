@@ -50,7 +50,7 @@ def aligned_channels(bias_s: np.ndarray) -> np.ndarray:
 
     ``o_n = b_n(k0) - c0(k0)`` is fixed at the first epoch ``k0`` of each unbroken arc of the channel
     (``c0`` from :func:`common_clock_s`, itself causal), so ``a_n(k)`` uses no epoch after ``k``: a verdict
-    computed from it never changes when later epochs arrive (issue 10: the former alignment, a median
+    computed from it never changes when later epochs arrive (the former alignment, a median
     over the whole record, let a fault at 1800 s move the residuals at 60 s). A constant offset does not
     enter the second difference; the per-arc choice only sets where a rising channel sits among the
     others in the medians of :func:`channel_residuals`.

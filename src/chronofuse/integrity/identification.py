@@ -113,7 +113,7 @@ def identify(
 ) -> IdentificationResult:
     """Run a fresh copy of ``detector`` on each channel's common-mode-removed bias and name the faulty ones.
 
-    Causal (issue 10): the verdict at epoch ``k`` uses epochs ``<= k`` only, so running on a longer
+    Causal: the verdict at epoch ``k`` uses epochs ``<= k`` only, so running on a longer
     record never changes an earlier verdict. The residuals are causal (:func:`channel_residuals`);
     when the noise model is incomplete each channel is fitted on its first ``train_epochs`` valid epochs
     (``noise="per_channel"``) or all channels on the first ``train_epochs`` epochs pooled (``"shared"``),

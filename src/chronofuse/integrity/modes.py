@@ -75,6 +75,7 @@ from chronofuse.io.arrival import arrival_warnings
 from chronofuse.io.clockbias import n_skipped, read_clock_bias
 from chronofuse.io.formats import check_applies, sniff_format
 from chronofuse.validation import InputDataError, InputError, check_choice, check_scalar
+from chronofuse.progress import silent, stages
 
 #: The modes of :func:`detect_file`.
 MODES = ("detection", "identification")
@@ -222,7 +223,7 @@ def _rinex_version(path) -> float:
     return (3.0 if version >= 3 else 2.0) if "CRINEX" in line else version
 
 
-def _station_mode(path, nav, position_m, *, train_s, window, pfa, test, codes, elevation_mask_deg) -> dict:
+def _station_mode(path, nav, position_m, *, train_s, window, pfa, test, codes, elevation_mask_deg, progress) -> dict:
     """A RINEX 3 file: every code of every system through the station's identification
     (:func:`chronofuse.integrity.station_mode.station_document`); ``nav`` the navigation file(s), merged. The
     settings are checked before any file is read."""
@@ -239,11 +240,17 @@ def _station_mode(path, nav, position_m, *, train_s, window, pfa, test, codes, e
         raise InputError("a RINEX 3 station needs a training stretch ({train_s}): each code's noise is fitted on it",
                          str(path), fields=("train_s",))
     position = parse_position(position_m)
+    # shares measured on a day at 30 s (ESBC00DNK, RINEX 3 Hatanaka, 263 s on a loaded machine): observations
+    # 4.3 %, navigation 0.4 %, channels (orbits, elevations) 3.2 %, the station's identification the rest
+    obs_stage, nav_stage, channel_stage, station_stage = stages(progress, (0.043, 0.004, 0.032, 0.921))
+    obs_stage(f"reading {Path(path).name}")
     observations = read_any_observations(path)
+    nav_stage("reading the navigation")
     navigation = merge_navigation([read_navigation(p) for p in nav])
+    channel_stage("orbits and elevations of every channel")
     channels = station_channels(observations, navigation, position, codes=codes, elevation_mask_deg=elevation_mask_deg)
     return station_document(None, None, position, channels=channels, train_s=train_s, window=window, pfa=pfa,
-                            test=test)
+                            test=test, progress=station_stage)
 
 
 def _raim_mode(path, nav, position_m, settings, elevation_mask_deg: float) -> dict:
@@ -288,6 +295,7 @@ def detect_file(
     elevation_mask_deg: float = 10.0,
     raim: bool = False,
     raim_settings=None,
+    progress=None,
 ) -> dict:
     """Clock-bias anomaly detection on a file, the mode chosen from the file (module docstring).
 
@@ -331,6 +339,9 @@ def detect_file(
         RINEX 3 observations: the codes tested (``"G C1C"``); default every code most satellites carry.
     elevation_mask_deg : float
         RINEX 3 observations: channels below this elevation are not used.
+    progress : callable, optional
+        ``progress(message, fraction)`` (:mod:`chronofuse.progress`): the stage and the fraction done, for a
+        RINEX 3 station (the long one: minutes for a day); other modes say nothing.
 
     Returns
     -------
@@ -366,7 +377,8 @@ def detect_file(
         navs = [nav] if isinstance(nav, (str, Path)) else list(nav)
         if _rinex_version(path) >= 3:
             return _station_mode(path, navs, position_m, train_s=train_s, window=window,
-                                 pfa=pfa, test=test, codes=codes, elevation_mask_deg=elevation_mask_deg)
+                                 pfa=pfa, test=test, codes=codes, elevation_mask_deg=elevation_mask_deg,
+                                 progress=progress or silent)
         params = dict(window=window, pfa=pfa, h0=h0, hm2=hm2, sigma_rho_m=sigma_rho_m,
                       confidence=TRAINING_CONFIDENCE if train_s is not None else None)
         if len(navs) != 1:

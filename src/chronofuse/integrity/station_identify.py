@@ -421,14 +421,21 @@ class StationIdentification:
 
     # -- batch -------------------------------------------------------------------------------------------
 
-    def run(self, frame) -> dict:
-        """Every epoch of ``frame`` (columns with the step axis last) through a copy of the stage."""
+    def run(self, frame, progress=None) -> dict:
+        """Every epoch of ``frame`` (columns with the step axis last) through a copy of the stage;
+        ``progress(message, fraction)`` (:mod:`chronofuse.progress`) hears the fraction of epochs done."""
         core = copy.copy(self)
         core.reset()
         bias = np.asarray(frame["channel_bias_s"], dtype=np.float64)
         el = np.asarray(frame["elevation_deg"], dtype=np.float64)
         training = np.asarray(frame["training"], dtype=bool)
-        rows = [core._step(bias[:, k], el[:, k], bool(training[k])) for k in range(bias.shape[1])]
+        steps = bias.shape[1]
+        every = max(steps // 200, 1)
+        rows = []
+        for k in range(steps):
+            if progress is not None and k % every == 0:
+                progress(f"epoch {k + 1:,} of {steps:,}", k / steps)
+            rows.append(core._step(bias[:, k], el[:, k], bool(training[k])))
         return _stack(rows, self.gives)
 
 

@@ -111,19 +111,27 @@ def station_document(obs_path, nav_paths, position_m, **options) -> dict:
 
 def station_integrity(obs_path, nav_paths, position_m, *, train_s: float = 7200.0, window: int = 20,
                       pfa: float = 1e-3, test: str = "chi-square", codes=None, elevation_mask_deg: float = 10.0,
-                      reserved: float = DEFAULT_RESERVED, channels=None, noise=None, check_position: bool = True
-                      ) -> tuple[dict, dict]:
+                      reserved: float = DEFAULT_RESERVED, channels=None, noise=None, check_position: bool = True,
+                      progress=None) -> tuple[dict, dict]:
     """Station integrity (module docstring): ``(document, columns)``, the columns the identification stage
     gives per epoch (step axis last). The document has the keys of every detect document,
     ``faulty`` (each satellite named: ``channel``, ``t_ns``, ``t``), ``channel_events``, ``receiver_clock``
     (``state``, ``pfa``, ``alarms`` with ``t_ns``), ``codes``, ``n_channels``, ``code_noise`` (per code),
     ``station_pfa`` (the method), ``test``. ``channels`` (a :class:`StationChannels`) skips the reading;
-    ``noise`` (fitted models by code) skips the fit; ``check_position=False`` skips the known-position check."""
+    ``noise`` (fitted models by code) skips the fit; ``check_position=False`` skips the known-position check.
+    ``progress(message, fraction)`` (:mod:`chronofuse.progress`) hears the stages and the fraction done."""
     from chronofuse.integrity.inputs import parse_position
+    from chronofuse.progress import silent, stages
+
+    # shares measured on a day of a RINEX 3 station at 30 s (ESBC00DNK, 2880 epochs, 263 s on a loaded
+    # machine): reading 8 %, the per-code noise fit 12 %, the epochs 78 %, the known-position check 2 %
+    reading, fitting, testing, fixing = stages(progress or silent, (0.08 if channels is None else 0.0, 0.12, 0.78, 0.02))
 
     check_scalar(train_s, "train_s", min_val=0.0, include_min=False)
     position = parse_position(position_m)
     settings = IdentificationSettings(window=window, pfa=pfa, test=test, reserved=reserved)
+    if channels is None:
+        reading("reading the observations and the navigation")
     ch = channels if channels is not None else read_station(obs_path, nav_paths, position, codes=codes,
                                                             elevation_mask_deg=elevation_mask_deg)
     t_ns = ch.t_ns
@@ -133,11 +141,12 @@ def station_integrity(obs_path, nav_paths, position_m, *, train_s: float = 7200.
         raise InputError(f"the training stretch ({{train_s}} {train_s:g} s) covers the whole record "
                          f"({t_ns.size} epochs of {ch.interval_s:g} s)", ch.source, fields=("train_s",))
     frame = dict(ch.frame(), training=training)
+    fitting(f"fitting the noise of {len(dict.fromkeys(c for _, c in ch.channels))} codes")
     stage = StationIdentification(ch.channels, settings, noise).fit(frame)
     reasons = [f"{code}: {why}" for code, why in stage.fit_problems_.items()]
     if not stage.noise_:
         raise InputError("no code could be trained: " + "; ".join(reasons), ch.source)
-    out = stage.run(frame)
+    out = stage.run(frame, progress=testing)
     clock = _receiver_clock(out, training, settings) if reserved > 0 else None
     states = np.asarray(out["identification_state"], dtype=object).copy()
     if clock is not None:
@@ -145,6 +154,7 @@ def station_integrity(obs_path, nav_paths, position_m, *, train_s: float = 7200.
     per_epoch = np.full(t_ns.size, "", dtype=object)
     per_epoch[training] = "training"
     per_epoch[states == "unavailable"] = f"fewer than {MIN_TESTED_SATELLITES} satellites tested outside the named ones"
+    fixing("checking the position given against the data's own fix")
     offsets = (_masked_fix_offsets(ch, np.asarray(out["named"], dtype=object), position) if check_position
                else np.full(t_ns.size, np.nan))
     finite = offsets[np.isfinite(offsets)]

@@ -1,5 +1,5 @@
 """Did the noise change after training? A screen of the tested stretch against the training stretch, and the
-false-alarm rate of a clock product over the stations where nothing happened (issue 10, "Must show").
+false-alarm rate of a clock product over the stations where nothing happened.
 
 A noise model fitted once is only as good as the noise is stationary. On the GRG clock product the excess
 alarms after training (3.7 % against 1 %) sit in stations whose second differences, 1 h 45 min after the

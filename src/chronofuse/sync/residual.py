@@ -191,6 +191,7 @@ class ResidualNetwork:
     def _set_model(self, model) -> None:
         model.eval()
         self.model_ = model
+        self.digest_ = _digest(model.state_dict())  # SHA-256 of the weights: names a model file's content
         self.parameter_count_ = int(sum(p.numel() for p in model.parameters()))
         if self.config.kind == "bp":
             sd = model.state_dict()
@@ -214,14 +215,16 @@ class ResidualNetwork:
         """The chain's call: residuals (trials,), s, from the last ``window`` exchanges' inputs."""
         return self.predict_ns(history) * 1e-9
 
-    def save(self, path) -> Path:
-        """Write configuration, weights and their digest to ``path``."""
+    def save(self, path, *, training: dict | None = None) -> Path:
+        """Write configuration, weights and their digest to ``path``; ``training`` (e.g. the command and seed
+        that trained it) is kept with them and read back as ``training_``."""
         torch = _torch()
         sd = self.model_.state_dict()
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         torch.save({"format": _FORMAT, "config": {**asdict(self.config), "features": list(self.config.features)},
-                    "state_dict": sd, "digest": _digest(sd)}, path)
+                    "state_dict": sd, "digest": _digest(sd), "training": dict(training or {})}, path)
+        self.training_ = dict(training or {})
         return path
 
 
@@ -259,4 +262,5 @@ def load_residual_network(path, *, chain: dict | None = None) -> ResidualNetwork
         raise ChronofuseError(f"{path}: trained behind chain {config.chain}, asked to serve {chain}")
     net = ResidualNetwork(config)
     net._set_model(model)
+    net.training_ = dict(doc.get("training") or {})  # files written before it was kept: {}
     return net

@@ -22,7 +22,7 @@ spectrum, ``S_y(f) ~ f**alpha``, is identified as an integer in -2..2 (Stable32'
    the overlapping AVAR 0.98, white FM, which gives SP 1065's published HTOTDEV there).
 
 Reproduction of Stable32 (tests/analysis/test_noise_id.py): every ``Alpha`` entry of every Stable32
-table in ``shared/data/stability`` whose row has at least 30 frequency averages is reproduced exactly
+table in ``tests/data/stability`` whose row has at least 30 frequency averages is reproduced exactly
 (phasedat, ocxo, gps and Cs5071A, all statistics of the Allan, Hadamard and total families). Working on
 frequency averages with a linear detrend matters: identifying on the decimated phase with a quadratic
 detrend (allantools' choice) gives alpha = 2 instead of Stable32's 0 at m = 10000 of the Cs5071A record.
