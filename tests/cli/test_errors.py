@@ -61,7 +61,7 @@ def test_a_config_validation_error_names_the_option_of_its_field():
 
     with pytest.raises(ValidationError) as caught:
         Config(rate_hz=-1.0)
-    assert describe(caught.value) == "--rate: Input should be greater than 0 (got -1.0)"
+    assert describe(caught.value) == "--rate == -1.0, must be > 0"  # worded as the library words its own
 
 
 def _broken(*args, **kwargs):

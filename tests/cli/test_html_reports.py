@@ -155,8 +155,8 @@ def test_the_stability_report_of_a_real_receiver_fails_prtc_a_and_says_why(brows
 
 def test_the_swarm_report(browser, tmp_path):
     out = tmp_path / "swarm"
-    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ptp-mls,rtt-rvc", "--trials", "2", "--seed", "1",
-                                 "--out", str(out), "--json"])
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "ptp-mls,rtt-rvc", "--trials", "10", "--seed", "1",
+                                 "--exchanges", "500", "--out", str(out), "--json"])
     assert result.exit_code == 0, result.output[-2000:]
     doc = json.loads(result.stdout)
     page = _page(browser, out / "report.html")
@@ -165,6 +165,12 @@ def test_the_swarm_report(browser, tmp_path):
         word, reason = page["verdicts"][f"{name} does not beat the bound"]
         assert word == ("PASS" if doc["ratio_ci"][name][0] >= 0.9 else "FAIL")
         assert f"RMSE / bound {doc['ratio_to_bound'][name]:.3g}" in reason
+    # too few trials for an interval: no verdict, not a FAIL (nor a zero-width PASS)
+    few = tmp_path / "few"
+    assert runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc", "--trials", "2", "--exchanges", "200",
+                               "--out", str(few), "--json"]).exit_code == 0
+    word, reason = _page(browser, few / "report.html")["verdicts"]["rtt-rvc does not beat the bound"]
+    assert word == "NOT GIVEN" and "too few for an interval" in reason
 
 
 @pytest.mark.parametrize("step_ns", [0.0, 400.0])

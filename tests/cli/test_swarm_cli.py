@@ -108,3 +108,84 @@ def test_swarm_run_and_network_write_their_document_with_out(tmp_path):
         assert doc["files"][0] == str(out / "summary.json")
         assert doc["files"][1:] == ([str(out / "report.html")] if args[1] == "run" else [])
         assert json.loads((out / "summary.json").read_text()) == {k: v for k, v in doc.items() if k != "files"}
+
+
+def test_one_trial_gives_no_interval_and_says_so_naming_trials():
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc", "--exchanges", "100", "--trials", "1",
+                                 "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["rmse_ci_ns"]["rtt-rvc"] == [None, None] and doc["ratio_ci"]["rtt-rvc"] == [None, None]
+    assert doc["rmse_ns"]["rtt-rvc"] > 0.0
+    assert any(w.startswith("--trials == 1 is below 10") for w in doc["warnings"]), doc["warnings"]
+    human = runner.invoke(app, ["swarm", "run", "--algorithm", "rtt-rvc", "--exchanges", "100", "--trials", "1"])
+    assert human.exit_code == 0 and "warning: --trials == 1" in human.stdout
+    words = human.stdout.split()  # the table may wrap "not available" over two lines
+    assert words.count("not") >= 2 and words.count("available") >= 2 and "nan" not in human.stdout
+
+
+def test_a_loss_its_bursts_cannot_reach_is_one_line_and_links_that_never_got_an_exchange_are_reported():
+    bad = runner.invoke(app, ["swarm", "run", "--loss", "0.999", "--exchanges", "50", "--trials", "1"])
+    assert bad.exit_code == 2
+    lines = [line for line in bad.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: --loss == 0.999 needs --loss-burst >= 999"), bad.stderr
+    result = runner.invoke(app, ["swarm", "run", "--loss", "0.999", "--loss-burst", "1000", "--exchanges", "120",
+                                 "--trials", "12", "--algorithm", "rtt-rvc-kf,doppler-kf", "--json"])
+    assert result.exit_code == 0, result.output
+    assert "RuntimeWarning" not in result.stderr
+    doc = json.loads(result.stdout)
+    unscored = doc["unscored_trials"]["rtt-rvc-kf"]
+    assert 0 < len(unscored) < 12 and doc["rmse_ns"]["rtt-rvc-kf"] > 0.0
+    assert any(w.startswith(f"rtt-rvc-kf: {len(unscored)} of 12 trials had no estimate") for w in doc["warnings"])
+    human = runner.invoke(app, ["swarm", "run", "--loss", "0.999", "--loss-burst", "1000", "--exchanges", "120",
+                                "--trials", "12", "--algorithm", "rtt-rvc-kf"])
+    assert human.exit_code == 0 and f"{12 - len(unscored)}/12" in human.stdout
+
+
+def _one_line_error(result, start: str) -> None:
+    assert result.exit_code == 2, result.output
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith(start), result.stderr
+
+
+@pytest.mark.parametrize("args, start", [
+    (["--cut-off", "1:50:10"], "error: --cut-off == 1:50:10, must be NODE:FROM:TO with 0 <= FROM < TO"),
+    (["--cut-off", "9:1:2"], "error: --cut-off == 9:1:2, must be NODE:FROM:TO with NODE an existing node"),
+    (["--cut-off", "1:a:b"], "error: --cut-off == '1:a:b', must be NODE:FROM:TO"),  # not an emoji for ":a:"
+    (["--mean-down", "-1"], "error: --mean-down == -1.0, must be > 0"),  # checked with an infinite --mean-up too
+    (["--mean-up", "0"], "error: --mean-up == 0.0, must be > 0"),
+    (["--area", "0"], "error: --area == 0.0, must be > 0"),
+    (["--leader-oscillator", "bogus"], "error: --leader-oscillator == 'bogus', must be one of"),
+    (["--scheduler", "bogus"], "error: --scheduler == 'bogus', must be 'local', 'serial' or tcp://HOST:PORT"),
+])
+def test_bad_swarm_network_input_is_one_line_naming_its_own_option(args, start):
+    _one_line_error(runner.invoke(app, ["swarm", "network", "--nodes", "3", "--duration", "30", *args]), start)
+
+
+@pytest.mark.parametrize("args, start", [
+    (["--calibration-duration", "1.5"], "error: --calibration-duration must be >= 2 s (two GNSS comparisons"),
+    (["--offset-sigma", "-1"], "error: --offset-sigma == -1.0, must be >= 0"),
+    (["--skew-mean", "1"], "error: --skew-mean == 1.0, must be <= 0.001"),
+])
+def test_bad_prior_and_calibration_input_is_worded_as_the_library_words_its_own(args, start):
+    _one_line_error(runner.invoke(app, ["swarm", "run", *args, "--exchanges", "50", "--trials", "1"]), start)
+
+
+def test_a_repeated_sweep_value_is_one_line_not_the_same_trials_counted_twice(tmp_path):
+    result = runner.invoke(app, ["swarm", "sweep", "--param", "velocity", "--values", "0,0,0", "--trials", "1",
+                                 "--exchanges", "50", "--scheduler", "serial", "--out", str(tmp_path)])
+    _one_line_error(result, "error: --values == 0,0,0 repeats 0: give each value once")
+
+
+def test_training_on_an_absent_gpu_is_refused_naming_device_before_the_data_set_is_built(monkeypatch, tmp_path):
+    torch = pytest.importorskip("torch")
+    import chronofuse.experiments.swarm_training as training
+
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+
+    def no_data_set(**kwargs):
+        raise AssertionError("the data set was built before the device was checked")
+
+    monkeypatch.setattr(training, "residual_dataset", no_data_set)
+    result = runner.invoke(app, ["swarm", "train", "--device", "cuda", "--quick", "--out", str(tmp_path)])
+    _one_line_error(result, "error: --device == 'cuda', but no CUDA device is available")

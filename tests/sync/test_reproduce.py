@@ -39,6 +39,14 @@ def test_a_quick_reproduction_writes_its_figures_and_a_report_that_replots_from_
     assert (tmp_path / "fig9.png").exists() and (tmp_path / "README.md").read_text() == text
 
 
+def test_a_claim_without_an_interval_gets_no_interval_based_verdict():
+    nan = float("nan")
+    assert verdict("<", 0.2, _row(0.1, nan, nan, 0.05)).startswith("no verdict: 0.1 ns without an interval")
+    assert verdict("<", 0.2, _row(0.1, None, None, 0.3)) == "not reachable: the bound is 0.3 ns"
+    assert verdict("~", 1.8, _row(2.0, None, None, 0.3)) == "reproduced"  # within 25 %, no interval needed
+    assert verdict("~", 13.0, _row(22.0, nan, nan, 0.3)) == "not reproduced: ours is 1.7x the paper's"
+
+
 def test_the_progress_of_a_reproduction_shares_its_stages_by_their_measured_costs():
     from chronofuse.experiments.swarm_reproduce import stage_weights
 
@@ -61,4 +69,4 @@ def test_a_quick_figure_says_the_fraction_of_its_links_done(tmp_path, monkeypatc
     assert {m for m, _ in heard} == {"figure 9"}
     fractions = [f for _, f in heard]
     assert fractions[0] == 0.0 and fractions[-1] == pytest.approx(1.0) and fractions == sorted(fractions)
-    assert fractions == [0.0, 0.5, 1.0]  # one step per task (a point's 8 links) as it ends
+    assert fractions == [0.0, 0.5, 1.0]  # one step per task (a point's 10 links) as it ends

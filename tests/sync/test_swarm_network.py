@@ -133,3 +133,13 @@ def test_a_lost_leader_is_replaced_within_the_announce_timeout_and_the_swarm_kee
     assert not np.any(run.time.state[4, 3:] == LOCKED) and np.all(run.time.state[4, 6:] == HOLDOVER)
     z = np.abs(run.to_true_s[4, 6:] - run.to_true_s[0, 6:120].mean()) / run.time.sigma_s[4, 6:]
     assert np.nanmax(z[:100]) < 4.0
+
+
+def test_the_leader_loss_removes_the_elected_leader_not_node_0():
+    # node 0 has the worst clock here, so node 1 (the first of the equal OCXOs) is elected and is the one to go
+    sc = SwarmScenario(nodes=4, duration_s=60.0, leader_oscillator="tcxo", leader_loss_at_s=30.0)
+    run = run_swarm(sc, 3)
+    lead = run.time.leader
+    assert lead[29] == 1
+    assert run.alive[1, 30:].sum() == 0 and run.alive[1, :30].all() and run.alive[0].all()
+    assert -1 in lead[30:35] and lead[-1] not in (-1, 1)  # a gap while it is noticed, then a new leader

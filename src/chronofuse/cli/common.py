@@ -47,7 +47,7 @@ def quiet_output(enabled: bool) -> None:
 
 def fail(message: str) -> None:
     """Print a one-line error on stderr and exit with code 2."""
-    _errors.print(f"error: {message}", markup=False, soft_wrap=True)
+    _errors.print(f"error: {message}", markup=False, emoji=False, soft_wrap=True)  # "1:a:b" is not ":a:" (an emoji)
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
@@ -79,8 +79,29 @@ def describe(exc: BaseException) -> str | None:
     if type(exc).__name__ == "ValidationError" and type(exc).__module__.startswith("pydantic"):
         first = exc.errors()[0]
         where = ".".join(str(part) for part in first.get("loc", ()))
-        return f"{_label(where) if where else type(exc).__name__}: {first.get('msg', exc)} (got {first.get('input')!r})"
+        return pydantic_message(first, _label(where) if where else type(exc).__name__)
     return None
+
+
+#: pydantic's bound errors and the comparison each states (its ``ctx`` key), for "name == value, must be >= x".
+_PYDANTIC_BOUNDS = {"greater_than": (">", "gt"), "greater_than_equal": (">=", "ge"), "less_than": ("<", "lt"),
+                    "less_than_equal": ("<=", "le")}
+
+
+def pydantic_message(error: dict, name: str) -> str:
+    """One pydantic error (an item of ``ValidationError.errors()``) as the library words its own:
+    ``"--offset-sigma == -1.0, must be >= 0"``; other kinds as ``"name: message (got value)"``."""
+    bound = _PYDANTIC_BOUNDS.get(error.get("type"))
+    value = error.get("input")
+    if bound is not None and bound[1] in (error.get("ctx") or {}):
+        limit = error["ctx"][bound[1]]
+        limit = f"{limit:g}" if isinstance(limit, (int, float)) else limit
+        return f"{name} == {value!r}, must be {bound[0]} {limit}"
+    msg = str(error.get("msg", "invalid"))
+    msg = msg[len("Value error, "):] if msg.startswith("Value error, ") else msg
+    if error.get("type") == "value_error":  # our own validators' messages carry the value already
+        return f"{name} {msg}"
+    return f"{name}: {msg} (got {value!r})"
 
 
 @contextmanager

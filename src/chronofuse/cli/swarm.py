@@ -5,13 +5,14 @@ from __future__ import annotations
 import functools
 import inspect
 import time
+import warnings
 from pathlib import Path
 from typing import Optional
 
 import typer
 from rich.table import Table
 
-from chronofuse.cli.common import fail, human_console, print_json, progress_reporter, quiet_output, user_errors
+from chronofuse.cli.common import collected_warnings, fail, human_console, print_json, progress_reporter, quiet_output, user_errors
 from chronofuse.cli.swarm_options import (
     SCENARIO_KEYS,
     algorithm_names,
@@ -66,6 +67,18 @@ def _urt_mode(urt_mode: str) -> None:
         fail(f"--urt-mode == {urt_mode!r}, must be 'paper' or 'calibrated'")
 
 
+def _num(x: float, spec: str) -> str:
+    """A figure for the human table; "-" where it is not available (NaN)."""
+    return "-" if x is None or x != x else format(x, spec)
+
+
+def _span(lo: float, hi: float) -> str:
+    """An interval for the human table; "not available" where it has none (too few trials scored)."""
+    if lo is None or hi is None or lo != lo or hi != hi:
+        return "not available"
+    return f"{lo:.3g}-{hi:.3g}"
+
+
 @swarm_app.command("run")
 @with_scenario
 def run(
@@ -73,7 +86,7 @@ def run(
     algorithm: str = typer.Option("all", "--algorithm", help="Comma-separated algorithm names, or 'all'."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode",
                                  help="paper (the paper's batch URT estimate) or calibrated (per link, under GNSS)."),
-    trials: int = typer.Option(20, "--trials", help="Monte Carlo trials (links, each its own prior draw)."),
+    trials: int = typer.Option(20, "--trials", help="Monte Carlo trials (links, each its own prior draw); intervals need at least 10."),
     seed: int = typer.Option(0, "--seed", help="Root seed (trial i uses its own child stream)."),
     threshold: float = typer.Option(1e-9, "--threshold", help="Convergence threshold tau of K* (s)."),
     model: Path = typer.Option(None, "--model", help="BP model file for rtt-rvc-kf-bp (chronofuse swarm train)."),
@@ -89,7 +102,7 @@ def run(
     from chronofuse.experiments.swarm import run_link
     from chronofuse.experiments.swarm_documents import link_report
 
-    with user_errors():
+    with user_errors(), collected_warnings() as notes:
         _urt_mode(urt_mode)
         files = model_files(model, lstm_model)
         names = algorithm_names(algorithm, files)
@@ -108,7 +121,7 @@ def run(
             say(f"simulating {trials} links", 0.0)
             res = run_link(scenario, names, trials=trials, seed=seed, urt_mode=urt_mode, threshold_s=threshold,
                            networks=networks, outage=window, progress=say)
-    doc = link_report(res)
+    doc = link_report(res) | {"warnings": notes}
     if out is not None:
         from chronofuse.report.html import swarm_page
 
@@ -118,14 +131,16 @@ def run(
         print_json(doc)
         return
     con = human_console(False)
-    table = Table("algorithm", "RMSE (ns)", "95 % interval", "RMSE / bound", "95 % interval", "K*",
+    for note in notes:
+        con.print(f"warning: {note}", markup=False, emoji=False)
+    table = Table("algorithm", "trials scored", "RMSE (ns)", "95 % interval", "RMSE / bound", "95 % interval", "K*",
                   title=f"{trials} links, URT {urt_mode}")
     for name, value in doc["rmse_ns"].items():
         k = doc["convergence_epochs"][name]
-        lo, hi = doc["rmse_ci_ns"][name]
-        qlo, qhi = doc["ratio_ci"][name]
-        table.add_row(name, f"{value:.4g}", f"{lo:.3g}-{hi:.3g}", f"{doc['ratio_to_bound'][name]:.3g}",
-                      f"{qlo:.3g}-{qhi:.3g}", "-" if k is None else str(k))
+        scored = trials - len(doc["unscored_trials"][name])
+        table.add_row(name, f"{scored}/{trials}", _num(value, ".4g"), _span(*doc["rmse_ci_ns"][name]),
+                      _num(doc["ratio_to_bound"][name], ".3g"), _span(*doc["ratio_ci"][name]),
+                      "-" if k is None else str(k))
     con.print(table)
     con.print(f"Bayesian bound (same model, the stated prior, the calibration's uncertainty): "
               f"{doc['bound_ns']['rms']:.4g} ns RMS over the run, {doc['bound_ns']['final']:.4g} ns at the end")
@@ -140,7 +155,7 @@ def sweep(
     algorithm: str = typer.Option("ptp-mls,rtt-rvc,rtt-rvc-kf,doppler-kf", "--algorithm",
                                   help="Comma-separated algorithm names."),
     urt_mode: str = typer.Option("calibrated", "--urt-mode", help="paper or calibrated."),
-    trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value."),
+    trials: int = typer.Option(100, "--trials", help="Monte Carlo trials per value; intervals need at least 10."),
     chunk_trials: int = typer.Option(25, "--chunk-trials", help="Trials per task (fixes the random streams)."),
     seed: int = typer.Option(0, "--seed", help="Root seed."),
     scheduler: str = typer.Option("local", "--scheduler",
@@ -156,8 +171,10 @@ def sweep(
     quiet_output(quiet)
     from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, scenario_at, summarize
     from chronofuse.report.swarm import plot_sweep, write_sweep
+    from chronofuse.sync.metrics import MIN_INTERVAL_TRIALS
+    from chronofuse.validation import InputWarning
 
-    with user_errors():
+    with user_errors(), collected_warnings() as notes:
         from chronofuse.extras import require
 
         require("distributed", "swarm sweep")
@@ -175,6 +192,9 @@ def sweep(
         load_models(files, urt_mode)
         if trials < 1 or chunk_trials < 1:
             fail(f"--trials == {trials} and --chunk-trials == {chunk_trials}, must both be >= 1")
+        if trials < MIN_INTERVAL_TRIALS:
+            warnings.warn(InputWarning(f"{{trials}} == {trials} is below {MIN_INTERVAL_TRIALS}: no 95 % intervals "
+                                       f"(a bootstrap over so few trials is too narrow)", fields=("trials",)))
         for v in value_list:
             scenario_at(scenario, param, v)
         start = time.perf_counter()
@@ -190,7 +210,7 @@ def sweep(
                                   title=f"{trials} links x {scenario.exchanges} exchanges, URT {urt_mode}"))
         elapsed = time.perf_counter() - start
     doc = {"param": param, "unit": SWEEP_PARAMS[param], "elapsed_s": elapsed, "files": [str(f) for f in written],
-           "summary": summary.to_dict(orient="records")}
+           "summary": summary.to_dict(orient="records"), "warnings": notes}
     if json_out:
         print_json(doc)
         return
@@ -198,9 +218,11 @@ def sweep(
     table_out = Table("value", "algorithm", "RMSE (ns)", "95 % interval", "bound (ns)", "RMSE / bound",
                       title=f"sweep over {param}")
     for row in doc["summary"]:
-        table_out.add_row(f"{row['value']:g}", row["algorithm"], f"{row['rmse_ns']:.4g}",
-                          f"{row['rmse_lo_ns']:.3g}-{row['rmse_hi_ns']:.3g}", f"{row['bound_rms_ns']:.4g}",
-                          f"{row['ratio']:.3g} ({row['ratio_lo']:.3g}-{row['ratio_hi']:.3g})")
+        table_out.add_row(f"{row['value']:g}", row["algorithm"], _num(row["rmse_ns"], ".4g"),
+                          _span(row["rmse_lo_ns"], row["rmse_hi_ns"]), f"{row['bound_rms_ns']:.4g}",
+                          f"{_num(row['ratio'], '.3g')} ({_span(row['ratio_lo'], row['ratio_hi'])})")
+    for note in notes:
+        con.print(f"warning: {note}", markup=False, emoji=False)
     con.print(table_out)
     con.print(f"{len(written)} files -> {out}/ in {elapsed:.1f} s")
 
@@ -219,8 +241,6 @@ def train(
     samples, v ~ U[0, 2000] m/s, SNR ~ U[4, 20] dB, split 6:2:2 by held-out SNR group) and measure what
     each is worth on held-out links, with intervals."""
     quiet_output(quiet)
-    import json
-
     from chronofuse.experiments.swarm_training import train_networks
 
     with user_errors():
@@ -233,7 +253,9 @@ def train(
         with progress_reporter("swarm train") as say:
             summary = train_networks(out, quick=quick, seed=seed, device=device, urt_mode=urt_mode, progress=say,
                                      command=training_command(seed, quick, urt_mode))
-        (Path(out) / "training.json").write_text(json.dumps(summary, indent=2))
+        from chronofuse.report.jsonio import dumps
+
+        (Path(out) / "training.json").write_text(dumps(summary))  # strict JSON: a missing interval is null
     if json_out:
         print_json(summary)
         return
@@ -244,8 +266,7 @@ def train(
         a, b = r["ablation"], r["ablation_offset_1us"]
         table.add_row(kind, str(r["parameters"]), f"{r['train_seconds']:.1f}", r["device"],
                       f"{r['test_left_rms_ns']:.3g} of {r['test_target_rms_ns']:.3g}",
-                      f"{a['ratio']:.3g} ({a['ratio_ci'][0]:.3g}-{a['ratio_ci'][1]:.3g})",
-                      f"{b['ratio']:.3g} ({b['ratio_ci'][0]:.3g}-{b['ratio_ci'][1]:.3g})")
+                      f"{a['ratio']:.3g} ({_span(*a['ratio_ci'])})", f"{b['ratio']:.3g} ({_span(*b['ratio_ci'])})")
     con.print(table)
     con.print(f"models -> {out}/")
 
@@ -320,7 +341,7 @@ def network(
 
 def reproduce_swarm_command(
     figure: str = typer.Option("all", "--figure", help="6, 7, 8, 9, 10 or all."),
-    quick: bool = typer.Option(False, "--quick", help="8 trials x 1000 exchanges per point."),
+    quick: bool = typer.Option(False, "--quick", help="10 trials x 1000 exchanges per point."),
     out: Path = typer.Option(Path("out/reproduce/swarm"), "--out",
                              help="Report folder (created; docs/sync holds the published run)."),
     model: Path = typer.Option(None, "--model", help="BP model file (rtt-rvc-kf-bp curves)."),

@@ -48,9 +48,11 @@ def build_scenario(*, velocity, distance, acceleration, reply_delay, urt, urt_ji
     try:
         calibration = CalibrationConfig(duration_s=calibration_duration, reference_sigma_s=reference_sigma)
     except ValidationError as exc:  # its fields' names (duration_s) mean other things elsewhere
+        from chronofuse.cli.common import pydantic_message
+
         err = exc.errors()[0]
-        field = f"calibration_{err['loc'][0]}"
-        raise InputError(f"{{{field}}} == {err.get('input')!r}: {err['msg'].lower()}", fields=(field,)) from None
+        field = f"calibration_{err['loc'][0] if err['loc'] else 'duration_s'}"  # the window is the one model rule
+        raise InputError(pydantic_message(err, f"{{{field}}}"), fields=(field,)) from None
     return LinkScenario(distance_m=distance, velocity_m_s=velocity, acceleration_m_s2=acceleration,
                         exchanges=exchanges, oscillator=oscillator, link=link, prior=prior, calibration=calibration,
                         common_velocity_m_s=common_velocity, cross_velocity_m_s=cross_velocity,

@@ -14,6 +14,7 @@ depend on how many trials run or where.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
@@ -27,11 +28,12 @@ from chronofuse.progress import Progress, silent
 from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.sync.base import measurement_array
 from chronofuse.sync.calibration import CalibrationConfig, UrtCalibration, calibrate_urt
-from chronofuse.sync.metrics import convergence_epochs, per_trial_mse, ratio_interval, rmse_interval, robustness
+from chronofuse.sync.metrics import (MIN_INTERVAL_TRIALS, convergence_epochs, per_trial_mse, ratio_interval,
+                                     rmse_interval, robustness, scored_trials)
 from chronofuse.sync.pcrb import exchange_bound
 from chronofuse.sync.prior import LinkPrior, PriorDraw
 from chronofuse.sync.registry import ALGORITHM_NAMES, LinkKnowledge, make_algorithm
-from chronofuse.validation import InputError, check_choice, check_scalar
+from chronofuse.validation import InputError, InputWarning, check_choice, check_scalar
 
 __all__ = ["LinkScenario", "link_paths", "simulate_scenario", "calibrate_scenario", "knowledge_of", "run_link",
            "hold_last", "MANOEUVRES"]
@@ -219,7 +221,8 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
 
     Returns a dict: per algorithm ``rmse_s`` and its interval ``rmse_ci_s``, ``ratio`` to the bound and
     ``ratio_ci``, ``convergence_epochs`` (K*: first exchange whose running RMSE over trials is below
-    ``threshold_s``; None if never), ``mse_per_trial_s2``; ``bound_s`` (``rms``, ``final``, per trial);
+    ``threshold_s``; None if never), ``mse_per_trial_s2`` (NaN: the trial had no estimate),
+    ``unscored_trials`` (the indices of those trials, left out of the RMSE and ratio with a warning); ``bound_s`` (``rms``, ``final``, per trial);
     ``calibration`` (the URT estimates' error and stated sigma); the scenario. ``networks`` maps "bp" /
     "lstm" to trained residual networks. ``outage = (k0, k1)`` also loses exchanges ``k0 .. k1 - 1`` and adds
     ``robustness`` (the paper's eqs. 49-50). ``overrides`` maps an algorithm name to configuration fields;
@@ -240,7 +243,10 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
     bound = bound_of(sc, ex, calib)
     bound_var = bound.offset_var_s2.mean(axis=1)
     out = {name: {} for name in ("rmse_s", "rmse_ci_s", "ratio", "ratio_ci", "convergence_epochs",
-                                 "mse_per_trial_s2", "robustness")}
+                                 "mse_per_trial_s2", "robustness", "unscored_trials")}
+    if trials < MIN_INTERVAL_TRIALS:
+        warnings.warn(InputWarning(f"{{trials}} == {trials} is below {MIN_INTERVAL_TRIALS}: no 95 % intervals (a "
+                                   f"bootstrap over so few trials is too narrow)", fields=("trials",)), stacklevel=2)
     runs = [(name, name, (overrides or {}).get(name, {})) for name in algorithms]
     runs += [(label, name, fields) for label, (name, fields) in (variants or {}).items()]
     for i, (name, algorithm, fields) in enumerate(runs):
@@ -248,8 +254,8 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
         alg = make_algorithm(algorithm, know, networks=networks, **fields).fit()
         err = alg.run(Z).offset_s - ex.offset_s
         mse = per_trial_mse(err)
-        r, lo, hi = rmse_interval(mse)
-        q, qlo, qhi = ratio_interval(mse, bound_var)
+        r, lo, hi, q, qlo, qhi, unscored = score_trials(name, mse, bound_var)
+        out["unscored_trials"][name] = unscored
         out["rmse_s"][name], out["rmse_ci_s"][name] = r, [lo, hi]
         out["ratio"][name], out["ratio_ci"][name] = q, [qlo, qhi]
         out["convergence_epochs"][name] = convergence_epochs(err, threshold_s)
@@ -271,6 +277,23 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
         "trials": int(trials),
         "scenario": _scenario_dict(sc),
     }
+
+
+def score_trials(name: str, mse, bound_var, confidence: float = 0.95) -> tuple:
+    """``(rmse, lo, hi, ratio, ratio_lo, ratio_hi, unscored)`` of one algorithm over the trials where it gave
+    an estimate; ``unscored`` lists the others (left out, with an :class:`InputWarning` naming how many). All
+    NaN when no trial has an estimate; ``lo``/``hi`` NaN below :data:`MIN_INTERVAL_TRIALS` scored trials."""
+    mse, bound_var = np.asarray(mse, dtype=float), np.asarray(bound_var, dtype=float)
+    ok = scored_trials(mse)
+    unscored = np.flatnonzero(~ok).tolist()
+    if unscored:
+        warnings.warn(InputWarning(
+            f"{name}: {len(unscored)} of {mse.size} trials had no estimate (no exchange got through to it): "
+            f"left out of its RMSE and ratio" + (f" (which cover the other {ok.sum()})" if ok.any()
+                                                 else ", which are not available")), stacklevel=3)
+    if not ok.any():
+        return (float("nan"),) * 6 + (unscored,)
+    return (*rmse_interval(mse[ok], confidence), *ratio_interval(mse[ok], bound_var[ok], confidence), unscored)
 
 
 def _scenario_dict(sc: LinkScenario) -> dict:

@@ -31,6 +31,7 @@ def link_report(res: dict) -> dict:
         "ratio_ci": res["ratio_ci"],
         "bound_ns": {"rms": res["bound_s"]["rms"] * 1e9, "final": res["bound_s"]["final"] * 1e9},
         "convergence_epochs": res["convergence_epochs"],
+        "unscored_trials": res["unscored_trials"],
         "convergence_threshold_ns": res["threshold_s"] * 1e9,
         "robustness": {k: {"delta_rmse_ns": v["delta_rmse_s"] * 1e9, "recovery_epochs": v["recovery_epochs"]}
                        for k, v in res["robustness"].items()},

@@ -7,8 +7,8 @@ area; each a free-running oscillator since GNSS was jammed (its time and frequen
 neighbours within radio range (:func:`~chronofuse.sync.swarm.graph.neighbour_links`); each link is calibrated
 (:func:`~chronofuse.experiments.swarm.calibrate_scenario`'s procedure, before the jamming), then exchanges
 every ``interval_s`` while it is up (its own two-state availability chain, independent of every other link,
-within range, both nodes there); its ``doppler-kf`` predicts through its gaps. The leader can leave the
-swarm (``leader_loss_at_s``), and a node can be cut off (``cut_off``).
+within range, both nodes there); its ``doppler-kf`` predicts through its gaps. The leader elected at
+``leader_loss_at_s`` can leave the swarm then, and a node can be cut off (``cut_off``).
 
 Every link's work is one task (its seeds: ``child_seed(root, LINK, index)``), so the links run in chunks on
 Dask (``scheduler``) or here, with identical numbers; composing the node times is cheap and runs here.
@@ -75,17 +75,30 @@ class SwarmScenario:
         check_scalar(self.nodes, "nodes", min_val=2, max_val=5000, integer=True)
         check_scalar(self.interval_s, "interval_s", min_val=1e-3, max_val=60.0)
         check_scalar(self.duration_s, "duration_s", min_val=3 * self.interval_s)
-        check_scalar(self.area_m, "area_m", min_val=0.0)
+        check_scalar(self.area_m, "area_m", min_val=0.0, include_min=False)  # 0: every node at one point
         check_scalar(self.radio_range_m, "radio_range_m", min_val=0.0, include_min=False)
         check_scalar(self.neighbours, "neighbours", min_val=1, integer=True)
         check_choice(self.topology, "topology", ("tree", "consensus"))
-        preset(self.oscillator), preset(self.leader_oscillator)
+        # a mean time is checked whether or not it is used (an infinite mean-up leaves mean-down unused)
+        if not (isinstance(self.mean_up_s, (int, float)) and self.mean_up_s == math.inf):
+            check_scalar(self.mean_up_s, "mean_up_s", min_val=0.0, include_min=False)
+        check_scalar(self.mean_down_s, "mean_down_s", min_val=0.0, include_min=False)
+        preset(self.oscillator)
+        try:
+            preset(self.leader_oscillator)
+        except InputError as exc:
+            raise InputError(exc.message.replace("{oscillator}", "{leader_oscillator}"),
+                             fields=("leader_oscillator",)) from None
         if self.leader_loss_at_s is not None:
             check_scalar(self.leader_loss_at_s, "leader_loss_at_s", min_val=0.0, max_val=self.duration_s)
         for item in self.cut_off:
+            text = ":".join(f"{v:g}" if isinstance(v, float) else str(v) for v in item)
             if len(item) != 3 or not 0 <= int(item[0]) < self.nodes:
-                raise InputError(f"{{cut_off}} == {self.cut_off!r}, must be (node, from_s, to_s) triples of existing "
-                                 f"nodes (0 to {self.nodes - 1} of {{nodes}})", fields=("cut_off", "nodes"))
+                raise InputError(f"{{cut_off}} == {text}, must be NODE:FROM:TO with NODE an existing node "
+                                 f"(0 to {self.nodes - 1} of {{nodes}})", fields=("cut_off", "nodes"))
+            if not 0.0 <= float(item[1]) < float(item[2]):
+                raise InputError(f"{{cut_off}} == {text}, must be NODE:FROM:TO with 0 <= FROM < TO (s)",
+                                 fields=("cut_off",))
 
     @property
     def steps(self) -> int:
@@ -146,10 +159,16 @@ def swarm_truth(sc: SwarmScenario, seed) -> dict:
     return {"positions_m": pos, "velocities_m_s": vel, "links": links, "clocks_s": clocks}
 
 
-def _alive(sc: SwarmScenario) -> np.ndarray:
+def _alive(sc: SwarmScenario, qualities) -> np.ndarray:
+    """Who is there (nodes, steps): everyone, but the leader elected at ``leader_loss_at_s`` leaves then (the
+    leader the election chose, which is node 0 only where node 0 has the best clock)."""
     alive = np.ones((sc.nodes, sc.steps), dtype=bool)
     if sc.leader_loss_at_s is not None:
-        alive[0, int(round(sc.leader_loss_at_s / sc.interval_s)):] = False
+        k = int(round(sc.leader_loss_at_s / sc.interval_s))
+        lead = leader_timeline(qualities, alive, sc.steps, sc.interval_s)[:min(k, sc.steps - 1) + 1]
+        elected = lead[lead >= 0]
+        if elected.size:  # the leader then (the last one elected before, while the election is pending)
+            alive[elected[-1], k:] = False
     return alive
 
 
@@ -283,7 +302,7 @@ def run_swarm(sc: SwarmScenario, seed=0, *, scheduler: str | None = "serial", ch
     for part in parts:
         for k in merged:
             merged[k][part["ids"]] = part[k]
-    alive = _alive(sc)
+    alive = _alive(sc, _qualities(sc))
     leader = leader_timeline(_qualities(sc), alive, steps, sc.interval_s)
     time = compose_network_time(truth["links"], merged["estimate_s"], merged["sigma_s"], merged["usable"], leader,
                                 alive, link_fault=merged["fault"], topology=sc.topology,

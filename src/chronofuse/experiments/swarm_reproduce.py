@@ -14,6 +14,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from chronofuse.experiments.swarm import LinkScenario
 from chronofuse.experiments.sweep import SWEEP_PARAMS, run_sweep, summarize
 from chronofuse.models.link import LinkModel
@@ -46,6 +48,13 @@ PAPER_NUMBERS = {
 _PAPER_NOTE = {"10": "the paper: LSTM about 1.8 ns, the proposed chain nearly 10x lower (read as ~0.18 ns)"}
 
 
+def _span(lo, hi) -> str:
+    """An interval as the report writes it; "-" where there is none (too few trials: NaN, or null in the JSON)."""
+    if lo is None or hi is None or not (np.isfinite(lo) and np.isfinite(hi)):
+        return "-"
+    return f"{lo:.3g}-{hi:.3g}"
+
+
 def verdict(relation: str, paper_ns: float, ours: dict) -> str:
     """The verdict on one claim from our RMSE (with ``rmse_lo_ns``/``rmse_hi_ns``) and the bound there.
 
@@ -54,13 +63,16 @@ def verdict(relation: str, paper_ns: float, ours: dict) -> str:
     (or inside its interval); else not reproduced, with the factor.
     """
     lo, hi, rmse, bound = ours["rmse_lo_ns"], ours["rmse_hi_ns"], ours["rmse_ns"], ours["bound_rms_ns"]
+    have = _span(lo, hi) != "-"  # too few trials give no interval (NaN, null in the JSON)
     if relation == "<":
-        if hi < paper_ns:
+        if have and hi < paper_ns:
             return "reproduced"
         if bound >= paper_ns:
             return f"not reachable: the bound is {bound:.3g} ns"
+        if not have:
+            return f"no verdict: {rmse:.3g} ns without an interval (too few trials)"
         return f"not reproduced: {rmse:.3g} ns ({lo:.3g}-{hi:.3g})"
-    if lo <= paper_ns <= hi or abs(rmse / paper_ns - 1.0) <= 0.25:
+    if (have and lo <= paper_ns <= hi) or abs(rmse / paper_ns - 1.0) <= 0.25:
         return "reproduced"
     return f"not reproduced: ours is {rmse / paper_ns:.2g}x the paper's"
 
@@ -76,7 +88,7 @@ def reproduce_swarm(out, *, figures=("6", "7", "8", "9", "10"), quick: bool = Fa
     """
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    trials, exchanges = (8, 1000) if quick else (100, 2000)
+    trials, exchanges = (10, 1000) if quick else (100, 2000)  # 10: the fewest given an interval
     files = dict(model_files or {})
     runs = {fig: tuple(a for a in FIGURES[fig][3] if a not in (_BP, _LSTM) or {_BP: "bp", _LSTM: "lstm"}[a] in files)
             for fig in figures}
@@ -225,14 +237,14 @@ def _report(doc: dict) -> str:
                 lines.append(f"| {fig} | {alg} | {_at(res, value)} | {rel} {ns:g} | not run | | | no model file given |")
                 continue
             lines.append(f"| {fig} | {alg} | {_at(res, value)} | {rel} {ns:g} | {row['rmse_ns']:.3g} | "
-                         f"{row['rmse_lo_ns']:.3g}-{row['rmse_hi_ns']:.3g} | {row['bound_rms_ns']:.3g} | "
+                         f"{_span(row['rmse_lo_ns'], row['rmse_hi_ns'])} | {row['bound_rms_ns']:.3g} | "
                          f"{verdict(rel, ns, row)} |")
         best = [r for r in res["summary"] if r["algorithm"] == "doppler-kf"]
         if best:
             worst = max(best, key=lambda r: r["ratio"])
             lines.append(f"| {fig} | doppler-kf (ours) | worst over the sweep | - | {worst['rmse_ns']:.3g} | "
-                         f"{worst['rmse_lo_ns']:.3g}-{worst['rmse_hi_ns']:.3g} | {worst['bound_rms_ns']:.3g} | "
-                         f"{worst['ratio']:.3g}x the bound ({worst['ratio_lo']:.3g}-{worst['ratio_hi']:.3g}) |")
+                         f"{_span(worst['rmse_lo_ns'], worst['rmse_hi_ns'])} | {worst['bound_rms_ns']:.3g} | "
+                         f"{worst['ratio']:.3g}x the bound ({_span(worst['ratio_lo'], worst['ratio_hi'])}) |")
     for fig, note in _PAPER_NOTE.items():
         if fig in doc["figures"]:
             lines.append(f"\nFig. {fig}: {note}.")
@@ -267,7 +279,7 @@ def _report(doc: dict) -> str:
                   "| value | " + " | ".join(res["algorithms"]) + " | bound |", "|---" * (len(res["algorithms"]) + 2) + "|"]
         for v in sorted({r["value"] for r in res["summary"]}):
             row = {r["algorithm"]: r for r in res["summary"] if r["value"] == v}
-            cells = [f"{row[a]['rmse_ns']:.3g} ({row[a]['rmse_lo_ns']:.3g}-{row[a]['rmse_hi_ns']:.3g})" if a in row
+            cells = [f"{row[a]['rmse_ns']:.3g} ({_span(row[a]['rmse_lo_ns'], row[a]['rmse_hi_ns'])})" if a in row
                      else "" for a in res["algorithms"]]
             bound = next(iter(row.values()))["bound_rms_ns"]
             lines.append(f"| {v * factor:g} | " + " | ".join(cells) + f" | {bound:.3g} |")

@@ -130,8 +130,9 @@ def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt
     (``bp.pt``, ``lstm.pt``) and return a summary: parameter counts, training seconds and device, held-out
     test RMS of the target and of what each network leaves, and the ablation at the prior and with the
     offsets shifted by 1 us."""
-    from chronofuse.sync.residual import ResidualConfig, ResidualNetwork
+    from chronofuse.sync.residual import ResidualConfig, ResidualNetwork, _device
 
+    _device(ResidualConfig(device=device))  # an absent GPU is refused now, not after the data set is built
     out = Path(out)
     size = dict(samples=6000, groups=10, runs_per_group=6, exchanges=1000) if quick else {}
     say = progress or (lambda message: None)
@@ -151,7 +152,7 @@ def train_networks(out, *, quick: bool = False, seed=0, device: str = "cpu", urt
                                                                           command=command))
         left = y_test - net.predict_ns(part["test"])
         say(f"ablation {kind}")
-        runs = 6 if quick else 40
+        runs = 10 if quick else 40  # 10: the fewest held-out links given an interval (MIN_INTERVAL_TRIALS)
         exchanges = size.get("exchanges", 2000)
         abl = ablation(net, runs=runs, exchanges=exchanges, seed=child_seed(root_seed(seed), 2), urt_mode=urt_mode)
         shifted = ablation(net, runs=runs, exchanges=exchanges, seed=child_seed(root_seed(seed), 3), urt_mode=urt_mode,

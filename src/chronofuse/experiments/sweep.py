@@ -21,10 +21,11 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from chronofuse.experiments.swarm import LinkScenario, bound_of, calibrate_scenario, knowledge_of, simulate_scenario
+from chronofuse.experiments.swarm import (LinkScenario, bound_of, calibrate_scenario, knowledge_of, score_trials,
+                                         simulate_scenario)
 from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
-from chronofuse.sync.metrics import per_trial_mse, ratio_interval, rmse_interval
+from chronofuse.sync.metrics import per_trial_mse
 from chronofuse.sync.registry import make_algorithm
 from chronofuse.validation import InputError, check_choice, check_scalar
 
@@ -65,6 +66,11 @@ def sweep_tasks(base: LinkScenario, param: str, values, algorithms, *, trials: i
     check_scalar(trials, "trials", min_val=1, integer=True)
     check_scalar(chunk_trials, "chunk_trials", min_val=1, integer=True)
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
+    values = [float(v) for v in values]
+    repeated = sorted({v for v in values if values.count(v) > 1})
+    if repeated:  # a repeated value draws the same seeds: the same trials twice, counted as twice the trials
+        raise InputError(f"{{values}} == {','.join(f'{v:g}' for v in values)} repeats "
+                         f"{', '.join(f'{v:g}' for v in repeated)}: give each value once", fields=("values",))
     root = root_seed(seed)
     tasks = []
     for value in values:
@@ -112,13 +118,14 @@ def _client(scheduler: str | None, n_tasks: int):
     distributed = require("distributed", "a parameter sweep on Dask")
     Client, LocalCluster = distributed.Client, distributed.LocalCluster
 
-    if scheduler is None:
+    if scheduler is None or scheduler == "local":
         workers = max(1, min(os.cpu_count() or 1, n_tasks))
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                                host="127.0.0.1")
         return Client(cluster), cluster
     if not scheduler.startswith("tcp://"):
-        raise InputError(f"{{scheduler}} == {scheduler!r}, must be tcp://HOST:PORT or 'serial'", fields=("scheduler",))
+        raise InputError(f"{{scheduler}} == {scheduler!r}, must be 'local', 'serial' or tcp://HOST:PORT",
+                         fields=("scheduler",))
     try:
         return Client(scheduler, timeout="5s"), None
     except (OSError, TimeoutError) as exc:
@@ -166,13 +173,16 @@ def run_sweep(base: LinkScenario, param: str, values, algorithms, *, trials: int
 def summarize(table: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
     """Per (value, algorithm): the trial count, RMSE over trials ``sqrt(mean(rmse_trial^2))`` (equal run
     lengths) with its bootstrap interval ``rmse_lo_ns``/``rmse_hi_ns``, the bound's RMS over the same trials
-    and the ratio of the two with its paired interval (:mod:`chronofuse.sync.metrics`)."""
+    and the ratio of the two with its paired interval (:mod:`chronofuse.sync.metrics`). A trial where the
+    algorithm had no estimate (``rmse_ns`` NaN) is left out of both, counted in ``unscored`` and warned of
+    (:func:`chronofuse.experiments.swarm.score_trials`); the intervals are NaN below
+    :data:`~chronofuse.sync.metrics.MIN_INTERVAL_TRIALS` scored trials."""
+    check_scalar(confidence, "confidence", min_val=0.0, max_val=1.0, include_min=False, include_max=False)
     rows = []
     for (value, name), g in table.groupby(["value", "algorithm"], sort=True):
         mse, bnd = np.square(g["rmse_ns"].to_numpy()), np.square(g["bound_rms_ns"].to_numpy())
-        r, lo, hi = rmse_interval(mse, confidence)
-        q, qlo, qhi = ratio_interval(mse, bnd, confidence)
-        rows.append({"value": value, "algorithm": name, "trials": int(len(g)), "rmse_ns": r, "rmse_lo_ns": lo,
-                     "rmse_hi_ns": hi, "bound_rms_ns": float(np.sqrt(bnd.mean())), "ratio": q, "ratio_lo": qlo,
-                     "ratio_hi": qhi})
+        r, lo, hi, q, qlo, qhi, unscored = score_trials(f"{name} at {value:g}", mse, bnd, confidence)
+        rows.append({"value": value, "algorithm": name, "trials": int(len(g)), "unscored": len(unscored),
+                     "rmse_ns": r, "rmse_lo_ns": lo, "rmse_hi_ns": hi, "bound_rms_ns": float(np.sqrt(bnd.mean())),
+                     "ratio": q, "ratio_lo": qlo, "ratio_hi": qhi})
     return pd.DataFrame(rows)

@@ -104,7 +104,8 @@ class LinkModel:
     nlos_mean_excess_s : float
         Mean excess delay of an NLOS arrival, s.
     loss_fraction : float
-        Stationary fraction of exchanges lost (Gilbert–Elliott chain), in [0, 1).
+        Stationary fraction of exchanges lost (Gilbert–Elliott chain), in [0, 1), at most
+        ``loss_burst_mean / (loss_burst_mean + 1)`` (0.5 for independent losses).
     loss_burst_mean : float
         Mean length of a loss burst, exchanges (1: independent losses).
     nav_velocity_sigma_m_s : float
@@ -143,6 +144,13 @@ class LinkModel:
         check_scalar(self.nlos_mean_excess_s, "nlos_mean_excess_s", min_val=0.0)
         check_scalar(self.loss_fraction, "loss_fraction", min_val=0.0, max_val=1.0, include_max=False)
         check_scalar(self.loss_burst_mean, "loss_burst_mean", min_val=1.0)
+        # Bursts of mean length L (P(bad -> good) = 1/L) reach a stationary loss of at most L / (L + 1); above
+        # it P(good -> bad) would exceed 1 and the chain would lose every other exchange instead.
+        if self.loss_fraction > self.loss_burst_mean / (self.loss_burst_mean + 1.0):
+            need = self.loss_fraction / (1.0 - self.loss_fraction)
+            raise InputError(f"{{loss_fraction}} == {self.loss_fraction:g} needs {{loss_burst_mean}} >= {need:.4g} "
+                             f"(got {self.loss_burst_mean:g}): bursts of mean length L lose at most L/(L+1)",
+                             fields=("loss_fraction", "loss_burst_mean"))
         check_scalar(self.nav_velocity_sigma_m_s, "nav_velocity_sigma_m_s", min_val=0.0)
         check_choice(self.toa_model, "toa_model", TOA_MODELS)
         if self.snr_reference_range_m is None:

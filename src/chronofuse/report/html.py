@@ -304,12 +304,20 @@ def stability_page(doc: dict, plot: Path, command: str = "chronofuse stability")
 
 def swarm_page(doc: dict, out: Path, command: str = "chronofuse swarm run") -> Path:
     """The page of ``chronofuse swarm run --out``: each algorithm's RMSE against the Bayesian bound."""
+    def span(lo, hi) -> str:
+        return "not available" if lo is None or hi is None or lo != lo or hi != hi else f"{lo:.3g}-{hi:.3g}"
+
     rows, verdicts = [], []
     for name, r in doc["rmse_ns"].items():
         ratio = doc["ratio_to_bound"][name]
         lo, hi = doc["ratio_ci"][name]
-        rows.append([name, r, f"{doc['rmse_ci_ns'][name][0]:.3g}-{doc['rmse_ci_ns'][name][1]:.3g}", ratio,
-                     f"{lo:.3g}-{hi:.3g}"])
+        scored = doc["trials"] - len(doc.get("unscored_trials", {}).get(name, ()))
+        rows.append([name, r, span(*doc["rmse_ci_ns"][name]), ratio, span(lo, hi)])
+        if span(lo, hi) == "not available":  # too few trials scored: no interval, so no verdict either
+            verdicts.append(Verdict(f"{name} does not beat the bound", None,
+                                    f"RMSE / bound {ratio:.3g} over {scored} scored trial(s): too few for an interval, "
+                                    "so no verdict"))
+            continue
         verdicts.append(Verdict(f"{name} does not beat the bound", bool(lo >= 0.9),
                                 f"RMSE / bound {ratio:.3g} (95 % interval {lo:.3g}-{hi:.3g}); below 0.9 would mean a "
                                 "bound that does not bound or an error in the run"))

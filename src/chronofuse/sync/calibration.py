@@ -22,7 +22,7 @@ of a link's life, done once, and kept through a GNSS loss.
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from chronofuse.sync.measurement import (
     known_offset_terms_s,
@@ -45,10 +45,18 @@ class CalibrationConfig(BaseModel):
     reference_interval_s: float = Field(1.0, gt=0.0, le=60.0, description="one GNSS time comparison every (s)")
     reference_sigma_s: float = Field(5e-9, ge=0.0, le=1e-6, description="white error of each node's GNSS time (s)")
 
+    @model_validator(mode="after")
+    def _two_comparisons(self):
+        # fewer than two comparisons were rounded up to two before: a window the run did not have
+        if self.duration_s < 2.0 * self.reference_interval_s:
+            raise ValueError(f"must be >= {2.0 * self.reference_interval_s:g} s (two GNSS comparisons, one every "
+                             f"{self.reference_interval_s:g} s), got {self.duration_s:g}")
+        return self
+
     @property
     def comparisons(self) -> int:
-        """Reference comparisons (and exchanges used) in the window."""
-        return max(2, int(round(self.duration_s / self.reference_interval_s)))
+        """Reference comparisons (and exchanges used) in the window (at least 2, the validator's rule)."""
+        return int(round(self.duration_s / self.reference_interval_s))
 
 
 class UrtCalibration(BaseModel):

@@ -105,21 +105,25 @@ class RvcKfChain(SyncAlgorithm):
                                                    sample.velocity_m_s)
         x, P = state["x"], state["P"]
         s0, v0 = state["s0"], state["v0"]
-        if sample.k == 0:
-            n = self.F_.shape[0]
-            x = np.zeros((eps_corr.shape[0], n))
-            x[:, 0] = eps_corr
-            x[:, 2] = sample.velocity_m_s
-            P = np.broadcast_to(self.P0_, (x.shape[0], n, n)).copy()
-            s0 = C * ptp_delay_s(sample.t_i_s, sample.t_b_s, sample.t_r_s)
-            v0 = sample.velocity_m_s.copy()
-        else:
+        # A trial starts its filter at its first exchange that arrives (k = 0 unless that one was lost): until
+        # then its state is NaN, and a lost first exchange must not leave it NaN for the whole run.
+        fresh = np.isnan(x[:, 0]) if sample.k > 0 else np.ones(x.shape[0], dtype=bool)
+        if not fresh.all():
             prior = predict(x, P, self.F_, self.Q_)
             x = prior.x.copy()
             # x- = A x + B u with u = v_doppler - v (no control when the exchange is missing)
             x[:, 2] = np.where(np.isnan(sample.velocity_m_s), x[:, 2], sample.velocity_m_s)
             post = update(x, prior.P, eps_corr[:, None], np.array([[1.0, 0.0, 0.0]]), self.R_)
             x, P = post.x, post.P
+        if fresh.any():
+            n = self.F_.shape[0]
+            x0 = np.zeros((eps_corr.shape[0], n))
+            x0[:, 0] = eps_corr
+            x0[:, 2] = sample.velocity_m_s
+            x = np.where(fresh[:, None], x0, x)
+            P = np.where(fresh[:, None, None], np.broadcast_to(self.P0_, (x.shape[0], n, n)), P)
+            s0 = np.where(fresh, C * ptp_delay_s(sample.t_i_s, sample.t_b_s, sample.t_r_s), s0)
+            v0 = np.where(fresh, sample.velocity_m_s, v0)
         features = residual_features(eps_corr, x[:, 0], x[:, 1], x[:, 2], cfg.snr_db, sample, s0, v0, tp)
         hist = np.concatenate([state["hist"][:, 1:], features[:, None, :]], axis=1)
         est = x[:, 0].copy()

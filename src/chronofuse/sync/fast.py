@@ -47,7 +47,7 @@ def _kernel(x, P, s0, v0, k, t_i, t_b, t_r, v, tp_all, dt, Q, R, P0, exact, snr_
             eps_rvc = (C * (t_i[i] - t_r[i] + t_b[i]) + v[i] * t_b[i]) / (2.0 * C + v[i])
         alpha = -C / (2.0 * C + v[i])
         z = eps_rvc - alpha * tp
-        if k == 0:
+        if k == 0 or math.isnan(x[i, 0]):  # the first exchange that arrives starts the trial's filter
             x_out[i, 0] = z
             x_out[i, 1] = 0.0
             x_out[i, 2] = v[i]

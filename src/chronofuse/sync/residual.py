@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from chronofuse.sync.chain import FEATURES
-from chronofuse.validation import ChronofuseError, check_choice, check_scalar
+from chronofuse.validation import ChronofuseError, InputError, check_choice, check_scalar
 
 __all__ = ["ResidualConfig", "ResidualNetwork", "load_residual_network", "parameter_count"]
 
@@ -108,11 +108,13 @@ def _digest(state_dict) -> str:
 
 
 def _device(config: ResidualConfig) -> str:
+    """The torch device ``config`` asks for; an InputError naming ``device`` where it asks for an absent GPU."""
     torch = _torch()
     if config.device == "auto":
         return "cuda" if torch.cuda.is_available() else "cpu"
     if config.device == "cuda" and not torch.cuda.is_available():
-        raise ChronofuseError("device == 'cuda', but no CUDA device is available")
+        raise InputError("{device} == 'cuda', but no CUDA device is available (cpu or auto train without one)",
+                         fields=("device",))
     return config.device
 
 
