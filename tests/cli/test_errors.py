@@ -10,7 +10,7 @@ import pytest
 from pydantic import BaseModel, Field, ValidationError
 from typer.testing import CliRunner
 
-import chronofuse.cli.simulate as simulate_cli
+import chronofuse.models.oscillator as oscillator_models
 from chronofuse.cli.common import describe
 from chronofuse.cli.flags import FLAG_OF_FIELD, FLAGS, label
 from chronofuse.cli.main import EXIT_BUG, app
@@ -69,7 +69,7 @@ def _broken(*args, **kwargs):
 
 
 def test_a_value_error_that_is_not_an_input_error_is_reported_as_a_bug_not_as_bad_input(monkeypatch, tmp_path):
-    monkeypatch.setattr(simulate_cli, "simulate_oscillator", _broken)
+    monkeypatch.setattr(oscillator_models, "simulate_oscillator", _broken)  # the command imports it when run
     result = runner.invoke(app, ["simulate", "oscillator", "--out", str(tmp_path / "o.csv")])
     assert result.exit_code == EXIT_BUG != 2
     lines = result.stderr.splitlines()
@@ -78,7 +78,7 @@ def test_a_value_error_that_is_not_an_input_error_is_reported_as_a_bug_not_as_ba
 
 
 def test_debug_prints_the_traceback_of_a_bug(monkeypatch, tmp_path):
-    monkeypatch.setattr(simulate_cli, "simulate_oscillator", _broken)
+    monkeypatch.setattr(oscillator_models, "simulate_oscillator", _broken)  # the command imports it when run
     result = runner.invoke(app, ["--debug", "simulate", "oscillator", "--out", str(tmp_path / "o.csv")])
     assert result.exit_code == EXIT_BUG
     assert "Traceback (most recent call last)" in result.stderr and "_broken" in result.stderr
