@@ -12,7 +12,11 @@ from its prior it reaches the bound:
   2 eps) / 2`` (the skew acts over the reply and the light time), with the noise of the exchange's own SNR
   (:mod:`chronofuse.sync.measurement`);
 * a chi-square gate on the innovation (probability ``gate_probability`` of rejecting a good exchange),
-  which keeps NLOS outliers out; rejected exchanges still reach the URT monitor. A filter that rejects
+  which keeps NLOS outliers out; rejected exchanges still reach the URT monitor. The gate is not applied
+  to a filter's first exchange (it still holds its prior): the innovation there is the true offset's
+  distance from the prior mean, not a measurement's error, so a gate would reject every measurement of a
+  link whose offset lies in the prior's tails (4-6 sigma: a few in 1e5 links, a few hundred ns of RMSE
+  each before the restart below rescued them). The first exchange initialises the filter. A filter that rejects
   ``restart_after`` exchanges in a row (it started from an outlier, or the link changed by far more than its
   noise) starts again from its prior at the next one, instead of rejecting everything after.
 
@@ -125,6 +129,7 @@ class DopplerKf(SyncAlgorithm):
         return {"x": np.broadcast_to(self.x0_, (trials, n)).copy(), "P": np.broadcast_to(self.P0_, (trials, n, n)).copy(),
                 "monitor": self.monitor_.init_state(trials), "states": self.states_.init_state(trials),
                 "urt": self._per_trial(self.urt_, trials).copy(), "gated_run": np.zeros(trials, dtype=np.int64),
+                "fresh": np.ones(trials, dtype=bool),
                 "cal": self._per_trial(self.cal_sigma_, trials).copy()}
 
     def measurement(self, x_pred: np.ndarray, sample: ExchangeSample, urt_s: np.ndarray):
@@ -152,7 +157,8 @@ class DopplerKf(SyncAlgorithm):
         y = z - np.einsum("ti,ti->t", h, x)
         s = np.einsum("ti,tij,tj->t", h, P, h) + r
         d2 = y * y / s
-        gated = d2 > self.gate_
+        gated = (d2 > self.gate_) & ~state["fresh"]  # the first exchange initialises (module docstring)
+        fresh = state["fresh"] & ~np.isfinite(z)
         run = np.where(np.isfinite(z), np.where(gated, state["gated_run"] + 1, 0), state["gated_run"])
         restart = run >= self.config.restart_after  # start again from the prior with this exchange
         gated = gated & ~restart
@@ -168,7 +174,7 @@ class DopplerKf(SyncAlgorithm):
         sigma = np.sqrt(post.P[:, 0, 0] + (state["cal"] * 0.5) ** 2)
         states = self.states_.update(state["states"], sigma, np.isfinite(z) & ~gated, mon["alarm"], self.interval_s)
         return ({"x": post.x, "P": post.P, "monitor": mon, "states": states, "urt": state["urt"], "cal": state["cal"],
-                 "gated_run": run, "sigma": sigma}, post.x[:, 0].copy())
+                 "gated_run": run, "fresh": fresh, "sigma": sigma}, post.x[:, 0].copy())
 
     def run(self, Z, reference_offset_s=None) -> SyncResult:
         """Batch run through the numba loop of :mod:`chronofuse.sync.doppler_kernel`, the numpy twin of

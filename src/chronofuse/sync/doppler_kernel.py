@@ -73,6 +73,8 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
         run = 0
         grun = 0
         lrun = 0
+        fresh = True  # no exchange taken yet: the first one initialises, ungated
+        lfresh = True
         alarm = False
         ring_e[:] = math.nan
         ring_w[:] = 0.0
@@ -109,8 +111,9 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
             y = z - hx
             s = innovation_variance(P, h) + r
             finite = not (math.isnan(z) or math.isnan(r))
-            gated = finite and (y * y / s > gate)
+            gated = finite and (not fresh) and (y * y / s > gate)
             if finite:
+                fresh = False
                 grun = grun + 1 if gated else 0
             if grun >= restart_after:  # start again from the prior with this exchange
                 grun = 0
@@ -136,8 +139,9 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                     for a in range(n):
                         yd -= hd[a] * xd[a]
                     sd = innovation_variance(Pd, hd) + lr[0]
-                    gd = (not math.isnan(yd)) and yd * yd > gate * sd
+                    gd = (not math.isnan(yd)) and (not lfresh) and yd * yd > gate * sd
                     if not math.isnan(yd):
+                        lfresh = False
                         lrun = lrun + 1 if gd else 0
                     if lrun >= restart_after:
                         lrun = 0
