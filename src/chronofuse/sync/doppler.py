@@ -12,11 +12,13 @@ from its prior it reaches the bound:
   2 eps) / 2`` (the skew acts over the reply and the light time), with the noise of the exchange's own SNR
   (:mod:`chronofuse.sync.measurement`);
 * a chi-square gate on the innovation (probability ``gate_probability`` of rejecting a good exchange),
-  which keeps NLOS outliers out; rejected exchanges still reach the URT monitor. The gate is not applied
-  to a filter's first exchange (it still holds its prior): the innovation there is the true offset's
-  distance from the prior mean, not a measurement's error, so a gate would reject every measurement of a
-  link whose offset lies in the prior's tails (4-6 sigma: a few in 1e5 links, a few hundred ns of RMSE
-  each before the restart below rescued them). The first exchange initialises the filter. A filter that rejects
+  which keeps NLOS outliers out; rejected exchanges still reach the URT monitor. The gate acts only once
+  the prediction has settled, ``h P h' < gate_settled * r``: before, the innovation measures how far the
+  true state lies from the prior (or from a prediction through a gap) more than the measurement's error,
+  and a gate would reject every exchange of a link whose offset or skew lies in the prior's tails (a 4.7
+  sigma offset: its first 8 exchanges, 280 ns of RMSE; a 6 sigma skew at one exchange a second: one in
+  nine exchanges, 250 ns). With the default 0.25 the gate cannot reject a state up to
+  ``sqrt(gate * (1 + 1/0.25))`` = 9.9 sigma out. The first exchange thus initialises the filter. A filter that rejects
   ``restart_after`` exchanges in a row (it started from an outlier, or the link changed by far more than its
   noise) starts again from its prior at the next one, instead of rejecting everything after.
 
@@ -71,6 +73,7 @@ class DopplerKfConfig(Config):
     urt_s: float | tuple[float, ...] = Field(20e-9, description="calibrated fixed URT, s (one per trial allowed)")
     calibration_sigma_s: float | tuple[float, ...] = Field(0.0, description="1-sigma of that calibration (s)")
     gate_probability: float = Field(1e-5, ge=0.0, lt=1.0, description="false-rejection probability of the gate (dimensionless)")
+    gate_settled: float = Field(0.25, gt=0.0, description="the gate acts once h P h' is below this share of r (dimensionless)")
     restart_after: int = Field(8, ge=2, description="rejected exchanges in a row after which the filter restarts (exchanges)")
     monitor: MonitorConfig = Field(MonitorConfig(), description="the URT monitor (section)")
     states: NodeStateConfig = Field(NodeStateConfig(), description="the node state machine (section)")
@@ -114,7 +117,8 @@ class DopplerKf(SyncAlgorithm):
         self.gate_ = float(chi2.isf(cfg.gate_probability, 1)) if cfg.gate_probability > 0.0 else np.inf
         self.urt_ = np.atleast_1d(np.asarray(cfg.urt_s, dtype=np.float64))
         self.cal_sigma_ = np.atleast_1d(np.asarray(cfg.calibration_sigma_s, dtype=np.float64))
-        self.monitor_ = UrtMonitor(cfg.monitor, self.Phi_, self.Q_, self.x0_, self.P0_, self.gate_, cfg.restart_after)
+        self.monitor_ = UrtMonitor(cfg.monitor, self.Phi_, self.Q_, self.x0_, self.P0_, self.gate_, cfg.restart_after,
+                                   cfg.gate_settled)
         self.states_ = NodeStateMachine(cfg.states)
 
     def _per_trial(self, a: np.ndarray, trials: int) -> np.ndarray:
@@ -129,7 +133,6 @@ class DopplerKf(SyncAlgorithm):
         return {"x": np.broadcast_to(self.x0_, (trials, n)).copy(), "P": np.broadcast_to(self.P0_, (trials, n, n)).copy(),
                 "monitor": self.monitor_.init_state(trials), "states": self.states_.init_state(trials),
                 "urt": self._per_trial(self.urt_, trials).copy(), "gated_run": np.zeros(trials, dtype=np.int64),
-                "fresh": np.ones(trials, dtype=bool),
                 "cal": self._per_trial(self.cal_sigma_, trials).copy()}
 
     def measurement(self, x_pred: np.ndarray, sample: ExchangeSample, urt_s: np.ndarray):
@@ -155,10 +158,10 @@ class DopplerKf(SyncAlgorithm):
         z, h, r = self.measurement(x, sample, state["urt"])
         h_c = np.where(np.isfinite(z), h[:, 1], np.nan)
         y = z - np.einsum("ti,ti->t", h, x)
-        s = np.einsum("ti,tij,tj->t", h, P, h) + r
+        hph = np.einsum("ti,tij,tj->t", h, P, h)
+        s = hph + r
         d2 = y * y / s
-        gated = (d2 > self.gate_) & ~state["fresh"]  # the first exchange initialises (module docstring)
-        fresh = state["fresh"] & ~np.isfinite(z)
+        gated = (d2 > self.gate_) & (hph < self.config.gate_settled * r)  # once settled (module docstring)
         run = np.where(np.isfinite(z), np.where(gated, state["gated_run"] + 1, 0), state["gated_run"])
         restart = run >= self.config.restart_after  # start again from the prior with this exchange
         gated = gated & ~restart
@@ -174,7 +177,7 @@ class DopplerKf(SyncAlgorithm):
         sigma = np.sqrt(post.P[:, 0, 0] + (state["cal"] * 0.5) ** 2)
         states = self.states_.update(state["states"], sigma, np.isfinite(z) & ~gated, mon["alarm"], self.interval_s)
         return ({"x": post.x, "P": post.P, "monitor": mon, "states": states, "urt": state["urt"], "cal": state["cal"],
-                 "gated_run": run, "fresh": fresh, "sigma": sigma}, post.x[:, 0].copy())
+                 "gated_run": run, "sigma": sigma}, post.x[:, 0].copy())
 
     def run(self, Z, reference_offset_s=None) -> SyncResult:
         """Batch run through the numba loop of :mod:`chronofuse.sync.doppler_kernel`, the numpy twin of
