@@ -73,7 +73,8 @@ class DopplerKfConfig(Config):
     urt_s: float | tuple[float, ...] = Field(20e-9, description="calibrated fixed URT, s (one per trial allowed)")
     calibration_sigma_s: float | tuple[float, ...] = Field(0.0, description="1-sigma of that calibration (s)")
     gate_probability: float = Field(1e-5, ge=0.0, lt=1.0, description="false-rejection probability of the gate (dimensionless)")
-    gate_settled: float = Field(0.25, gt=0.0, description="the gate acts once h P h' is below this share of r (dimensionless)")
+    gate_settled: float = Field(0.25, gt=0.0,
+                                description="the gate acts once h P h' is below this share of r (dimensionless)")
     restart_after: int = Field(8, ge=2, description="rejected exchanges in a row after which the filter restarts (exchanges)")
     monitor: MonitorConfig = Field(MonitorConfig(), description="the URT monitor (section)")
     states: NodeStateConfig = Field(NodeStateConfig(), description="the node state machine (section)")

@@ -243,7 +243,8 @@ def run_doppler_kernel(kf, Z: np.ndarray, ref: np.ndarray | None):
     has_ref = ref is not None
     refa = np.ascontiguousarray(ref if has_ref else np.zeros((1, 1)), dtype=np.float64)
     return _kernel(np.ascontiguousarray(Z, dtype=np.float64), refa, has_ref, kf.Phi_, kf.Q_, kf.x0_, kf.P0_, urt, cal,
-                   float(kf.gate_), float(cfg.gate_settled), _TOA_CODES[cfg.toa_model], float(cfg.rms_bandwidth_hz), float(cfg.carrier_hz),
+                   float(kf.gate_), float(cfg.gate_settled), _TOA_CODES[cfg.toa_model], float(cfg.rms_bandwidth_hz),
+                   float(cfg.carrier_hz),
                    float(cfg.urt_jitter_s), SNR_TABLE_DB, TOA_SIGMA_TABLE_S, DOPPLER_SIGMA_TABLE_HZ,
                    int(cfg.restart_after), bool(mon.enabled),
                    int(mon.lag), kf.monitor_.PhiL, kf.monitor_.QL, float(mon.cusum_k), float(mon.cusum_h),

@@ -32,7 +32,8 @@ import numpy as np
 from chronofuse.validation import check_array, check_scalar
 
 __all__ = ["rmse_s", "running_rmse_s", "convergence_epochs", "robustness", "overhead", "per_trial_mse",
-           "rmse_interval", "ratio_interval", "per_trial_bound_var", "time_error_statistics", "scored_trials", "MIN_INTERVAL_TRIALS"]
+           "rmse_interval", "ratio_interval", "per_trial_bound_var", "time_error_statistics", "scored_trials",
+           "MIN_INTERVAL_TRIALS"]
 
 _BOOT = 2000
 #: The fewest trials a bootstrap interval is given for (below it the interval's bounds are NaN). Measured
