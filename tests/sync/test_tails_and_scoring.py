@@ -1,4 +1,4 @@
-"""Bounds that bound, away from the prior mean and under heavy loss (issue 19):
+"""Bounds that bound, away from the prior mean and under heavy loss:
 
 * doppler-kf converges on links whose true offset (or skew) lies 4-6 sigma out in the prior it assumes (its
   gate acts only once the prediction has settled, so the first exchange initialises it), the numba loop and
