@@ -189,3 +189,18 @@ def test_training_on_an_absent_gpu_is_refused_naming_device_before_the_data_set_
     monkeypatch.setattr(training, "residual_dataset", no_data_set)
     result = runner.invoke(app, ["swarm", "train", "--device", "cuda", "--quick", "--out", str(tmp_path)])
     _one_line_error(result, "error: --device == 'cuda', but no CUDA device is available")
+
+
+def test_true_offset_fixes_every_trial_s_offset_and_a_non_finite_one_is_one_line():
+    result = runner.invoke(app, ["swarm", "run", "--algorithm", "doppler-kf,null", "--true-offset", "5e-6",
+                                 "--exchanges", "100", "--trials", "2", "--json"])
+    assert result.exit_code == 0, result.output
+    doc = json.loads(result.stdout)
+    assert doc["true_offset_s"] == [5e-6, 5e-6]
+    assert doc["rmse_ns"]["null"] == pytest.approx(5000.0, rel=0.01)  # the do-nothing error is the offset
+    assert doc["rmse_ns"]["doppler-kf"] < 5.0
+    assert set(doc["bound_scored_ns"]) == {"doppler-kf", "null"}
+    bad = runner.invoke(app, ["swarm", "run", "--true-offset", "nan", "--exchanges", "50", "--trials", "1"])
+    assert bad.exit_code == 2
+    lines = [line for line in bad.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "--true-offset == nan" in lines[0], bad.stderr

@@ -135,6 +135,21 @@ def test_exclusion_names_the_faulty_satellite_and_its_levels_bound_the_rest():
     assert np.all(res.n_used[excluded] == n_sat - 1)
 
 
+@pytest.mark.parametrize("size_m", [2e4, 5e4, 1e5, 3e5])
+def test_a_fault_of_tens_to_hundreds_of_km_is_excluded_with_levels_that_still_bound(size_m):
+    """A fault that pulls the all-in fix kilometres off: the rest is solved from its own iterated fix, not one
+    linear step from the pulled one (which left errors of 100 m beyond levels of 15 m)."""
+    rng = np.random.default_rng(int(size_m) % 97)
+    epochs, n_sat = 300, 9
+    site, sat = sky(rng, epochs, n_sat)
+    bias, faulty = one_fault(rng, epochs, n_sat, size_m)
+    res = raim(sat, measure(rng, site, sat, 1.0, bias), np.full((epochs, n_sat), 1.0), np.zeros(n_sat, int),
+               site + 100.0, RaimSettings())
+    assert not (res.state == "ok").any() and not misleading(site, res).any()
+    named = res.excluded >= 0
+    assert named.mean() > 0.9 and (res.excluded[named] == faulty[named]).all()
+
+
 def test_unavailable_is_given_exactly_when_a_fault_could_not_be_detected_and_excluded():
     rng = np.random.default_rng(2)
     system = np.zeros(8, int)
@@ -146,6 +161,16 @@ def test_unavailable_is_given_exactly_when_a_fault_could_not_be_detected_and_exc
     assert not (six.state == "unavailable").any()
     five = raim(sat[:, :5], rho[:, :5], sigma[:, :5], system[:5], site, RaimSettings(**_OPEN))
     assert (five.state == "unavailable").all() and np.isinf(five.hpl_m).all()
+    # but a fault those five can detect (not exclude) is an alarm, never hidden as "unavailable"
+    faulty = rho[:, :5].copy()
+    faulty[:, 2] += 500.0
+    five = raim(sat[:, :5], faulty, sigma[:, :5], system[:5], site, RaimSettings(**_OPEN))
+    assert not (five.state == "ok").any() and (five.state == "alarm").mean() > 0.95
+    # a second system's column untracked at these epochs adds no unknown: six GPS satellites stay available
+    sat7 = np.concatenate([sat[:, :6], sat[:, 6:7]], 1)
+    rho7 = np.concatenate([rho[:, :6], np.full((400, 1), np.nan)], 1)
+    other = raim(sat7, rho7, sigma[:, :7], np.array([0, 0, 0, 0, 0, 0, 1]), site, RaimSettings(**_OPEN))
+    assert not (other.state == "unavailable").any()
     # a satellite lost (NaN) leaves five: unavailable at those epochs only
     lost = rho[:, :6].copy()
     lost[::4, 2] = np.nan
@@ -210,17 +235,20 @@ def test_every_epoch_state_follows_its_definition_over_drawn_scenarios(seed, n_s
     cfg = RaimSettings(pfa=pfa, integrity_risk=risk, horizontal_alert_limit_m=hal, vertical_alert_limit_m=1.5 * hal)
     res = raim(sat, measure(rng, site, sat, sigma, bias), np.full((40, n_sat), sigma), np.zeros(n_sat, int), site, cfg)
     assert set(res.state) <= set(STATES)
-    enough = n_sat >= 6
-    if not enough:
+    if n_sat == 4:  # no redundancy: nothing can be detected
         assert (res.state == "unavailable").all()
+        return
+    if n_sat == 5:  # a fault can be detected, not excluded: an alarm, else unavailable
+        assert set(res.state) <= {"alarm", "unavailable"}
+        assert np.all(res.max_statistic[res.state == "alarm"] > 1.0)
         return
     available = np.isin(res.state, ("ok", "excluded"))
     assert np.all(res.hpl_m[available] <= hal) and np.all(res.vpl_m[available] <= 1.5 * hal)
     assert np.all(res.max_statistic[res.state == "ok"] <= 1.0)  # "ok": no separation over its threshold
     assert np.all(res.max_statistic[np.isin(res.state, ("excluded", "alarm"))] > 1.0)
-    # an exclusion is named; after it the rest may have levels over a limit: then unavailable, still named
+    # an exclusion is named; after it the rest may have levels over a limit: then an alarm, still named
     assert np.all(res.excluded[res.state == "excluded"] >= 0)
-    assert np.all(np.isin(res.state[res.excluded >= 0], ("excluded", "unavailable")))
+    assert np.all(np.isin(res.state[res.excluded >= 0], ("excluded", "alarm")))  # alarm: the rest's levels over a limit
     # the no-fault floor of every level: K sigma of the all-in solution, so never below K * sigma / sqrt(n)
     assert np.all(res.hpl_m[available] > 0) and np.all(np.isfinite(res.hpl_m[available]))
     finite = res.mdb_m[np.isfinite(res.mdb_m)]

@@ -199,6 +199,8 @@ FLAGS: dict[str, Flag] = {
     "--model": Flag("trained BP network file", "path", fields=("model", "bp")),
     "--lstm-model": Flag("trained LSTM network file", "path", fields=("lstm_model", "lstm")),
     "--outage": Flag("exchanges K0:K1 lost (robustness)", "text", fields=("outage",)),
+    "--true-offset": Flag("every trial's true initial offset instead of a prior draw", "number", _S,
+                          fields=("true_offset_s",)),
     "--param": Flag("the link parameter swept", "text", fields=("param",)),
     "--values": Flag("the swept values, in the SI unit of --param", "text", fields=("values",)),
     "--chunk-trials": Flag("trials per task (fixes the random streams)", "count", fields=("chunk_trials",)),

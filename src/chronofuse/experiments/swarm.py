@@ -28,7 +28,8 @@ from chronofuse.progress import Progress, silent
 from chronofuse.seeding import child_rng, child_seed, root_seed
 from chronofuse.sync.base import measurement_array
 from chronofuse.sync.calibration import CalibrationConfig, UrtCalibration, calibrate_urt
-from chronofuse.sync.metrics import (MIN_INTERVAL_TRIALS, convergence_epochs, per_trial_mse, ratio_interval,
+from chronofuse.sync.metrics import (MIN_INTERVAL_TRIALS, convergence_epochs, per_trial_bound_var, per_trial_mse,
+                                     ratio_interval,
                                      rmse_interval, robustness, scored_trials)
 from chronofuse.sync.pcrb import exchange_bound
 from chronofuse.sync.prior import LinkPrior, PriorDraw
@@ -153,12 +154,20 @@ def _silent(osc):
     return _replace(osc, h=PowerLaw())
 
 
-def simulate_scenario(sc: LinkScenario, trials: int, seed, *, urt_change_s=None) -> tuple[Exchanges, PriorDraw]:
+def simulate_scenario(sc: LinkScenario, trials: int, seed, *, urt_change_s=None,
+                      true_offset_s=None) -> tuple[Exchanges, PriorDraw]:
     """Truth and measurements of ``trials`` links of ``sc`` (each its own prior draw), and the draws.
-    ``urt_change_s`` (steps,) or (trials, steps) is added to each link's URT (a change after calibration)."""
+    ``urt_change_s`` (steps,) or (trials, steps) is added to each link's URT (a change after calibration).
+    ``true_offset_s`` (a number or (trials,)) replaces the drawn initial offsets, everything else drawn as
+    before: a stress test of offsets the nodes' prior makes unlikely (its tails)."""
     check_scalar(trials, "trials", min_val=1, integer=True)
     base = root_seed(seed)
     draw = sc.prior.draw(sc.distance_m, int(trials), child_seed(base, 3))
+    if true_offset_s is not None:
+        forced = np.broadcast_to(np.asarray(true_offset_s, dtype=np.float64), (int(trials),)).copy()
+        if not np.all(np.isfinite(forced)):
+            raise InputError(f"{{true_offset_s}} == {true_offset_s!r}, must be finite", fields=("true_offset_s",))
+        draw = draw.model_copy(update={"offset_s": forced})
     steps, dt = int(sc.exchanges), sc.link.interval_s
     xa, xb = _clocks(sc, steps, dt, base, draw, int(trials))
     a, b = link_paths(sc, draw.range_m)
@@ -215,19 +224,23 @@ def bound_of(sc: LinkScenario, ex: Exchanges, calibration: UrtCalibration | None
 
 def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, seed=0, urt_mode: str = "calibrated",
              threshold_s: float = 1e-9, networks: dict | None = None, outage: tuple[int, int] | None = None,
-             overrides: dict | None = None, variants: dict | None = None, progress: Progress = silent) -> dict:
+             overrides: dict | None = None, variants: dict | None = None, true_offset_s=None,
+             progress: Progress = silent) -> dict:
     """Run ``algorithms`` on ``trials`` links of ``sc`` (module docstring); ``progress(message, fraction)``
     hears of each algorithm as it starts (:mod:`chronofuse.progress`).
 
     Returns a dict: per algorithm ``rmse_s`` and its interval ``rmse_ci_s``, ``ratio`` to the bound and
     ``ratio_ci``, ``convergence_epochs`` (K*: first exchange whose running RMSE over trials is below
-    ``threshold_s``; None if never), ``mse_per_trial_s2`` (NaN: the trial had no estimate),
+    ``threshold_s``; None if never), ``mse_per_trial_s2`` (NaN: the trial had no estimate), ``bound_rms_s``
+    (the bound's RMS over the exchanges the algorithm is scored on, the ratio's denominator:
+    :func:`chronofuse.sync.metrics.per_trial_bound_var`),
     ``unscored_trials`` (the indices of those trials, left out of the RMSE and ratio with a warning); ``bound_s`` (``rms``, ``final``, per trial);
     ``calibration`` (the URT estimates' error and stated sigma); the scenario. ``networks`` maps "bp" /
     "lstm" to trained residual networks. ``outage = (k0, k1)`` also loses exchanges ``k0 .. k1 - 1`` and adds
     ``robustness`` (the paper's eqs. 49-50). ``overrides`` maps an algorithm name to configuration fields;
     ``variants`` maps more labels to ``(name, fields)``: the same algorithm with other settings, on the same
-    exchanges, reported under the label.
+    exchanges, reported under the label. ``true_offset_s`` (a number or one per trial) fixes the trials' true
+    initial offsets instead of drawing them (:func:`simulate_scenario`; the nodes still know only the prior).
     """
     if outage is not None:
         k0, k1 = (int(k) for k in outage)
@@ -236,14 +249,13 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
                              fields=("outage", "exchanges"))
     check_choice(urt_mode, "urt_mode", ("paper", "calibrated"))
     base = root_seed(seed)
-    ex, draw = simulate_scenario(sc, trials, child_seed(base, 0))
+    ex, draw = simulate_scenario(sc, trials, child_seed(base, 0), true_offset_s=true_offset_s)
     calib = calibrate_scenario(sc, draw, child_seed(base, 4))
     know = knowledge_of(sc, calib, urt_mode)
     Z = measurement_array(ex)
     bound = bound_of(sc, ex, calib)
-    bound_var = bound.offset_var_s2.mean(axis=1)
     out = {name: {} for name in ("rmse_s", "rmse_ci_s", "ratio", "ratio_ci", "convergence_epochs",
-                                 "mse_per_trial_s2", "robustness", "unscored_trials")}
+                                 "mse_per_trial_s2", "bound_rms_s", "robustness", "unscored_trials")}
     if trials < MIN_INTERVAL_TRIALS:
         warnings.warn(InputWarning(f"{{trials}} == {trials} is below {MIN_INTERVAL_TRIALS}: no 95 % intervals (a "
                                    f"bootstrap over so few trials is too narrow)", fields=("trials",)), stacklevel=2)
@@ -254,7 +266,10 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
         alg = make_algorithm(algorithm, know, networks=networks, **fields).fit()
         err = alg.run(Z).offset_s - ex.offset_s
         mse = per_trial_mse(err)
+        bound_var = per_trial_bound_var(bound.offset_var_s2, err)  # over the exchanges it is scored on
         r, lo, hi, q, qlo, qhi, unscored = score_trials(name, mse, bound_var)
+        scored = np.isfinite(bound_var)
+        out["bound_rms_s"][name] = float(np.sqrt(bound_var[scored].mean())) if scored.any() else float("nan")
         out["unscored_trials"][name] = unscored
         out["rmse_s"][name], out["rmse_ci_s"][name] = r, [lo, hi]
         out["ratio"][name], out["ratio_ci"][name] = q, [qlo, qhi]
@@ -273,6 +288,8 @@ def run_link(sc: LinkScenario, algorithms=ALGORITHM_NAMES, *, trials: int = 20, 
         "calibration": {"urt_error_rms_s": float(np.sqrt(np.mean(cal_err**2))),
                         "stated_sigma_rms_s": float(np.sqrt(np.mean(calib.sigma_s**2)))},
         "urt_mode": urt_mode,
+        "true_offset_s": None if true_offset_s is None else np.broadcast_to(
+            np.asarray(true_offset_s, dtype=np.float64), (int(trials),)).tolist(),
         "threshold_s": float(threshold_s),
         "trials": int(trials),
         "scenario": _scenario_dict(sc),

@@ -30,6 +30,8 @@ def link_report(res: dict) -> dict:
         "ratio_to_bound": res["ratio"],
         "ratio_ci": res["ratio_ci"],
         "bound_ns": {"rms": res["bound_s"]["rms"] * 1e9, "final": res["bound_s"]["final"] * 1e9},
+        "bound_scored_ns": ns(res["bound_rms_s"]),
+        "true_offset_s": res.get("true_offset_s"),
         "convergence_epochs": res["convergence_epochs"],
         "unscored_trials": res["unscored_trials"],
         "convergence_threshold_ns": res["threshold_s"] * 1e9,

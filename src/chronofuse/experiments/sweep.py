@@ -25,7 +25,7 @@ from chronofuse.experiments.swarm import (LinkScenario, bound_of, calibrate_scen
                                          simulate_scenario)
 from chronofuse.seeding import child_seed, root_seed
 from chronofuse.sync.base import measurement_array
-from chronofuse.sync.metrics import per_trial_mse
+from chronofuse.sync.metrics import per_trial_bound_var, per_trial_mse
 from chronofuse.sync.registry import make_algorithm
 from chronofuse.validation import InputError, check_choice, check_scalar
 
@@ -93,11 +93,13 @@ def run_task(task: dict) -> pd.DataFrame:
     know = knowledge_of(sc, calib, task["urt_mode"])
     Z = measurement_array(ex)
     networks = _load_networks(task.get("model_files", {}), task["urt_mode"])
-    bound_ns = np.sqrt(bound_of(sc, ex, calib).offset_var_s2.mean(axis=1)) * 1e9
+    bound_var = bound_of(sc, ex, calib).offset_var_s2
     rows = []
     for name in task["algorithms"]:
         alg = make_algorithm(name, know, networks=networks).fit()
-        per_trial = np.sqrt(per_trial_mse(alg.run(Z).offset_s - ex.offset_s)) * 1e9
+        err = alg.run(Z).offset_s - ex.offset_s
+        per_trial = np.sqrt(per_trial_mse(err)) * 1e9
+        bound_ns = np.sqrt(per_trial_bound_var(bound_var, err)) * 1e9  # over the exchanges it is scored on
         for j, value in enumerate(per_trial):
             rows.append((task["param"], task["value"], name, task["first_trial"] + j, float(value), float(bound_ns[j])))
     return pd.DataFrame(rows, columns=COLUMNS)
@@ -173,6 +175,7 @@ def run_sweep(base: LinkScenario, param: str, values, algorithms, *, trials: int
 def summarize(table: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
     """Per (value, algorithm): the trial count, RMSE over trials ``sqrt(mean(rmse_trial^2))`` (equal run
     lengths) with its bootstrap interval ``rmse_lo_ns``/``rmse_hi_ns``, the bound's RMS over the same trials
+    (each trial's over the exchanges the algorithm is scored on, :func:`~chronofuse.sync.metrics.per_trial_bound_var`)
     and the ratio of the two with its paired interval (:mod:`chronofuse.sync.metrics`). A trial where the
     algorithm had no estimate (``rmse_ns`` NaN) is left out of both, counted in ``unscored`` and warned of
     (:func:`chronofuse.experiments.swarm.score_trials`); the intervals are NaN below
@@ -183,6 +186,7 @@ def summarize(table: pd.DataFrame, confidence: float = 0.95) -> pd.DataFrame:
         mse, bnd = np.square(g["rmse_ns"].to_numpy()), np.square(g["bound_rms_ns"].to_numpy())
         r, lo, hi, q, qlo, qhi, unscored = score_trials(f"{name} at {value:g}", mse, bnd, confidence)
         rows.append({"value": value, "algorithm": name, "trials": int(len(g)), "unscored": len(unscored),
-                     "rmse_ns": r, "rmse_lo_ns": lo, "rmse_hi_ns": hi, "bound_rms_ns": float(np.sqrt(bnd.mean())),
+                     "rmse_ns": r, "rmse_lo_ns": lo, "rmse_hi_ns": hi,
+                     "bound_rms_ns": float(np.sqrt(np.nanmean(bnd))) if np.isfinite(bnd).any() else float("nan"),
                      "ratio": q, "ratio_lo": qlo, "ratio_hi": qhi})
     return pd.DataFrame(rows)

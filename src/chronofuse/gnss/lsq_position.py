@@ -40,6 +40,7 @@ class PositionFix:
 def _enu_rotation(position_m: np.ndarray) -> np.ndarray:
     """Rows east, north, up of the local frame at ECEF positions (..., 3): shape (..., 3, 3)."""
     lat, lon, _ = pymap3d.ecef2geodetic(position_m[..., 0], position_m[..., 1], position_m[..., 2], deg=False)
+    lat, lon = (np.asarray(a, dtype=np.float64).reshape(position_m.shape[:-1]) for a in (lat, lon))  # (1,) kept
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
     z = np.zeros_like(lat)
     return np.stack([np.stack([-so, co, z], -1), np.stack([-sl * co, -sl * so, cl], -1),

@@ -219,6 +219,10 @@ def point_positions(obs, nav: GpsNavigation, systems=("G",), options: SppOptions
                                     np.sqrt(var)[rows], usable[rows], sys_index, fix.position_m[rows])
             excluded[rows, worst] = True
     assert fix is not None
+    if not near:  # no fix came within 100 km of the Earth's surface: nothing to screen or correct
+        raise InputDataError("no epoch gives a fix near the Earth: the navigation data do not cover the observation "
+                             "times (another day?) and the header has no usable APPROX POSITION XYZ",
+                             getattr(obs, "source", "") or None)
     position = np.where(np.isfinite(fix.position_m) & (fix.gdop <= opt.max_gdop)[:, None], fix.position_m, np.nan)
     ok = np.isfinite(position[:, 0])
     return PointPositions(gps_ns=gps_ns, position_m=position, clock_m=np.where(ok, fix.clock_m, np.nan),

@@ -265,7 +265,8 @@ def _raim_mode(path, nav, position_m, settings, elevation_mask_deg: float) -> di
         raise InputError("{raim} needs a RINEX observation file (pseudoranges) with its navigation file ({nav})",
                          str(path), fields=("raim", "nav"))
     if nav is None:
-        raise InputError("{raim} needs the navigation file ({nav}) of the observation file", str(path), fields=("nav",))
+        raise InputError("{raim} needs the navigation file ({nav}) of the observation file", str(path),
+                         fields=("raim", "nav"))
     check_scalar(elevation_mask_deg, "elevation_mask_deg", min_val=0.0, max_val=90.0, include_max=False)
     navs = [nav] if isinstance(nav, (str, Path)) else list(nav)
     return raim_document(path, navs, settings=settings, position_m=position_m, elevation_mask_deg=elevation_mask_deg)

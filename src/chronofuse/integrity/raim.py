@@ -35,9 +35,12 @@ errors zero-mean Gaussian with the 1-sigma the caller gives (``sigma_m``). Per e
    ``|b| >= MDB_i = min_q (T_i,q + K_md sigma_ss,i,q) / |S_0[q, i]|``, ``K_md = Phi^-1(1 - p_md)``.
 
 Epoch states: ``ok`` (no alarm, levels inside the alert limits), ``excluded`` (a satellite detected and
-excluded, levels inside), ``alarm`` (detected, no exclusion passes), ``unavailable`` (fewer than
-``unknowns + 2`` satellites, so a fault can be neither detected and excluded, or a level over its alert
-limit). Time to alert: the decision is made from the epoch's own measurements, so an alarm comes at the
+excluded, levels inside), ``alarm`` (detected, and no exclusion passes, or the rest after the exclusion has a
+level over its alert limit: ``excluded`` still names the satellite left out; with ``unknowns + 1`` satellites
+a fault can be detected but not excluded: an alarm too, never hidden), ``unavailable`` (no alarm, and fewer
+than ``unknowns + 2`` satellites, or a level over its alert limit; ``unknowns`` counts the systems the epoch
+has satellites of). An excluded candidate's solution is its own fix, iterated from the all-in one: a fault of
+tens of kilometres pulls the all-in fix so far that one linear step from it does not reach the rest's. Time to alert: the decision is made from the epoch's own measurements, so an alarm comes at the
 epoch whose data carry the fault (the time to alert is the processing latency, under one epoch interval).
 """
 
@@ -166,6 +169,40 @@ def _separations(g, w, y, system, n_systems, k_axis, pfa):
             "k_fa": k_fa}
 
 
+def _linearised(sat, rho, sig, system, n_systems, position, clock_m, isb_m, usable):
+    """Design, residuals and weights of epochs at ``position`` (E, 3) with the given clock and biases."""
+    e = rho.shape[0]
+    sat_safe = np.where(np.isfinite(sat), sat, np.array([3.0e7, 0.0, 0.0]))
+    g, r = _design(sat_safe, position, system, n_systems)
+    isb = np.zeros((e, n_systems))  # a fix of fewer systems has fewer biases: the rest are not used
+    given = np.nan_to_num(np.asarray(isb_m, dtype=np.float64).reshape(e, -1))
+    isb[:, 1:1 + given.shape[1]] = given[:, :n_systems - 1]
+    pred = r + np.nan_to_num(np.asarray(clock_m, dtype=np.float64))[:, None] + np.take_along_axis(isb, system, axis=1)
+    y = np.where(usable, rho - pred, 0.0)
+    w = np.where(usable, 1.0 / np.where(usable, sig, 1.0) ** 2, 0.0)
+    return g, y, w
+
+
+def _without(sat, rho, sig, system, n_systems, start, j, k_axis, pfa):
+    """Steps 1-4 on one epoch without satellite ``j``, its own fix iterated from ``start`` (a large fault
+    pulls the all-in fix kilometres off, where one linear step from it would not reach the rest's solution);
+    None when the rest gives no fix."""
+    rho = rho.copy()
+    rho[j] = np.nan
+    usable = np.isfinite(rho) & np.isfinite(sig) & (sig > 0) & np.isfinite(sat).all(-1)
+    fix = least_squares_position(sat[None], np.where(usable, rho, np.nan)[None], np.where(usable, sig, np.inf)[None],
+                                 system, np.asarray(start, dtype=np.float64)[None], iterations=10)
+    position = np.asarray(fix.position_m).reshape(1, 3)
+    if not np.isfinite(position).all():
+        return None
+    g, y, w = _linearised(sat[None], rho[None], sig[None], system[None], n_systems, position, fix.clock_m[:1],
+                          np.asarray(fix.isb_m)[:1], usable[None])
+    sub = _separations(g, w, y, system[None], n_systems, k_axis, pfa)
+    rot = np.swapaxes(_enu_rotation(position), -1, -2)[0]
+    sub["position"] = position[0] + rot @ sub["x0"][0, :3]
+    return sub
+
+
 def _mdb(sep, p_md):
     k_md = stats.norm.isf(p_md)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -203,17 +240,14 @@ def raim(satellite_m, pseudorange_m, sigma_m, system, x0_m, settings: RaimSettin
 def _raim_packed(sat, rho, sig, system, n_systems, fix, x0_m, cfg) -> RaimResult:
     """:func:`raim` on columns packed per epoch (``system`` (E, S) per column), from the all-in ``fix``."""
     e, s = rho.shape
-    n_unknowns = 3 + n_systems
     position = np.asarray(fix.position_m)
     ok_fix = np.isfinite(position).all(-1)
     position = np.where(ok_fix[:, None], position, np.broadcast_to(np.asarray(x0_m, dtype=np.float64), (e, 3)))
-    sat_safe = np.where(np.isfinite(sat), sat, np.array([3.0e7, 0.0, 0.0]))
-    g, r = _design(sat_safe, position, system, n_systems)
-    isb = np.concatenate([np.zeros((e, 1)), np.nan_to_num(np.asarray(fix.isb_m).reshape(e, -1))], -1)
-    pred = r + np.nan_to_num(fix.clock_m)[:, None] + np.take_along_axis(isb, system, axis=1)
     usable = np.isfinite(rho) & np.isfinite(sig) & (sig > 0) & np.isfinite(sat).all(-1) & ok_fix[:, None]
-    y = np.where(usable, rho - pred, 0.0)
-    w = np.where(usable, 1.0 / np.where(usable, sig, 1.0) ** 2, 0.0)
+    # the unknowns of each epoch: position, clock and one bias per further system it has satellites of
+    present = np.stack([(usable & (system == j)).any(-1) for j in range(n_systems)], -1)
+    n_unknowns = 3 + np.maximum(present.sum(-1), 1)
+    g, y, w = _linearised(sat, rho, sig, system, n_systems, position, fix.clock_m, fix.isb_m, usable)
     k_axis = cfg.k_axis
     sep = _separations(g, w, y, system, n_systems, k_axis, cfg.pfa)
     enu_to_ecef = np.swapaxes(_enu_rotation(position), -1, -2)
@@ -221,26 +255,30 @@ def _raim_packed(sat, rho, sig, system, n_systems, fix, x0_m, cfg) -> RaimResult
     hpl, vpl = sep["hpl"].copy(), sep["vpl"].copy()
     excluded = np.full(e, -1, dtype=np.intp)
     n_used = sep["n_used"].copy()
-    enough = n_used >= n_unknowns + 2
+    detectable = n_used >= n_unknowns + 1  # a fault can be detected (each subset still solvable)
+    enough = n_used >= n_unknowns + 2  # and excluded (the rest can detect again)
+    over_limits = lambda h, v: (h > cfg.horizontal_alert_limit_m) | (v > cfg.vertical_alert_limit_m)  # noqa: E731
     state = np.where(sep["alarm"], "alarm", "ok").astype(object)
     for k in np.flatnonzero(sep["alarm"] & enough):
         strength = np.where(sep["used"][k], (sep["ratio"][k]).max(-1), -np.inf)
         for j in np.argsort(-strength)[:MAX_EXCLUSION_CANDIDATES]:
             if not np.isfinite(strength[j]):
                 break
-            wk = w[k:k + 1].copy()
-            wk[0, j] = 0.0
-            sub = _separations(g[k:k + 1], wk, y[k:k + 1], system[k:k + 1], n_systems, k_axis, cfg.pfa)
-            if not sub["alarm"][0]:
-                state[k], excluded[k] = "excluded", j
-                hpl[k], vpl[k], n_used[k] = sub["hpl"][0], sub["vpl"][0], sub["n_used"][0]
-                out_pos[k] = position[k] + enu_to_ecef[k] @ sub["x0"][0, :3]
-                break
-    over = (hpl > cfg.horizontal_alert_limit_m) | (vpl > cfg.vertical_alert_limit_m)
-    unavailable = ~enough | ~ok_fix | ((state != "alarm") & over)
-    state[unavailable & (state != "alarm")] = "unavailable"
-    state[~enough | ~ok_fix] = "unavailable"
-    hpl[~enough | ~ok_fix], vpl[~enough | ~ok_fix] = math.inf, math.inf
+            sub = _without(sat[k], rho[k], sig[k], system[k], n_systems, position[k], j, k_axis, cfg.pfa)
+            if sub is None or sub["alarm"][0]:
+                continue
+            excluded[k] = j
+            hpl[k], vpl[k], n_used[k] = sub["hpl"][0], sub["vpl"][0], sub["n_used"][0]
+            out_pos[k] = sub["position"]
+            # the fault found and left out; the rest's levels over a limit: still an alarm, the satellite named
+            state[k] = "alarm" if over_limits(hpl[k], vpl[k]) else "excluded"
+            break
+    over = over_limits(hpl, vpl)
+    # detected with too few satellites to exclude: an alarm, never hidden as "unavailable"
+    cannot = ~detectable | ~ok_fix | ((state == "ok") & (over | ~enough))
+    state[cannot & ~((state == "alarm") & detectable & ok_fix)] = "unavailable"
+    blind = ~detectable | ~ok_fix
+    hpl[blind | ((state == "unavailable") & ~enough)], vpl[blind | ((state == "unavailable") & ~enough)] = math.inf, math.inf
     out_pos[~ok_fix] = np.nan
     max_stat = np.where(sep["used"][..., None], sep["ratio"], 0.0).max(axis=(1, 2))
     return RaimResult(state=state, position_m=out_pos, hpl_m=hpl, vpl_m=vpl, excluded=excluded, n_used=n_used,

@@ -27,7 +27,7 @@ import numpy as np
 
 from chronofuse.analysis.metrics import clopper_pearson
 from chronofuse.integrity.raim import STATES, RaimSettings, raim
-from chronofuse.validation import check_scalar
+from chronofuse.validation import InputDataError, check_scalar
 
 __all__ = ["raim_document"]
 
@@ -60,6 +60,9 @@ def raim_document(obs_path, nav_paths, *, settings: RaimSettings | None = None, 
         systems = tuple(s for s in ("G", "E") if s in nav.systems and s in obs.systems) or tuple(nav.systems[:1])
     fix = point_positions(obs, nav, systems=systems,
                           options=SppOptions(elevation_mask_deg=elevation_mask_deg, max_exclusions=0))
+    if not np.isfinite(fix.corrected_m).any():
+        raise InputDataError(f"the navigation data give no usable {'+'.join(systems)} satellite at any epoch of "
+                             "the observations (a navigation file of another day?)", str(nav.source or nav_paths))
     start = np.asarray(obs.header.approx_position_m) if obs.header.approx_position_m is not None else np.zeros(3)
     x0 = np.where(np.isfinite(fix.position_m), fix.position_m, start)
     res = raim(fix.satellite_m, fix.corrected_m, fix.sigma_m, fix.system_index, x0, cfg)
@@ -75,6 +78,8 @@ def raim_document(obs_path, nav_paths, *, settings: RaimSettings | None = None, 
     reasons: list[str] = []
     mapped = np.where(res.state == "excluded", "alarm", res.state).astype(object)
     state = overall_state(mapped, 0, reasons)
+    if flagged.any():  # a fault detected (excluded or not) is the verdict, however few epochs were available
+        state = "alarm"
     doc = base_document("raim", t_ns.size, 1, cfg.pfa, alarms, 0)
     doc.pop("threshold")
     doc.pop("window")
@@ -89,12 +94,16 @@ def raim_document(obs_path, nav_paths, *, settings: RaimSettings | None = None, 
                 "vertical_alert_limit_m": cfg.vertical_alert_limit_m, "time_to_alert_s": 0.0,
                 "hpl_m": _summary(res.hpl_m[usable]), "vpl_m": _summary(res.vpl_m[usable]),
                 "mdb_m": _summary(res.mdb_m[np.isfinite(res.mdb_m) & usable[:, None]]),
-                "excluded": sorted({a["channel"] for a in alarms if a["state"] == "excluded"})})
+                "excluded": sorted({a["channel"] for a in alarms if a["state"] == "excluded"}),
+                "warnings": [] if state != "unavailable" else ["no fault was detected; too few epochs could be tested"]})
     if known is not None:
         err = np.einsum("ij,ej->ei", _enu_rotation(known), res.position_m - known)
         h, v = np.hypot(err[:, 0], err[:, 1]), np.abs(err[:, 2])
         beyond = usable & ((h > res.hpl_m) | (v > res.vpl_m))
         n, k = int(usable.sum()), int(beyond.sum())
+        if n and k > 0.05 * n:
+            doc["warnings"].append(f"{k} of {n} available epochs have an error beyond their protection level against "
+                                   "the position given: the position is wrong, or the fault model does not hold")
         doc["position_check"] = {"n_epochs": n, "n_beyond_level": k,
                                  "rate": k / n if n else math.nan,
                                  "rate_ci95": list(clopper_pearson(k, n, level=0.95)) if n else [math.nan, math.nan],

@@ -35,7 +35,7 @@ def _toa(snr, code, bw, snr_tab, toa_tab):
 
 
 @numba.njit(cache=True)
-def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carrier, jitter, snr_tab, toa_tab,
+def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, settled_g, toa_code, bw, carrier, jitter, snr_tab, toa_tab,
             dop_tab, restart_after, mon_on, lag, PhiL, QL, ck, ch, clip, orun, settled, window, glr_thr, ref_sigma, lock_sigma, lock_hold,
             hold_after, dt):
     trials, steps, _ = Z.shape
@@ -107,9 +107,10 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
             for a in range(n):
                 hx += h[a] * x[a]
             y = z - hx
-            s = innovation_variance(P, h) + r
+            hph = innovation_variance(P, h)
+            s = hph + r
             finite = not (math.isnan(z) or math.isnan(r))
-            gated = finite and (y * y / s > gate)
+            gated = finite and hph < settled_g * r and (y * y / s > gate)  # the gate acts once settled
             if finite:
                 grun = grun + 1 if gated else 0
             if grun >= restart_after:  # start again from the prior with this exchange
@@ -135,8 +136,9 @@ def _kernel(Z, ref, has_ref, Phi, Q, x0, P0, urt, cal, gate, toa_code, bw, carri
                     yd = lz[0]
                     for a in range(n):
                         yd -= hd[a] * xd[a]
-                    sd = innovation_variance(Pd, hd) + lr[0]
-                    gd = (not math.isnan(yd)) and yd * yd > gate * sd
+                    hphd = innovation_variance(Pd, hd)
+                    sd = hphd + lr[0]
+                    gd = (not math.isnan(yd)) and hphd < settled_g * lr[0] and yd * yd > gate * sd
                     if not math.isnan(yd):
                         lrun = lrun + 1 if gd else 0
                     if lrun >= restart_after:
@@ -241,7 +243,8 @@ def run_doppler_kernel(kf, Z: np.ndarray, ref: np.ndarray | None):
     has_ref = ref is not None
     refa = np.ascontiguousarray(ref if has_ref else np.zeros((1, 1)), dtype=np.float64)
     return _kernel(np.ascontiguousarray(Z, dtype=np.float64), refa, has_ref, kf.Phi_, kf.Q_, kf.x0_, kf.P0_, urt, cal,
-                   float(kf.gate_), _TOA_CODES[cfg.toa_model], float(cfg.rms_bandwidth_hz), float(cfg.carrier_hz),
+                   float(kf.gate_), float(cfg.gate_settled), _TOA_CODES[cfg.toa_model], float(cfg.rms_bandwidth_hz),
+                   float(cfg.carrier_hz),
                    float(cfg.urt_jitter_s), SNR_TABLE_DB, TOA_SIGMA_TABLE_S, DOPPLER_SIGMA_TABLE_HZ,
                    int(cfg.restart_after), bool(mon.enabled),
                    int(mon.lag), kf.monitor_.PhiL, kf.monitor_.QL, float(mon.cusum_k), float(mon.cusum_h),

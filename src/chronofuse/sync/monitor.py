@@ -81,14 +81,15 @@ def lagged_model(Phi: np.ndarray, Q: np.ndarray, lag: int) -> tuple[np.ndarray, 
 class UrtMonitor:
     """The monitor's pure core: ``init_state(trials)`` and ``update(...)`` returning a new state.
 
-    ``Phi``, ``Q``, ``x0``, ``P0`` are the link filter's model and prior; ``gate`` its chi-square gate and
-    ``restart_after`` its restart rule, which the lagging copy follows too.
+    ``Phi``, ``Q``, ``x0``, ``P0`` are the link filter's model and prior; ``gate`` its chi-square gate (acting
+    once ``h P h' < gate_settled * r``) and ``restart_after`` its restart rule, which the lagging copy follows too.
     """
 
-    def __init__(self, config: MonitorConfig, Phi, Q, x0, P0, gate: float, restart_after: int = 8):
+    def __init__(self, config: MonitorConfig, Phi, Q, x0, P0, gate: float, restart_after: int = 8,
+                 gate_settled: float = 0.25):
         self.config = config
         self.Phi, self.Q, self.x0, self.P0, self.gate = Phi, Q, x0, P0, float(gate)
-        self.restart_after = int(restart_after)
+        self.restart_after, self.gate_settled = int(restart_after), float(gate_settled)
         self.PhiL, self.QL = lagged_model(Phi, Q, config.lag)
 
     def init_state(self, trials: int) -> dict:
@@ -120,7 +121,7 @@ class UrtMonitor:
             Pd = np.where(started[:, None, None], self.Phi @ Pd @ self.Phi.T + self.Q, Pd)
             xd, Pd, out["lag_run"] = _scalar_update(xd, Pd, state["ring_z"][:, 0], state["ring_c"][:, 0],
                                                     state["ring_r"][:, 0], self.gate, state["lag_run"],
-                                                    self.restart_after, self.x0, self.P0)
+                                                    self.restart_after, self.x0, self.P0, self.gate_settled)
             out["started"] = np.ones(z.size, dtype=bool)
             # ... and predicts this exchange, which is tested against it
             xp = xd @ self.PhiL.T
@@ -191,17 +192,18 @@ class UrtMonitor:
                 "alarm": alarm, "alarm_reason": reason}
 
 
-def _scalar_update(x, P, z, c, r, gate, gated_run, restart_after, x0, P0):
+def _scalar_update(x, P, z, c, r, gate, gated_run, restart_after, x0, P0, gate_settled):
     """The lagging filter's update with ``z`` (trials,), row ``[1, c, .., c]``, variance ``r`` (Joseph form,
-    gated and restarted as the link filter is); trials with no measurement are left as they are. Returns
-    ``(x, P, gated_run)``."""
+    gated once settled and restarted as the link filter is); trials with no measurement are left as they
+    are. Returns ``(x, P, gated_run)``."""
     n = x.shape[1]
     h = np.ones_like(x)
     h[:, 1:] = c[:, None]
     Ph = np.einsum("tij,tj->ti", P, h)
-    s = np.einsum("ti,ti->t", h, Ph) + r
+    hph = np.einsum("ti,ti->t", h, Ph)
+    s = hph + r
     y = z - np.einsum("ti,ti->t", h, x)
-    gated = np.isfinite(y) & (y * y > gate * s)
+    gated = np.isfinite(y) & (y * y > gate * s) & (hph < gate_settled * r)
     run = np.where(np.isfinite(y), np.where(gated, gated_run + 1, 0), gated_run)
     restart = run >= restart_after
     run = np.where(restart, 0, run)
