@@ -231,6 +231,7 @@ class LoopStage:
     def reset(self) -> None:
         self._state = None
         self._c = None
+        self._k = 0  # seconds stepped: the sample's time k * dt, as the batch loop gives it to the servo
         self._rng = np.random.default_rng(self.seed) if self.counter is not None else None
 
     def step(self, epoch) -> dict:
@@ -245,8 +246,10 @@ class LoopStage:
         if self.counter is not None:
             z = np.where(valid, self.counter.measure_interval_s(1.0 + np.where(valid, z, 0.0),
                                                                 self._rng.random(free.size)) - 1.0, z)
-        self._state, out = self.servo.update(self._state, z, valid)
-        self._c = self._c + out[1] + float(self.servo.interval_s) * out[0]
+        dt = float(self.servo.interval_s)
+        self._state, out = self.servo.update(self._state, z, valid, local_ts_s=self._k * dt)
+        self._k += 1
+        self._c = self._c + out[1] + dt * out[0]
         return {"phase_s": x, "offset_s": z, **dict(zip(_LOOP_OUTPUTS, out))}
 
     def run(self, frame) -> dict:

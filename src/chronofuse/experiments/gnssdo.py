@@ -83,7 +83,7 @@ from chronofuse.experiments.gnssdo_controllers import (  # noqa: F401 (part of t
 
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
-           "DESIGN_STEER_S"]
+           "DESIGN_STEER_S", "reference_servo", "reference_frame", "reference_pipeline"]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
@@ -550,6 +550,41 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
     return summary
 
 
+#: The receiver environment a recorded reference is designed for (its noise is calibrated on the record).
+REFERENCE_ENVIRONMENT = dataclasses.replace(receiver_environment("open-sky"), name="reference")
+
+
+def reference_servo(reference_error_s, controller: str, osc: OscillatorModel) -> Servo:
+    """The servo ``gnssdo --reference`` disciplines ``osc`` with: ``controller`` on ``osc``'s DAC, its measurement
+    noise calibrated on the record's first four hours (:func:`~chronofuse.discipline.design.equivalent_white_sigma_s`;
+    what a user with a reference would do once)."""
+    e = np.asarray(reference_error_s, dtype=np.float64)
+    sigma = equivalent_white_sigma_s(e[:4 * 3600])
+    # One receiver against a maser: 300 s steering keeps the output's ADEV within twice the lower envelope
+    # at every tau (200 s: 2.12x at 256 s; TE rms 10.9 ns either way).
+    return make_controller(controller, osc, REFERENCE_ENVIRONMENT, 1, Dac.for_oscillator(osc), measurement_sigma_s=sigma,
+                           steer_s=300.0)
+
+
+def reference_frame(reference_error_s, free_phase_s) -> dict:
+    """The input columns of :func:`reference_pipeline`: a recorded 1PPS error ``reference_error_s`` (steps,)
+    (NaN: no pulse that second) as the one receiver, always usable and never excluded (no integrity, no
+    plausibility test: the record is the truth's reference), and the free oscillator ``free_phase_s``
+    (trials, steps)."""
+    free = np.asarray(free_phase_s, dtype=np.float64)
+    e = np.broadcast_to(np.asarray(reference_error_s, dtype=np.float64), free.shape)
+    trials, steps = free.shape
+    return {"free_phase_s": free, "reference_error_s": e, "loop_reference_s": e,
+            "implausible": np.zeros(free.shape, dtype=bool), "usable": np.ones((trials, 1, steps), dtype=bool),
+            "excluded": np.zeros((trials, 1, steps), dtype=bool)}
+
+
+def reference_pipeline(servo: Servo, osc: OscillatorModel) -> Pipeline:
+    """The chain's loop and state stages, what ``gnssdo --reference`` runs on :func:`reference_frame`'s
+    columns (in batch; streamed second by second it gives the same, tested)."""
+    return Pipeline([("loop", LoopStage(servo)), ("states", StateStage(state_config(osc)))])
+
+
 def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 0, trials: int = 1,
                   progress: Progress = silent, oscillator: str = "ocxo",
                   oscillator_model: OscillatorModel | None = None) -> dict:
@@ -568,18 +603,11 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     root = root_seed(seed)
     progress("simulating the oscillator", 0.0)
     free, noise_only = _free_phase(osc, steps, trials, root)
-    sigma = equivalent_white_sigma_s(e[:4 * 3600])
-    env = dataclasses.replace(receiver_environment("open-sky"), name="reference")
-    # One receiver against a maser: 300 s steering keeps the output's ADEV within twice the lower envelope
-    # at every tau (200 s: 2.12x at 256 s; TE rms 10.9 ns either way).
-    servo = make_controller(controller, osc, env, 1, dac, measurement_sigma_s=sigma, steer_s=300.0)
+    env = REFERENCE_ENVIRONMENT
+    servo = reference_servo(e, controller, osc)
     progress(f"disciplining ({controller}) against {path.name}")
-    # the chain's loop and state stages on the recorded reference (one receiver, always usable, no integrity,
-    # no plausibility test: the record is the truth's reference)
-    frame = {"free_phase_s": free, "reference_error_s": np.broadcast_to(e, free.shape),
-             "loop_reference_s": np.broadcast_to(e, free.shape), "implausible": np.zeros(free.shape, dtype=bool),
-             "usable": np.ones((trials, 1, steps), dtype=bool), "excluded": np.zeros((trials, 1, steps), dtype=bool)}
-    run = Pipeline([("loop", LoopStage(servo)), ("states", StateStage(state_config(osc)))]).fit().run(frame)
+    frame = reference_frame(e, free)
+    run = reference_pipeline(servo, osc).fit().run(frame)
     best = Pipeline([("loop", LoopStage(clairvoyant_controller(osc, env, 1, dac)))]).fit().run(frame)
     has_ref = np.ones(free.shape, dtype=bool)
     states = StateRun(run["gnssdo_state"], run["gnssdo_reason"], run["rail_alarm"], run["filtered_offset_s"],
