@@ -22,7 +22,7 @@ from chronofuse.discipline.stages import gnssdo_pipeline
 from chronofuse.discipline.states import Reason, State
 from chronofuse.estimation.pipeline import stack_steps
 from chronofuse.experiments.gnssdo import (_free_phase, make_controller, plausibility_monitors, reference_frame,
-                                           reference_pipeline, reference_servo, state_config)
+                                           reference_pipeline, reference_servo, reference_spread_s, state_config)
 from chronofuse.io.pps_reference import read_pps_reference
 from chronofuse.models.environment import receiver_environment
 from chronofuse.models.oscillator_presets import preset
@@ -57,13 +57,14 @@ def _reference_chain(e, *, outage=False, ramp=False, rail=False):
         free = free.copy()
         free[0] += 0.5 * 8e-12 * t**2
     servo = reference_servo(e, "gated-kalman", osc)
+    spread = reference_spread_s(e)
     t = np.arange(STEPS)
     e = e.copy()
     if outage:
         e[OUTAGE] = np.nan
     if ramp:
         e = e + np.where(t >= RAMP_FROM, 2e-9 * (t - RAMP_FROM), 0.0)
-    return reference_pipeline(servo, osc).fit(), reference_frame(e, free)
+    return reference_pipeline(servo, osc).fit(), reference_frame(e, free, spread)
 
 
 def _stream(pipeline, frame, cuts=()):
@@ -225,7 +226,7 @@ def test_a_servo_that_reads_the_samples_time_gets_the_same_time_streamed_as_in_b
     osc = preset("ocxo")
     free, _ = _free_phase(osc, STEPS, 2, root_seed(1))
     pipe = reference_pipeline(_WarmupServo(dac=Dac.for_oscillator(osc)), osc).fit()
-    frame = reference_frame(recording, free)
+    frame = reference_frame(recording, free, reference_spread_s(recording))
     batch = pipe.run(frame)
     assert not np.asarray(batch["used"])[:, :300].any() and np.asarray(batch["used"])[:, 300:].all()
     assert _mismatches(batch, _stream(pipe, frame, (150, 301)), REFERENCE_NAMES, rtol=0.0) == []

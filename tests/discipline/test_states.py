@@ -22,8 +22,10 @@ def test_the_states_follow_the_reference_and_the_lock_test():
     run = run_states(usable[None], offset[None], CFG)
     s = run.state[0]
     assert (s[:3] == State.FREE_RUN).all()
-    assert (s[3:10] == State.ACQUIRING).all()  # 3 unsettled seconds, then locked on the 5th settled one
-    assert (s[10:20] == State.LOCKED).all()
+    # 3 unsettled seconds, a 4th where the drop from 1 us is taken as an outlier (entered as the threshold),
+    # the filter restarted at the 2nd second in a row, then locked on the 5th settled one
+    assert (s[3:11] == State.ACQUIRING).all()
+    assert (s[11:20] == State.LOCKED).all()
     assert (s[20:25] == State.HOLDOVER).all()
     assert (s[25:29] == State.RECOVERY).all()
     assert (s[29:] == State.LOCKED).all()
@@ -77,7 +79,9 @@ def test_the_compiled_state_machine_equals_its_numpy_twin():
     u[1, 2800:] += 5e-9
     cfg = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, freq_threshold=1e-9, ready_s=100.0,
                       holdover=HoldoverModel(2e-24, 1e-24, 1e-30, 1e-15))
-    kw = dict(alarm=alarm, implausible=implausible, near_rail=near, freq_adj=u)
+    ref_var = (rng.uniform(1e-9, 40e-9, (3, 3000))) ** 2  # the fused reference's sd: 1..40 ns, some unknown
+    ref_var[:, 500:520] = np.nan
+    kw = dict(alarm=alarm, implausible=implausible, near_rail=near, freq_adj=u, reference_variance_s2=ref_var)
     fast = run_states(usable, offset, cfg, fast=True, **kw)
     slow = run_states(usable, offset, cfg, fast=False, **kw)
     assert np.array_equal(fast.state, slow.state) and np.array_equal(fast.reason, slow.reason)
@@ -140,3 +144,55 @@ def test_holdover_is_ready_after_ready_s_locked_and_its_sigma_follows_the_oscill
                        + (1e-15 * h**2 / 2) ** 2)
     assert np.allclose(run.holdover_sigma_s[0, first_locked:], expected, rtol=1e-12)
     assert np.isnan(run.holdover_sigma_s[0, :first_locked]).all()
+
+
+def test_the_filtered_time_error_follows_a_drifting_offset_without_lag():
+    # A 10 s average of an offset drifting at 1 ns/s lags it by 9 ns; Brown's level (2 s1 - s2) does not.
+    t = np.arange(600.0)
+    offset = 1e-9 * t - 200e-9
+    run = run_states(np.ones((1, 600), bool), offset[None], StateConfig(te_filter_s=10.0))
+    a = 0.1
+    single = np.empty(600)
+    single[0] = offset[0]
+    for k in range(1, 600):
+        single[k] = single[k - 1] + a * (offset[k] - single[k - 1])
+    assert abs((offset - single)[-1] - 9e-9) < 1e-12  # the lag the single average has
+    assert np.abs(run.filtered_offset_s[0, 200:] - offset[200:]).max() < 1e-12
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_reference_that_errs_by_more_leaves_less_of_the_threshold_to_claim(fast):
+    # The measured offset is the time error plus the reference's own error: 40 ns measured from a reference
+    # with a 10 ns sd is locked (40 < 100 - 2 x 10 and < 50); from one with a 31 ns sd it is not (100 - 62 = 38).
+    cfg = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, te_filter_s=1.0)
+    usable = np.ones((1, 60), bool)
+    offset = np.full((1, 60), 40e-9)
+    quiet = run_states(usable, offset, cfg, reference_variance_s2=np.full((1, 60), (10e-9) ** 2), fast=fast)
+    assert (quiet.state[0, 10:] == State.LOCKED).all()
+    noisy = run_states(usable, offset, cfg, reference_variance_s2=np.full((1, 60), (31e-9) ** 2), fast=fast)
+    assert not (noisy.state == State.LOCKED).any()
+    unknown = run_states(usable, offset, cfg, reference_variance_s2=np.full((1, 60), np.nan), fast=fast)
+    assert np.array_equal(unknown.state, quiet.state)  # no variance known: the fixed fraction only
+    # Locked on a quiet reference, then the fusion loses all but one noisy receiver: the claim ends at once.
+    var = np.full((1, 60), (10e-9) ** 2)
+    var[0, 30:] = (31e-9) ** 2
+    worse = run_states(usable, offset, cfg, reference_variance_s2=var, fast=fast)
+    assert worse.state[0, 29] == State.LOCKED and worse.state[0, 30] == State.ALARM
+    assert worse.reason[0, 30] == Reason.TIME_ERROR_EXCURSION
+    sm = StateMachine(cfg)  # and the streaming machine says the same
+    assert [int(sm.step(True, 40e-9, reference_variance_s2=v)[0]) for v in var[0]] == worse.state[0].tolist()
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_one_second_reference_outlier_is_not_a_time_error_but_a_step_that_stays_is(fast):
+    # Locked at 5 ns; second 30 reads 400 ns (a reference outlier: entered as the 100 ns threshold, the level
+    # moves by 0.19 x 95 ns and the claim holds); from second 45 the offset moves to 400 ns and stays: the
+    # filter restarts there on the second second and the claim ends that second.
+    cfg = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, te_filter_s=10.0)
+    offset = np.full((1, 80), 5e-9)
+    offset[0, 30] = 400e-9
+    offset[0, 45:] = 400e-9
+    run = run_states(np.ones((1, 80), bool), offset, cfg, fast=fast)
+    assert (run.state[0, 20:45] == State.LOCKED).all()
+    assert abs(run.filtered_offset_s[0, 30] - 5e-9 - 0.19 * 100e-9) < 1e-15
+    assert run.state[0, 46] == State.ALARM and run.filtered_offset_s[0, 46] == 400e-9

@@ -74,7 +74,7 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var, fresh):
 
 
 @numba.njit(cache=True)
-def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
+def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, params):
     """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps), ``params`` from
     :meth:`~.states.StateConfig.kernel_params`; returns state and reason (int8), filtered offset, holdover
     ready (int8) and holdover sigma, each (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2,
@@ -82,6 +82,7 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
     INTEGRITY_ALARM 4, TIME_ERROR_EXCURSION 5, FREQUENCY_EXCURSION 6, DAC_RAIL 7, IMPLAUSIBLE_REFERENCE 8."""
     limit, hold, a_te, f_thr, a_u, ready, model_var, horizon = (params[0], params[1], params[2], params[3],
                                                                  params[4], params[5], params[6], params[7])
+    threshold, k_sigma = params[8], params[9]
     trials, steps = usable.shape
     states = np.empty((trials, steps), dtype=np.int8)
     reasons = np.zeros((trials, steps), dtype=np.int8)
@@ -92,16 +93,30 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
         s = 0
         run = 0
         locked = 0
-        te_f = np.nan
+        s1 = np.nan
+        s2 = np.nan
+        far = False
         u_f = np.nan
         u_var = 0.0
         for k in range(steps):
             z = offset[i, k]
             ok = usable[i, k] and not alarm[i, k] and not implausible[i, k] and math.isfinite(z)
             if ok:
-                te_f = te_f + a_te * (z - te_f) if math.isfinite(te_f) else z
+                level = 2.0 * s1 - s2
+                big = math.isfinite(level) and abs(z - level) > threshold
+                if not math.isfinite(level) or (big and far):
+                    s1 = z
+                    s2 = z
+                else:
+                    z_in = level + min(max(z - level, -threshold), threshold) if big else z
+                    s1 = s1 + a_te * (z_in - s1)
+                    s2 = s2 + a_te * (s1 - s2)
+                far = big
             else:
-                te_f = np.nan
+                s1 = np.nan
+                s2 = np.nan
+                far = False
+            te_f = 2.0 * s1 - s2
             u = freq_adj[i, k]
             if math.isfinite(u_f):
                 dev = u - u_f
@@ -111,7 +126,9 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, params):
                 dev = 0.0
                 u_var = 0.0
                 u_f = u
-            te_ok = ok and abs(te_f) < limit
+            v = ref_var[i, k]
+            lim = min(limit, threshold - k_sigma * math.sqrt(v)) if math.isfinite(v) else limit
+            te_ok = ok and abs(te_f) < lim
             f_ok = abs(dev) < f_thr
             settled = ok and te_ok and f_ok and not near[i, k]
             run = run + 1 if settled else 0

@@ -15,9 +15,15 @@ kept, only while every lock criterion holds each second:
 
 * the reference is usable: qualified, fused, no integrity alarm, and found plausible by the oscillator's
   own prediction (``implausible`` says it is not);
-* the *filtered* time error, an exponential average of the measured offset over ``te_filter_s`` (restarted
-  at every re-acquisition), is within ``criteria_fraction x lock_threshold_s`` (the rest of the threshold
-  is the margin for the filter's lag and the reference's noise);
+* the *filtered* time error, Brown's double exponential average of the measured offset over ``te_filter_s``
+  (level ``2 s1 - s2`` of an average ``s1`` and its own average ``s2``: no lag on a drifting offset, where a
+  single average lags by rate x ``te_filter_s``; restarted at every re-acquisition; an offset more than
+  ``lock_threshold_s`` from the level enters as ``lock_threshold_s`` for one second, a reference outlier,
+  and restarts the filter where it is if it stays so a second second, a pull-in or a step), is within
+  ``criteria_fraction x lock_threshold_s``, and within ``lock_threshold_s - noise_sigmas x sigma_ref``, where
+  ``sigma_ref`` is the fused reference's own standard deviation that second (its ``reference_variance_s2``):
+  the measured offset is the time error plus the reference's error, and a reference that errs by tens of ns
+  for minutes (one urban-canyon receiver left: 31 ns) leaves less of the threshold to claim;
 * the frequency correction ``u_k`` the servo applies stays within ``freq_threshold`` of its own exponential
   average over ``freq_filter_s`` (a loop being dragged, or still pulling in, moves it);
 * the DAC is away from its rails (``near_rail`` False): a loop at the end of its tuning range no longer
@@ -111,6 +117,7 @@ class StateConfig:
     time error must stay within this fraction of it; ``lock_hold_s`` (>= 1 sample): seconds with every
     criterion met before LOCKED; ``te_filter_s`` (>= 1 sample): the filtered time error's averaging time;
     ``freq_threshold`` (fractional frequency, > 0; None: no frequency criterion) and ``freq_filter_s``;
+    ``noise_sigmas`` (>= 0): the fused reference's standard deviations kept off the threshold;
     ``ready_s``: seconds locked before holdover is ready; ``horizon_s``: the predicted holdover's horizon;
     ``holdover``: the oscillator's :class:`HoldoverModel` (None: no prediction); ``interval_s``.
     """
@@ -120,6 +127,7 @@ class StateConfig:
     interval_s: float = 1.0
     criteria_fraction: float = 0.5
     te_filter_s: float = 10.0
+    noise_sigmas: float = 2.0
     freq_threshold: float | None = None
     freq_filter_s: float = 600.0
     ready_s: float = 3600.0
@@ -132,6 +140,7 @@ class StateConfig:
         check_scalar(self.lock_hold_s, "lock_hold_s", min_val=self.interval_s)
         check_scalar(self.criteria_fraction, "criteria_fraction", min_val=0.0, max_val=1.0, include_min=False)
         check_scalar(self.te_filter_s, "te_filter_s", min_val=self.interval_s)
+        check_scalar(self.noise_sigmas, "noise_sigmas", min_val=0.0)
         if self.freq_threshold is not None:
             check_scalar(self.freq_threshold, "freq_threshold", min_val=0.0, include_min=False)
         check_scalar(self.freq_filter_s, "freq_filter_s", min_val=self.interval_s)
@@ -144,29 +153,32 @@ class StateConfig:
 
     def kernel_params(self) -> np.ndarray:
         """(te limit, hold samples, te alpha, freq threshold (inf: none), freq alpha, ready samples,
-        model variance at the horizon (NaN: none), horizon) as float64 for the compiled twin."""
+        model variance at the horizon (NaN: none), horizon, threshold, noise sigmas) as float64 for the
+        compiled twin."""
         model = math.nan if self.holdover is None else self.holdover.variance_s2(self.horizon_s)
         return np.array([self.criteria_fraction * self.lock_threshold_s, self.hold_samples,
                          self.interval_s / self.te_filter_s,
                          math.inf if self.freq_threshold is None else self.freq_threshold,
                          self.interval_s / self.freq_filter_s, round(self.ready_s / self.interval_s), model,
-                         self.horizon_s])
+                         self.horizon_s, self.lock_threshold_s, self.noise_sigmas])
 
 
 def initial_memory(n: int) -> dict[str, np.ndarray]:
     """The state machine's memory for ``n`` loops: FREE_RUN, nothing filtered yet."""
-    return {"state": np.zeros(n, np.int8), "run": np.zeros(n, np.int64), "te_f": np.full(n, np.nan),
+    return {"state": np.zeros(n, np.int8), "run": np.zeros(n, np.int64), "te_s1": np.full(n, np.nan),
+            "te_s2": np.full(n, np.nan), "te_far": np.zeros(n, bool),
             "u_f": np.full(n, np.nan), "u_var": np.zeros(n), "locked": np.zeros(n, np.int64)}
 
 
 def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, implausible=None, near_rail=None,
-            freq_adj=None) -> tuple[dict, np.ndarray, dict]:
+            freq_adj=None, reference_variance_s2=None) -> tuple[dict, np.ndarray, dict]:
     """One second for N loops -> ``(memory', reason (N,) int8, report)``; ``report``: ``filtered_offset_s``,
     ``holdover_ready``, ``holdover_sigma_s`` (N,). Inputs (N,): ``usable`` (a fused reference this second),
     ``offset_s`` (the measured offset), ``alarm`` (integrity), ``implausible`` (refused by the oscillator's
-    prediction), ``near_rail``, ``freq_adj`` (the applied frequency correction); new arrays returned."""
+    prediction), ``near_rail``, ``freq_adj`` (the applied frequency correction), ``reference_variance_s2``
+    (the fused reference's variance; NaN or None: unknown, no noise margin); new arrays returned."""
     p = config.kernel_params()
-    limit, hold, a_te, f_thr, a_u, ready, model_var, horizon = p
+    limit, hold, a_te, f_thr, a_u, ready, model_var, horizon, threshold, k_sigma = p
     s = np.asarray(memory["state"])
     n = s.shape
     usable = np.asarray(usable, dtype=bool)
@@ -175,10 +187,21 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     near = np.zeros(n, bool) if near_rail is None else np.asarray(near_rail, dtype=bool)
     u = np.zeros(n) if freq_adj is None else np.asarray(freq_adj, dtype=np.float64)
     z = np.asarray(offset_s, dtype=np.float64)
+    ref_var = np.zeros(n) if reference_variance_s2 is None else np.asarray(reference_variance_s2, dtype=np.float64)
+    limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(np.isfinite(ref_var), ref_var, 0.0)))
     ok = usable & ~alarm & ~implausible & np.isfinite(z)
     # Filters: restarted on the first usable second after a loss (the time error), or the first at all (u).
-    te_f = np.where(ok, np.where(np.isfinite(memory["te_f"]), memory["te_f"] + a_te * (np.where(ok, z, 0.0)
-                                                                                        - memory["te_f"]), z), np.nan)
+    # A measured offset more than the threshold from the level, for one second, enters as the threshold (the
+    # output is steered in frequency; an outlier of the reference is not a time error); a second one in a row
+    # restarts the filter there (a pull-in, a phase step: the offset really moved).
+    level = 2.0 * memory["te_s1"] - memory["te_s2"]
+    dev = np.where(ok, z, 0.0) - level
+    big = ok & np.isfinite(level) & (np.abs(dev) > threshold)
+    restart = ~np.isfinite(level) | (big & memory["te_far"])
+    z_in = np.where(big, level + np.clip(np.where(big, dev, 0.0), -threshold, threshold), z)
+    s1 = np.where(ok, np.where(restart, z, memory["te_s1"] + a_te * (z_in - memory["te_s1"])), np.nan)
+    s2 = np.where(ok, np.where(restart, s1, memory["te_s2"] + a_te * (s1 - memory["te_s2"])), np.nan)
+    te_f = 2.0 * s1 - s2  # Brown's level: no lag on a ramp (a single average lags a drift by rate x te_filter_s)
     u_prev = memory["u_f"]
     u_f = np.where(np.isfinite(u_prev), u_prev + a_u * (u - u_prev), u)
     dev = u - np.where(np.isfinite(u_prev), u_prev, u)
@@ -209,7 +232,7 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     sigma = np.sqrt(np.where(ok, te_f, 0.0) ** 2 + horizon**2 * u_var + model_var)
     report = {"filtered_offset_s": te_f, "holdover_ready": locked >= ready,
               "holdover_sigma_s": np.where(new == State.LOCKED, sigma, np.nan)}
-    memory = {"state": new, "run": run, "te_f": te_f, "u_f": u_f, "u_var": u_var, "locked": locked}
+    memory = {"state": new, "run": run, "te_s1": s1, "te_s2": s2, "te_far": big, "u_f": u_f, "u_var": u_var, "locked": locked}
     return memory, reason, report
 
 
@@ -242,9 +265,10 @@ class StateRun:
 
 
 def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=None, near_rail=None, implausible=None,
-               freq_adj=None, fast: bool = True) -> StateRun:
-    """States of (trials, steps) loops from their usable mask, measured offsets, alarms, refusals, DAC rails
-    and frequency corrections (each (trials, steps), optional but the first two).
+               freq_adj=None, reference_variance_s2=None, fast: bool = True) -> StateRun:
+    """States of (trials, steps) loops from their usable mask, measured offsets, alarms, refusals, DAC rails,
+    frequency corrections and the fused reference's variance (each (trials, steps), optional but the first
+    two).
 
     ``fast``: the compiled :func:`~.kernels.states_kernel`; otherwise :func:`advance` second by second
     (its readable twin; tested equal)."""
@@ -259,9 +283,12 @@ def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=N
 
     alarm, near, implausible = mask(alarm), mask(near_rail), mask(implausible)
     u = np.zeros(shape) if freq_adj is None else np.ascontiguousarray(np.broadcast_to(np.asarray(freq_adj, float), shape))
+    ref_var = (np.zeros(shape) if reference_variance_s2 is None
+               else np.ascontiguousarray(np.broadcast_to(np.asarray(reference_variance_s2, float), shape)))
     trials, steps = shape
     if fast:
-        out = states_kernel(usable, alarm, implausible, near, np.ascontiguousarray(offset), u, config.kernel_params())
+        out = states_kernel(usable, alarm, implausible, near, np.ascontiguousarray(offset), u, ref_var,
+                            config.kernel_params())
         return StateRun(out[0], out[1], near.copy(), out[2], out[3] != 0, out[4])
     memory = initial_memory(trials)
     states = np.empty(shape, dtype=np.int8)
@@ -269,7 +296,8 @@ def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=N
     te_f, ready, sigma = np.empty(shape), np.empty(shape, bool), np.empty(shape)
     for k in range(steps):
         memory, reasons[:, k], rep = advance(memory, usable[:, k], offset[:, k], config, alarm=alarm[:, k],
-                                             implausible=implausible[:, k], near_rail=near[:, k], freq_adj=u[:, k])
+                                             implausible=implausible[:, k], near_rail=near[:, k], freq_adj=u[:, k],
+                                             reference_variance_s2=ref_var[:, k])
         states[:, k] = memory["state"]
         te_f[:, k], ready[:, k], sigma[:, k] = rep["filtered_offset_s"], rep["holdover_ready"], rep["holdover_sigma_s"]
     return StateRun(states, reasons, near.copy(), te_f, ready, sigma)
@@ -288,10 +316,12 @@ class StateMachine:
         self.report: dict = {}
 
     def step(self, usable: bool, offset_s: float, alarm: bool = False, *, implausible: bool = False,
-             near_rail: bool = False, freq_adj: float = 0.0) -> tuple[State, Reason]:
+             near_rail: bool = False, freq_adj: float = 0.0,
+             reference_variance_s2: float = math.nan) -> tuple[State, Reason]:
         self._memory, reason, rep = advance(self._memory, np.array([bool(usable)]), np.array([float(offset_s)]),
                                             self.config, alarm=np.array([bool(alarm)]),
                                             implausible=np.array([bool(implausible)]),
-                                            near_rail=np.array([bool(near_rail)]), freq_adj=np.array([float(freq_adj)]))
+                                            near_rail=np.array([bool(near_rail)]), freq_adj=np.array([float(freq_adj)]),
+                                            reference_variance_s2=np.array([float(reference_variance_s2)]))
         self.report = {k: v[0].item() for k, v in rep.items()}
         return State(int(self._memory["state"][0])), Reason(int(reason[0]))

@@ -83,7 +83,7 @@ from chronofuse.experiments.gnssdo_controllers import (  # noqa: F401 (part of t
 
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
-           "DESIGN_STEER_S", "reference_servo", "reference_frame", "reference_pipeline"]
+           "DESIGN_STEER_S", "reference_sigma_s", "reference_spread_s", "reference_servo", "reference_frame", "reference_pipeline"]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
@@ -554,29 +554,41 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
 REFERENCE_ENVIRONMENT = dataclasses.replace(receiver_environment("open-sky"), name="reference")
 
 
+def reference_sigma_s(reference_error_s) -> float:
+    """The recorded 1PPS error's equivalent white standard deviation, calibrated on its first four hours
+    (:func:`~chronofuse.discipline.design.equivalent_white_sigma_s`): the servo's measurement noise."""
+    return float(equivalent_white_sigma_s(np.asarray(reference_error_s, dtype=np.float64)[:4 * 3600]))
+
+
+def reference_spread_s(reference_error_s) -> float:
+    """The recorded 1PPS error's standard deviation over its first four hours: the reference's own error, the
+    state machine's noise margin (:class:`~chronofuse.discipline.states.StateConfig`'s ``noise_sigmas``)."""
+    return float(np.nanstd(np.asarray(reference_error_s, dtype=np.float64)[:4 * 3600]))
+
+
 def reference_servo(reference_error_s, controller: str, osc: OscillatorModel) -> Servo:
     """The servo ``gnssdo --reference`` disciplines ``osc`` with: ``controller`` on ``osc``'s DAC, its measurement
     noise calibrated on the record's first four hours (:func:`~chronofuse.discipline.design.equivalent_white_sigma_s`;
     what a user with a reference would do once)."""
-    e = np.asarray(reference_error_s, dtype=np.float64)
-    sigma = equivalent_white_sigma_s(e[:4 * 3600])
+    sigma = reference_sigma_s(reference_error_s)
     # One receiver against a maser: 300 s steering keeps the output's ADEV within twice the lower envelope
     # at every tau (200 s: 2.12x at 256 s; TE rms 10.9 ns either way).
     return make_controller(controller, osc, REFERENCE_ENVIRONMENT, 1, Dac.for_oscillator(osc), measurement_sigma_s=sigma,
                            steer_s=300.0)
 
 
-def reference_frame(reference_error_s, free_phase_s) -> dict:
+def reference_frame(reference_error_s, free_phase_s, reference_sigma_s: float = math.nan) -> dict:
     """The input columns of :func:`reference_pipeline`: a recorded 1PPS error ``reference_error_s`` (steps,)
     (NaN: no pulse that second) as the one receiver, always usable and never excluded (no integrity, no
-    plausibility test: the record is the truth's reference), and the free oscillator ``free_phase_s``
-    (trials, steps)."""
+    plausibility test: the record is the truth's reference), its standard deviation ``reference_sigma_s``
+    (NaN: unknown) and the free oscillator ``free_phase_s`` (trials, steps)."""
     free = np.asarray(free_phase_s, dtype=np.float64)
     e = np.broadcast_to(np.asarray(reference_error_s, dtype=np.float64), free.shape)
     trials, steps = free.shape
     return {"free_phase_s": free, "reference_error_s": e, "loop_reference_s": e,
             "implausible": np.zeros(free.shape, dtype=bool), "usable": np.ones((trials, 1, steps), dtype=bool),
-            "excluded": np.zeros((trials, 1, steps), dtype=bool)}
+            "excluded": np.zeros((trials, 1, steps), dtype=bool),
+            "reference_variance_s2": np.full(free.shape, float(reference_sigma_s) ** 2)}
 
 
 def reference_pipeline(servo: Servo, osc: OscillatorModel) -> Pipeline:
@@ -606,7 +618,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     env = REFERENCE_ENVIRONMENT
     servo = reference_servo(e, controller, osc)
     progress(f"disciplining ({controller}) against {path.name}")
-    frame = reference_frame(e, free)
+    frame = reference_frame(e, free, reference_spread_s(e))
     run = reference_pipeline(servo, osc).fit().run(frame)
     best = Pipeline([("loop", LoopStage(clairvoyant_controller(osc, env, 1, dac)))]).fit().run(frame)
     has_ref = np.ones(free.shape, dtype=bool)
