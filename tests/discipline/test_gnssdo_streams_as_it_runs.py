@@ -230,3 +230,19 @@ def test_a_servo_that_reads_the_samples_time_gets_the_same_time_streamed_as_in_b
     batch = pipe.run(frame)
     assert not np.asarray(batch["used"])[:, :300].any() and np.asarray(batch["used"])[:, 300:].all()
     assert _mismatches(batch, _stream(pipe, frame, (150, 301)), REFERENCE_NAMES, rtol=0.0) == []
+
+
+def test_the_recorded_references_calibration_uses_only_its_first_four_hours(real_data):
+    # No second of a --reference run depends on a later one: the cable offset, the servo's noise and the state
+    # machine's margin come from the first CALIBRATION_S seconds, so a prefix of the record calibrates the same.
+    from chronofuse.experiments.gnssdo import CALIBRATION_S, reference_offset_s, reference_sigma_s
+
+    whole = read_pps_reference(real_data / "stability" / "gps" / "gps_1pps_phase_data.txt.gz")
+    prefix = whole[:CALIBRATION_S + 1]
+    for calibrate in (reference_offset_s, reference_sigma_s, reference_spread_s):
+        assert calibrate(prefix) == calibrate(whole)
+    later = whole.copy()
+    later[CALIBRATION_S:] += 1e-6  # what happens after the calibration does not move it
+    assert reference_offset_s(later) == reference_offset_s(whole)
+    # and it is the record's offset: the whole-record mean is within a few ns of it on this receiver
+    assert abs(reference_offset_s(whole) - np.mean(whole)) < 20e-9

@@ -53,7 +53,8 @@ def gnssdo(
                                                      "oscillator.json) instead of a preset."),
     reference: Path | None = typer.Option(None, "--reference",
                                           help="Real 1PPS phase record against a reference clock (1 Hz, no gaps): a "
-                                          "phase file, or a field log's first clock (a ts2phc or phc2sys offset)."),
+                                          "phase file, or a field log's first clock (a ts2phc or phc2sys offset). "
+                                          "Its first 4 h calibrate the cable offset and the servo's noise."),
     out: Path | None = typer.Option(None, "--out", help="Report folder (PNG plots, summary.json)."),
     json_out: bool = typer.Option(False, "--json", help="Print one JSON document on stdout."),
     quiet: bool = typer.Option(False, "--quiet", help="Print nothing but errors (and the --json document)."),

@@ -83,7 +83,7 @@ from chronofuse.experiments.gnssdo_controllers import (  # noqa: F401 (part of t
 
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
-           "DESIGN_STEER_S", "reference_sigma_s", "reference_spread_s", "reference_servo", "reference_frame", "reference_pipeline"]
+           "DESIGN_STEER_S", "CALIBRATION_S", "reference_offset_s", "reference_sigma_s", "reference_spread_s", "reference_servo", "reference_frame", "reference_pipeline"]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
@@ -554,16 +554,27 @@ def run_gnssdo(setup: GnssdoSetup, out_dir: Path | None = None, progress: Progre
 REFERENCE_ENVIRONMENT = dataclasses.replace(receiver_environment("open-sky"), name="reference")
 
 
+#: The seconds of a recorded reference its calibration uses (offset, noise, spread): its first four hours, what a
+#: user with a reference does once at installation; the run from then on uses nothing from later seconds.
+CALIBRATION_S = 4 * 3600
+
+
+def reference_offset_s(reference_error_s) -> float:
+    """The recorded 1PPS error's constant offset (the antenna and cable delay): its mean over the first
+    :data:`CALIBRATION_S` seconds."""
+    return float(np.nanmean(np.asarray(reference_error_s, dtype=np.float64)[:CALIBRATION_S]))
+
+
 def reference_sigma_s(reference_error_s) -> float:
     """The recorded 1PPS error's equivalent white standard deviation, calibrated on its first four hours
     (:func:`~chronofuse.discipline.design.equivalent_white_sigma_s`): the servo's measurement noise."""
-    return float(equivalent_white_sigma_s(np.asarray(reference_error_s, dtype=np.float64)[:4 * 3600]))
+    return float(equivalent_white_sigma_s(np.asarray(reference_error_s, dtype=np.float64)[:CALIBRATION_S]))
 
 
 def reference_spread_s(reference_error_s) -> float:
     """The recorded 1PPS error's standard deviation over its first four hours: the reference's own error, the
     state machine's noise margin (:class:`~chronofuse.discipline.states.StateConfig`'s ``noise_sigmas``)."""
-    return float(np.nanstd(np.asarray(reference_error_s, dtype=np.float64)[:4 * 3600]))
+    return float(np.nanstd(np.asarray(reference_error_s, dtype=np.float64)[:CALIBRATION_S]))
 
 
 def reference_servo(reference_error_s, controller: str, osc: OscillatorModel) -> Servo:
@@ -602,13 +613,16 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
                   oscillator_model: OscillatorModel | None = None) -> dict:
     """Discipline a simulated oscillator against a real 1PPS record (truth: the record's reference clock).
 
-    The record is the receiver's 1PPS error ``e`` (its mean, the antenna-cable offset, removed); the
-    oscillator is simulated (seed child 0); the servo's measurement noise is calibrated on the record's
-    first four hours by :func:`~chronofuse.discipline.design.equivalent_white_sigma_s` (what a user with a reference would do once).
+    The record is the receiver's 1PPS error ``e``, its antenna-cable offset removed; the oscillator is
+    simulated (seed child 0). The offset (:func:`reference_offset_s`), the servo's measurement noise
+    (:func:`reference_sigma_s`) and the state machine's noise margin (:func:`reference_spread_s`) are
+    calibrated on the record's first :data:`CALIBRATION_S` seconds, what a user with a reference does once:
+    no second of the run depends on a later one (a prefix of the record runs as the start of the whole).
     """
     _check_controller(controller)
     e = read_pps_reference(path, min_samples=int(2 * SETTLE_S))
-    e = e - np.mean(e)
+    offset = reference_offset_s(e)
+    e = e - offset
     steps = e.size
     osc = preset(oscillator) if oscillator_model is None else oscillator_model
     dac = Dac.for_oscillator(osc)
@@ -625,6 +639,7 @@ def run_reference(path: Path, controller: str = DEFAULT_CONTROLLER, seed: int = 
     states = StateRun(run["gnssdo_state"], run["gnssdo_reason"], run["rail_alarm"], run["filtered_offset_s"],
                       run["holdover_ready"], run["holdover_sigma_s"])
     summary = {"reference": str(path), "controller": controller, "duration_s": steps, "trials": trials, "seed": seed,
+               "calibration_s": min(CALIBRATION_S, steps), "cable_offset_ns": offset * 1e9,
                **time_error_metrics(run["phase_s"], has_ref),
                "optimal_rms_ns": time_error_metrics(best["phase_s"], has_ref)["time_error_rms_ns"],
                "state_seconds": states.seconds_in(),
