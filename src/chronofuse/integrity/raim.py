@@ -25,11 +25,14 @@ errors zero-mean Gaussian with the 1-sigma the caller gives (``sigma_m``). Per e
    alarm, ``|Delta_i,q| <= T_i,q`` and ``e_0 = e_i - Delta_i`` where ``e_i`` (subset ``i``, fault-free) is
    Gaussian with ``sigma_i``: ``P(|e_0,q| > PL_q, no alarm) <= P(|e_i,q| > K_q sigma_i,q) = P_q``. So
    ``P(error beyond a level and no alarm) <= integrity_risk`` under every hypothesis of the threat model.
-5. **Exclusion.** At an alarm, candidates ``j`` in order of their largest normalised separation
-   ``max_q |Delta_j,q| / sigma_ss,j,q`` (at most :data:`MAX_EXCLUSION_CANDIDATES`) are left out in turn and
-   steps 1-4 run again on the rest; the first whose own detection passes is excluded and its protection
+5. **Exclusion.** At an alarm, the :data:`MAX_EXCLUSION_CANDIDATES` candidates ``j`` with the largest
+   normalised separation ``max_q |Delta_j,q| / sigma_ss,j,q`` are each left out and steps 1-4 run again on
+   the rest; if exactly one rest passes its own detection, that candidate is excluded and its protection
    levels are the epoch's (valid by the same argument on the rest: the fault was ``j`` and the rest is
-   fault-free, or it is still in the rest and the rest's detection covers it). None passing: ``alarm``.
+   fault-free, or it is still in the rest and the rest's detection covers it). None passing, or more than
+   one (the fault detected but not identified: with few satellites a rest that still holds the fault can
+   pass, and the strongest candidate was then the wrong one in 6 % of 150 m faults with 6 satellites):
+   ``alarm``, no satellite named.
 6. **Minimum detectable bias** of satellite ``i``: a bias ``b`` on it moves ``Delta_i`` by ``-S_0[:, i] b``
    (subset ``i`` does not see it), so test ``(i, q)`` alarms with probability at least ``1 - p_md`` when
    ``|b| >= MDB_i = min_q (T_i,q + K_md sigma_ss,i,q) / |S_0[q, i]|``, ``K_md = Phi^-1(1 - p_md)``.
@@ -261,18 +264,23 @@ def _raim_packed(sat, rho, sig, system, n_systems, fix, x0_m, cfg) -> RaimResult
     state = np.where(sep["alarm"], "alarm", "ok").astype(object)
     for k in np.flatnonzero(sep["alarm"] & enough):
         strength = np.where(sep["used"][k], (sep["ratio"][k]).max(-1), -np.inf)
+        passing = []
         for j in np.argsort(-strength)[:MAX_EXCLUSION_CANDIDATES]:
             if not np.isfinite(strength[j]):
                 break
             sub = _without(sat[k], rho[k], sig[k], system[k], n_systems, position[k], j, k_axis, cfg.pfa)
-            if sub is None or sub["alarm"][0]:
-                continue
-            excluded[k] = j
-            hpl[k], vpl[k], n_used[k] = sub["hpl"][0], sub["vpl"][0], sub["n_used"][0]
-            out_pos[k] = sub["position"]
-            # the fault found and left out; the rest's levels over a limit: still an alarm, the satellite named
-            state[k] = "alarm" if over_limits(hpl[k], vpl[k]) else "excluded"
-            break
+            if sub is not None and not sub["alarm"][0]:
+                passing.append((j, sub))
+        if len(passing) != 1:
+            # none passes: not excludable; two or more: the fault is not identified (each rest, the faulty
+            # satellite's among them, looks clean), and naming one would name the wrong one as often as not
+            continue
+        j, sub = passing[0]
+        excluded[k] = j
+        hpl[k], vpl[k], n_used[k] = sub["hpl"][0], sub["vpl"][0], sub["n_used"][0]
+        out_pos[k] = sub["position"]
+        # the fault found and left out; the rest's levels over a limit: still an alarm, the satellite named
+        state[k] = "alarm" if over_limits(hpl[k], vpl[k]) else "excluded"
     over = over_limits(hpl, vpl)
     # detected with too few satellites to exclude: an alarm, never hidden as "unavailable"
     cannot = ~detectable | ~ok_fix | ((state == "ok") & (over | ~enough))
