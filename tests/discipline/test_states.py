@@ -81,6 +81,7 @@ def test_the_compiled_state_machine_equals_its_numpy_twin():
                       holdover=HoldoverModel(2e-24, 1e-24, 1e-30, 1e-15))
     ref_var = (rng.uniform(1e-9, 40e-9, (3, 3000))) ** 2  # the fused reference's sd: 1..40 ns, some unknown
     ref_var[:, 500:520] = np.nan
+    ref_var[:, 540:560] = -1e-14  # a negative variance: unknown in both twins (they once differed on it)
     kw = dict(alarm=alarm, implausible=implausible, near_rail=near, freq_adj=u, reference_variance_s2=ref_var)
     fast = run_states(usable, offset, cfg, fast=True, **kw)
     slow = run_states(usable, offset, cfg, fast=False, **kw)

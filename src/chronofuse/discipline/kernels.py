@@ -127,7 +127,7 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, p
                 u_var = 0.0
                 u_f = u
             v = ref_var[i, k]
-            lim = min(limit, threshold - k_sigma * math.sqrt(v)) if math.isfinite(v) else limit
+            lim = min(limit, threshold - k_sigma * math.sqrt(v)) if math.isfinite(v) and v >= 0.0 else limit
             te_ok = ok and abs(te_f) < lim
             f_ok = abs(dev) < f_thr
             settled = ok and te_ok and f_ok and not near[i, k]

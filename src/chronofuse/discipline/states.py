@@ -176,7 +176,7 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     ``holdover_ready``, ``holdover_sigma_s`` (N,). Inputs (N,): ``usable`` (a fused reference this second),
     ``offset_s`` (the measured offset), ``alarm`` (integrity), ``implausible`` (refused by the oscillator's
     prediction), ``near_rail``, ``freq_adj`` (the applied frequency correction), ``reference_variance_s2``
-    (the fused reference's variance; NaN or None: unknown, no noise margin); new arrays returned."""
+    (the fused reference's variance; NaN, negative or None: unknown, no noise margin); new arrays returned."""
     p = config.kernel_params()
     limit, hold, a_te, f_thr, a_u, ready, model_var, horizon, threshold, k_sigma = p
     s = np.asarray(memory["state"])
@@ -188,7 +188,8 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     u = np.zeros(n) if freq_adj is None else np.asarray(freq_adj, dtype=np.float64)
     z = np.asarray(offset_s, dtype=np.float64)
     ref_var = np.zeros(n) if reference_variance_s2 is None else np.asarray(reference_variance_s2, dtype=np.float64)
-    limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(np.isfinite(ref_var), ref_var, 0.0)))
+    known = np.isfinite(ref_var) & (ref_var >= 0.0)  # a negative variance is no variance: unknown
+    limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(known, ref_var, 0.0)))
     ok = usable & ~alarm & ~implausible & np.isfinite(z)
     # Filters: restarted on the first usable second after a loss (the time error), or the first at all (u).
     # A measured offset more than the threshold from the level, for one second, enters as the threshold (the
