@@ -196,10 +196,10 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     # output is steered in frequency; an outlier of the reference is not a time error); a second one in a row
     # restarts the filter there (a pull-in, a phase step: the offset really moved).
     level = 2.0 * memory["te_s1"] - memory["te_s2"]
-    dev = np.where(ok, z, 0.0) - level
-    big = ok & np.isfinite(level) & (np.abs(dev) > threshold)
+    jump = np.where(ok, z, 0.0) - level
+    big = ok & np.isfinite(level) & (np.abs(jump) > threshold)
     restart = ~np.isfinite(level) | (big & memory["te_far"])
-    z_in = np.where(big, level + np.clip(np.where(big, dev, 0.0), -threshold, threshold), z)
+    z_in = np.where(big, level + np.clip(np.where(big, jump, 0.0), -threshold, threshold), z)
     s1 = np.where(ok, np.where(restart, z, memory["te_s1"] + a_te * (z_in - memory["te_s1"])), np.nan)
     s2 = np.where(ok, np.where(restart, s1, memory["te_s2"] + a_te * (s1 - memory["te_s2"])), np.nan)
     te_f = 2.0 * s1 - s2  # Brown's level: no lag on a ramp (a single average lags a drift by rate x te_filter_s)
@@ -233,7 +233,8 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     sigma = np.sqrt(np.where(ok, te_f, 0.0) ** 2 + horizon**2 * u_var + model_var)
     report = {"filtered_offset_s": te_f, "holdover_ready": locked >= ready,
               "holdover_sigma_s": np.where(new == State.LOCKED, sigma, np.nan)}
-    memory = {"state": new, "run": run, "te_s1": s1, "te_s2": s2, "te_far": big, "u_f": u_f, "u_var": u_var, "locked": locked}
+    memory = {"state": new, "run": run, "te_s1": s1, "te_s2": s2, "te_far": big, "u_f": u_f, "u_var": u_var,
+              "locked": locked}
     return memory, reason, report
 
 

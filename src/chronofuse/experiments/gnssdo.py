@@ -83,7 +83,8 @@ from chronofuse.experiments.gnssdo_controllers import (  # noqa: F401 (part of t
 
 __all__ = ["SCENARIOS", "CONTROLLERS", "DEFAULT_CONTROLLER", "GnssdoSetup", "make_controller",
            "scenario_environment", "simulate_gnssdo", "evaluate", "run_gnssdo", "run_reference", "is_gaussian",
-           "DESIGN_STEER_S", "CALIBRATION_S", "reference_offset_s", "reference_sigma_s", "reference_spread_s", "reference_servo", "reference_frame", "reference_pipeline"]
+           "DESIGN_STEER_S", "CALIBRATION_S", "reference_offset_s", "reference_sigma_s", "reference_spread_s",
+           "reference_servo", "reference_frame", "reference_pipeline"]
 
 #: The scenarios this module builds from the open sky, then every other receiver environment of the registry
 #: (:data:`chronofuse.models.environment.ENVIRONMENTS`) under its own name.
