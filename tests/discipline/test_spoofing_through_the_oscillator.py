@@ -164,3 +164,66 @@ def test_the_chain_with_its_plausibility_stages_streams_as_it_runs_through_a_dra
     out = pipe.run(frame)
     assert not np.asarray(out["receiver_plausible"])[..., 750:900].any()  # refused during the drag
     assert np.asarray(out["fresh"])[..., 900:].any() and np.asarray(out["receiver_plausible"])[..., -1].all()
+
+
+def _gap_series(steps=4000, gap=(1000, 2000), seed=4):
+    """An OCXO against a white 3 ns reference, three series with a gap: clean, dragged at 2 ns/s from inside the
+    gap on, stepped by 300 ns inside the gap."""
+    osc = preset("ocxo")
+    x = simulate_oscillator(osc, float(steps), 1.0, seed, trials=1).x_s[0]
+    t = np.arange(steps)
+    e = 3e-9 * np.random.default_rng(seed).standard_normal((3, steps))
+    e[1] += np.where(t > 1200, 2e-9 * (t - 1200), 0.0)
+    e[2] += np.where(t > 1500, 300e-9, 0.0)
+    admitted = np.ones((3, steps), bool)
+    admitted[:, gap[0]:gap[1]] = False
+    return osc, (x - e)[None], admitted[None]
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_series_back_from_a_gap_is_held_to_the_prediction_made_before_it(fast):
+    # A drag or a step that happened while the series was away is a frequency offset or a jump to every second
+    # difference after the gap, which sees nothing before it; only the oscillator's holdover prediction from
+    # before the gap can tell.
+    osc, y, admitted = _gap_series()
+    monitor = DragMonitor.for_oscillator(osc, ReferenceNoise(3e-9), readmit_s=120)
+    run = monitor.run(y, admitted, fast=fast)
+    plausible = run.plausible[0]
+    assert plausible[:, :1000].all()
+    # Clean: trusted again from its first sample that agrees (the first, but for one in 370), and from then on.
+    back = np.flatnonzero(plausible[0, 2000:])
+    assert back[0] <= 2 and plausible[0, 2000 + back[0]:].all()
+    # Dragged (1.6 us by the gap's end) and stepped: never trusted again.
+    assert not plausible[1:, 2000:].any()
+
+
+def test_the_compiled_monitor_equals_its_numpy_twin_across_gaps():
+    osc, y, admitted = _gap_series(steps=3000, gap=(700, 1300), seed=8)
+    admitted = admitted & (np.random.default_rng(2).random(admitted.shape) > 0.2)
+    admitted[..., 2000:2040] = False  # a second gap, longer than recheck_gap_s, with no drag in it
+    monitor = DragMonitor.for_oscillator(osc, ReferenceNoise(3e-9, ((5e-9, 15.0),)), readmit_s=60)
+    fast, slow = monitor.run(y, admitted, fast=True), monitor.run(y, admitted, fast=False)
+    assert np.array_equal(fast.plausible, slow.plausible) and np.array_equal(fast.readmitted, slow.readmitted)
+    clean = fast.plausible[0, 0]
+    assert clean[1400:2000].all() and clean[2060:].all() and not fast.plausible[0, 1, 1300:].any()
+    assert not fast.plausible[0, 2, 1500:].all()  # its step comes after the gap: the second differences see it
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("oscillator", ["ocxo", "csac", "rb"])
+def test_a_drag_that_began_in_an_outage_is_refused_when_the_receivers_come_back(oscillator):
+    # The onset is at half the run (1800 s), inside an outage from 824 to 2234 s: the receivers come back
+    # 0.9 us off and still dragging, and the history before the outage is too short for any second difference
+    # to span it. Found by a hostile audit: LOCKED was claimed at 2-4 us for up to 820 s.
+    from chronofuse.experiments.gnssdo import GnssdoSetup, simulate_gnssdo
+
+    setup = GnssdoSetup(scenario="spoofing", oscillator=oscillator, duration_s=3601, trials=3, seed=7490, receivers=1,
+                        controller="adaptive-kalman", integrity_pfa=1e-3, outage_start_s=824.2, outage_s=1409.7)
+    run = simulate_gnssdo(setup)["run"]
+    locked = run.states.state == State.LOCKED
+    assert not (locked & (np.abs(run.phase_s) >= BUDGET_S)).any()
+    assert not locked[:, 2300:].any() and run.implausible[:, 2240:].all()
+    # The same outage without the spoofer: the receivers are trusted again at once and the output locks.
+    honest = simulate_gnssdo(dataclasses.replace(setup, scenario="open-sky"))["run"]
+    assert not honest.implausible[:, 2234:].any()
+    assert (honest.states.state[:, 2600:] == State.LOCKED).mean() > 0.95

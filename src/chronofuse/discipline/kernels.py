@@ -185,6 +185,25 @@ def _block(csum, tsum, count, start, end, m, L):
 
 
 @numba.njit(cache=True)
+def _anchor(csum, tsum, count, start, end, m, horizons, L):
+    """The holdover prediction's anchor (:meth:`~.plausibility.DragMonitor._anchor`): the ``m``-second block mean
+    ending at ``end``, the frequency to it from the longest horizon's block before it, the block's centre and
+    that frequency's span."""
+    b1, c1 = _block(csum, tsum, count, start, end, m, L)
+    f = np.nan
+    span = 0
+    for j in range(horizons.size - 1, -1, -1):
+        wl = horizons[j]
+        b0, c0 = _block(csum, tsum, count, start, end - wl, max(1, wl // 4), L)
+        if math.isnan(f) and math.isfinite(b0):
+            f = (b1 - b0) / (c1 - c0)
+            span = wl
+    if math.isnan(f):
+        f = 0.0
+    return b1, f, c1, max(span, 1)
+
+
+@numba.njit(cache=True)
 def _stored_block(bh, th, j, end, m, start, L):
     """:func:`_block` of horizon ``j``'s block ending at ``end``, as computed at second ``end`` and stored in the
     rings ``bh``, ``th``: the same numbers (the cumulative rings it read are not yet overwritten, and a block that
@@ -200,12 +219,13 @@ def _avar(h0, hm1, hm2, tau):
 
 
 @numba.njit(cache=True)
-def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, scalars):
+def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, recent_var,
+                        scalars):
     """The drag monitor (:mod:`.plausibility`, :meth:`~.plausibility.DragMonitor.update`) over (series, steps);
     returns plausible (int8), readmitted (int8) and the statistic, each (series, steps)."""
     h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
-    check_var, readmit_k = scalars[9], scalars[10]
+    check_var, readmit_k, recheck_gap = scalars[9], scalars[10], int(scalars[11])
     n_series, steps = y.shape
     nh = horizons.size
     plausible = np.empty((n_series, steps), dtype=np.int8)
@@ -232,6 +252,12 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
         anchor_w = 1
         anchor_j = -1
         anchor_m = 1
+        last = -1
+        watch = -1
+        gap_anchor = np.nan
+        gap_f = 0.0
+        gap_t = 0.0
+        gap_w = 1
         for k in range(steps):
             have = admitted[i, k] and math.isfinite(y[i, k])
             c_prev = csum[(k - 1) % L] if k > 0 else 0.0
@@ -262,42 +288,68 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             if refuse:
                 w = first_w
                 m = max(1, w // 4)
-                b1, c1 = _block(csum, tsum, count, start, k - 2 * w, m, L)
-                f = np.nan
-                span = 0
-                for j in range(nh - 1, -1, -1):
-                    wl = horizons[j]
-                    ml = max(1, wl // 4)
-                    b0, c0 = _block(csum, tsum, count, start, k - 2 * w - wl, ml, L)
-                    if math.isnan(f) and math.isfinite(b0):
-                        f = (b1 - b0) / (c1 - c0)
-                        span = wl
-                if math.isnan(f):
-                    f = 0.0
-                anchor, anchor_f, anchor_t, anchor_w, anchor_m = b1, f, c1, max(span, 1), m
-                anchor_j = -1
-                for j in range(nh):
-                    if horizons[j] == anchor_w:
-                        anchor_j = j
+                anchor, anchor_f, anchor_t, anchor_w = _anchor(csum, tsum, count, start, k - 2 * w, m, horizons, L)
+                anchor_m = m
+            if not have and last == k - 1:  # the samples stop: the gap's anchor, from the history before it
+                gap_anchor, gap_f, gap_t, gap_w = _anchor(csum, tsum, count, start, k - 1, ms, horizons, L)
+            back = (have and trusted and not refuse and last >= 0 and k - last - 1 >= recheck_gap
+                    and math.isfinite(gap_anchor))
+            if back:
+                anchor, anchor_f, anchor_t, anchor_w, anchor_m = gap_anchor, gap_f, gap_t, gap_w, ms
+                watch = 0
+            elif refuse:
+                watch = -1
+            anchor_j = -1
+            for j in range(nh):
+                if horizons[j] == anchor_w:
+                    anchor_j = j
+            watched = trusted and not refuse and watch >= 0
             refused = not trusted
             judged = False
             agree_now = False
-            if refused:  # the comparison with the holdover prediction counts only while refused
+            strayed = False
+            first = False
+            if refused or watched:  # the comparison with the holdover prediction: while refused, or watched
                 bs, ts = _block(csum, tsum, count, start, k, ms, L)
                 h = ts - anchor_t if math.isfinite(ts) else k - (ms - 1) / 2.0 - anchor_t
                 wa = float(anchor_w)
                 he = max(h, wa)
                 h1 = max(h, 1.0)
                 lever = lever_var[anchor_j] if anchor_j >= 0 else 0.0
-                ablock = 0.0
+                ablock = check_var if anchor_m == ms else 0.0
                 for j in range(nh):
                     if max(1, horizons[j] // 4) == anchor_m:
                         ablock = block_var[j]
                 var = (2.0 * h1 * h1 * _avar(h0, hm1, hm2, h1) + h1 * h1 * _avar(h0, hm1, hm2, wa) + check_var + ablock
                        + lever * (h1 / wa) ** 2)
-                tol = readmit_k * math.sqrt(var) + drift * he * he
+                aging = drift * he * he
                 judged = have and math.isfinite(bs)
-                agree_now = judged and abs(bs - (anchor + anchor_f * h)) < tol
+                miss = abs(bs - (anchor + anchor_f * h))
+                agree_now = judged and miss < readmit_k * math.sqrt(var) + aging
+                strayed = judged and not miss < k_sigma * math.sqrt(var) + aging
+                if watched and watch == 0 and have:  # the first clear agreement, from one sample on
+                    lo = max(k - ms, start - 1)
+                    c0 = csum[lo % L] if lo >= 0 else 0.0
+                    t0 = tsum[lo % L] if lo >= 0 else 0.0
+                    n0 = count[lo % L] if lo >= 0 else 0
+                    n = count[k % L] - n0
+                    if n > 0:
+                        bp = (csum[k % L] - c0) / n
+                        hp = (tsum[k % L] - t0) / n - anchor_t
+                        hp1 = max(hp, 1.0)
+                        var_p = (2.0 * hp1 * hp1 * _avar(h0, hm1, hm2, hp1) + hp1 * hp1 * _avar(h0, hm1, hm2, wa)
+                                 + recent_var[n] + ablock + lever * (hp1 / wa) ** 2)
+                        first = (abs(bp - (anchor + anchor_f * hp))
+                                 < readmit_k * math.sqrt(max(var_p, 0.0)) + drift * max(hp, wa) ** 2)
+            if watched and strayed:
+                refuse = True
+                watch = -1
+            elif first:
+                watch = 1
+            elif watched and judged and watch > 0:
+                watch += 1
+            if watch >= readmit_s:
+                watch = -1
             if not refused:
                 agree = 0
             elif judged:
@@ -310,7 +362,10 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 streak = 0
             if readmit:
                 agree = 0
-            plausible[i, k] = 1 if trusted else 0
+            if have:
+                last = k
+            # Back from a gap, the series is not trusted until its first check block agrees with the prediction.
+            plausible[i, k] = 1 if (trusted and watch != 0) else 0
             readmitted[i, k] = 1 if readmit else 0
             stat[i, k] = worst
     return plausible, readmitted, stat

@@ -28,6 +28,14 @@ block mean at ``k - 2W`` and the frequency to it over the longest horizon before
 that prediction's uncertainty, with its history
 cleared (and, in fusion, its weight earned anew: :attr:`PlausibilityRun.readmitted`).
 
+A gap blinds the second differences: a drag or a step that happens while a series is away (an outage over the
+spoofer's onset) is, after it, a frequency offset and a jump that no difference reaching back past the gap
+can see until the history holds ``2W`` on each side. So where a series' samples stop, the prediction's anchor
+is taken as above from the history before the gap; a series back after ``recheck_gap_s`` or more seconds is
+*watched*: untrusted until its samples' mean agrees with the prediction within ``readmit_k_sigma`` (one sample
+on, with that mean's own noise: usually at once), refused like any series when a check block misses it by more
+than ``k_sigma``, and free of the watch after ``readmit_s`` judged seconds.
+
 :class:`DragMonitor` is the readable per-second core over (N, S) arrays; :meth:`DragMonitor.run` runs it
 over (N, S, steps).
 """
@@ -110,7 +118,8 @@ class DragMonitor:
     (:class:`ReferenceNoise`); ``k_sigma``; ``persist``: seconds over threshold before a refusal;
     ``max_horizon_s``; ``readmit_s``: seconds of agreement with the holdover prediction, within ``readmit_k_sigma``
     of its uncertainty (stricter than the refusal: a series comes back only when clearly right), before re-admission;
-    ``check_block_s``: the block mean compared with the prediction while refused.
+    ``check_block_s``: the block mean compared with the prediction while refused or watched; ``recheck_gap_s``: the
+    shortest gap after which a series is watched (module docstring).
     """
 
     h0: float
@@ -124,6 +133,7 @@ class DragMonitor:
     readmit_s: int = 300
     readmit_k_sigma: float = 3.0
     check_block_s: int = 16
+    recheck_gap_s: int = 32
     horizons: tuple[int, ...] = field(init=False)
     thresholds_s: tuple[float, ...] = field(init=False)
 
@@ -133,6 +143,7 @@ class DragMonitor:
         check_scalar(self.max_horizon_s, "max_horizon_s", min_val=4, integer=True)
         check_scalar(self.readmit_s, "readmit_s", min_val=1, integer=True)
         check_scalar(self.check_block_s, "check_block_s", min_val=1, integer=True)
+        check_scalar(self.recheck_gap_s, "recheck_gap_s", min_val=1, integer=True)
         horizons = []
         w = 4
         while w <= self.max_horizon_s:
@@ -198,8 +209,10 @@ class DragMonitor:
         gm = np.array(self.noise.gauss_markov, dtype=np.float64).reshape(-1, 2)
         scalars = np.array([self.h0, self.hm1, self.hm2, self.drift_per_s, self.k_sigma, self.persist, self.readmit_s,
                             self.check_block_s, self._ring, self.noise.block_var(max(1, self.check_block_s // 2)),
-                            self.readmit_k_sigma])
-        return w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]), scalars
+                            self.readmit_k_sigma, self.recheck_gap_s])
+        recent = np.array([0.0] + [self.noise.block_var(n) for n in range(1, self.check_block_s + 1)])
+        return (w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]),
+                recent, scalars)
 
     @property
     def _ring(self) -> int:
@@ -232,7 +245,25 @@ class DragMonitor:
         return {"k": 0, "csum": np.zeros(shape + (L,)), "tsum": np.zeros(shape + (L,)), "count": np.zeros(shape + (L,), np.int64),
                 "start": np.zeros(shape, np.int64), "trusted": np.ones(shape, bool), "streak": np.zeros(shape, np.int64),
                 "agree": np.zeros(shape, np.int64), "anchor": np.zeros(shape), "anchor_f": np.zeros(shape),
-                "anchor_t": np.zeros(shape), "anchor_w": np.ones(shape, np.int64), "anchor_m": np.ones(shape, np.int64)}
+                "anchor_t": np.zeros(shape), "anchor_w": np.ones(shape, np.int64), "anchor_m": np.ones(shape, np.int64),
+                "last": np.full(shape, -1, np.int64), "watch": np.full(shape, -1, np.int64),
+                "gap_anchor": np.full(shape, np.nan), "gap_f": np.zeros(shape), "gap_t": np.zeros(shape),
+                "gap_w": np.ones(shape, np.int64)}
+
+    def _recent(self, state, k, m):
+        """The mean, mean time and count of the samples in (k - m, k] since the history's ``start``, from one
+        sample on (NaN, NaN, 0 without one)."""
+        L = self._ring
+        lo = np.maximum(k - m, state["start"] - 1)
+        early = lo < 0
+        i0 = np.where(early, 0, lo) % L
+        c0 = np.where(early, 0.0, np.take_along_axis(state["csum"], i0[..., None], -1)[..., 0])
+        t0 = np.where(early, 0.0, np.take_along_axis(state["tsum"], i0[..., None], -1)[..., 0])
+        n0 = np.where(early, 0, np.take_along_axis(state["count"], i0[..., None], -1)[..., 0])
+        n = state["count"][..., k % L] - n0
+        safe = np.where(n > 0, n, 1)
+        return (np.where(n > 0, (state["csum"][..., k % L] - c0) / safe, np.nan),
+                np.where(n > 0, (state["tsum"][..., k % L] - t0) / safe, np.nan), n)
 
     def _block_mean(self, state, end, m):
         """Block mean over (end - m, end] per series and the mean time of its samples (NaN where that block
@@ -250,19 +281,21 @@ class DragMonitor:
         safe = np.where(n > 0, n, 1)
         return np.where(ok, (c1 - c0) / safe, np.nan), np.where(ok, (t1 - t0) / safe, np.nan)
 
-    def _anchor(self, state, k, w, m):
-        """The holdover prediction's anchor for an excursion seen at horizon ``w`` (the longest one over its
-        threshold, so that the anchor most likely precedes the excursion's start): the block mean at ``k - 2w``
-        (before the excursion began) and the frequency to it from the longest horizon's block before it
-        (``w``'s own when the history is shorter); returns (phase, frequency, centre, frequency span)."""
-        b1, c1 = self._block_mean(state, k - 2 * w, m)
+    def _anchor(self, state, end, m):
+        """The holdover prediction's anchor: the ``m``-second block mean ending at second ``end`` and the
+        frequency to it from the longest horizon's block before it; returns (phase, frequency, centre,
+        frequency span). For an excursion seen at horizon ``w`` (the longest one over its threshold, so that the
+        anchor most likely precedes the excursion's start) ``end = k - 2w``; for a gap, the gap's last
+        second before it."""
+        b1, c1 = self._block_mean(state, end, m)
         f = np.full(b1.shape, np.nan)
         span = np.zeros(b1.shape, np.int64)
         for wl in self.horizons[::-1]:
             ml = self.block(wl)
-            b0, c0 = self._block_mean(state, k - 2 * w - wl, ml)
+            b0, c0 = self._block_mean(state, end - wl, ml)
             take = np.isnan(f) & np.isfinite(b0)
-            f = np.where(take, (b1 - b0) / (c1 - c0), f)
+            with np.errstate(divide="ignore", invalid="ignore"):  # where not taken (series not at an anchor)
+                f = np.where(take, (b1 - b0) / (c1 - c0), f)
             span = np.where(take, wl, span)
         return b1, np.where(np.isnan(f), 0.0, f), c1, np.maximum(span, 1)
 
@@ -296,25 +329,59 @@ class DragMonitor:
             for w in self.horizons:
                 sel = refuse & (first_w == w)
                 if sel.any():
-                    a, f, c, span = self._anchor(state, k, w, self.block(w))
+                    a, f, c, span = self._anchor(state, k - 2 * w, self.block(w))
                     state["anchor"] = np.where(sel, a, state["anchor"])
                     state["anchor_f"] = np.where(sel, f, state["anchor_f"])
                     state["anchor_t"] = np.where(sel, c, state["anchor_t"])
                     state["anchor_w"] = np.where(sel, span, state["anchor_w"])
                     state["anchor_m"] = np.where(sel, self.block(w), state["anchor_m"])
         ms = self.check_block_s
+        # A gap: where the samples stop, the prediction's anchor is taken from the history before it; a series
+        # back after ``recheck_gap_s`` or more seconds without one is held to it (``watch``, below).
+        stops = ~have & (state["last"] == k - 1)
+        if stops.any():
+            a, f, c, span = self._anchor(state, k - 1, ms)
+            for key, value in (("gap_anchor", a), ("gap_f", f), ("gap_t", c), ("gap_w", span)):
+                state[key] = np.where(stops, value, state[key])
+        back = (have & trusted & ~refuse & (state["last"] >= 0) & (k - state["last"] - 1 >= self.recheck_gap_s)
+                & np.isfinite(state["gap_anchor"]))
+        if back.any():
+            for key, gap_key in (("anchor", "gap_anchor"), ("anchor_f", "gap_f"), ("anchor_t", "gap_t"),
+                                 ("anchor_w", "gap_w")):
+                state[key] = np.where(back, state[gap_key], state[key])
+            state["anchor_m"] = np.where(back, ms, state["anchor_m"])
+        watch = np.where(back, 0, np.where(refuse, -1, state["watch"]))
         bs, ts = self._block_mean(state, k, ms)
         h = np.where(np.isfinite(ts), ts, k - (ms - 1) / 2.0) - state["anchor_t"]
         wa = state["anchor_w"].astype(np.float64)
-        tol = (self.readmit_k_sigma * np.sqrt(self._prediction_var_s2(h, wa, state["anchor_m"]))
-               + self.drift_per_s * np.maximum(h, wa) ** 2)
+        sd = np.sqrt(self._prediction_var_s2(h, wa, state["anchor_m"]))
+        aging = self.drift_per_s * np.maximum(h, wa) ** 2
         judged = have & np.isfinite(bs)
-        agree_now = judged & (np.abs(bs - (state["anchor"] + state["anchor_f"] * h)) < tol)
+        miss = np.abs(bs - (state["anchor"] + state["anchor_f"] * h))
+        agree_now = judged & (miss < self.readmit_k_sigma * sd + aging)
+        # Watched, a series is refused as a series is (``k_sigma``); it is trusted again from its first clear
+        # agreement (``readmit_k_sigma``), and watched for ``readmit_s`` judged seconds.
+        watched = trusted & ~refuse & (watch >= 0)
+        # Its first clear agreement is taken from the samples it has, one on (each second untrusted is a
+        # second of holdover): their mean's own noise in place of the check block's.
+        bp, tp, n = self._recent(state, k, ms)
+        hp = tp - state["anchor_t"]
+        var_p = (self._prediction_var_s2(hp, wa, state["anchor_m"]) - self.noise.block_var(max(1, ms // 2))
+                 + np.vectorize(self.noise.block_var, otypes=[float])(np.maximum(n, 1)))
+        first = (watched & (watch == 0) & have & (n > 0)
+                 & (np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
+                    < self.readmit_k_sigma * np.sqrt(np.maximum(var_p, 0.0)) + self.drift_per_s * np.maximum(hp, wa) ** 2))
+        strayed = watched & judged & ~(miss < self.k_sigma * sd + aging)
+        refuse = refuse | strayed
+        watch = np.where(strayed, -1, np.where(first, 1, np.where(watched & judged & (watch > 0), watch + 1, watch)))
+        watch = np.where(watch >= self.readmit_s, -1, watch)
         refused = ~trusted
         agree = np.where(refused, np.where(judged, np.where(agree_now, state["agree"] + 1, 0), state["agree"]), 0)
         readmit = refused & (agree >= np.maximum(self.readmit_s, 4 * state["anchor_m"]))
         state["start"] = np.where(readmit, k + 1, state["start"])
         trusted = (trusted & ~refuse) | readmit
         state.update(trusted=trusted, streak=np.where(refuse | readmit, 0, streak), agree=np.where(readmit, 0, agree),
-                     k=k + 1)
+                     watch=watch, last=np.where(have, k, state["last"]), k=k + 1)
+        # Back from a gap, the series is not trusted until its first check block agrees with the prediction.
+        return state, trusted & (watch != 0), readmit, worst
         return state, trusted.copy(), readmit, worst
