@@ -166,3 +166,11 @@ def test_every_oscillator_preset_runs_on_the_command_line(oscillator):
 
 def test_an_unknown_oscillator_is_refused_naming_the_option():
     _refusal(_run("--oscillator", "maser", "--duration", "3600"), "--oscillator")
+
+
+def test_a_pi_loop_bandwidth_past_the_stability_edge_is_refused_naming_the_option(tmp_path):
+    # 0.3 Hz passed the option's (0, 0.5] range and then failed deep inside the servo naming kp.
+    result = _run("--controller", "pi", "--loop-bandwidth", "0.3", "--duration", "3600", "--out", str(tmp_path / "out"))
+    assert result.exit_code == 2
+    assert "--loop-bandwidth" in result.output and "0.1318" in result.output and "kp" not in result.output
+    assert not (tmp_path / "out").exists()

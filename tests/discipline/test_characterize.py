@@ -178,3 +178,15 @@ def test_a_frequency_record_given_as_phase_is_refused():
         characterize(y, 1.0, "phase", source="ocxo.txt")
     with pytest.raises(InputError, match="frequency record given as phase"):
         characterize(y * 1e7 + 1e7, 1.0, "phase", source="ocxo.txt")
+
+
+@pytest.mark.parametrize("rate_hz", [1.0, 10.0])
+def test_the_pi_advice_is_a_stable_loop_even_where_the_crossover_is_a_few_samples(rate_hz):
+    # A TCXO against a 0.1 ns receiver crosses over within a sample or two: the advice was capped at a quarter
+    # of the rate, 0.25 Hz at 1 Hz, a loop whose poles lie outside the unit circle (kp 3.1).
+    from chronofuse.discipline.characterize import recommend_loop
+    from chronofuse.models.oscillator_presets import preset
+
+    advice = recommend_loop(preset("tcxo").h, 1e-10, rate_hz)
+    kp, ki = advice.pi_kp, advice.pi_ki
+    assert max(abs(np.roots([1.0, -(2 - kp - ki), 1 - kp]))) < 1.0

@@ -135,3 +135,27 @@ def test_a_multiphase_counter_in_the_loop_quantizes_offsets_to_its_resolution():
     err = run.offset_s - run.phase_s
     assert np.all(np.abs(err) <= counter.resolution_s * 1.0001)
     assert np.sqrt(np.mean(err**2)) == pytest.approx(counter.resolution_s / math.sqrt(6) * 4 / 4, rel=0.25)
+
+
+@pytest.mark.parametrize("damping", [0.5, 0.707, 1.0, 2.0])
+def test_the_highest_designable_bandwidth_is_the_discrete_loops_stability_edge(damping):
+    # The closed loop's poles, z^2 - (2 - kp - ki) z + (1 - kp) = 0, leave the unit circle at max_natural_hz:
+    # an independent check of the bound by the poles themselves, just inside and just outside it.
+    from chronofuse.discipline.pi import PiServoConfig, max_natural_hz
+    from chronofuse.validation import InputError
+
+    edge = max_natural_hz(damping)
+
+    def radius(natural_hz):
+        u = 2 * math.pi * natural_hz
+        kp, ki = 2 * damping * u, u * u
+        return max(abs(np.roots([1.0, -(2 - kp - ki), 1 - kp])))
+
+    assert radius(0.999 * edge) < 1.0 < radius(1.001 * edge)
+    PiServo.from_bandwidth(0.999 * edge, damping)
+    with pytest.raises(InputError, match="natural_hz"):
+        PiServo.from_bandwidth(1.001 * edge, damping)
+    with pytest.raises(ValueError, match="unstable"):
+        PiServoConfig(natural_hz=1.001 * edge, damping=damping)
+    with pytest.raises(ValueError, match="2 kp \\+ ki"):
+        PiServoConfig(kp=1.9, ki=0.3)

@@ -248,7 +248,7 @@ def recommend_loop(h: PowerLaw, receiver_sigma_s: float, rate_hz: float = 1.0) -
     from scipy.linalg import solve_discrete_are
 
     from chronofuse.discipline.kalman import KalmanServo
-    from chronofuse.discipline.pi import PiServo
+    from chronofuse.discipline.pi import PiServo, max_natural_hz
 
     check_scalar(receiver_sigma_s, "receiver_sigma_s", min_val=0.0, include_min=False)
     tau = np.logspace(0, 7, 1401) / rate_hz
@@ -264,7 +264,8 @@ def recommend_loop(h: PowerLaw, receiver_sigma_s: float, rate_hz: float = 1.0) -
         P = solve_discrete_are(F.T, H.T, Q + 1e-60 * np.eye(F.shape[0]), R)
     K = (P @ H.T / (H @ P @ H.T + R)[0, 0]).ravel()
     natural = 1.0 / (2.0 * math.pi * crossover)
-    natural = min(natural, 0.25 * rate_hz)
+    # A crossover of a few samples asks for more than a sampled PI loop can take: half its stability edge.
+    natural = min(natural, 0.5 * max_natural_hz(1.0, 1.0 / rate_hz))
     pi = PiServo.from_bandwidth(natural, interval_s=1.0 / rate_hz)
     return LoopAdvice(receiver_sigma_s=float(receiver_sigma_s), crossover_s=crossover,
                       kalman_gains=(float(K[0]), float(K[1]) * rate_hz, float(K[2]) * rate_hz**2),

@@ -25,7 +25,7 @@ import math
 
 import numba
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.servo import Servo
@@ -33,7 +33,7 @@ from chronofuse.discipline.servo_kernel import SAMPLE
 from chronofuse.registry import Config
 from chronofuse.validation import check_scalar
 
-__all__ = ["PiServo", "PiServoConfig", "build_pi", "sample_pi", "SEED_KP", "SEED_KI"]
+__all__ = ["PiServo", "PiServoConfig", "build_pi", "sample_pi", "max_natural_hz", "SEED_KP", "SEED_KI"]
 
 SEED_KP = 0.5
 SEED_KI = 0.1
@@ -55,6 +55,14 @@ def sample_pi(offset_s, local_ts_s, weight, shift_s, applied, state, params, out
     return y
 
 
+def max_natural_hz(damping: float = 1.0, interval_s: float = 1.0) -> float:
+    """The highest natural frequency :meth:`PiServo.from_bandwidth` can design a stable loop for: with
+    ``u = w_n dt``, ``kp = 2 zeta u < 2`` and ``2 kp + ki = 4 zeta u + u^2 < 4`` (the module docstring's
+    conditions), so ``u < min(1 / zeta, 2 (sqrt(zeta^2 + 1) - zeta))`` (Hz; 0.1318 Hz at damping 1, 1 s)."""
+    u = min(1.0 / damping, 2.0 * (math.sqrt(damping * damping + 1.0) - damping))
+    return u / (2.0 * math.pi * interval_s)
+
+
 class PiServoConfig(Config):
     """Settings of the PI servo; ``natural_hz`` (when given) designs ``kp``, ``ki`` from a loop bandwidth."""
 
@@ -65,6 +73,15 @@ class PiServoConfig(Config):
     damping: float = Field(1.0, gt=0.0, description="damping of the designed loop (dimensionless)")
     step_threshold_s: float | None = Field(1e-6, ge=0.0,
                                            description="jam-sync threshold after a gap; None: never step (s)")
+
+    @model_validator(mode="after")
+    def _stable(self):
+        if self.natural_hz is not None and self.natural_hz >= max_natural_hz(self.damping):
+            raise ValueError(f"natural_hz {self.natural_hz} Hz at damping {self.damping} designs an unstable loop "
+                             f"sampled each second: it must be below {max_natural_hz(self.damping):.4g} Hz")
+        if self.natural_hz is None and 2.0 * self.kp + self.ki >= 4.0:
+            raise ValueError(f"kp {self.kp}, ki {self.ki}: 2 kp + ki must be below 4 for a stable loop")
+        return self
 
 
 def build_pi(config: PiServoConfig, context) -> PiServo:
@@ -97,6 +114,7 @@ class PiServo(Servo):
         ``kp = 2 zeta w_n dt``, ``ki = (w_n dt)^2`` with ``w_n = 2 pi natural_hz``."""
         check_scalar(natural_hz, "natural_hz", min_val=0.0, include_min=False)
         check_scalar(damping, "damping", min_val=0.0, include_min=False)
+        check_scalar(natural_hz, "natural_hz", max_val=max_natural_hz(damping, interval_s), include_max=False)
         wdt = 2.0 * math.pi * natural_hz * interval_s
         return cls(2.0 * damping * wdt, wdt * wdt, interval_s=interval_s, **kw)
 
@@ -109,6 +127,7 @@ class PiServo(Servo):
         super()._check()
         check_scalar(self.kp, "kp", min_val=0.0, max_val=2.0, include_max=False)
         check_scalar(self.ki, "ki", min_val=0.0, include_min=False)
+        check_scalar(2.0 * self.kp + self.ki, "2 kp + ki", max_val=4.0, include_max=False)
 
     def _initial(self, n):
         return {"integral": np.zeros(n)}

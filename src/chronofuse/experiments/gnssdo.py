@@ -58,6 +58,7 @@ from chronofuse.discipline.dac import Dac
 from chronofuse.discipline.design import clairvoyant_controller, design_measurement_sigma_s, equivalent_white_sigma_s
 from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
 from chronofuse.discipline.qualification import Qualification
+from chronofuse.discipline.pi import max_natural_hz
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.stages import LoopStage, StateStage
@@ -147,6 +148,10 @@ class GnssdoSetup:
                 raise InputError(f"{{loop_bandwidth_hz}} == {self.loop_bandwidth_hz}: {{controller}} "
                                  f"{self.controller!r} has no loop-bandwidth setting (pi has)",
                                  fields=("loop_bandwidth_hz", "controller"))
+            if self.loop_bandwidth_hz >= max_natural_hz(1.0):
+                raise InputError(f"{{loop_bandwidth_hz}} == {self.loop_bandwidth_hz}: a PI loop of damping 1 "
+                                 f"sampled each second is unstable from {max_natural_hz(1.0):.4g} Hz on",
+                                 fields=("loop_bandwidth_hz",))
         check_choice(self.fusion, "fusion", ("fusion", "selection"))
         check_choice(self.design, "design", ("fit", "datasheet"))
         if self.integrity_pfa is not None:
