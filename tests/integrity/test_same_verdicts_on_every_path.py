@@ -197,3 +197,33 @@ def test_detect_file_detect_pipe_and_the_monitor_agree_on_a_simulated_recording(
 
 def _interval_ns(grid: list[int]) -> int:
     return min(b - a for a, b in zip(grid, grid[1:])) if len(grid) > 1 else 10**18
+
+
+def test_a_paused_pipe_gets_every_closed_epochs_verdict_without_waiting_for_more_bytes():
+    # Live, the reorder buffer held the last two closed epochs until more bytes came: a receiver that paused
+    # (or a slow one) was two epochs behind. They are released after REORDER_HOLD_S of wall time, as the
+    # monitor releases them; only the epoch still open (its next epoch has not begun) waits.
+    import threading
+    import time
+
+    data = (RX / "gpsd/ublox-zed-f9p_hpg1.11.log").read_bytes()
+    half = data[:len(data) // 2]
+    args = [sys.executable, "-m", "chronofuse.cli.main", "detect", "-", "--json-lines", *MODEL, "--window", "20"]
+    env = {**os.environ, "COLUMNS": "88"}
+    batch = subprocess.run(args, input=half, capture_output=True, env=env, timeout=120).stdout.splitlines()
+    proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env)
+    lines: list[bytes] = []
+    reader = threading.Thread(target=lambda: lines.extend(proc.stdout), daemon=True)
+    reader.start()
+    proc.stdin.write(half)
+    proc.stdin.flush()
+    deadline = time.monotonic() + 60
+    while len(lines) < len(batch) - 1 and time.monotonic() < deadline:
+        time.sleep(0.2)
+    time.sleep(1.0)  # nothing more may come before the stream ends
+    paused = len(lines)
+    proc.stdin.close()
+    proc.wait(timeout=60)
+    reader.join(timeout=10)
+    assert paused == len(batch) - 1
+    assert [line.rstrip(b"\n") for line in lines] == batch

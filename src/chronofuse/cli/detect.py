@@ -19,6 +19,8 @@ import typer
 _EXIT_CODES = {"ok": 0, "alarm": 1, "unavailable": 3}  # chronofuse.integrity.modes.EXIT_CODES (a test checks)
 
 _MAX_TABLE_ROWS = 50
+#: How often an idle ``detect -`` wakes to release the epochs its reorder buffer holds (s).
+IDLE_TICK_S = 0.1
 
 # chronofuse.integrity.receiver_status.DEFAULT_MAX_TIME_ACC_S in ns (a test checks; not imported for --help)
 _DEFAULT_MAX_TACC_NS = 100.0
@@ -144,14 +146,14 @@ def _stream(file: Path, follow: float | None, json_lines: bool, json_out: bool, 
         source = sys.stdin.buffer if str(file) == "-" else open(file, "rb")  # noqa: SIM115
         try:
             if follow is None:
-                chunks = read_chunks(source)
+                chunks = read_chunks(source, idle_s=IDLE_TICK_S)
             else:
                 import io
 
                 text = io.TextIOWrapper(source, encoding="utf-8", errors="replace")
                 chunks = (line.encode() for line in follow_lines(text, idle_s=follow))
             run = StreamDetection(chunks, detection_settings(detector, **settings), source=name, rate_hz=rate_hz, column=column,
-                                  station=station)
+                                  station=station, live=follow is None)
             for key, verdict in run:
                 if json_lines:
                     line = verdict.as_json() if key is None or station is not None else {"station": key,

@@ -17,6 +17,7 @@ A clock product without ``station`` watches every station (verdicts ``(station, 
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Iterator
 
 import numpy as np
@@ -25,7 +26,7 @@ from chronofuse.integrity.document import check_length, detection_document
 from chronofuse.integrity.products import product_document, station_row
 from chronofuse.integrity.streaming import EpochVerdict
 from chronofuse.integrity.watch import DetectionSettings, ClockWatch
-from chronofuse.io.arrival import arrival_warnings
+from chronofuse.io.arrival import REORDER_HOLD_S, arrival_warnings
 from chronofuse.io.capture_series import clock_epochs, clock_grid, no_bias_reason
 from chronofuse.io.formats import check_applies
 from chronofuse.io.grid import GridPlacer
@@ -79,7 +80,8 @@ class StreamDetection:
     epochs are decided; then :meth:`document`."""
 
     def __init__(self, chunks: Iterable[bytes], settings: DetectionSettings, *, source: str = "<stdin>",
-                 rate_hz: float | None = None, column: str | None = None, station: str | None = None):
+                 rate_hz: float | None = None, column: str | None = None, station: str | None = None,
+                 live: bool = False):
         self.settings, self.source, self.rate_hz, self.station = settings, source, rate_hz, station
         self.reader, self._chunks = open_stream(chunks, source, column=column, rate_hz=rate_hz)
         check_applies(self.reader.kind, source, column=column, rate_hz=rate_hz)  # as detect FILE refuses them
@@ -87,6 +89,29 @@ class StreamDetection:
             raise InputError("{station} needs a RINEX clock product (.clk)", source, fields=("station",))
         self.clocks: dict[str | None, _Clock] = {}
         self._done = False
+        #: Live (a reader that ticks when idle, :func:`~chronofuse.io.record_streams.read_chunks`): a receiver's
+        #: epochs held for a late one are released after :data:`~chronofuse.io.arrival.REORDER_HOLD_S` of wall
+        #: time, as the monitor releases them; a file or a pipe written faster than that reads as in batch.
+        self.live = live
+        self._chunk_wall: dict[int, float] = {}
+
+    def _release_held(self, data: bytes) -> list:
+        decoder = getattr(self.reader, "decoder", None)
+        if decoder is None or not hasattr(decoder, "oldest_held_chunk"):
+            return []
+        now = time.monotonic()
+        if data:
+            self._chunk_wall[decoder.n_chunks] = now
+        chunk = decoder.oldest_held_chunk
+        if chunk is None:
+            self._chunk_wall.clear()
+            return []
+        closed = self._chunk_wall.get(chunk)
+        if closed is None or now - closed < REORDER_HOLD_S:
+            return []
+        self._chunk_wall = {c: t for c, t in self._chunk_wall.items() if c > chunk}
+        record = decoder.release_held()
+        return [] if record is None else [(None, record)]
 
     def _placer(self) -> GridPlacer:
         if isinstance(self.reader, ReceiverBytes):
@@ -114,7 +139,10 @@ class StreamDetection:
 
     def __iter__(self) -> Iterator[tuple[str | None, EpochVerdict]]:
         for data in self._chunks:
-            yield from self._take(self.reader.feed(data))
+            if data:
+                yield from self._take(self.reader.feed(data))
+            if self.live:
+                yield from self._take(self._release_held(data))
         yield from self._take(self.reader.close())
         for key, clock in self.clocks.items():
             for verdict in clock.close():

@@ -10,7 +10,7 @@ when one more arrives, so an epoch that comes at most that many epochs late is p
 and one whose time repeats an epoch held or just released is dropped too (``n_repeated``, the first kept).
 
 Every decision depends on the epochs before it in stream order only, so a stream pushed whole or in any
-chunks gives the same epochs. Live (the monitor), an epoch is also released once it has been held
+chunks gives the same epochs. Live (the monitor, and ``detect -``), an epoch is also released once it has been held
 :data:`REORDER_HOLD_S` of wall time, so the output is not two epochs behind a slow receiver; the same bytes
 arriving at the same times give the same epochs on every run, and a replay or a file, which arrives faster
 than that, gives the batch reader's.

@@ -309,8 +309,29 @@ class _Gunzip:
             raise InputDataError(f"broken gzip stream: {err}") from None
 
 
-def read_chunks(stream, size: int = 65536) -> Iterator[bytes]:
-    """The bytes of a binary stream as they arrive (a pipe's or a FIFO's read returns what is there)."""
+def read_chunks(stream, size: int = 65536, *, idle_s: float | None = None) -> Iterator[bytes]:
+    """The bytes of a binary stream as they arrive (a pipe's or a FIFO's read returns what is there).
+
+    ``idle_s``: a stream with a file descriptor also yields ``b""`` after each ``idle_s`` seconds without
+    bytes, a tick on which a live reader can release what it holds (:mod:`chronofuse.io.arrival`)."""
+    fileno = getattr(stream, "fileno", None)
+    try:
+        fd = fileno() if idle_s is not None and fileno is not None else None
+    except (OSError, ValueError):  # an in-memory stream: no descriptor to wait on
+        fd = None
+    if fd is not None:
+        import os
+        import select
+
+        while True:
+            ready, _, _ = select.select([fd], [], [], idle_s)
+            if not ready:
+                yield b""
+                continue
+            data = os.read(fd, size)
+            if not data:
+                return
+            yield data
     read = getattr(stream, "read1", stream.read)
     while True:
         data = read(size)
