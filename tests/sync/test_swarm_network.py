@@ -143,3 +143,40 @@ def test_the_leader_loss_removes_the_elected_leader_not_node_0():
     assert lead[29] == 1
     assert run.alive[1, 30:].sum() == 0 and run.alive[1, :30].all() and run.alive[0].all()
     assert -1 in lead[30:35] and lead[-1] not in (-1, 1)  # a gap while it is noticed, then a new leader
+
+
+def test_a_leader_whose_every_link_is_cut_is_replaced_and_leads_again_once_heard():
+    # Alive but unheard: its announces travel over the links it no longer has. It was kept as the leader for
+    # the whole cut, every follower in holdover on its frozen path.
+    sc = SwarmScenario(nodes=10, duration_s=300.0, cut_off=((0, 60.0, 200.0),))
+    run = run_swarm(sc, 3)
+    lead = run.time.leader
+    assert np.all(lead[:60] == 0) and np.all(lead[60:63] == -1)
+    new = int(lead[63])
+    assert new > 0 and np.all(lead[63:200] == new)
+    assert np.all(run.time.state[0, 60:200] == HOLDOVER)
+    others = [i for i in range(1, 10) if i != new]
+    # The others follow the new leader, locked, within a few ns of it, for the whole cut
+    to_leader = run.to_leader_s()
+    assert np.all(run.time.state[others, 70:200] == LOCKED)
+    assert np.nanmax(np.abs(to_leader[others, 70:200])) < 6e-9
+    # The best clock (the GNSS leader) leads again at the first announce it is heard, and the others lock to it
+    assert np.all(lead[200:] == 0) and np.all(run.time.state[others + [new], 230:] == LOCKED)
+
+
+def test_a_leader_that_left_exchanges_nothing_and_its_successors_uncertainty_says_so():
+    # The links to a node that left kept measuring its clock, so the new leader's frozen path was refreshed by
+    # a node no longer there (its sigma stayed at 0.4 ns). Now the path is predicted, and its sigma grows as
+    # the link filters' prediction does; the followers' claim (LOCKED) is about their time against the
+    # leader's and stays.
+    sc = SwarmScenario(nodes=10, duration_s=300.0, leader_loss_at_s=60.0)
+    run = run_swarm(sc, 3)
+    new = int(run.time.leader[-1])
+    assert not run.usable[(run.links == 0).any(axis=1)][:, 60:].any()
+    sigma = run.time.sigma_s[new, 80:]
+    assert np.all(np.diff(sigma) > 0) and sigma[-1] > 3 * sigma[0]
+    others = [i for i in range(1, 10) if i != new]
+    assert np.all(run.time.state[others, 90:] == LOCKED)
+    # and the grown uncertainty covers the new leader's drift from the lost leader's (true) time
+    drift = np.abs(run.to_true_s[new, 80:] - run.to_true_s[new, 80])
+    assert np.all(drift < 4 * np.sqrt(sigma**2 + sigma[0] ** 2))

@@ -34,7 +34,8 @@ from chronofuse.sync.calibration import CalibrationConfig, calibrate_urt
 from chronofuse.sync.prior import LinkPrior
 from chronofuse.sync.registry import LinkKnowledge, make_algorithm
 from chronofuse.sync.states import FAULT
-from chronofuse.sync.swarm.election import CLASS_GNSS, CLASS_HOLDOVER, OSCILLATOR_QUALITY, ClockQuality, leader_timeline
+from chronofuse.sync.swarm.election import (CLASS_GNSS, CLASS_HOLDOVER, OSCILLATOR_QUALITY, ClockQuality, heard,
+                                            leader_timeline)
 from chronofuse.sync.swarm.graph import in_range, neighbour_links
 from chronofuse.sync.swarm.timekeeping import SwarmTime, compose_network_time
 from chronofuse.validation import InputError, check_array, check_choice, check_scalar
@@ -283,6 +284,8 @@ def run_swarm(sc: SwarmScenario, seed=0, *, scheduler: str | None = "serial", ch
     ``tcp://HOST:PORT``; the numbers do not depend on it."""
     truth = swarm_truth(sc, child_seed(root_seed(seed), 0))
     up = _link_up(sc, truth, child_seed(root_seed(seed), 1))
+    alive = _alive(sc, _qualities(sc))
+    up &= alive[truth["links"][:, 0]] & alive[truth["links"][:, 1]]  # no exchange with a node that left
     tasks = link_tasks(sc, truth, up, child_seed(root_seed(seed), 2), chunk_links=chunk_links)
     if scheduler == "serial":
         parts = [run_link_task(t) for t in tasks]
@@ -302,8 +305,7 @@ def run_swarm(sc: SwarmScenario, seed=0, *, scheduler: str | None = "serial", ch
     for part in parts:
         for k in merged:
             merged[k][part["ids"]] = part[k]
-    alive = _alive(sc, _qualities(sc))
-    leader = leader_timeline(_qualities(sc), alive, steps, sc.interval_s)
+    leader = leader_timeline(_qualities(sc), heard(alive, truth["links"], up), steps, sc.interval_s)
     time = compose_network_time(truth["links"], merged["estimate_s"], merged["sigma_s"], merged["usable"], leader,
                                 alive, link_fault=merged["fault"], topology=sc.topology,
                                 leader_weight=sc.leader_weight, interval_s=sc.interval_s)

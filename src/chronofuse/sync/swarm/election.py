@@ -11,6 +11,8 @@ h_-2 tau + D^2 tau^2 / 2``), mapped to an IEEE 1588 Table 5 accuracy code and to
 log scaling; the reference level is ours). A leader that stops announcing is lost after
 ``announce_timeout`` intervals (linuxptp's ``announceReceiptTimeout``, default 3); the next best alive node
 then leads, at the next announce: a new leader within ``(announce_timeout + 1) announce_interval_s``.
+An announce travels over the radio links: a node alive but with every link cut is not heard (:func:`heard`),
+so a leader cut off is replaced in the same time.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from chronofuse.models.oscillator_presets import PRESETS
 from chronofuse.validation import check_scalar
 
 __all__ = ["CLASS_GNSS", "CLASS_HOLDOVER", "CLASS_FREE", "OSCILLATOR_QUALITY", "ClockQuality", "elect",
-           "leader_timeline"]
+           "heard", "leader_timeline"]
 
 CLASS_GNSS, CLASS_HOLDOVER, CLASS_FREE = 6, 7, 248
 
@@ -64,6 +66,22 @@ def elect(qualities: list[ClockQuality], alive) -> int:
     if not best:
         raise ValueError("no node is alive to lead")
     return min(best).identity
+
+
+def heard(alive, links, up) -> np.ndarray:
+    """Whose announces reach the swarm (nodes, steps): a node alive with at least one link up to another alive
+    node (``links`` (L, 2) node pairs, ``up`` (L, steps) radio availability). A leader whose every link is cut
+    is lost to the others as one that left is (and leads again, if still the best, once it is heard); a swarm
+    of one node hears itself."""
+    alive = np.asarray(alive, dtype=bool)
+    if alive.shape[0] == 1:
+        return alive.copy()
+    links = np.asarray(links, dtype=np.int64).reshape(-1, 2)
+    both = np.asarray(up, dtype=bool) & alive[links[:, 0]] & alive[links[:, 1]]
+    out = np.zeros(alive.shape, dtype=bool)
+    for end in (0, 1):
+        np.logical_or.at(out, links[:, end], both)
+    return out & alive
 
 
 def leader_timeline(qualities_at, alive, steps: int, interval_s: float, *, announce_interval_s: float = 1.0,

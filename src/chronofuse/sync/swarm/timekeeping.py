@@ -20,8 +20,9 @@ A leader with GNSS time defines the network's time itself (empty path).
 ``c_i <- w c_i + (1 - w) mean_j (c_j + s e_l)`` (one Jacobi round per exchange, as ATS-like protocols do),
 anchored to the tree with weight ``w``; its uncertainty is kept at the tree's (conservative).
 
-States per node and exchange: the leader ``LEADER``; a follower with a path ``LOCKED`` once ``sigma_i`` has
-stayed below ``lock_sigma_s`` for ``lock_hold_s``, else ``ACQUIRING``; without a path ``HOLDOVER`` (``FAULT`` if
+States per node and exchange: the leader ``LEADER``; a follower with a path ``LOCKED`` once its own part of
+``sigma_i`` (without the leader's, ``sqrt(sigma_i^2 - sigma_root^2)``: a new leader's frozen path is common to
+all) has stayed below ``lock_sigma_s`` for ``lock_hold_s``, else ``ACQUIRING``; without a path ``HOLDOVER`` (``FAULT`` if
 one of its links was flagged by the URT monitor). A node cut off before it locked is in HOLDOVER, with the
 large uncertainty of a filter that had not converged.
 """
@@ -119,7 +120,10 @@ def compose_network_time(links, estimate_s, sigma_s, usable, leader, alive, *, g
                 sigma[i, k] = np.sqrt(sum(var[l, k] for l, _ in paths[i]))
         if topology == "consensus" and root >= 0:
             corr[:, k] = _consensus_round(corr[:, k], links, est[:, k], ok, reached, parent[:, k], root, leader_weight)
-        below = np.where(reached & (sigma[:, k] <= states.lock_sigma_s), below + interval_s, 0.0)
+        # Locked is a follower's claim about its time against the leader's: the uncertainty of a leader in
+        # holdover on its frozen path (common to every follower) is in sigma_s, not in the claim.
+        own = np.sqrt(np.maximum(sigma[:, k] ** 2 - (sigma[root, k] ** 2 if root >= 0 else 0.0), 0.0))
+        below = np.where(reached & (own <= states.lock_sigma_s), below + interval_s, 0.0)
         state[:, k] = np.where(reached, np.where(below >= states.lock_hold_s, LOCKED, ACQUIRING), HOLDOVER)
         if root >= 0:
             state[root, k] = LEADER
