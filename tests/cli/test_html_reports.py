@@ -215,3 +215,44 @@ def test_the_time_axis_unit_follows_the_span():
     assert time_axis(3600.0) == (60.0, "min")
     assert time_axis(86_400.0) == (3600.0, "h")
     assert math.isclose(time_axis(600.0)[0], 1.0) and np.isfinite(time_axis(1e7)[0])
+
+
+def test_the_raim_report_gives_the_verdict_the_levels_and_every_faulty_epoch(browser, tmp_path):
+    # The page of detect --raim had the clock-bias page's "integrity" row only, with no levels, no limits,
+    # no satellite: a real IGS station clean (PASS everywhere), then the same station with a 150 m bias added
+    # to one GPS satellite's every pseudorange for 100 epochs (FAIL, naming it).
+    from _helpers import igs_station_catalogue
+    from chronofuse.integrity.raim_station import raim_document
+    from chronofuse.report.html import detect_page
+
+    station = igs_station_catalogue()["ESBC"]
+    position = ",".join(f"{v:.4f}" for v in station.reference_m)
+    report = tmp_path / "raim.html"
+    args = ["detect", str(station.obs_path), *sum((["--nav", str(p)] for p in station.nav_paths), []), "--raim",
+            f"--position={position}", "--report", str(report), "--json", "--quiet"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output[-2000:]
+    doc = json.loads(result.stdout)
+    page = _page(browser, report)
+    _every_verdict_has_a_reason(page)
+    word, reason = page["verdicts"]["integrity (RAIM)"]
+    assert word == "PASS" and f"{doc['n_tested']:,} tested epochs" in reason
+    word, reason = page["verdicts"]["protection levels within the alert limits"]
+    assert f"HPL median {doc['hpl_m']['median']:.1f} m" in reason and "HAL 40 m" in reason
+    assert page["verdicts"]["the error stays inside the protection levels"][0] == "PASS"
+
+    obs = station.observations().select(slice(0, 400))
+    column = next(i for i, sat in enumerate(obs.satellites) if sat.startswith("G")
+                  and np.isfinite(obs.values["C1C"][100:200, i]).all())
+    for name, values in obs.values.items():
+        if name.startswith("C"):
+            values[100:200, column] += 150.0
+    faulty = raim_document(station.obs_path, station.nav_paths, observations=obs, navigation=station.navigation())
+    assert faulty["state"] == "alarm"
+    detect_page(faulty, tmp_path / "fault.html", str(station.obs_path))
+    page = _page(browser, tmp_path / "fault.html")
+    word, reason = page["verdicts"]["integrity (RAIM)"]
+    assert word == "FAIL" and f"{len(faulty['alarms'])} epoch(s) detected a fault" in reason
+    assert obs.satellites[column] in reason
+    rows = browser.find_elements(By.CSS_SELECTOR, "table tbody tr")
+    assert any(obs.satellites[column] in row.text for row in rows)

@@ -346,9 +346,62 @@ def _detect_verdict(subject: str, doc: dict) -> Verdict:
                                    f"{doc.get('threshold', float('nan')):.4g}{where}")
 
 
+def _metres(value) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:.1f} m"
+
+
+def _raim_section(doc: dict, file: str) -> Section:
+    """``detect OBS --nav NAV --raim``: the integrity verdict, the protection levels against the alert limits,
+    the check against a given position, and every epoch that detected a fault."""
+    states = doc["epoch_states"]
+    alarms = doc.get("alarms", [])
+    excluded = [a for a in alarms if a["state"] == "excluded"]
+    if doc["state"] == "alarm":
+        first = alarms[0]
+        verdict = Verdict("integrity (RAIM)", False,
+                          f"{len(alarms)} epoch(s) detected a fault: {len(excluded)} excluded a satellite "
+                          f"({', '.join(doc['excluded']) or 'none'}), {len(alarms) - len(excluded)} raised an alarm "
+                          f"naming none; the first at t = {first['t']:g} s (test statistic {first['statistic']:.4g})")
+    elif doc["state"] == "unavailable":
+        verdict = Verdict("integrity (RAIM)", None, "integrity unavailable: "
+                          + ("; ".join(doc.get("unavailable_reasons") or []) or "too few epochs could be tested"))
+    else:
+        verdict = Verdict("integrity (RAIM)", True, f"no fault detected in {doc['n_tested']:,} tested epochs "
+                          f"(availability {doc['availability']:.1%}, P_fa {doc['pfa']:g})")
+    hpl, vpl = doc["hpl_m"], doc["vpl_m"]
+    hal, val = doc["horizontal_alert_limit_m"], doc["vertical_alert_limit_m"]
+    levels = Verdict("protection levels within the alert limits", states.get("unavailable", 0) == 0,
+                     f"HPL median {_metres(hpl['median'])} (95 % {_metres(hpl['p95'])}) against HAL {hal:g} m, "
+                     f"VPL median {_metres(vpl['median'])} (95 % {_metres(vpl['p95'])}) against VAL {val:g} m; "
+                     f"{states.get('unavailable', 0):,} of {doc['n_epochs']:,} epochs unavailable")
+    verdicts = [verdict, levels]
+    check = doc.get("position_check")
+    if check is not None:
+        lo, hi = check["rate_ci95"]
+        verdicts.append(Verdict(
+            "the error stays inside the protection levels", check["n_beyond_level"] == 0 or lo <= doc["integrity_risk"],
+            f"against the position given: {check['n_beyond_level']} of {check['n_epochs']:,} available epochs beyond a "
+            f"level (95 % CI {lo:.2g}..{hi:.2g}; integrity risk {doc['integrity_risk']:g}); horizontal error median "
+            f"{check['horizontal_error_m']['median']:.2f} m, max {check['horizontal_error_m']['max']:.2f} m"))
+    rows = [[f"{a['t']:g}", a["state"], a["channel"], f"{a['statistic']:.4g}"] for a in alarms[:200]]
+    notes = [f"{file}: RAIM ({'+'.join(doc['systems'])}), {doc['n_epochs']:,} epochs: "
+             + ", ".join(f"{states[s]:,} {s}" for s in states),
+             f"minimum detectable bias median {_metres(doc['mdb_m']['median'])} at P_md {doc['p_md']:g}; "
+             f"integrity risk {doc['integrity_risk']:g} per epoch"]
+    if len(alarms) > 200:
+        notes.append(f"the table shows the first 200 of {len(alarms)} epochs that detected a fault")
+    notes += [f"warning: {w}" for w in doc.get("warnings", [])]
+    return Section("Position-domain integrity (RAIM)", verdicts,
+                   (["t (s)", "state", "satellite", "statistic"], rows) if rows else None, notes)
+
+
 def detect_page(doc: dict, path: Path, file: str, command: str = "chronofuse detect") -> Path:
     """The page of ``chronofuse detect FILE --report P.html``: the verdict with its reason, every alarm (or,
-    for a clock product, one verdict per station)."""
+    for a clock product, one verdict per station; for ``--raim``, the protection levels and every epoch that
+    detected a fault)."""
+    if doc["mode"] == "raim":
+        return write_html(path, f"chronofuse detect --raim: {Path(file).name}", [_raim_section(doc, file)],
+                          command=command)
     if doc["mode"] == "clock-product":
         verdicts = [_detect_verdict(f"{row['station']}: integrity", row) for row in doc["stations"]]
         sec = Section(f"Clock product: {doc['n_stations']} stations, overall {doc['state']}", verdicts,
