@@ -77,6 +77,8 @@ def test_the_compiled_state_machine_equals_its_numpy_twin():
     offset[:, 2200:2230] += 200e-9
     u = 1e-11 * rng.standard_normal((3, 3000))
     u[1, 2800:] += 5e-9
+    u[0, 300] = np.nan  # unknown corrections, one and two in a row (the compiled twin once relocked 2 s early)
+    u[0, 600:602] = np.nan
     cfg = StateConfig(lock_threshold_s=100e-9, lock_hold_s=5.0, freq_threshold=1e-9, ready_s=100.0,
                       holdover=HoldoverModel(2e-24, 1e-24, 1e-30, 1e-15))
     ref_var = (rng.uniform(1e-9, 40e-9, (3, 3000))) ** 2  # the fused reference's sd: 1..40 ns, some unknown

@@ -122,8 +122,8 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, p
                 dev = u - u_f
                 u_var = (1.0 - a_u) * u_var + a_u * dev * dev
                 u_f = u_f + a_u * dev
-            else:
-                dev = 0.0
+            else:  # the first correction, or the first after an unknown one: no deviation (unknown if u is)
+                dev = u - u
                 u_var = 0.0
                 u_f = u
             v = ref_var[i, k]
