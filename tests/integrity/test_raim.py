@@ -369,3 +369,34 @@ def test_detect_raim_on_a_clock_record_is_refused(tmp_path):
     csv.write_text("t_s,clock_bias_s\n" + "".join(f"{k},{1e-9 * k}\n" for k in range(100)))
     done = CliRunner().invoke(app, ["detect", str(csv), "--raim", "--nav", str(csv)])
     assert done.exit_code == 2 and "RINEX observation" in done.output and str(csv) in done.output, done.output
+
+
+def test_outside_the_single_fault_model_a_common_bias_is_invisible_and_two_faults_cost_what_the_docs_say():
+    # The threat model is one faulty satellite per epoch. Two things beyond it, measured so the docs can say
+    # what they cost. (1) A bias common to every satellite of the constellation (a constellation clock
+    # fault, or a spoofer that shifts all ranges) is the receiver clock to the position solution: the states
+    # and the position are exactly those of the clean epochs; it goes into the time, which RAIM does not
+    # protect. (2) Two simultaneous faults, each up to 3x its satellite's minimum detectable bias: misleading
+    # epochs 0.70 % (95 % CI 0.47..1.01 %) at 9 satellites and 0.27 % at 12 in 4000 epochs each
+    # (docs/integrity/raim.md); asserted here on 2000 epochs at 9 satellites against the 1 % budget's CI.
+    rng = np.random.default_rng(49)
+    epochs, n_sat = 2000, 9
+    site, sat = sky(rng, epochs, n_sat)
+    sigma = np.full((epochs, n_sat), 3.0)
+    cfg = RaimSettings(pfa=1e-2, integrity_risk=1e-2, **_OPEN)
+    system = np.zeros(n_sat, int)
+    rho = measure(rng, site, sat, sigma)
+    clean = raim(sat, rho, sigma, system, site + 300.0, cfg)
+    common = raim(sat, rho + 800.0, sigma, system, site + 300.0, cfg)
+    assert np.array_equal(clean.state, common.state)
+    assert np.allclose(clean.position_m, common.position_m, rtol=0, atol=1e-3)
+    bias = np.zeros((epochs, n_sat))
+    for e in range(epochs):
+        two = rng.choice(n_sat, 2, replace=False)
+        mdb = clean.mdb_m[e, two]
+        bias[e, two] = rng.uniform(0, 3, 2) * np.where(np.isfinite(mdb), mdb, 100.0) * rng.choice([-1, 1], 2)
+    res = raim(sat, rho + bias, sigma, system, site + 300.0, cfg)
+    k = int(misleading(site, res).sum())
+    lo, hi = clopper_pearson(k, epochs, level=0.95)
+    assert 0 < k and lo <= 1e-2, (k, hi)  # some misleading epochs (outside the model), within the budget
+    assert (res.state == "ok").mean() < 0.1  # most such epochs are caught: alarm or exclusion
