@@ -227,3 +227,39 @@ def test_a_drag_that_began_in_an_outage_is_refused_when_the_receivers_come_back(
     honest = simulate_gnssdo(dataclasses.replace(setup, scenario="open-sky"))["run"]
     assert not honest.implausible[:, 2234:].any()
     assert (honest.states.state[:, 2600:] == State.LOCKED).mean() > 0.95
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_drag_that_starts_as_the_series_comes_back_from_a_long_gap_is_refused(fast):
+    # The drag starts with the new history, so every second difference of it is zero (a frequency offset),
+    # and after a 5000 s gap the phase prediction's 5 sigma is 0.6 us wide (random-walk FM): 300 s of watch
+    # let it through, and it was LOCKED at 0.1-4.8 us (found by the adversarial audit). The frequency since
+    # the return is off by the drag's rate, which the oscillator cannot make.
+    osc = preset("ocxo")
+    steps = 9000
+    x = simulate_oscillator(osc, float(steps), 1.0, 6, trials=2).x_s
+    t = np.arange(steps)
+    e = 3e-9 * np.random.default_rng(6).standard_normal((2, steps))
+    e[0] += np.where(t >= 6000, 1e-9 * (t - 6000), 0.0)  # series 1: the same gap, honest
+    admitted = np.ones((2, steps), bool)
+    admitted[:, 1000:6000] = False
+    monitor = DragMonitor.for_oscillator(osc, reference_noise(receiver_environment("open-sky")))
+    run = monitor.run((x - e)[:, None, :], admitted[:, None, :], fast=fast)
+    dragged, honest = run.plausible[0, 0], run.plausible[1, 0]
+    refused = np.flatnonzero(~dragged[6000:])
+    assert refused.size and refused[-1] == steps - 6001 and refused[0] < 600  # refused within 600 s, for good
+    assert honest[6002:].all()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("oscillator", ["ocxo", "csac"])
+def test_a_spoofer_that_starts_as_a_long_outage_ends_is_never_claimed_locked(oscillator):
+    # `--scenario spoofing --outage-start 1200 --outage 6000`: the drag starts at 7200 s, the second the
+    # receivers come back; the audit measured 12,537 (OCXO) and 10,204 (CSAC) trial-seconds LOCKED at 1.8-14 us.
+    from chronofuse.experiments.gnssdo import GnssdoSetup, simulate_gnssdo
+
+    run = simulate_gnssdo(GnssdoSetup(scenario="spoofing", oscillator=oscillator, duration_s=14400, trials=2, seed=3,
+                                      outage_start_s=1200, outage_s=6000))["run"]
+    locked = run.states.state == State.LOCKED
+    assert not (locked & (np.abs(run.phase_s) >= BUDGET_S)).any()
+    assert run.implausible[:, 7800:].all()

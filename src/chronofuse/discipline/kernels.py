@@ -225,7 +225,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     returns plausible (int8), readmitted (int8) and the statistic, each (series, steps)."""
     h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
-    check_var, readmit_k, recheck_gap = scalars[9], scalars[10], int(scalars[11])
+    check_var, readmit_k, recheck_gap, watch_s = scalars[9], scalars[10], int(scalars[11]), int(scalars[12])
     n_series, steps = y.shape
     nh = horizons.size
     plausible = np.empty((n_series, steps), dtype=np.int8)
@@ -253,6 +253,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
         anchor_j = -1
         anchor_m = 1
         last = -1
+        origin = -1
         watch = -1
         gap_anchor = np.nan
         gap_f = 0.0
@@ -327,6 +328,23 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 miss = abs(bs - (anchor + anchor_f * h))
                 agree_now = judged and miss < readmit_k * math.sqrt(var) + aging
                 strayed = judged and not miss < k_sigma * math.sqrt(var) + aging
+                if judged:  # the frequency since the anchor (numpy twin)
+                    for j in range(nh - 1, -1, -1):
+                        w = horizons[j]
+                        m = max(1, w // 4)
+                        b1, t1 = _block(csum, tsum, count, start, k, m, L)
+                        b0, t0 = _block(csum, tsum, count, start, k - w, m, L)
+                        if math.isfinite(b1) and math.isfinite(b0) and t0 > origin:
+                            f = (b1 - b0) / (t1 - t0)
+                            var_f = (3.0 * _avar(h0, hm1, hm2, max(h, float(w))) + 2.0 * block_var[j] / (w * w)
+                                     + _avar(h0, hm1, hm2, wa) + (lever / (wa * wa) if wa > 1 else 0.0))
+                            f_miss = abs(f - anchor_f)
+                            f_aging = drift * (max(h, 0.0) + w)
+                            if f_miss > k_sigma * math.sqrt(var_f) + f_aging:
+                                strayed = True
+                            if f_miss >= readmit_k * math.sqrt(var_f) + f_aging:
+                                agree_now = False
+                            break
                 if watched and watch == 0 and have:  # the first clear agreement, from one sample on
                     lo = max(k - ms, start - 1)
                     c0 = csum[lo % L] if lo >= 0 else 0.0
@@ -348,15 +366,18 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 watch = 1
             elif watched and judged and watch > 0:
                 watch += 1
-            if watch >= readmit_s:
+            if refuse or back:  # the frequency is measured from here on (numpy twin)
+                origin = k
+            if watch >= watch_s:
                 watch = -1
             if not refused:
                 agree = 0
             elif judged:
                 agree = agree + 1 if agree_now else 0
             readmit = refused and agree >= max(readmit_s, 4 * anchor_m)
-            if readmit:
+            if readmit:  # history cleared: watched against the refusal's prediction (numpy twin)
                 start = k + 1
+                watch = 1
             trusted = (trusted and not refuse) or readmit
             if refuse or readmit:
                 streak = 0

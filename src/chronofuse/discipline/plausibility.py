@@ -34,7 +34,10 @@ can see until the history holds ``2W`` on each side. So where a series' samples 
 is taken as above from the history before the gap; a series back after ``recheck_gap_s`` or more seconds is
 *watched*: untrusted until its samples' mean agrees with the prediction within ``readmit_k_sigma`` (one sample
 on, with that mean's own noise: usually at once), refused like any series when a check block misses it by more
-than ``k_sigma``, and free of the watch after ``readmit_s`` judged seconds.
+than ``k_sigma``, and free of the watch after ``watch_s`` judged seconds (default ``2 max_horizon_s``: by then
+a drag that began in the gap has left the prediction's widening tolerance, or is below what the oscillator can
+tell). A series re-admitted after a refusal (its history cleared) is watched the same way against the
+refusal's prediction: a drag that goes on is, to the second differences of the new history, a frequency offset.
 
 :class:`DragMonitor` is the readable per-second core over (N, S) arrays; :meth:`DragMonitor.run` runs it
 over (N, S, steps).
@@ -119,7 +122,7 @@ class DragMonitor:
     ``max_horizon_s``; ``readmit_s``: seconds of agreement with the holdover prediction, within ``readmit_k_sigma``
     of its uncertainty (stricter than the refusal: a series comes back only when clearly right), before re-admission;
     ``check_block_s``: the block mean compared with the prediction while refused or watched; ``recheck_gap_s``: the
-    shortest gap after which a series is watched (module docstring).
+    shortest gap after which a series is watched, ``watch_s`` for how many judged seconds (module docstring).
     """
 
     h0: float
@@ -134,6 +137,7 @@ class DragMonitor:
     readmit_k_sigma: float = 3.0
     check_block_s: int = 16
     recheck_gap_s: int = 32
+    watch_s: int | None = None
     horizons: tuple[int, ...] = field(init=False)
     thresholds_s: tuple[float, ...] = field(init=False)
 
@@ -144,6 +148,9 @@ class DragMonitor:
         check_scalar(self.readmit_s, "readmit_s", min_val=1, integer=True)
         check_scalar(self.check_block_s, "check_block_s", min_val=1, integer=True)
         check_scalar(self.recheck_gap_s, "recheck_gap_s", min_val=1, integer=True)
+        if self.watch_s is None:
+            object.__setattr__(self, "watch_s", 2 * self.max_horizon_s)
+        check_scalar(self.watch_s, "watch_s", min_val=1, integer=True)
         horizons = []
         w = 4
         while w <= self.max_horizon_s:
@@ -209,7 +216,7 @@ class DragMonitor:
         gm = np.array(self.noise.gauss_markov, dtype=np.float64).reshape(-1, 2)
         scalars = np.array([self.h0, self.hm1, self.hm2, self.drift_per_s, self.k_sigma, self.persist, self.readmit_s,
                             self.check_block_s, self._ring, self.noise.block_var(max(1, self.check_block_s // 2)),
-                            self.readmit_k_sigma, self.recheck_gap_s])
+                            self.readmit_k_sigma, self.recheck_gap_s, self.watch_s])
         recent = np.array([0.0] + [self.noise.block_var(n) for n in range(1, self.check_block_s + 1)])
         return (w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]),
                 recent, scalars)
@@ -246,7 +253,7 @@ class DragMonitor:
                 "start": np.zeros(shape, np.int64), "trusted": np.ones(shape, bool), "streak": np.zeros(shape, np.int64),
                 "agree": np.zeros(shape, np.int64), "anchor": np.zeros(shape), "anchor_f": np.zeros(shape),
                 "anchor_t": np.zeros(shape), "anchor_w": np.ones(shape, np.int64), "anchor_m": np.ones(shape, np.int64),
-                "last": np.full(shape, -1, np.int64), "watch": np.full(shape, -1, np.int64),
+                "last": np.full(shape, -1, np.int64), "origin": np.full(shape, -1, np.int64), "watch": np.full(shape, -1, np.int64),
                 "gap_anchor": np.full(shape, np.nan), "gap_f": np.zeros(shape), "gap_t": np.zeros(shape),
                 "gap_w": np.ones(shape, np.int64)}
 
@@ -298,6 +305,34 @@ class DragMonitor:
                 f = np.where(take, (b1 - b0) / (c1 - c0), f)
             span = np.where(take, wl, span)
         return b1, np.where(np.isnan(f), 0.0, f), c1, np.maximum(span, 1)
+
+    def _frequency_miss(self, state, k, h, wa):
+        """``(|f - anchor_f|, its sd, its aging allowance)`` (NaN miss: no frequency yet): the series' frequency
+        since the refusal or the return (``origin``: what came before may be the drag's start) against the
+        anchor's. Over the longest horizon ``S`` whose two blocks lie after the origin,
+        ``f = (B(k) - B(k - S)) / (t1 - t0)`` against ``anchor_f``: the free oscillator's frequency moves between the two by about ``3 sigma_y^2(max(h, S))``
+        (a random walk's increment, 1.5x the Allan variance's two adjacent averages), the anchor's by
+        ``sigma_y^2(wa)``, each block adds its reference noise, and the aging ``D (h + S)``. A drag that goes on
+        at a constant rate leaves the phase prediction's widening cone only slowly (its sd grows as ``h^1.5``
+        under random-walk FM); its frequency stays off by the drag's rate."""
+        f = np.full(np.shape(h), np.nan)
+        var = np.full(np.shape(h), np.nan)
+        span = np.zeros(np.shape(h))
+        for w in self.horizons[::-1]:
+            m = self.block(w)
+            b1, t1 = self._block_mean(state, k, m)
+            b0, t0 = self._block_mean(state, k - w, m)
+            take = np.isnan(f) & np.isfinite(b1) & np.isfinite(b0) & (t0 > state["origin"])
+            if take.any():
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    f = np.where(take, (b1 - b0) / (t1 - t0), f)
+                noise = 2.0 * self.noise.block_var(self.block(w, filled=True)) / float(w) ** 2
+                var = np.where(take, 3.0 * oscillator_avar(self.h0, self.hm1, self.hm2, np.maximum(h, float(w)))
+                               + noise, var)
+                span = np.where(take, float(w), span)
+        lever = np.vectorize(lambda a: self._lever_var(int(a)) / float(a) ** 2 if a > 1 else 0.0, otypes=[float])(wa)
+        var = var + oscillator_avar(self.h0, self.hm1, self.hm2, wa) + lever
+        return np.abs(f - state["anchor_f"]), np.sqrt(var), self.drift_per_s * (np.maximum(h, 0.0) + span)
 
     def update(self, state: dict, y, admitted):
         """One second: ``y`` (N, S) the series (NaN: none), ``admitted`` (N, S) whether it is offered this
@@ -360,7 +395,7 @@ class DragMonitor:
         miss = np.abs(bs - (state["anchor"] + state["anchor_f"] * h))
         agree_now = judged & (miss < self.readmit_k_sigma * sd + aging)
         # Watched, a series is refused as a series is (``k_sigma``); it is trusted again from its first clear
-        # agreement (``readmit_k_sigma``), and watched for ``readmit_s`` judged seconds.
+        # agreement (``readmit_k_sigma``), and watched for ``watch_s`` judged seconds.
         watched = trusted & ~refuse & (watch >= 0)
         # Its first clear agreement is taken from the samples it has, one on (each second untrusted is a
         # second of holdover): their mean's own noise in place of the check block's.
@@ -371,13 +406,21 @@ class DragMonitor:
         first = (watched & (watch == 0) & have & (n > 0)
                  & (np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
                     < self.readmit_k_sigma * np.sqrt(np.maximum(var_p, 0.0)) + self.drift_per_s * np.maximum(hp, wa) ** 2))
-        strayed = watched & judged & ~(miss < self.k_sigma * sd + aging)
+        f_miss, f_sd, f_aging = self._frequency_miss(state, k, h, wa)
+        strayed = watched & judged & (~(miss < self.k_sigma * sd + aging) | (f_miss > self.k_sigma * f_sd + f_aging))
         refuse = refuse | strayed
+        state["origin"] = np.where(refuse | back, k, state["origin"])
         watch = np.where(strayed, -1, np.where(first, 1, np.where(watched & judged & (watch > 0), watch + 1, watch)))
-        watch = np.where(watch >= self.readmit_s, -1, watch)
+        watch = np.where(watch >= self.watch_s, -1, watch)
         refused = ~trusted
+        # Back in only when clearly right in phase and, where it can be measured, in frequency: a slow drag that
+        # goes on falls inside the phase prediction's widening cone, never inside the frequency's.
+        agree_now = agree_now & ~(f_miss >= self.readmit_k_sigma * f_sd + f_aging)
         agree = np.where(refused, np.where(judged, np.where(agree_now, state["agree"] + 1, 0), state["agree"]), 0)
         readmit = refused & (agree >= np.maximum(self.readmit_s, 4 * state["anchor_m"]))
+        # Re-admitted with its history cleared, a drag that goes on is, to the second differences, a frequency
+        # offset from the start: the series stays watched against the refusal's prediction.
+        watch = np.where(readmit, 1, watch)
         state["start"] = np.where(readmit, k + 1, state["start"])
         trusted = (trusted & ~refuse) | readmit
         state.update(trusted=trusted, streak=np.where(refuse | readmit, 0, streak), agree=np.where(readmit, 0, agree),
