@@ -400,7 +400,7 @@ def detect_page(doc: dict, path: Path, file: str, command: str = "chronofuse det
     for a clock product, one verdict per station; for ``--raim``, the protection levels and every epoch that
     detected a fault)."""
     if doc["mode"] == "raim":
-        return write_html(path, f"chronofuse detect --raim: {Path(file).name}", [_raim_section(doc, file)],
+        return write_html(path, f"chronofuse detect (RAIM): {Path(file).name}", [_raim_section(doc, file)],
                           command=command)
     if doc["mode"] == "clock-product":
         verdicts = [_detect_verdict(f"{row['station']}: integrity", row) for row in doc["stations"]]
