@@ -385,7 +385,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 agree = 0
             if have:
                 last = k
-            # Back from a gap, the series is not trusted until its first check block agrees with the prediction.
+            # Back from a gap, the series is not trusted until its first samples agree with the prediction.
             plausible[i, k] = 1 if (trusted and watch != 0) else 0
             readmitted[i, k] = 1 if readmit else 0
             stat[i, k] = worst

@@ -310,8 +310,9 @@ class DragMonitor:
         """``(|f - anchor_f|, its sd, its aging allowance)`` (NaN miss: no frequency yet): the series' frequency
         since the refusal or the return (``origin``: what came before may be the drag's start) against the
         anchor's. Over the longest horizon ``S`` whose two blocks lie after the origin,
-        ``f = (B(k) - B(k - S)) / (t1 - t0)`` against ``anchor_f``: the free oscillator's frequency moves between the two by about ``3 sigma_y^2(max(h, S))``
-        (a random walk's increment, 1.5x the Allan variance's two adjacent averages), the anchor's by
+        ``f = (B(k) - B(k - S)) / (t1 - t0)`` against ``anchor_f``: the free oscillator's frequency moves between
+        the two by about ``3 sigma_y^2(max(h, S))`` (a random walk's increment, 1.5x the Allan variance's two
+        adjacent averages), the anchor's by
         ``sigma_y^2(wa)``, each block adds its reference noise, and the aging ``D (h + S)``. A drag that goes on
         at a constant rate leaves the phase prediction's widening cone only slowly (its sd grows as ``h^1.5``
         under random-walk FM); its frequency stays off by the drag's rate."""
@@ -399,14 +400,18 @@ class DragMonitor:
         watched = trusted & ~refuse & (watch >= 0)
         # Its first clear agreement is taken from the samples it has, one on (each second untrusted is a
         # second of holdover): their mean's own noise in place of the check block's.
-        bp, tp, n = self._recent(state, k, ms)
-        hp = tp - state["anchor_t"]
-        var_p = (self._prediction_var_s2(hp, wa, state["anchor_m"]) - self.noise.block_var(max(1, ms // 2))
-                 + np.vectorize(self.noise.block_var, otypes=[float])(np.maximum(n, 1)))
-        first = (watched & (watch == 0) & have & (n > 0)
-                 & (np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
-                    < self.readmit_k_sigma * np.sqrt(np.maximum(var_p, 0.0)) + self.drift_per_s * np.maximum(hp, wa) ** 2))
-        f_miss, f_sd, f_aging = self._frequency_miss(state, k, h, wa)
+        first = np.zeros(y.shape, bool)
+        f_miss = f_sd = f_aging = np.full(y.shape, np.nan)
+        if (watched | ~trusted).any():  # nothing refused or watched (the usual second): nothing to compare
+            bp, tp, n = self._recent(state, k, ms)
+            hp = tp - state["anchor_t"]
+            var_p = (self._prediction_var_s2(hp, wa, state["anchor_m"]) - self.noise.block_var(max(1, ms // 2))
+                     + np.vectorize(self.noise.block_var, otypes=[float])(np.maximum(n, 1)))
+            first = (watched & (watch == 0) & have & (n > 0)
+                     & (np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
+                        < self.readmit_k_sigma * np.sqrt(np.maximum(var_p, 0.0))
+                        + self.drift_per_s * np.maximum(hp, wa) ** 2))
+            f_miss, f_sd, f_aging = self._frequency_miss(state, k, h, wa)
         strayed = watched & judged & (~(miss < self.k_sigma * sd + aging) | (f_miss > self.k_sigma * f_sd + f_aging))
         refuse = refuse | strayed
         state["origin"] = np.where(refuse | back, k, state["origin"])
@@ -425,6 +430,6 @@ class DragMonitor:
         trusted = (trusted & ~refuse) | readmit
         state.update(trusted=trusted, streak=np.where(refuse | readmit, 0, streak), agree=np.where(readmit, 0, agree),
                      watch=watch, last=np.where(have, k, state["last"]), k=k + 1)
-        # Back from a gap, the series is not trusted until its first check block agrees with the prediction.
+        # Back from a gap, the series is not trusted until its first samples agree with the prediction.
         return state, trusted & (watch != 0), readmit, worst
         return state, trusted.copy(), readmit, worst
