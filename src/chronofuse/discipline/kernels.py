@@ -12,6 +12,11 @@ import math
 import numba
 import numpy as np
 
+#: The plausibility clip's prediction (:meth:`~.plausibility.DragMonitor._clip`): the last ``CLIP_BLOCK_S``
+#: seconds' block mean and the frequency to it from the block ``CLIP_LAG_S`` seconds before.
+CLIP_BLOCK_S = 8
+CLIP_LAG_S = 16
+
 __all__ = ["fusion_kernel", "states_kernel", "plausibility_kernel"]
 
 
@@ -226,6 +231,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
     check_var, readmit_k, recheck_gap, watch_s = scalars[9], scalars[10], int(scalars[11]), int(scalars[12])
+    clip, clip_near, clip_var_f = scalars[13] != 0.0, scalars[14], scalars[15]
     n_series, steps = y.shape
     nh = horizons.size
     plausible = np.empty((n_series, steps), dtype=np.int8)
@@ -259,12 +265,38 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
         gap_f = 0.0
         gap_t = 0.0
         gap_w = 1
+        clip_run = 0
+        clip_off = 0
         for k in range(steps):
             have = admitted[i, k] and math.isfinite(y[i, k])
+            yk = y[i, k]
+            if clip and have:  # the sample as the test takes it (numpy twin: DragMonitor._clip)
+                b1, t1 = _block(csum, tsum, count, start, k - 1, CLIP_BLOCK_S, L)
+                b0, t0 = _block(csum, tsum, count, start, k - 1 - CLIP_LAG_S, CLIP_BLOCK_S, L)
+                if math.isfinite(b1) and math.isfinite(b0) and k >= clip_off:
+                    h = k - t1
+                    pred = b1 + (b1 - b0) / (t1 - t0) * h
+                    lim = (k_sigma * math.sqrt(clip_near + h * h * clip_var_f + 2.0 * h * h * _avar(h0, hm1, hm2, h))
+                           + drift * h * h)
+                    if yk - pred > lim:
+                        clip_run = max(clip_run, 0) + 1
+                    elif pred - yk > lim:
+                        clip_run = min(clip_run, 0) - 1
+                    else:
+                        clip_run = 0
+                    if abs(clip_run) >= persist:
+                        clip_off = k + CLIP_BLOCK_S + CLIP_LAG_S
+                        clip_run = 0
+                    elif clip_run > 0:
+                        yk = pred + lim
+                    elif clip_run < 0:
+                        yk = pred - lim
+                else:
+                    clip_run = 0
             c_prev = csum[(k - 1) % L] if k > 0 else 0.0
             n_prev = count[(k - 1) % L] if k > 0 else 0
             t_prev = tsum[(k - 1) % L] if k > 0 else 0.0
-            csum[k % L] = c_prev + (y[i, k] if have else 0.0)
+            csum[k % L] = c_prev + (yk if have else 0.0)
             tsum[k % L] = t_prev + (float(k) if have else 0.0)
             count[k % L] = n_prev + (1 if have else 0)
             worst = np.nan

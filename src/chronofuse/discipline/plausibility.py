@@ -28,6 +28,15 @@ block mean at ``k - 2W`` and the frequency to it over the longest horizon before
 that prediction's uncertainty, with its history
 cleared (and, in fusion, its weight earned anew: :attr:`PlausibilityRun.readmitted`).
 
+A single sample far off (a 1PPS outlier, heavy-tailed: 2 % of pulses at 300 ns rms in the ``outliers``
+scenario) holds a block mean for ``m`` seconds, and at ``W = 16`` (``m = 4``) that outlasts ``persist``: one
+pulse refused a clean receiver for ``readmit_s``. So each sample enters the test *clipped*: beyond ``k_sigma``
+of its prediction (the last 8 s block mean, and the frequency to it from the block 16 s before; the variance
+of the two blocks' and the sample's reference noise, the frequency's error and the oscillator's wander over
+the lead), it is taken at that limit. ``persist`` samples in a row beyond it on one side are a step and are
+taken as they come for the next 24 s (the blocks then hold the new level): a step or a fast drag is seen
+3 s later at most, an outlier moves a block mean by at most the limit.
+
 A gap blinds the second differences: a drag or a step that happens while a series is away (an outage over the
 spoofer's onset) is, after it, a frequency offset and a jump that no difference reaching back past the gap
 can see until the history holds ``2W`` on each side. So where a series' samples stop, the prediction's anchor
@@ -50,6 +59,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from chronofuse.discipline.kernels import CLIP_BLOCK_S, CLIP_LAG_S
 from chronofuse.discipline.servo import freeze
 from chronofuse.validation import check_scalar
 
@@ -122,7 +132,8 @@ class DragMonitor:
     ``max_horizon_s``; ``readmit_s``: seconds of agreement with the holdover prediction, within ``readmit_k_sigma``
     of its uncertainty (stricter than the refusal: a series comes back only when clearly right), before re-admission;
     ``check_block_s``: the block mean compared with the prediction while refused or watched; ``recheck_gap_s``: the
-    shortest gap after which a series is watched, ``watch_s`` for how many judged seconds (module docstring).
+    shortest gap after which a series is watched, ``watch_s`` for how many judged seconds; ``clip``: a sample
+    beyond ``k_sigma`` of its short-term prediction enters the test at that limit (module docstring).
     """
 
     h0: float
@@ -138,6 +149,7 @@ class DragMonitor:
     check_block_s: int = 16
     recheck_gap_s: int = 32
     watch_s: int | None = None
+    clip: bool = True
     horizons: tuple[int, ...] = field(init=False)
     thresholds_s: tuple[float, ...] = field(init=False)
 
@@ -216,10 +228,46 @@ class DragMonitor:
         gm = np.array(self.noise.gauss_markov, dtype=np.float64).reshape(-1, 2)
         scalars = np.array([self.h0, self.hm1, self.hm2, self.drift_per_s, self.k_sigma, self.persist, self.readmit_s,
                             self.check_block_s, self._ring, self.noise.block_var(max(1, self.check_block_s // 2)),
-                            self.readmit_k_sigma, self.recheck_gap_s, self.watch_s])
+                            self.readmit_k_sigma, self.recheck_gap_s, self.watch_s, float(self.clip),
+                            *self._clip_var_terms()])
         recent = np.array([0.0] + [self.noise.block_var(n) for n in range(1, self.check_block_s + 1)])
         return (w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]),
                 recent, scalars)
+
+    def _clip_var_terms(self) -> tuple[float, float]:
+        """The clip's variance terms (:meth:`_clip`): the last block's and one sample's reference noise (their
+        variances added: an upper bound whatever their correlation), and the variance of the frequency measured
+        between the last two blocks (their reference noise over the lag, and the oscillator's ``sigma_y^2``)."""
+        half = self.noise.block_var(CLIP_BLOCK_S // 2)
+        return (half + self.noise.block_var(1),
+                2.0 * half / CLIP_LAG_S**2 + float(oscillator_avar(self.h0, self.hm1, self.hm2, CLIP_LAG_S)))
+
+    def _clip(self, state, k, y, have):
+        """``y`` as the test takes it: a sample beyond ``k_sigma`` of its prediction (the last ``CLIP_BLOCK_S``
+        block mean and the frequency to it from the block ``CLIP_LAG_S`` before) enters at that limit; ``persist``
+        such samples in a row on one side are a step, taken as they come for ``CLIP_BLOCK_S + CLIP_LAG_S``
+        seconds (the blocks then hold the new level). Where the blocks are not there (history short, gaps), the
+        sample is taken as it is."""
+        b1, t1 = self._block_mean(state, k - 1, CLIP_BLOCK_S)
+        b0, t0 = self._block_mean(state, k - 1 - CLIP_LAG_S, CLIP_BLOCK_S)
+        run = state["clip_run"]
+        active = have & np.isfinite(b1) & np.isfinite(b0) & (k >= state["clip_off"])
+        if not active.any():
+            state["clip_run"] = np.where(have, 0, run)
+            return y
+        near, var_f = self._clip_var_terms()
+        with np.errstate(divide="ignore", invalid="ignore"):  # where not active
+            h = k - t1
+            pred = b1 + (b1 - b0) / (t1 - t0) * h
+            lim = (self.k_sigma * np.sqrt(near + h * h * var_f + 2.0 * h * h * oscillator_avar(self.h0, self.hm1, self.hm2, h))
+                   + self.drift_per_s * h * h)
+        over = active & (y - pred > lim)
+        under = active & (pred - y > lim)
+        run = np.where(over, np.maximum(run, 0) + 1, np.where(under, np.minimum(run, 0) - 1, np.where(have, 0, run)))
+        step = np.abs(run) >= self.persist
+        state["clip_off"] = np.where(step, k + CLIP_BLOCK_S + CLIP_LAG_S, state["clip_off"])
+        state["clip_run"] = np.where(step, 0, run)
+        return np.where(over & ~step, pred + lim, np.where(under & ~step, pred - lim, y))
 
     @property
     def _ring(self) -> int:
@@ -255,7 +303,8 @@ class DragMonitor:
                 "anchor_t": np.zeros(shape), "anchor_w": np.ones(shape, np.int64), "anchor_m": np.ones(shape, np.int64),
                 "last": np.full(shape, -1, np.int64), "origin": np.full(shape, -1, np.int64), "watch": np.full(shape, -1, np.int64),
                 "gap_anchor": np.full(shape, np.nan), "gap_f": np.zeros(shape), "gap_t": np.zeros(shape),
-                "gap_w": np.ones(shape, np.int64)}
+                "gap_w": np.ones(shape, np.int64), "clip_run": np.zeros(shape, np.int64),
+                "clip_off": np.zeros(shape, np.int64)}
 
     def _recent(self, state, k, m):
         """The mean, mean time and count of the samples in (k - m, k] since the history's ``start``, from one
@@ -342,6 +391,8 @@ class DragMonitor:
         have = np.asarray(admitted, dtype=bool) & np.isfinite(y)
         k = state["k"]
         L = self._ring
+        if self.clip:
+            y = self._clip(state, k, y, have)
         c_prev = state["csum"][..., (k - 1) % L] if k > 0 else 0.0
         n_prev = state["count"][..., (k - 1) % L] if k > 0 else 0
         t_prev = state["tsum"][..., (k - 1) % L] if k > 0 else 0.0
@@ -432,4 +483,3 @@ class DragMonitor:
                      watch=watch, last=np.where(have, k, state["last"]), k=k + 1)
         # Back from a gap, the series is not trusted until its first samples agree with the prediction.
         return state, trusted & (watch != 0), readmit, worst
-        return state, trusted.copy(), readmit, worst
