@@ -24,17 +24,25 @@ named; their own residuals are still given (against a clean clock).
 :meth:`CodeClock.commit`: identification calls ``step`` again at the same epoch after each exclusion, then
 commits the last. The leave-one-out medians of all channels come from one sort
 (:func:`leave_one_out_medians`), the median of ``M - 1`` values read off the sorted ``M`` by rank.
+
+A day of a station is 2880 epochs of some fifteen codes, each stepped once per pass: numpy's overhead on
+arrays of a dozen channels made the step 0.8 ms, 34 of the 52 s of a day's identification. So the step runs
+compiled (:func:`clock_step_kernel`, the same arithmetic loop by loop); ``CodeClock(fast=False)`` runs the
+readable numpy twin, and the tests hold the two equal.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 
 from chronofuse.integrity.common_mode import MIN_CLOCK_CHANNELS
 
-__all__ = ["CodeClock", "ClockEpoch", "leave_one_out_medians", "leave_one_out_medians_rows", "MIN_CLOCK_CHANNELS"]
+__all__ = ["CodeClock", "ClockEpoch", "leave_one_out_medians", "leave_one_out_medians_rows", "clock_step_kernel",
+           "MIN_CLOCK_CHANNELS"]
 
 
 def leave_one_out_medians(values: np.ndarray, member: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -98,6 +106,110 @@ def leave_one_out_medians_rows(values: np.ndarray, member: np.ndarray) -> tuple[
     return out, counts
 
 
+@numba.njit(cache=True)
+def _median(x):
+    s = np.sort(x)
+    n = s.size
+    return (s[(n - 1) // 2] + s[n // 2]) / 2.0
+
+
+@numba.njit(cache=True)
+def _leave_one_out(values, member, out, counts):
+    """:func:`leave_one_out_medians` into ``out`` and ``counts`` (compiled)."""
+    c = values.size
+    m = 0
+    picked = np.empty(c)
+    where = np.empty(c, np.int64)
+    for i in range(c):
+        if member[i]:
+            picked[m] = values[i]
+            where[m] = i
+            m += 1
+    order = np.argsort(picked[:m], kind="mergesort")
+    s = picked[:m][order]
+    rank = np.zeros(c, np.int64)
+    for r in range(m):
+        rank[where[order[r]]] = r
+    full = 0.5 * (s[(m - 1) // 2] + s[m // 2]) if m > 0 else np.nan
+    k = m - 1
+    lo_pos, hi_pos = (k - 1) // 2, k // 2
+    for i in range(c):
+        if not member[i]:
+            out[i] = full
+            counts[i] = m
+        elif m < 2:
+            out[i] = np.nan
+            counts[i] = m - 1
+        else:
+            lo = s[lo_pos] if lo_pos < rank[i] else s[min(lo_pos + 1, m - 1)]
+            hi = s[hi_pos] if hi_pos < rank[i] else s[min(hi_pos + 1, m - 1)]
+            out[i] = 0.5 * (lo + hi)
+            counts[i] = m - 1
+
+
+@numba.njit(cache=True)
+def clock_step_kernel(b, excluded, prev_b, c0, offset, prev_a, loo, min_channels):
+    """:meth:`CodeClock.step` compiled: ``(residual, restarted, c0, arc_start, biases, offset, aligned,
+    leave-one-out clocks)``, the last four the state to commit."""
+    c = b.size
+    valid = np.empty(c, np.bool_)
+    for i in range(c):
+        valid[i] = math.isfinite(b[i])
+    # 1. common clock
+    inc = np.empty(c)
+    n_inc = 0
+    for i in range(c):
+        if valid[i] and math.isfinite(prev_b[i]) and not excluded[i]:
+            inc[n_inc] = b[i] - prev_b[i]
+            n_inc += 1
+    if math.isfinite(c0) and n_inc > 0:
+        c0 = c0 + _median(inc[:n_inc])
+    else:
+        pool = np.empty(c)
+        n_pool = 0
+        for i in range(c):
+            if valid[i] and not excluded[i]:
+                pool[n_pool] = b[i]
+                n_pool += 1
+        if n_pool == 0:
+            for i in range(c):
+                if valid[i]:
+                    pool[n_pool] = b[i]
+                    n_pool += 1
+        c0 = _median(pool[:n_pool]) if n_pool > 0 else np.nan
+    # 2. alignment
+    arc_start = np.empty(c, np.bool_)
+    new_offset = np.empty(c)
+    a = np.empty(c)
+    biases = np.empty(c)
+    pair = np.empty(c, np.bool_)
+    now_set = np.empty(c, np.bool_)
+    for i in range(c):
+        arc_start[i] = valid[i] and not math.isfinite(prev_b[i])
+        o = b[i] - c0 if arc_start[i] else offset[i]
+        new_offset[i] = o if valid[i] else np.nan
+        a[i] = b[i] - new_offset[i] if valid[i] else np.nan
+        biases[i] = b[i] if valid[i] else np.nan
+        pair[i] = valid[i] and math.isfinite(prev_a[i]) and not excluded[i]
+        now_set[i] = valid[i] and not excluded[i]
+    # 3. leave-one-out clocks
+    med_now, med_prev, level = np.empty(c), np.empty(c), np.empty(c)
+    n_pair, n_prev, n_now = np.empty(c, np.int64), np.empty(c, np.int64), np.empty(c, np.int64)
+    _leave_one_out(a, pair, med_now, n_pair)
+    _leave_one_out(prev_a, pair, med_prev, n_prev)
+    _leave_one_out(a, now_set, level, n_now)
+    residual = np.empty(c)
+    restarted = np.empty(c, np.bool_)
+    new_loo = np.empty(c)
+    for i in range(c):
+        moving = math.isfinite(loo[i]) and n_pair[i] >= min_channels
+        restarting = not moving and n_now[i] >= min_channels
+        new_loo[i] = loo[i] + (med_now[i] - med_prev[i]) if moving else (level[i] if restarting else np.nan)
+        residual[i] = a[i] - new_loo[i] if valid[i] else np.nan
+        restarted[i] = restarting and valid[i]
+    return residual, restarted, c0, arc_start, biases, new_offset, a, new_loo
+
+
 @dataclass(frozen=True)
 class ClockEpoch:
     """One epoch of a :class:`CodeClock`: ``residual_s`` (C,) (NaN: none), ``restarted`` (C,) bool (the
@@ -114,8 +226,9 @@ class ClockEpoch:
 class CodeClock:
     """The clocks of one code's ``n_channels`` channels (module docstring)."""
 
-    def __init__(self, n_channels: int):
+    def __init__(self, n_channels: int, *, fast: bool = True):
         self.n_channels = int(n_channels)
+        self.fast = fast
         self.reset()
 
     def reset(self) -> None:
@@ -130,6 +243,11 @@ class CodeClock:
         prev_b, c0, offset, prev_a, loo = self._state
         b = np.asarray(bias_s, dtype=np.float64)
         out = np.asarray(excluded, dtype=bool)
+        if self.fast:
+            residual, restarted, c0, arc_start, *state = clock_step_kernel(
+                np.ascontiguousarray(b), np.ascontiguousarray(out), prev_b, float(c0), offset, prev_a, loo,
+                MIN_CLOCK_CHANNELS)
+            return ClockEpoch(residual, restarted, c0, arc_start, (state[0], c0, *state[1:]))
         valid = np.isfinite(b)
         # 1. common clock over the channels seen at both epochs and not excluded
         both = valid & np.isfinite(prev_b) & ~out
