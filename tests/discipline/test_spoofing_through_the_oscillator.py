@@ -306,3 +306,20 @@ def test_the_compiled_monitor_equals_its_numpy_twin_through_outliers_a_step_and_
     fast, slow = monitor.run(y, admitted, fast=True), monitor.run(y, admitted, fast=False)
     assert np.array_equal(fast.plausible, slow.plausible) and np.array_equal(fast.readmitted, slow.readmitted)
     assert np.allclose(fast.statistic, slow.statistic, equal_nan=True)
+
+
+def test_the_summary_says_which_drags_the_receivers_let_the_oscillator_catch():
+    # Open sky: the table of docs/gnssdo/spoofing.md. Urban canyon: the multipath puts every horizon's threshold
+    # above 100 ns, so the summary must not name a rate (a drag of 0.3 ns/s lay 1000-1250 s there unnamed) and
+    # says from which time error a drag is refused at all.
+    from chronofuse.experiments.gnssdo import GnssdoSetup, drag_check, evaluate, simulate_gnssdo
+
+    sky = drag_check(plausibility_monitors(preset("ocxo"), receiver_environment("open-sky"), 3)[0])
+    assert sky["slowest_rate_ns_per_s"] == pytest.approx(0.0708, rel=0.01) and sky["horizon_s"] == 1024
+    assert sky["refused_from_te_ns"] < 100.0
+    canyon = drag_check(plausibility_monitors(preset("ocxo"), receiver_environment("urban-canyon"), 3)[0])
+    assert canyon["slowest_rate_ns_per_s"] is None and canyon["horizon_s"] is None
+    assert 100.0 < canyon["refused_from_te_ns"] < 200.0
+    setup = GnssdoSetup(scenario="urban-canyon", duration_s=3600, seed=1, design="datasheet")
+    assert evaluate(simulate_gnssdo(setup))["drag_check"] == canyon
+    assert evaluate(simulate_gnssdo(dataclasses.replace(setup, plausibility=False)))["drag_check"] is None

@@ -116,6 +116,13 @@ def gnssdo(
     con.print(table)
     if summary.get("optimal_note"):
         con.print(f"optimal_rms_ns: {summary['optimal_note']}")
+    check = summary.get("drag_check")
+    if check and check["slowest_rate_ns_per_s"] is None:
+        con.print(f"spoofing: no drag is caught before |TE| reaches {check['budget_ns']:g} ns with these receivers'"
+                  f" noise; a drag is refused from {check['refused_from_te_ns']:.0f} ns")
+    elif check:
+        con.print(f"spoofing: drags from {check['slowest_rate_ns_per_s']:.3g} ns/s are refused before |TE| reaches"
+                  f" {check['budget_ns']:g} ns")
     if summary.get("no_usable_receiver"):
         con.print("no usable receiver at any second: the oscillator stayed in free-run")
     if out is not None:

@@ -265,7 +265,7 @@ def simulate_trials(plan: dict, first_trial: int, trials: int, progress: Progres
     run, best = discipline_runs((servo, yardstick), free, rx.pps_error_s, rx.epochs, plan["config"])
     return {"setup": setup, "oscillator": osc, "environment": env, "free_phase_s": free, "noise_phase_s": noise_only,
             "receivers": rx, "run": run, "clairvoyant": best, "clairvoyant_servo": yardstick, "design": plan["design"],
-            "first_trial": first_trial}
+            "config": plan["config"], "first_trial": first_trial}
 
 
 def simulate_gnssdo(setup: GnssdoSetup, progress: Progress = silent) -> dict:
@@ -471,7 +471,21 @@ def summarize(plan: dict, stats: dict) -> dict:
     summary["dac_rail_alarm_seconds"] = float(stats["rail"].sum() / trials)
     summary["no_usable_receiver"] = bool(not stats["any_reference"].any())
     summary["adev"] = pooled_adev(stats["adev"])
+    summary["drag_check"] = drag_check(plan["config"].receiver_monitor)
     return summary
+
+
+def drag_check(monitor: DragMonitor | None, budget_s: float = 100e-9) -> dict | None:
+    """What the oscillator's plausibility test can catch with these receivers (None: the test is off): the
+    slowest coherent drag refused before the time error reaches ``budget_s`` (its rate and horizon; None where
+    no horizon's threshold is under the budget, as in an urban canyon) and ``refused_from_te_ns``, the smallest
+    threshold over the horizons: no drag is refused before the output is that far off."""
+    if monitor is None:
+        return None
+    rate, horizon = monitor.slowest_rate(budget_s)
+    caught = math.isfinite(rate)
+    return {"budget_ns": budget_s * 1e9, "slowest_rate_ns_per_s": rate * 1e9 if caught else None,
+            "horizon_s": horizon if caught else None, "refused_from_te_ns": min(monitor.thresholds_s) * 1e9}
 
 
 def evaluate(sim: dict) -> dict:
