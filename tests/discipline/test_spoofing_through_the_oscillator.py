@@ -323,3 +323,20 @@ def test_the_summary_says_which_drags_the_receivers_let_the_oscillator_catch():
     setup = GnssdoSetup(scenario="urban-canyon", duration_s=3600, seed=1, design="datasheet")
     assert evaluate(simulate_gnssdo(setup))["drag_check"] == canyon
     assert evaluate(simulate_gnssdo(dataclasses.replace(setup, plausibility=False)))["drag_check"] is None
+
+
+@pytest.mark.parametrize("fast", [True, False])
+def test_a_train_of_pulses_is_not_hidden_by_the_clip(fast):
+    # A pulse of 600 ns every 4th second moves the reference's mean by 150 ns at once; clipped pulse by pulse
+    # it would enter the test as a 15 ns shift. Clipped once in 64 s per side at most, the rest is seen.
+    osc = preset("ocxo")
+    steps = 2000
+    x = simulate_oscillator(osc, float(steps), 1.0, 21, trials=1).x_s[0]
+    t = np.arange(steps)
+    e = 10e-9 * np.random.default_rng(21).standard_normal(steps)
+    e += np.where((t >= 1000) & (t % 4 == 0), 600e-9, 0.0)
+    monitor = DragMonitor.for_oscillator(osc, ReferenceNoise(10e-9))
+    plausible = monitor.run((x - e)[None, None], np.ones((1, 1, steps), bool), fast=fast).plausible[0, 0]
+    assert plausible[:1000].all()
+    refused = np.flatnonzero(~plausible[1000:])
+    assert refused.size and refused[0] < 60

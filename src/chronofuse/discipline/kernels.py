@@ -16,6 +16,11 @@ import numpy as np
 #: seconds' block mean and the frequency to it from the block ``CLIP_LAG_S`` seconds before.
 CLIP_BLOCK_S = 8
 CLIP_LAG_S = 16
+#: What the clip may hide on each side: ``CLIP_MAX`` limits of excess (beyond the limit) in any
+#: ``CLIP_SPACING_S`` seconds, a bucket refilled at ``CLIP_MAX / CLIP_SPACING_S`` limits a second (module
+#: docstring there).
+CLIP_MAX = 10.0
+CLIP_SPACING_S = 64
 
 __all__ = ["fusion_kernel", "states_kernel", "plausibility_kernel"]
 
@@ -267,9 +272,13 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
         gap_w = 1
         clip_run = 0
         clip_off = 0
+        clip_hi = CLIP_MAX
+        clip_lo = CLIP_MAX
         for k in range(steps):
             have = admitted[i, k] and math.isfinite(y[i, k])
             yk = y[i, k]
+            clip_hi = min(CLIP_MAX, clip_hi + CLIP_MAX / CLIP_SPACING_S)
+            clip_lo = min(CLIP_MAX, clip_lo + CLIP_MAX / CLIP_SPACING_S)
             if clip and have:  # the sample as the test takes it (numpy twin: DragMonitor._clip)
                 b1, t1 = _block(csum, tsum, count, start, k - 1, CLIP_BLOCK_S, L)
                 b0, t0 = _block(csum, tsum, count, start, k - 1 - CLIP_LAG_S, CLIP_BLOCK_S, L)
@@ -287,9 +296,11 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                     if abs(clip_run) >= persist:
                         clip_off = k + CLIP_BLOCK_S + CLIP_LAG_S
                         clip_run = 0
-                    elif clip_run > 0:
+                    elif clip_run > 0 and (yk - pred) / lim - 1.0 <= clip_hi:
+                        clip_hi -= (yk - pred) / lim - 1.0
                         yk = pred + lim
-                    elif clip_run < 0:
+                    elif clip_run < 0 and (pred - yk) / lim - 1.0 <= clip_lo:
+                        clip_lo -= (pred - yk) / lim - 1.0
                         yk = pred - lim
                 else:
                     clip_run = 0
