@@ -38,9 +38,10 @@ taken as they come for the next 24 s (the blocks then hold the new level): a ste
 3 s later at most, an outlier moves a block mean by at most the limit. What the clip hides must stay bounded:
 a train of large pulses (a spoofer's, or a receiver's fault) moves the reference's mean while each pulse
 enters at the limit. So on each side the clip may hide 10 limits of excess in any 64 s (a bucket refilled at
-10/64 of a limit a second); a sample beyond what is left is taken as it comes. A pulse train the test does
-not see then moves the mean by at most 10 limits / 64 (9 ns in open sky, 39 ns with the outliers scenario's
-receivers), while one 6-limit outlier, or several smaller ones, are hidden.
+10/64 of a limit a second); a sample beyond what is left is taken as it comes. What the clip hides of a
+pulse train is then at most 10 limits / 64 of its mean (9 ns in open sky, 39 ns with the outliers
+scenario's receivers), while one 6-limit outlier, or several smaller ones, are hidden. (A train too small
+for the test's thresholds is not seen with the clip or without it: a 100 ns train at 2 s in 3 is not.)
 
 A gap blinds the second differences: a drag or a step that happens while a series is away (an outage over the
 spoofer's onset) is, after it, a frequency offset and a jump that no difference reaching back past the gap
