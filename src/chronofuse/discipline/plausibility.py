@@ -158,6 +158,7 @@ class DragMonitor:
     clip: bool = True
     horizons: tuple[int, ...] = field(init=False)
     thresholds_s: tuple[float, ...] = field(init=False)
+    clip_terms: tuple[float, float] = field(init=False)
 
     def __post_init__(self):
         check_scalar(self.k_sigma, "k_sigma", min_val=0.0, include_min=False)
@@ -176,6 +177,7 @@ class DragMonitor:
             w *= 2
         object.__setattr__(self, "horizons", tuple(horizons))
         object.__setattr__(self, "thresholds_s", tuple(self.threshold_s(w) for w in horizons))
+        object.__setattr__(self, "clip_terms", self._clip_var_terms())
 
     @classmethod
     def for_oscillator(cls, osc, noise: ReferenceNoise, **kw) -> DragMonitor:
@@ -235,7 +237,7 @@ class DragMonitor:
         scalars = np.array([self.h0, self.hm1, self.hm2, self.drift_per_s, self.k_sigma, self.persist, self.readmit_s,
                             self.check_block_s, self._ring, self.noise.block_var(max(1, self.check_block_s // 2)),
                             self.readmit_k_sigma, self.recheck_gap_s, self.watch_s, float(self.clip),
-                            *self._clip_var_terms()])
+                            *self.clip_terms])
         recent = np.array([0.0] + [self.noise.block_var(n) for n in range(1, self.check_block_s + 1)])
         return (w, np.array(self.thresholds_s), lever, block, np.ascontiguousarray(gm[:, 0]), np.ascontiguousarray(gm[:, 1]),
                 recent, scalars)
@@ -263,12 +265,13 @@ class DragMonitor:
         if not active.any():
             state["clip_run"] = np.where(have, 0, run)
             return y
-        near, var_f = self._clip_var_terms()
+        near, var_f = self.clip_terms
         with np.errstate(divide="ignore", invalid="ignore"):  # where not active
             h = k - t1
             pred = b1 + (b1 - b0) / (t1 - t0) * h
             lim = (self.k_sigma * np.sqrt(near + h * h * var_f + 2.0 * h * h * oscillator_avar(self.h0, self.hm1, self.hm2, h))
                    + self.drift_per_s * h * h)
+            excess_hi, excess_lo = (y - pred) / lim - 1.0, (pred - y) / lim - 1.0
         over = active & (y - pred > lim)
         under = active & (pred - y > lim)
         run = np.where(over, np.maximum(run, 0) + 1, np.where(under, np.minimum(run, 0) - 1, np.where(have, 0, run)))
@@ -276,8 +279,6 @@ class DragMonitor:
         state["clip_off"] = np.where(step, k + CLIP_BLOCK_S + CLIP_LAG_S, state["clip_off"])
         state["clip_run"] = np.where(step, 0, run)
         # Clipped only while the side's bucket holds the excess (CLIP_MAX limits in CLIP_SPACING_S seconds).
-        with np.errstate(divide="ignore", invalid="ignore"):
-            excess_hi, excess_lo = (y - pred) / lim - 1.0, (pred - y) / lim - 1.0
         hi = over & ~step & (excess_hi <= state["clip_hi"])
         lo = under & ~step & (excess_lo <= state["clip_lo"])
         state["clip_hi"] = np.where(hi, state["clip_hi"] - excess_hi, state["clip_hi"])
