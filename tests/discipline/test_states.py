@@ -84,7 +84,12 @@ def test_the_compiled_state_machine_equals_its_numpy_twin():
     ref_var = (rng.uniform(1e-9, 40e-9, (3, 3000))) ** 2  # the fused reference's sd: 1..40 ns, some unknown
     ref_var[:, 500:520] = np.nan
     ref_var[:, 540:560] = -1e-14  # a negative variance: unknown in both twins (they once differed on it)
-    kw = dict(alarm=alarm, implausible=implausible, near_rail=near, freq_adj=u, reference_variance_s2=ref_var)
+    unresolved = np.zeros_like(offset)
+    unresolved[2, 2700:2800] = 60e-9  # an unresolved offset that narrows the limit, and one that leaves none
+    unresolved[0, 2900:] = 200e-9
+    unresolved[1, 2050:2300] = 300e-9  # present when the reference comes back: RECOVERY -> ALARM
+    kw = dict(alarm=alarm, implausible=implausible, near_rail=near, freq_adj=u, reference_variance_s2=ref_var,
+              unresolved_s=unresolved)
     fast = run_states(usable, offset, cfg, fast=True, **kw)
     slow = run_states(usable, offset, cfg, fast=False, **kw)
     assert np.array_equal(fast.state, slow.state) and np.array_equal(fast.reason, slow.reason)
@@ -92,7 +97,8 @@ def test_the_compiled_state_machine_equals_its_numpy_twin():
     for name in ("filtered_offset_s", "holdover_sigma_s"):
         assert np.allclose(getattr(fast, name), getattr(slow, name), rtol=1e-12, atol=0, equal_nan=True)
     assert len(set(fast.state.ravel().tolist())) == 6  # every state visited
-    assert set(fast.reason.ravel().tolist()) == set(range(9))  # and every reason given
+    assert set(fast.reason.ravel().tolist()) == set(range(10))  # and every reason given
+    assert not (fast.state[0, 2910:] == State.LOCKED).any() and not (fast.state[1, 2100:2300] == State.LOCKED).any()
 
 
 def _locked_then(**changes):

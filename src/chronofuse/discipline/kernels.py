@@ -84,12 +84,13 @@ def fusion_kernel(z, usable, selection, alpha, initial_var, floor_var, fresh):
 
 
 @numba.njit(cache=True)
-def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, params):
+def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, unresolved, params):
     """The state machine (:mod:`.states`, :func:`~.states.advance`) over (trials, steps), ``params`` from
     :meth:`~.states.StateConfig.kernel_params`; returns state and reason (int8), filtered offset, holdover
     ready (int8) and holdover sigma, each (trials, steps). Codes: FREE_RUN 0, ACQUIRING 1, LOCKED 2,
     HOLDOVER 3, RECOVERY 4, ALARM 5; reasons NONE 0, REFERENCE_USABLE 1, REFERENCE_LOST 2, LOCK_ACHIEVED 3,
-    INTEGRITY_ALARM 4, TIME_ERROR_EXCURSION 5, FREQUENCY_EXCURSION 6, DAC_RAIL 7, IMPLAUSIBLE_REFERENCE 8."""
+    INTEGRITY_ALARM 4, TIME_ERROR_EXCURSION 5, FREQUENCY_EXCURSION 6, DAC_RAIL 7, IMPLAUSIBLE_REFERENCE 8,
+    UNRESOLVED_OFFSET 9."""
     limit, hold, a_te, f_thr, a_u, ready, model_var, horizon = (params[0], params[1], params[2], params[3],
                                                                  params[4], params[5], params[6], params[7])
     threshold, k_sigma = params[8], params[9]
@@ -137,13 +138,15 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, p
                 u_var = 0.0
                 u_f = u
             v = ref_var[i, k]
-            lim = min(limit, threshold - k_sigma * math.sqrt(v)) if math.isfinite(v) and v >= 0.0 else limit
+            bare = min(limit, threshold - k_sigma * math.sqrt(v)) if math.isfinite(v) and v >= 0.0 else limit
+            noise = k_sigma * math.sqrt(v) if math.isfinite(v) and v >= 0.0 else 0.0
+            lim = min(bare, threshold - noise - unresolved[i, k])
             te_ok = ok and abs(te_f) < lim
             f_ok = abs(dev) < f_thr
             settled = ok and te_ok and f_ok and not near[i, k]
             run = run + 1 if settled else 0
             lost = 8 if implausible[i, k] else (4 if alarm[i, k] else 2)
-            broken = 7 if near[i, k] else (5 if not te_ok else 6)
+            broken = 7 if near[i, k] else ((9 if ok and abs(te_f) < bare else 5) if not te_ok else 6)
             new = s
             why = 0
             if s == 0 and ok:
@@ -156,6 +159,8 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, p
                 new, why = 4, 1
             elif s == 2 and not settled:
                 new, why = 5, broken
+            elif (s == 1 or s == 4) and ok and lim <= 0.0 and unresolved[i, k] > 0.0:
+                new, why = 5, 9
             if (s == 1 or s == 4 or s == 5) and run >= hold:
                 new, why = 2, 3
             s = new
@@ -232,7 +237,8 @@ def _avar(h0, hm1, hm2, tau):
 def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, recent_var,
                         scalars):
     """The drag monitor (:mod:`.plausibility`, :meth:`~.plausibility.DragMonitor.update`) over (series, steps);
-    returns plausible (int8), readmitted (int8) and the statistic, each (series, steps)."""
+    returns plausible (int8), readmitted (int8), the statistic and the unresolved offset's bound, each
+    (series, steps)."""
     h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
     check_var, readmit_k, recheck_gap, watch_s = scalars[9], scalars[10], int(scalars[11]), int(scalars[12])
@@ -242,6 +248,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     plausible = np.empty((n_series, steps), dtype=np.int8)
     readmitted = np.zeros((n_series, steps), dtype=np.int8)
     stat = np.empty((n_series, steps))
+    unresolved_out = np.empty((n_series, steps))
     csum = np.zeros(L)
     tsum = np.zeros(L)
     count = np.zeros(L, dtype=np.int64)
@@ -274,6 +281,8 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
         clip_off = 0
         clip_hi = CLIP_MAX
         clip_lo = CLIP_MAX
+        waited = 0
+        unresolved = 0.0
         for k in range(steps):
             have = admitted[i, k] and math.isfinite(y[i, k])
             yk = y[i, k]
@@ -353,6 +362,8 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             agree_now = False
             strayed = False
             first = False
+            first_bound = 0.0
+            readmit_bound = 0.0
             if refused or watched:  # the comparison with the holdover prediction: while refused, or watched
                 bs, ts = _block(csum, tsum, count, start, k, ms, L)
                 h = ts - anchor_t if math.isfinite(ts) else k - (ms - 1) / 2.0 - anchor_t
@@ -371,6 +382,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 miss = abs(bs - (anchor + anchor_f * h))
                 agree_now = judged and miss < readmit_k * math.sqrt(var) + aging
                 strayed = judged and not miss < k_sigma * math.sqrt(var) + aging
+                readmit_bound = miss + readmit_k * math.sqrt(var) + aging
                 if judged:  # the frequency since the anchor (numpy twin)
                     for j in range(nh - 1, -1, -1):
                         w = horizons[j]
@@ -400,8 +412,10 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                         hp1 = max(hp, 1.0)
                         var_p = (2.0 * hp1 * hp1 * _avar(h0, hm1, hm2, hp1) + hp1 * hp1 * _avar(h0, hm1, hm2, wa)
                                  + recent_var[n] + ablock + lever * (hp1 / wa) ** 2)
-                        first = (abs(bp - (anchor + anchor_f * hp))
-                                 < readmit_k * math.sqrt(max(var_p, 0.0)) + drift * max(hp, wa) ** 2)
+                        tolerance = readmit_k * math.sqrt(max(var_p, 0.0)) + drift * max(hp, wa) ** 2
+                        p_miss = abs(bp - (anchor + anchor_f * hp))
+                        first = p_miss < tolerance
+                        first_bound = p_miss + tolerance
             if watched and strayed:
                 refuse = True
                 watch = -1
@@ -418,6 +432,14 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             elif judged:
                 agree = agree + 1 if agree_now else 0
             readmit = refused and agree >= max(readmit_s, 4 * anchor_m)
+            if back:  # let back in only once the tolerance covers the miss: a bound, not a resolution (numpy twin)
+                waited = 0
+            if first and waited > 0:
+                unresolved += first_bound
+            if readmit:
+                unresolved += readmit_bound
+            if watched and watch == 0 and have and not first:
+                waited += 1
             if readmit:  # history cleared: watched against the refusal's prediction (numpy twin)
                 start = k + 1
                 watch = 1
@@ -432,4 +454,5 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             plausible[i, k] = 1 if (trusted and watch != 0) else 0
             readmitted[i, k] = 1 if readmit else 0
             stat[i, k] = worst
-    return plausible, readmitted, stat
+            unresolved_out[i, k] = unresolved
+    return plausible, readmitted, stat, unresolved_out

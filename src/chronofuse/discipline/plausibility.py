@@ -28,6 +28,13 @@ block mean at ``k - 2W`` and the frequency to it over the longest horizon before
 that prediction's uncertainty, with its history
 cleared (and, in fusion, its weight earned anew: :attr:`PlausibilityRun.readmitted`).
 
+That tolerance grows with the time since the refusal: a step that stays (a coherent spoofer's 105 ns) is
+inside it some minutes later, and the series comes back carrying it. Agreement then is no resolution, so
+each series keeps ``unresolved``, the sum over its returns of the miss plus the tolerance it was let back in
+on (after a refusal, or back from a gap and first agreeing only after seconds of disagreement):
+:attr:`PlausibilityRun.unresolved_s`, the bound on the offset it may carry, which the state machine keeps off
+the lock threshold (:mod:`.states`). A step that went back is let back in on a small miss.
+
 A single sample far off (a 1PPS outlier, heavy-tailed: 2 % of pulses at 300 ns rms in the ``outliers``
 scenario) holds a block mean for ``m`` seconds, and at ``W = 16`` (``m = 4``) that outlasts ``persist``: one
 pulse refused a clean receiver for ``readmit_s``. So each sample enters the test *clipped*: beyond ``k_sigma``
@@ -119,11 +126,13 @@ class ReferenceNoise:
 @dataclass(frozen=True)
 class PlausibilityRun:
     """(N, S, steps): ``plausible`` (the series trusted this second), ``readmitted`` (trusted again this second
-    after a refusal), ``statistic`` (the largest ``|D_W| / threshold(W)`` of the second, NaN without one)."""
+    after a refusal), ``statistic`` (the largest ``|D_W| / threshold(W)`` of the second, NaN without one),
+    ``unresolved_s`` (the bound on an offset the series was let back in with, s; module docstring)."""
 
     plausible: np.ndarray
     readmitted: np.ndarray
     statistic: np.ndarray
+    unresolved_s: np.ndarray | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -300,15 +309,18 @@ class DragMonitor:
         if fast:
             flat_y = np.ascontiguousarray(y.reshape(-1, steps))
             flat_a = np.ascontiguousarray(admitted.reshape(-1, steps))
-            p, r, st = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
-            return PlausibilityRun(p.reshape(y.shape) != 0, r.reshape(y.shape) != 0, st.reshape(y.shape))
+            p, r, st, u = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
+            return PlausibilityRun(p.reshape(y.shape) != 0, r.reshape(y.shape) != 0, st.reshape(y.shape),
+                                   u.reshape(y.shape))
         state = self.initial_state(shape)
         plausible = np.empty(y.shape, bool)
         readmitted = np.empty(y.shape, bool)
         stat = np.empty(y.shape)
+        unresolved = np.empty(y.shape)
         for k in range(steps):
             state, plausible[..., k], readmitted[..., k], stat[..., k] = self.update(state, y[..., k], admitted[..., k])
-        return PlausibilityRun(plausible, readmitted, stat)
+            unresolved[..., k] = state["unresolved"]
+        return PlausibilityRun(plausible, readmitted, stat, unresolved)
 
     # ---- the per-second core (readable twin of the kernel) ------------------------------------------------
     def initial_state(self, shape: tuple[int, ...]) -> dict:
@@ -321,7 +333,8 @@ class DragMonitor:
                 "gap_anchor": np.full(shape, np.nan), "gap_f": np.zeros(shape), "gap_t": np.zeros(shape),
                 "gap_w": np.ones(shape, np.int64), "clip_run": np.zeros(shape, np.int64),
                 "clip_off": np.zeros(shape, np.int64), "clip_hi": np.full(shape, CLIP_MAX),
-                "clip_lo": np.full(shape, CLIP_MAX)}
+                "clip_lo": np.full(shape, CLIP_MAX), "waited": np.zeros(shape, np.int64),
+                "unresolved": np.zeros(shape)}
 
     def _recent(self, state, k, m):
         """The mean, mean time and count of the samples in (k - m, k] since the history's ``start``, from one
@@ -469,16 +482,18 @@ class DragMonitor:
         # Its first clear agreement is taken from the samples it has, one on (each second untrusted is a
         # second of holdover): their mean's own noise in place of the check block's.
         first = np.zeros(y.shape, bool)
+        first_bound = np.zeros(y.shape)
         f_miss = f_sd = f_aging = np.full(y.shape, np.nan)
         if (watched | ~trusted).any():  # nothing refused or watched (the usual second): nothing to compare
             bp, tp, n = self._recent(state, k, ms)
             hp = tp - state["anchor_t"]
             var_p = (self._prediction_var_s2(hp, wa, state["anchor_m"]) - self.noise.block_var(max(1, ms // 2))
                      + np.vectorize(self.noise.block_var, otypes=[float])(np.maximum(n, 1)))
-            first = (watched & (watch == 0) & have & (n > 0)
-                     & (np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
-                        < self.readmit_k_sigma * np.sqrt(np.maximum(var_p, 0.0))
-                        + self.drift_per_s * np.maximum(hp, wa) ** 2))
+            tolerance = (self.readmit_k_sigma * np.sqrt(np.maximum(var_p, 0.0))
+                         + self.drift_per_s * np.maximum(hp, wa) ** 2)
+            p_miss = np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
+            first = watched & (watch == 0) & have & (n > 0) & (p_miss < tolerance)
+            first_bound = np.where(first, p_miss + tolerance, 0.0)
             f_miss, f_sd, f_aging = self._frequency_miss(state, k, h, wa)
         strayed = watched & judged & (~(miss < self.k_sigma * sd + aging) | (f_miss > self.k_sigma * f_sd + f_aging))
         refuse = refuse | strayed
@@ -491,6 +506,13 @@ class DragMonitor:
         agree_now = agree_now & ~(f_miss >= self.readmit_k_sigma * f_sd + f_aging)
         agree = np.where(refused, np.where(judged, np.where(agree_now, state["agree"] + 1, 0), state["agree"]), 0)
         readmit = refused & (agree >= np.maximum(self.readmit_s, 4 * state["anchor_m"]))
+        # Let back in only once the prediction's tolerance covers what it missed (after a refusal, or after
+        # seconds back from a gap without agreement): the offset the series may carry is bounded, not resolved.
+        waited = np.where(back, 0, state["waited"])
+        late = first & (waited > 0)
+        state["unresolved"] = (state["unresolved"] + np.where(late, first_bound, 0.0)
+                               + np.where(readmit, miss + self.readmit_k_sigma * sd + aging, 0.0))
+        state["waited"] = np.where(watched & (watch == 0) & have & ~first, waited + 1, waited)
         # Re-admitted with its history cleared, a drag that goes on is, to the second differences, a frequency
         # offset from the start: the series stays watched against the refusal's prediction.
         watch = np.where(readmit, 1, watch)

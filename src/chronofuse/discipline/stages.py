@@ -267,7 +267,7 @@ class StateStage:
     refused it; integrity counts as an alarm when receivers are excluded by it and none is left usable."""
 
     needs: ClassVar[tuple[str, ...]] = ("loop_reference_s", "offset_s", "excluded", "usable", "near_rail", "freq_adj",
-                                        "implausible", "reference_variance_s2")
+                                        "implausible", "reference_variance_s2", "unresolved_s")
     gives: ClassVar[tuple[str, ...]] = ("gnssdo_state", "gnssdo_reason", "rail_alarm", "filtered_offset_s",
                                         "holdover_ready", "holdover_sigma_s")
 
@@ -300,7 +300,8 @@ class StateStage:
                                                near_rail=np.asarray(epoch["near_rail"], dtype=bool),
                                                freq_adj=np.asarray(epoch["freq_adj"], dtype=np.float64),
                                                reference_variance_s2=np.asarray(epoch["reference_variance_s2"],
-                                                                                dtype=np.float64))
+                                                                                dtype=np.float64),
+                                               unresolved_s=np.asarray(epoch["unresolved_s"], dtype=np.float64))
         return {"gnssdo_state": self._memory["state"].copy(), "gnssdo_reason": reason,
                 "rail_alarm": np.asarray(epoch["near_rail"], dtype=bool), **report}
 
@@ -308,7 +309,8 @@ class StateStage:
         any_usable, all_alarmed, implausible = self._inputs(frame, -2)
         states = run_states(any_usable, frame["offset_s"], self.config, alarm=all_alarmed, near_rail=frame["near_rail"],
                             implausible=implausible, freq_adj=frame["freq_adj"],
-                            reference_variance_s2=frame["reference_variance_s2"], fast=self.fast)
+                            reference_variance_s2=frame["reference_variance_s2"], unresolved_s=frame["unresolved_s"],
+                            fast=self.fast)
         return {"gnssdo_state": states.state, "gnssdo_reason": states.reason, "rail_alarm": states.rail_alarm,
                 "filtered_offset_s": states.filtered_offset_s, "holdover_ready": states.holdover_ready,
                 "holdover_sigma_s": states.holdover_sigma_s}

@@ -6,7 +6,8 @@ start"; with every receiver blocked or jammed it "enters time-keeping mode and s
     FREE_RUN --usable reference--> ACQUIRING --criteria met for lock_hold_s--> LOCKED
     ACQUIRING --no usable reference--> FREE_RUN
     LOCKED --no usable reference / integrity alarm / implausible reference--> HOLDOVER --usable again--> RECOVERY
-    LOCKED --time-error or frequency excursion, DAC near a rail--> ALARM --criteria met for lock_hold_s--> LOCKED
+    LOCKED --time-error or frequency excursion, DAC near a rail, unresolved offset--> ALARM --criteria met for
+        lock_hold_s--> LOCKED;  ACQUIRING, RECOVERY --an unresolved offset over the threshold--> ALARM
     ALARM --no usable reference ...--> HOLDOVER;  RECOVERY --criteria met for lock_hold_s--> LOCKED
     RECOVERY --lost again--> HOLDOVER
 
@@ -27,7 +28,15 @@ kept, only while every lock criterion holds each second:
 * the frequency correction ``u_k`` the servo applies stays within ``freq_threshold`` of its own exponential
   average over ``freq_filter_s`` (a loop being dragged, or still pulling in, moves it);
 * the DAC is away from its rails (``near_rail`` False): a loop at the end of its tuning range no longer
-  follows the reference.
+  follows the reference;
+* the reference carries no offset the oscillator could not resolve beyond what the threshold leaves: a
+  reference refused as implausible (a coherent step of every receiver) and let back in once the holdover
+  prediction's tolerance had grown over its miss may still be off by up to ``unresolved_s`` (the miss plus the
+  tolerance, :mod:`.plausibility`), and that is kept off the threshold too: ``|filtered| < lock_threshold_s -
+  noise_sigmas x sigma_ref - unresolved_s``. Where only this fails, the reason is UNRESOLVED_OFFSET (LOCKED
+  goes to ALARM; ACQUIRING and RECOVERY go to ALARM once it leaves no limit at all). It is not
+  resolved later (nothing but another reference could tell a step of the reference from the oscillator's
+  wander); :meth:`StateMachine.reset` (a new run) clears it.
 
 A criterion lost in LOCKED moves to ALARM (the loop still steers; the output is not claimed locked) with
 the criterion as reason; a reference lost or refused moves to HOLDOVER. ``lock_hold_s`` consecutive seconds
@@ -85,6 +94,7 @@ class Reason(IntEnum):
     FREQUENCY_EXCURSION = 6
     DAC_RAIL = 7
     IMPLAUSIBLE_REFERENCE = 8
+    UNRESOLVED_OFFSET = 9
 
 
 @dataclass(frozen=True)
@@ -171,12 +181,13 @@ def initial_memory(n: int) -> dict[str, np.ndarray]:
 
 
 def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, implausible=None, near_rail=None,
-            freq_adj=None, reference_variance_s2=None) -> tuple[dict, np.ndarray, dict]:
+            freq_adj=None, reference_variance_s2=None, unresolved_s=None) -> tuple[dict, np.ndarray, dict]:
     """One second for N loops -> ``(memory', reason (N,) int8, report)``; ``report``: ``filtered_offset_s``,
     ``holdover_ready``, ``holdover_sigma_s`` (N,). Inputs (N,): ``usable`` (a fused reference this second),
     ``offset_s`` (the measured offset), ``alarm`` (integrity), ``implausible`` (refused by the oscillator's
     prediction), ``near_rail``, ``freq_adj`` (the applied frequency correction), ``reference_variance_s2``
-    (the fused reference's variance; NaN, negative or None: unknown, no noise margin); new arrays returned."""
+    (the fused reference's variance; NaN, negative or None: unknown, no noise margin), ``unresolved_s`` (the
+    bound on an offset the reference was let back in with; None: none); new arrays returned."""
     p = config.kernel_params()
     limit, hold, a_te, f_thr, a_u, ready, model_var, horizon, threshold, k_sigma = p
     s = np.asarray(memory["state"])
@@ -190,6 +201,9 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     ref_var = np.zeros(n) if reference_variance_s2 is None else np.asarray(reference_variance_s2, dtype=np.float64)
     known = np.isfinite(ref_var) & (ref_var >= 0.0)  # a negative variance is no variance: unknown
     limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(known, ref_var, 0.0)))
+    unresolved = np.zeros(n) if unresolved_s is None else np.nan_to_num(np.asarray(unresolved_s, dtype=np.float64))
+    bare = limit  # the limit the unresolved offset leaves out: only that failing is UNRESOLVED_OFFSET
+    limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(known, ref_var, 0.0)) - unresolved)
     ok = usable & ~alarm & ~implausible & np.isfinite(z)
     # Filters: restarted on the first usable second after a loss (the time error), or the first at all (u).
     # A measured offset more than the threshold from the level, for one second, enters as the threshold (the
@@ -215,8 +229,8 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     reason = np.zeros(n, dtype=np.int8)
     lost = np.where(implausible, Reason.IMPLAUSIBLE_REFERENCE,
                     np.where(alarm, Reason.INTEGRITY_ALARM, Reason.REFERENCE_LOST)).astype(np.int8)
-    broken = np.where(near, Reason.DAC_RAIL, np.where(~te_ok, Reason.TIME_ERROR_EXCURSION,
-                                                        Reason.FREQUENCY_EXCURSION)).astype(np.int8)
+    te_why = np.where(np.abs(np.where(ok, te_f, np.inf)) < bare, Reason.UNRESOLVED_OFFSET, Reason.TIME_ERROR_EXCURSION)
+    broken = np.where(near, Reason.DAC_RAIL, np.where(~te_ok, te_why, Reason.FREQUENCY_EXCURSION)).astype(np.int8)
 
     def move(mask, to, why):
         new[mask] = to
@@ -227,6 +241,9 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     move(((s == State.LOCKED) | (s == State.ALARM) | (s == State.RECOVERY)) & ~ok, State.HOLDOVER, lost)
     move((s == State.HOLDOVER) & ok, State.RECOVERY, Reason.REFERENCE_USABLE)
     move((s == State.LOCKED) & ok & ~settled, State.ALARM, broken)
+    # An unresolved offset that leaves no limit at all: the loop steers, and the state says it cannot lock.
+    blocked = ((s == State.ACQUIRING) | (s == State.RECOVERY)) & ok & (limit <= 0.0) & (unresolved > 0.0)
+    move(blocked, State.ALARM, Reason.UNRESOLVED_OFFSET)
     locking = ((s == State.ACQUIRING) | (s == State.RECOVERY) | (s == State.ALARM)) & (run >= hold)
     move(locking, State.LOCKED, Reason.LOCK_ACHIEVED)
     locked = np.where(new == State.LOCKED, memory["locked"] + 1, 0)
@@ -267,10 +284,10 @@ class StateRun:
 
 
 def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=None, near_rail=None, implausible=None,
-               freq_adj=None, reference_variance_s2=None, fast: bool = True) -> StateRun:
+               freq_adj=None, reference_variance_s2=None, unresolved_s=None, fast: bool = True) -> StateRun:
     """States of (trials, steps) loops from their usable mask, measured offsets, alarms, refusals, DAC rails,
-    frequency corrections and the fused reference's variance (each (trials, steps), optional but the first
-    two).
+    frequency corrections, the fused reference's variance and its unresolved offset's bound (each (trials,
+    steps), optional but the first two).
 
     ``fast``: the compiled :func:`~.kernels.states_kernel`; otherwise :func:`advance` second by second
     (its readable twin; tested equal)."""
@@ -287,9 +304,11 @@ def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=N
     u = np.zeros(shape) if freq_adj is None else np.ascontiguousarray(np.broadcast_to(np.asarray(freq_adj, float), shape))
     ref_var = (np.zeros(shape) if reference_variance_s2 is None
                else np.ascontiguousarray(np.broadcast_to(np.asarray(reference_variance_s2, float), shape)))
+    unresolved = (np.zeros(shape) if unresolved_s is None
+                  else np.ascontiguousarray(np.nan_to_num(np.broadcast_to(np.asarray(unresolved_s, float), shape))))
     trials, steps = shape
     if fast:
-        out = states_kernel(usable, alarm, implausible, near, np.ascontiguousarray(offset), u, ref_var,
+        out = states_kernel(usable, alarm, implausible, near, np.ascontiguousarray(offset), u, ref_var, unresolved,
                             config.kernel_params())
         return StateRun(out[0], out[1], near.copy(), out[2], out[3] != 0, out[4])
     memory = initial_memory(trials)
@@ -299,7 +318,7 @@ def run_states(usable, offset_s, config: StateConfig = StateConfig(), *, alarm=N
     for k in range(steps):
         memory, reasons[:, k], rep = advance(memory, usable[:, k], offset[:, k], config, alarm=alarm[:, k],
                                              implausible=implausible[:, k], near_rail=near[:, k], freq_adj=u[:, k],
-                                             reference_variance_s2=ref_var[:, k])
+                                             reference_variance_s2=ref_var[:, k], unresolved_s=unresolved[:, k])
         states[:, k] = memory["state"]
         te_f[:, k], ready[:, k], sigma[:, k] = rep["filtered_offset_s"], rep["holdover_ready"], rep["holdover_sigma_s"]
     return StateRun(states, reasons, near.copy(), te_f, ready, sigma)
@@ -318,12 +337,13 @@ class StateMachine:
         self.report: dict = {}
 
     def step(self, usable: bool, offset_s: float, alarm: bool = False, *, implausible: bool = False,
-             near_rail: bool = False, freq_adj: float = 0.0,
-             reference_variance_s2: float = math.nan) -> tuple[State, Reason]:
+             near_rail: bool = False, freq_adj: float = 0.0, reference_variance_s2: float = math.nan,
+             unresolved_s: float = 0.0) -> tuple[State, Reason]:
         self._memory, reason, rep = advance(self._memory, np.array([bool(usable)]), np.array([float(offset_s)]),
                                             self.config, alarm=np.array([bool(alarm)]),
                                             implausible=np.array([bool(implausible)]),
                                             near_rail=np.array([bool(near_rail)]), freq_adj=np.array([float(freq_adj)]),
-                                            reference_variance_s2=np.array([float(reference_variance_s2)]))
+                                            reference_variance_s2=np.array([float(reference_variance_s2)]),
+                                            unresolved_s=np.array([float(unresolved_s)]))
         self.report = {k: v[0].item() for k, v in rep.items()}
         return State(int(self._memory["state"][0])), Reason(int(reason[0]))

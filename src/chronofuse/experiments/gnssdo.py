@@ -619,7 +619,8 @@ def reference_frame(reference_error_s, free_phase_s, reference_sigma_s: float = 
     return {"free_phase_s": free, "reference_error_s": e, "loop_reference_s": e,
             "implausible": np.zeros(free.shape, dtype=bool), "usable": np.ones((trials, 1, steps), dtype=bool),
             "excluded": np.zeros((trials, 1, steps), dtype=bool),
-            "reference_variance_s2": np.full(free.shape, float(reference_sigma_s) ** 2)}
+            "reference_variance_s2": np.full(free.shape, float(reference_sigma_s) ** 2),
+            "unresolved_s": np.zeros(free.shape)}
 
 
 def reference_pipeline(servo: Servo, osc: OscillatorModel) -> Pipeline:
