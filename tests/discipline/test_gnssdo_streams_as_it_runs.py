@@ -186,6 +186,34 @@ def test_the_whole_chain_on_receivers_streams_as_it_runs_through_an_outage_a_rai
     assert not np.asarray(batch["receiver_plausible"])[..., 1100:].any(axis=-1).all()  # the drag refused
 
 
+def test_a_step_let_back_in_and_a_receiver_vouched_for_stream_as_they_run():
+    # The unresolved offsets, the vouching and the holdover on the prediction, live and batch: receiver 0
+    # stepped by 150 ns from 600 to 900 s (refused, let back in with a bound at 1776 s, vouched for by the other
+    # two once it has agreed with them for a minute), then every receiver stepped by 150 ns at 4000 s (refused,
+    # held over on the prediction, let back in from 6704 s with bounds nothing vouches for).
+    osc = preset("ocxo")
+    env = receiver_environment("open-sky")
+    steps = 7000
+    free, _ = _free_phase(osc, steps, 1, root_seed(8))
+    rx = simulate_receivers(env, steps, 3, 9, trials=1)
+    t = np.arange(steps)
+    pps = rx.pps_error_s + np.where((np.arange(3)[:, None] == 0) & (t >= 600) & (t < 900), 150e-9, 0.0)
+    pps = pps + np.where(t >= 4000, 150e-9, 0.0)
+    monitor = plausibility_monitors(osc, env, 3)[0]
+    config = ChainConfig(states=state_config(osc), receiver_monitor=monitor)
+    servo = make_controller("gated-kalman", osc, env, 3, Dac.for_oscillator(osc))
+    pipe = gnssdo_pipeline(servo, config, 10**9).fit()
+    frame = gnssdo_frame(free, pps, rx.epochs)
+    batch = pipe.run(frame)
+    names = [n for n in pipe.gives if n in batch.columns]
+    assert _mismatches(batch, _stream(pipe, frame, (1500, 3000, 6800)), names) == []
+    unresolved = np.asarray(batch["receiver_unresolved_s"])[0]
+    assert unresolved[0, 3500] > 0.0 and (unresolved[1:, :3500] == 0.0).all()
+    assert np.asarray(batch["unresolved_s"])[0, 3500] == 0.0  # vouched for
+    assert np.asarray(batch["unresolved_s"])[0, -1] > 100e-9
+    assert np.isfinite(np.asarray(batch["loop_reference_s"])[0, 4500])  # held over on the prediction
+
+
 @numba.njit(SAMPLE, cache=False)
 def _sample_after_warmup(offset_s, local_ts_s, weight, shift_s, applied, state, params, out):
     # proportional steering that starts only once the loop has run ``params[1]`` seconds: a backend that reads

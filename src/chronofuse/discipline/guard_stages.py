@@ -10,11 +10,13 @@ corrected 1PPS error, or against the fused reference.
   plausibility), whose fusion weight is then earned anew; ``receiver_unresolved_s``, the bound on an offset
   each receiver was let back in with (:attr:`~.plausibility.PlausibilityRun.unresolved_s`).
 * :class:`ReferencePlausibilityStage` watches the fused reference and gives the reference the loop closes on,
-  ``loop_reference_s`` (NaN while refused: holdover), ``implausible`` (the fused reference refused, or
+  ``loop_reference_s`` (while refused, the free oscillator less the holdover prediction from before the
+  excursion: the loop holds over on the oscillator's own frequency, not on what a drag taught it; NaN where
+  there is none), ``implausible`` (the fused reference refused, or
   every offered receiver refused) and ``unresolved_s``: the bound on the offset the reference may carry that
   the oscillator could not resolve, the larger of its own and its receivers' bounds weighted as fused (a
-  weighted mean errs by at most the weighted mean of the bounds; a receiver vouched for by another with no
-  bound counts none, :class:`_Vouched`). The state machine keeps it off the lock
+  weighted mean errs by at most the weighted mean of the bounds; a receiver that agrees for a minute with
+  those carrying none counts none, :class:`_Vouched`). The state machine keeps it off the lock
   threshold: a coherent step refused at once but let back in when the holdover prediction's tolerance had
   grown over it is not claimed locked.
 
@@ -24,11 +26,12 @@ Each has a pass-through twin for a chain without the test (:class:`NoReceiverPla
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
 
-from chronofuse.discipline.plausibility import DragMonitor
+from chronofuse.discipline.plausibility import DragMonitor, ReferenceNoise
 
 __all__ = ["ReceiverPlausibilityStage", "ReferencePlausibilityStage", "NoReceiverPlausibility",
            "NoReferencePlausibility"]
@@ -60,7 +63,7 @@ class ReceiverPlausibilityStage:
     """Each qualified receiver against the free oscillator's prediction (module docstring)."""
 
     needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "pps_corrected_s", "qualified", "excluded")
-    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s")
+    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s", "receiver_predicted_s")
 
     def __init__(self, monitor: DragMonitor, *, fast: bool = True):
         self.monitor = monitor
@@ -85,7 +88,8 @@ class ReceiverPlausibilityStage:
         self._state, plausible, _, _ = self.monitor.update(self._state, free - e, qualified)
         usable = qualified & ~np.asarray(epoch["excluded"], dtype=bool) & plausible
         return {"receiver_plausible": plausible, "fresh": self._fresh.step(qualified, usable),
-                "receiver_unresolved_s": self._state["unresolved"].copy()}
+                "receiver_unresolved_s": self._state["unresolved"].copy(),
+                "receiver_predicted_s": self.monitor.predicted(self._state)}
 
     def run(self, frame) -> dict:
         e = np.asarray(frame["pps_corrected_s"], dtype=np.float64)
@@ -94,14 +98,14 @@ class ReceiverPlausibilityStage:
         test = self.monitor.run(free - e, qualified, fast=self.fast)
         usable = qualified & ~np.asarray(frame["excluded"], dtype=bool) & test.plausible
         return {"receiver_plausible": test.plausible, "fresh": _FreshTracker.run(qualified, usable),
-                "receiver_unresolved_s": test.unresolved_s}
+                "receiver_unresolved_s": test.unresolved_s, "receiver_predicted_s": test.predicted_s}
 
 
 class NoReceiverPlausibility:
     """No plausibility test of the receivers: all plausible; ``fresh`` still marks returns from integrity."""
 
     needs: ClassVar[tuple[str, ...]] = ("qualified", "excluded")
-    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s")
+    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s", "receiver_predicted_s")
 
     def __init__(self):
         self._fresh = _FreshTracker()
@@ -118,13 +122,13 @@ class NoReceiverPlausibility:
         qualified = np.asarray(epoch["qualified"], dtype=bool)
         usable = qualified & ~np.asarray(epoch["excluded"], dtype=bool)
         return {"receiver_plausible": np.ones(qualified.shape, bool), "fresh": self._fresh.step(qualified, usable),
-                "receiver_unresolved_s": np.zeros(qualified.shape)}
+                "receiver_unresolved_s": np.zeros(qualified.shape), "receiver_predicted_s": np.full(qualified.shape, np.nan)}
 
     def run(self, frame) -> dict:
         qualified = np.asarray(frame["qualified"], dtype=bool)
         usable = qualified & ~np.asarray(frame["excluded"], dtype=bool)
         return {"receiver_plausible": np.ones(qualified.shape, bool), "fresh": _FreshTracker.run(qualified, usable),
-                "receiver_unresolved_s": np.zeros(qualified.shape)}
+                "receiver_unresolved_s": np.zeros(qualified.shape), "receiver_predicted_s": np.full(qualified.shape, np.nan)}
 
 
 def _every_offered_refused(frame, axis: int) -> np.ndarray:
@@ -135,35 +139,75 @@ def _every_offered_refused(frame, axis: int) -> np.ndarray:
     return offered.any(axis=axis) & ~usable.any(axis=axis)
 
 
+def _holdover_reference(free, predicted, axis: int, own=None) -> np.ndarray:
+    """The reference the loop holds over on while refused: the free oscillator less the holdover prediction of
+    the series (``own``, the fused reference's, where it has one; else the mean of the refused receivers'),
+    NaN where none. The loop then keeps the oscillator's frequency from before the excursion, not the one a
+    drag taught it before it was refused."""
+    predicted = np.asarray(predicted, dtype=np.float64)
+    have = np.isfinite(predicted)
+    n = have.sum(axis=axis)
+    mean = np.where(n > 0, np.where(have, predicted, 0.0).sum(axis=axis) / np.maximum(n, 1), np.nan)
+    if own is not None:
+        mean = np.where(np.isfinite(own), own, mean)
+    return np.asarray(free, dtype=np.float64) - mean
+
+
+#: Seconds a receiver let back in with a bound must agree with the receivers that carry none before they vouch for it.
+VOUCH_S = 64
+
+
 class _Vouched:
     """The fused reference's share of its receivers' unresolved offsets (module docstring): each usable
-    receiver's bound since it was last vouched for, weighted as fused. A receiver usable beside another usable
-    one that carries no bound is vouched for by it (the fusion's leave-one-out weights, earned anew, carry
-    that cross-check: one receiver of three off leaves the output as it was); where every usable receiver was
-    let back in with a bound (a coherent step), nothing vouches and the bounds stand."""
+    receiver's bound since it was last vouched for, weighted as fused.
+
+    A receiver let back in with a bound is vouched for (its bound set aside) by the usable receivers that
+    carry none once it has agreed with their mean for ``VOUCH_S`` seconds: the exponential average of the
+    difference within 3 sigma of the receivers' noise over that time (``noise``: their
+    :class:`~.plausibility.ReferenceNoise`; the difference of two receivers' block means, twice one's
+    variance). A receiver stepped alone or with another (a staggered or a two-of-three step) differs from
+    the clean ones by its step and is not vouched for; where every usable receiver carries a bound (a
+    coherent step) nothing vouches. A receiver never refused vouches for what it is: an offset under the
+    test's thresholds on every receiver is not seen (``drag_check``)."""
+
+    def __init__(self, noise: ReferenceNoise | None):
+        self.tolerance_s = math.inf if noise is None else 3.0 * math.sqrt(2.0 * noise.block_var(VOUCH_S))
+        self.reset()
 
     def reset(self) -> None:
-        self._base = None
+        self._base = self._diff = self._count = self._last = None
 
-    def step(self, usable, unresolved, weights) -> np.ndarray:
+    def step(self, usable, unresolved, weights, error) -> np.ndarray:
         usable = np.asarray(usable, dtype=bool)
         u = np.nan_to_num(np.asarray(unresolved, dtype=np.float64))
-        base = np.zeros(u.shape) if self._base is None else self._base
-        clean = usable & (u - base <= 0.0)
-        vouch = (clean.any(axis=-1) & (usable.sum(axis=-1) >= 2))[..., None] & usable
-        self._base = np.where(vouch, u, base)
+        e = np.asarray(error, dtype=np.float64)
+        if self._base is None:
+            self._base, self._diff = np.zeros(u.shape), np.zeros(u.shape)
+            self._count, self._last = np.zeros(u.shape, np.int64), np.zeros(u.shape)
+        count = np.where(u > self._last, 0, self._count)  # a new bound: its agreement starts again
+        clean = usable & np.isfinite(e) & (u - self._base <= 0.0)
+        n = clean.sum(axis=-1, keepdims=True)
+        mean = np.where(n > 0, np.where(clean, e, 0.0).sum(axis=-1, keepdims=True) / np.maximum(n, 1), np.nan)
+        pending = usable & np.isfinite(e) & (u - self._base > 0.0) & (n > 0)
+        diff = np.where(pending, e - mean, 0.0)
+        self._diff = np.where(pending, np.where(count > 0, self._diff + (diff - self._diff) / VOUCH_S, diff), self._diff)
+        count = np.where(pending, count + 1, count)
+        vouch = pending & (count >= VOUCH_S) & (np.abs(self._diff) < self.tolerance_s)
+        self._base = np.where(vouch, u, self._base)
+        self._count, self._last = count, u
         return np.sum(np.nan_to_num(np.asarray(weights, dtype=np.float64)) * (u - self._base), axis=-1)
 
-    @staticmethod
-    def run(usable, unresolved, weights) -> np.ndarray:
+    def run(self, usable, unresolved, weights, error) -> np.ndarray:
         usable = np.asarray(usable, dtype=bool)
         unresolved = np.asarray(unresolved, dtype=np.float64)
         weights = np.asarray(weights, dtype=np.float64)
-        tracker = _Vouched()
-        tracker.reset()
-        out = np.empty(usable.shape[:-2] + usable.shape[-1:])
+        error = np.asarray(error, dtype=np.float64)
+        out = np.zeros(usable.shape[:-2] + usable.shape[-1:])
+        if not np.any(unresolved):  # the usual run: no receiver let back in with a bound
+            return out
+        self.reset()
         for k in range(usable.shape[-1]):
-            out[..., k] = tracker.step(usable[..., k], unresolved[..., k], weights[..., k])
+            out[..., k] = self.step(usable[..., k], unresolved[..., k], weights[..., k], error[..., k])
         return out
 
 
@@ -171,12 +215,13 @@ class ReferencePlausibilityStage:
     """The fused reference against the free oscillator's prediction (module docstring)."""
 
     needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "reference_error_s", "qualified", "excluded", "usable",
-                                        "weights", "receiver_unresolved_s")
+                                        "weights", "receiver_unresolved_s", "receiver_predicted_s", "pps_corrected_s")
     gives: ClassVar[tuple[str, ...]] = ("loop_reference_s", "implausible", "unresolved_s")
 
-    def __init__(self, monitor: DragMonitor, *, fast: bool = True):
+    def __init__(self, monitor: DragMonitor, *, fast: bool = True, receiver_noise: ReferenceNoise | None = None):
         self.monitor = monitor
         self.fast = fast
+        self._vouched = _Vouched(receiver_noise)
         self.reset()
 
     def fit(self, frame=None) -> ReferencePlausibilityStage:
@@ -185,7 +230,6 @@ class ReferencePlausibilityStage:
 
     def reset(self) -> None:
         self._state = None
-        self._vouched = _Vouched()
         self._vouched.reset()
 
     def step(self, epoch) -> dict:
@@ -196,9 +240,11 @@ class ReferencePlausibilityStage:
         have = np.isfinite(ref)
         self._state, plausible, _, _ = self.monitor.update(self._state, (free - ref)[..., None], have[..., None])
         refused = have & ~plausible[..., 0]
-        return {"loop_reference_s": np.where(refused, np.nan, ref), "implausible": refused | _every_offered_refused(epoch, -1),
+        implausible = refused | _every_offered_refused(epoch, -1)
+        held = _holdover_reference(free, epoch["receiver_predicted_s"], -1, own=self.monitor.predicted(self._state)[..., 0])
+        return {"loop_reference_s": np.where(implausible, held, ref), "implausible": implausible,
                 "unresolved_s": np.maximum(self._state["unresolved"][..., 0], self._vouched.step(
-                    epoch["usable"], epoch["receiver_unresolved_s"], epoch["weights"]))}
+                    epoch["usable"], epoch["receiver_unresolved_s"], epoch["weights"], epoch["pps_corrected_s"]))}
 
     def run(self, frame) -> dict:
         ref = np.asarray(frame["reference_error_s"], dtype=np.float64)
@@ -206,20 +252,23 @@ class ReferencePlausibilityStage:
         have = np.isfinite(ref)
         test = self.monitor.run((free - ref)[..., None, :], have[..., None, :], fast=self.fast)
         refused = have & ~test.plausible[..., 0, :]
-        return {"loop_reference_s": np.where(refused, np.nan, ref), "implausible": refused | _every_offered_refused(frame, -2),
-                "unresolved_s": np.maximum(test.unresolved_s[..., 0, :], _Vouched.run(
-                    frame["usable"], frame["receiver_unresolved_s"], frame["weights"]))}
+        implausible = refused | _every_offered_refused(frame, -2)
+        held = _holdover_reference(free, frame["receiver_predicted_s"], -2, own=test.predicted_s[..., 0, :])
+        return {"loop_reference_s": np.where(implausible, held, ref), "implausible": implausible,
+                "unresolved_s": np.maximum(test.unresolved_s[..., 0, :], self._vouched.run(
+                    frame["usable"], frame["receiver_unresolved_s"], frame["weights"], frame["pps_corrected_s"]))}
 
 
 class NoReferencePlausibility:
     """No plausibility test of the fused reference: the loop closes on it; ``implausible`` only when every offered
     receiver was refused."""
 
-    needs: ClassVar[tuple[str, ...]] = ("reference_error_s", "qualified", "excluded", "usable", "weights",
-                                        "receiver_unresolved_s")
+    needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "reference_error_s", "qualified", "excluded", "usable",
+                                        "weights", "receiver_unresolved_s", "receiver_predicted_s", "pps_corrected_s")
     gives: ClassVar[tuple[str, ...]] = ("loop_reference_s", "implausible", "unresolved_s")
 
-    def __init__(self):
+    def __init__(self, receiver_noise: ReferenceNoise | None = None):
+        self._vouched = _Vouched(receiver_noise)
         self.reset()
 
     def fit(self, frame=None):
@@ -227,15 +276,20 @@ class NoReferencePlausibility:
         return self
 
     def reset(self) -> None:
-        self._vouched = _Vouched()
         self._vouched.reset()
 
     def step(self, epoch) -> dict:
-        return {"loop_reference_s": np.asarray(epoch["reference_error_s"], dtype=np.float64),
-                "implausible": _every_offered_refused(epoch, -1),
-                "unresolved_s": self._vouched.step(epoch["usable"], epoch["receiver_unresolved_s"], epoch["weights"])}
+        implausible = _every_offered_refused(epoch, -1)
+        held = _holdover_reference(epoch["free_phase_s"], epoch["receiver_predicted_s"], -1)
+        return {"loop_reference_s": np.where(implausible, held, np.asarray(epoch["reference_error_s"], dtype=np.float64)),
+                "implausible": implausible,
+                "unresolved_s": self._vouched.step(epoch["usable"], epoch["receiver_unresolved_s"], epoch["weights"],
+                                                   epoch["pps_corrected_s"])}
 
     def run(self, frame) -> dict:
-        return {"loop_reference_s": np.asarray(frame["reference_error_s"], dtype=np.float64),
-                "implausible": _every_offered_refused(frame, -2),
-                "unresolved_s": _Vouched.run(frame["usable"], frame["receiver_unresolved_s"], frame["weights"])}
+        implausible = _every_offered_refused(frame, -2)
+        held = _holdover_reference(frame["free_phase_s"], frame["receiver_predicted_s"], -2)
+        return {"loop_reference_s": np.where(implausible, held, np.asarray(frame["reference_error_s"], dtype=np.float64)),
+                "implausible": implausible,
+                "unresolved_s": self._vouched.run(frame["usable"], frame["receiver_unresolved_s"], frame["weights"],
+                                                  frame["pps_corrected_s"])}

@@ -237,8 +237,8 @@ def _avar(h0, hm1, hm2, tau):
 def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, recent_var,
                         scalars):
     """The drag monitor (:mod:`.plausibility`, :meth:`~.plausibility.DragMonitor.update`) over (series, steps);
-    returns plausible (int8), readmitted (int8), the statistic and the unresolved offset's bound, each
-    (series, steps)."""
+    returns plausible (int8), readmitted (int8), the statistic, the unresolved offset's bound and the holdover
+    prediction while refused (NaN while trusted), each (series, steps)."""
     h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
     check_var, readmit_k, recheck_gap, watch_s = scalars[9], scalars[10], int(scalars[11]), int(scalars[12])
@@ -249,6 +249,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     readmitted = np.zeros((n_series, steps), dtype=np.int8)
     stat = np.empty((n_series, steps))
     unresolved_out = np.empty((n_series, steps))
+    predicted_out = np.empty((n_series, steps))
     csum = np.zeros(L)
     tsum = np.zeros(L)
     count = np.zeros(L, dtype=np.int64)
@@ -455,4 +456,6 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             readmitted[i, k] = 1 if readmit else 0
             stat[i, k] = worst
             unresolved_out[i, k] = unresolved
-    return plausible, readmitted, stat, unresolved_out
+            known = not trusted and anchor_w >= horizons[nh - 1] // 2  # numpy twin: DragMonitor.predicted
+            predicted_out[i, k] = anchor + anchor_f * (k - anchor_t) if known else np.nan
+    return plausible, readmitted, stat, unresolved_out, predicted_out

@@ -127,12 +127,15 @@ class ReferenceNoise:
 class PlausibilityRun:
     """(N, S, steps): ``plausible`` (the series trusted this second), ``readmitted`` (trusted again this second
     after a refusal), ``statistic`` (the largest ``|D_W| / threshold(W)`` of the second, NaN without one),
-    ``unresolved_s`` (the bound on an offset the series was let back in with, s; module docstring)."""
+    ``unresolved_s`` (the bound on an offset the series was let back in with, s; module docstring),
+    ``predicted_s`` (while refused, the series as the holdover prediction from before the excursion has it,
+    s; NaN while trusted)."""
 
     plausible: np.ndarray
     readmitted: np.ndarray
     statistic: np.ndarray
     unresolved_s: np.ndarray | None = None
+    predicted_s: np.ndarray | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -309,18 +312,30 @@ class DragMonitor:
         if fast:
             flat_y = np.ascontiguousarray(y.reshape(-1, steps))
             flat_a = np.ascontiguousarray(admitted.reshape(-1, steps))
-            p, r, st, u = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
+            p, r, st, u, pr = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
             return PlausibilityRun(p.reshape(y.shape) != 0, r.reshape(y.shape) != 0, st.reshape(y.shape),
-                                   u.reshape(y.shape))
+                                   u.reshape(y.shape), pr.reshape(y.shape))
         state = self.initial_state(shape)
         plausible = np.empty(y.shape, bool)
         readmitted = np.empty(y.shape, bool)
         stat = np.empty(y.shape)
         unresolved = np.empty(y.shape)
+        predicted = np.empty(y.shape)
         for k in range(steps):
             state, plausible[..., k], readmitted[..., k], stat[..., k] = self.update(state, y[..., k], admitted[..., k])
             unresolved[..., k] = state["unresolved"]
-        return PlausibilityRun(plausible, readmitted, stat, unresolved)
+            predicted[..., k] = self.predicted(state)
+        return PlausibilityRun(plausible, readmitted, stat, unresolved, predicted)
+
+    def predicted(self, state: dict) -> np.ndarray:
+        """After :meth:`update` of second ``k``: each refused series at ``k`` as the holdover prediction made
+        from before its excursion has it (the anchor's block mean and the frequency to it), NaN where trusted
+        or where that frequency spans less than half the longest horizon (a history cleared by a re-admission
+        shortly before: a frequency over a few seconds is worse than the servo's own). A refused reference's
+        frequency is the spoofer's; this is the oscillator's own, for holdover."""
+        k = state["k"] - 1
+        known = ~state["trusted"] & (state["anchor_w"] >= self.horizons[-1] // 2)
+        return np.where(known, state["anchor"] + state["anchor_f"] * (k - state["anchor_t"]), np.nan)
 
     # ---- the per-second core (readable twin of the kernel) ------------------------------------------------
     def initial_state(self, shape: tuple[int, ...]) -> dict:

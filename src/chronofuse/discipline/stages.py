@@ -330,8 +330,9 @@ def gnssdo_pipeline(servo: Servo, config, interval_ns: int, *, seed=None) -> Pip
     dt = interval_ns / 1e9
     receiver_check = (NoReceiverPlausibility() if config.receiver_monitor is None
                       else ReceiverPlausibilityStage(config.receiver_monitor, fast=config.fast))
-    reference_check = (NoReferencePlausibility() if config.reference_monitor is None
-                       else ReferencePlausibilityStage(config.reference_monitor, fast=config.fast))
+    noise = None if config.receiver_monitor is None else config.receiver_monitor.noise
+    reference_check = (NoReferencePlausibility(receiver_noise=noise) if config.reference_monitor is None
+                       else ReferencePlausibilityStage(config.reference_monitor, fast=config.fast, receiver_noise=noise))
     stages += [("receiver_plausibility", receiver_check),
                ("fusion", FusionStage(InverseVarianceFusion(config.fusion, interval_s=dt, fast=config.fast))),
                ("reference_plausibility", reference_check),
