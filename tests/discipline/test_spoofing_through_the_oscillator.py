@@ -419,6 +419,36 @@ def test_receivers_stepped_one_after_another_or_two_of_three_are_never_claimed_l
     assert np.abs(run.phase_s[0, -1]) > 80e-9 and Reason.UNRESOLVED_OFFSET in set(run.states.reason[0].tolist())
 
 
+def _ladder(t):
+    # Rung i at 3000 + 1500 i s moves receiver i mod 3 to the mean of the other two plus 24 ns: each rung is
+    # under the vouching tolerance (26 ns in open sky), all of them add up (a second audit's attack).
+    offsets, out = np.zeros(3), np.zeros((3, t.size))
+    for i in range(8):
+        r = i % 3
+        offsets[r] = np.delete(offsets, r).mean() + 24e-9
+        out[r, t >= 3000 + 1500 * i] = offsets[r]
+    return out
+
+
+def _gap_return(t):
+    # Receivers 0 and 1 stepped by 150 ns at 7200 s (refused, let back in with bounds); receiver 2 away from
+    # 7100 to 10100 s comes back carrying the step and agrees with its own prediction at once (a second
+    # audit's attack: it then vouched for the others).
+    out = np.where(t >= 7200, 150e-9, 0.0) * np.ones((3, 1))
+    out[2, 7100:10100] = np.nan
+    return out
+
+
+@pytest.mark.parametrize("attack", ["ladder", "gap return"])
+def test_vouching_launders_neither_a_ladder_of_small_steps_nor_a_receiver_back_from_a_gap(attack):
+    pert, steps = (_ladder, 15_000) if attack == "ladder" else (_gap_return, 14_000)
+    run = _stepped_run(pert, steps=steps)
+    locked = run.states.state[0] == State.LOCKED
+    assert locked[2000:3000].all()
+    assert not (locked & (np.abs(run.phase_s[0]) >= BUDGET_S)).any()  # before: LOCKED at 180 and 177 ns
+    assert np.abs(run.phase_s[0, -1]) > 100e-9 and run.states.state[0, -1] == State.ALARM
+
+
 @pytest.mark.parametrize("rate_ns_s", [0.1, 2.0])
 def test_after_a_refused_drag_the_holdover_keeps_the_oscillators_frequency_not_the_drags(rate_ns_s):
     # Before, the loop held over on the frequency the drag had taught it before the refusal: 1 h after a

@@ -16,7 +16,7 @@ corrected 1PPS error, or against the fused reference.
   every offered receiver refused) and ``unresolved_s``: the bound on the offset the reference may carry that
   the oscillator could not resolve, the larger of its own and its receivers' bounds weighted as fused (a
   weighted mean errs by at most the weighted mean of the bounds; a receiver that agrees for a minute with
-  those carrying none counts none, :class:`_Vouched`). The state machine keeps it off the lock
+  those carrying none carries only its measured offset from them, :class:`_Vouched`). The state machine keeps it off the lock
   threshold: a coherent step refused at once but let back in when the holdover prediction's tolerance had
   grown over it is not claimed locked.
 
@@ -63,7 +63,8 @@ class ReceiverPlausibilityStage:
     """Each qualified receiver against the free oscillator's prediction (module docstring)."""
 
     needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "pps_corrected_s", "qualified", "excluded")
-    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s", "receiver_predicted_s")
+    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s", "receiver_predicted_s",
+                                        "receiver_return_bound_s")
 
     def __init__(self, monitor: DragMonitor, *, fast: bool = True):
         self.monitor = monitor
@@ -89,7 +90,8 @@ class ReceiverPlausibilityStage:
         usable = qualified & ~np.asarray(epoch["excluded"], dtype=bool) & plausible
         return {"receiver_plausible": plausible, "fresh": self._fresh.step(qualified, usable),
                 "receiver_unresolved_s": self._state["unresolved"].copy(),
-                "receiver_predicted_s": self.monitor.predicted(self._state)}
+                "receiver_predicted_s": self.monitor.predicted(self._state),
+                "receiver_return_bound_s": self._state["return_bound"].copy()}
 
     def run(self, frame) -> dict:
         e = np.asarray(frame["pps_corrected_s"], dtype=np.float64)
@@ -98,14 +100,16 @@ class ReceiverPlausibilityStage:
         test = self.monitor.run(free - e, qualified, fast=self.fast)
         usable = qualified & ~np.asarray(frame["excluded"], dtype=bool) & test.plausible
         return {"receiver_plausible": test.plausible, "fresh": _FreshTracker.run(qualified, usable),
-                "receiver_unresolved_s": test.unresolved_s, "receiver_predicted_s": test.predicted_s}
+                "receiver_unresolved_s": test.unresolved_s, "receiver_predicted_s": test.predicted_s,
+                "receiver_return_bound_s": test.return_bound_s}
 
 
 class NoReceiverPlausibility:
     """No plausibility test of the receivers: all plausible; ``fresh`` still marks returns from integrity."""
 
     needs: ClassVar[tuple[str, ...]] = ("qualified", "excluded")
-    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s", "receiver_predicted_s")
+    gives: ClassVar[tuple[str, ...]] = ("receiver_plausible", "fresh", "receiver_unresolved_s", "receiver_predicted_s",
+                                        "receiver_return_bound_s")
 
     def __init__(self):
         self._fresh = _FreshTracker()
@@ -122,13 +126,15 @@ class NoReceiverPlausibility:
         qualified = np.asarray(epoch["qualified"], dtype=bool)
         usable = qualified & ~np.asarray(epoch["excluded"], dtype=bool)
         return {"receiver_plausible": np.ones(qualified.shape, bool), "fresh": self._fresh.step(qualified, usable),
-                "receiver_unresolved_s": np.zeros(qualified.shape), "receiver_predicted_s": np.full(qualified.shape, np.nan)}
+                "receiver_unresolved_s": np.zeros(qualified.shape), "receiver_predicted_s": np.full(qualified.shape, np.nan),
+                "receiver_return_bound_s": np.full(qualified.shape, np.nan)}
 
     def run(self, frame) -> dict:
         qualified = np.asarray(frame["qualified"], dtype=bool)
         usable = qualified & ~np.asarray(frame["excluded"], dtype=bool)
         return {"receiver_plausible": np.ones(qualified.shape, bool), "fresh": _FreshTracker.run(qualified, usable),
-                "receiver_unresolved_s": np.zeros(qualified.shape), "receiver_predicted_s": np.full(qualified.shape, np.nan)}
+                "receiver_unresolved_s": np.zeros(qualified.shape), "receiver_predicted_s": np.full(qualified.shape, np.nan),
+                "receiver_return_bound_s": np.full(qualified.shape, np.nan)}
 
 
 def _every_offered_refused(frame, axis: int) -> np.ndarray:
@@ -153,69 +159,97 @@ def _holdover_reference(free, predicted, axis: int, own=None) -> np.ndarray:
     return np.asarray(free, dtype=np.float64) - mean
 
 
-#: Seconds a receiver let back in with a bound must agree with the receivers that carry none before they vouch for it.
+#: Seconds a receiver let back in with a bound must agree with the receivers that carry none before they vouch
+#: for it (the exponential average of the difference).
 VOUCH_S = 64
 
 
 class _Vouched:
-    """The fused reference's share of its receivers' unresolved offsets (module docstring): each usable
-    receiver's bound since it was last vouched for, weighted as fused.
+    """The fused reference's share of its receivers' unresolved offsets (module docstring), weighted as fused.
 
-    A receiver let back in with a bound is vouched for (its bound set aside) by the usable receivers that
-    carry none once it has agreed with their mean for ``VOUCH_S`` seconds: the exponential average of the
-    difference within 3 sigma of the receivers' noise over that time (``noise``: their
-    :class:`~.plausibility.ReferenceNoise`; the difference of two receivers' block means, twice one's
-    variance). A receiver stepped alone or with another (a staggered or a two-of-three step) differs from
-    the clean ones by its step and is not vouched for; where every usable receiver carries a bound (a
-    coherent step) nothing vouches. A receiver never refused vouches for what it is: an offset under the
-    test's thresholds on every receiver is not seen (``drag_check``)."""
+    Each receiver's bound is what its monitor let it back in with after a refusal (``receiver_unresolved_s``),
+    and, where it came back from a gap while another receiver was refused or carried a bound (a step while it
+    was away), what the prediction could hide at its return (``receiver_return_bound_s``, where over the
+    vouching tolerance). A receiver with a bound is vouched for by the *clean* usable ones (no bound, a
+    measured offset within the tolerance, its last return within the tolerance) once the exponential
+    average (``VOUCH_S``) of its difference from them is within the tolerance (3 sigma of that average for
+    two receivers' noise, ``noise``: their :class:`~.plausibility.ReferenceNoise`). The difference is taken
+    against the clean receivers less their own measured offsets, so it is each receiver's offset from the
+    timescale the receivers had before any bound; a vouched receiver carries it (its magnitude counts in the
+    fused bound) and vouches in turn only while it is within the tolerance: a ladder of steps each under the
+    tolerance adds up and is refused vouching from its second rung. Receivers stepped alone or two of three
+    differ from the clean ones by their step; where no usable receiver is clean (a coherent step) nothing
+    vouches. A receiver never refused vouches for what it is: an offset under the test's thresholds on every
+    receiver is not seen (``drag_check``)."""
 
     def __init__(self, noise: ReferenceNoise | None):
         self.tolerance_s = math.inf if noise is None else 3.0 * math.sqrt(2.0 * noise.block_var(VOUCH_S))
         self.reset()
 
     def reset(self) -> None:
-        self._base = self._diff = self._count = self._last = None
+        self._m = None
 
-    def step(self, usable, unresolved, weights, error) -> np.ndarray:
+    def step(self, usable, unresolved, weights, error, returned, refused) -> np.ndarray:
         usable = np.asarray(usable, dtype=bool)
         u = np.nan_to_num(np.asarray(unresolved, dtype=np.float64))
         e = np.asarray(error, dtype=np.float64)
-        if self._base is None:
-            self._base, self._diff = np.zeros(u.shape), np.zeros(u.shape)
-            self._count, self._last = np.zeros(u.shape, np.int64), np.zeros(u.shape)
-        count = np.where(u > self._last, 0, self._count)  # a new bound: its agreement starts again
-        clean = usable & np.isfinite(e) & (u - self._base <= 0.0)
+        back = np.asarray(returned, dtype=np.float64)
+        refused = np.asarray(refused, dtype=bool)
+        if self._m is None:
+            self._m = {name: np.zeros(u.shape) for name in ("base", "carried", "offset", "diff", "count", "last",
+                                                              "back_tol")}
+        m = self._m
+        came_back = np.isfinite(back)
+        m["back_tol"] = np.where(came_back, back, m["back_tol"])
+        # A step while it was away: another receiver refused, or carrying a bound not vouched for, as it returns.
+        bounded = (u + m["carried"] - m["base"]) > 0.0
+        others = (refused | bounded).sum(axis=-1, keepdims=True) - (refused | bounded)
+        m["carried"] = m["carried"] + np.where(came_back & (others > 0) & (back > self.tolerance_s), back, 0.0)
+        total = u + m["carried"]
+        count = np.where(total > m["last"], 0.0, m["count"])  # a new bound: its agreement starts again
+        own = total - m["base"]
+        clean = (usable & np.isfinite(e) & (own <= 0.0) & (np.abs(m["offset"]) < self.tolerance_s)
+                 & (m["back_tol"] <= self.tolerance_s))
         n = clean.sum(axis=-1, keepdims=True)
-        mean = np.where(n > 0, np.where(clean, e, 0.0).sum(axis=-1, keepdims=True) / np.maximum(n, 1), np.nan)
-        pending = usable & np.isfinite(e) & (u - self._base > 0.0) & (n > 0)
-        diff = np.where(pending, e - mean, 0.0)
-        self._diff = np.where(pending, np.where(count > 0, self._diff + (diff - self._diff) / VOUCH_S, diff), self._diff)
+        level = np.where(clean, e - m["offset"], 0.0).sum(axis=-1, keepdims=True) / np.maximum(n, 1)
+        pending = usable & np.isfinite(e) & (own > 0.0) & (n > 0)
+        diff = np.where(pending, e - level, 0.0)
+        m["diff"] = np.where(pending, np.where(count > 0, m["diff"] + (diff - m["diff"]) / VOUCH_S, diff), m["diff"])
         count = np.where(pending, count + 1, count)
-        vouch = pending & (count >= VOUCH_S) & (np.abs(self._diff) < self.tolerance_s)
-        self._base = np.where(vouch, u, self._base)
-        self._count, self._last = count, u
-        return np.sum(np.nan_to_num(np.asarray(weights, dtype=np.float64)) * (u - self._base), axis=-1)
+        vouch = pending & (count >= VOUCH_S) & (np.abs(m["diff"]) < self.tolerance_s)
+        m["base"] = np.where(vouch, total, m["base"])
+        m["offset"] = np.where(vouch, m["diff"], m["offset"])
+        m["count"], m["last"] = count, total
+        bound = total - m["base"]
+        return np.sum(np.nan_to_num(np.asarray(weights, dtype=np.float64)) * bound, axis=-1)
 
-    def run(self, usable, unresolved, weights, error) -> np.ndarray:
+    def run(self, usable, unresolved, weights, error, returned, refused) -> np.ndarray:
         usable = np.asarray(usable, dtype=bool)
         unresolved = np.asarray(unresolved, dtype=np.float64)
-        weights = np.asarray(weights, dtype=np.float64)
-        error = np.asarray(error, dtype=np.float64)
         out = np.zeros(usable.shape[:-2] + usable.shape[-1:])
-        if not np.any(unresolved):  # the usual run: no receiver let back in with a bound
-            return out
+        refused = np.asarray(refused, dtype=bool)
+        if not np.any(unresolved) and not (np.isfinite(returned).any() and refused.any()):
+            return out  # the usual run: no receiver let back in with a bound, none back while another refused
+        weights, error, returned = (np.asarray(a, dtype=np.float64) for a in (weights, error, returned))
         self.reset()
         for k in range(usable.shape[-1]):
-            out[..., k] = self.step(usable[..., k], unresolved[..., k], weights[..., k], error[..., k])
+            out[..., k] = self.step(usable[..., k], unresolved[..., k], weights[..., k], error[..., k],
+                                    returned[..., k], refused[..., k])
         return out
+
+
+def _vouch_inputs(values) -> tuple:
+    refused = np.asarray(values["qualified"], dtype=bool) & ~np.asarray(values["receiver_plausible"], dtype=bool)
+    return (values["usable"], values["receiver_unresolved_s"], values["weights"], values["pps_corrected_s"],
+            values["receiver_return_bound_s"], refused)
 
 
 class ReferencePlausibilityStage:
     """The fused reference against the free oscillator's prediction (module docstring)."""
 
     needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "reference_error_s", "qualified", "excluded", "usable",
-                                        "weights", "receiver_unresolved_s", "receiver_predicted_s", "pps_corrected_s")
+                                        "weights", "receiver_unresolved_s", "receiver_predicted_s", "pps_corrected_s",
+                                        "receiver_plausible", "receiver_return_bound_s")
     gives: ClassVar[tuple[str, ...]] = ("loop_reference_s", "implausible", "unresolved_s")
 
     def __init__(self, monitor: DragMonitor, *, fast: bool = True, receiver_noise: ReferenceNoise | None = None):
@@ -243,8 +277,7 @@ class ReferencePlausibilityStage:
         implausible = refused | _every_offered_refused(epoch, -1)
         held = _holdover_reference(free, epoch["receiver_predicted_s"], -1, own=self.monitor.predicted(self._state)[..., 0])
         return {"loop_reference_s": np.where(implausible, held, ref), "implausible": implausible,
-                "unresolved_s": np.maximum(self._state["unresolved"][..., 0], self._vouched.step(
-                    epoch["usable"], epoch["receiver_unresolved_s"], epoch["weights"], epoch["pps_corrected_s"]))}
+                "unresolved_s": np.maximum(self._state["unresolved"][..., 0], self._vouched.step(*_vouch_inputs(epoch)))}
 
     def run(self, frame) -> dict:
         ref = np.asarray(frame["reference_error_s"], dtype=np.float64)
@@ -255,8 +288,7 @@ class ReferencePlausibilityStage:
         implausible = refused | _every_offered_refused(frame, -2)
         held = _holdover_reference(free, frame["receiver_predicted_s"], -2, own=test.predicted_s[..., 0, :])
         return {"loop_reference_s": np.where(implausible, held, ref), "implausible": implausible,
-                "unresolved_s": np.maximum(test.unresolved_s[..., 0, :], self._vouched.run(
-                    frame["usable"], frame["receiver_unresolved_s"], frame["weights"], frame["pps_corrected_s"]))}
+                "unresolved_s": np.maximum(test.unresolved_s[..., 0, :], self._vouched.run(*_vouch_inputs(frame)))}
 
 
 class NoReferencePlausibility:
@@ -264,7 +296,8 @@ class NoReferencePlausibility:
     receiver was refused."""
 
     needs: ClassVar[tuple[str, ...]] = ("free_phase_s", "reference_error_s", "qualified", "excluded", "usable",
-                                        "weights", "receiver_unresolved_s", "receiver_predicted_s", "pps_corrected_s")
+                                        "weights", "receiver_unresolved_s", "receiver_predicted_s", "pps_corrected_s",
+                                        "receiver_plausible", "receiver_return_bound_s")
     gives: ClassVar[tuple[str, ...]] = ("loop_reference_s", "implausible", "unresolved_s")
 
     def __init__(self, receiver_noise: ReferenceNoise | None = None):
@@ -283,13 +316,11 @@ class NoReferencePlausibility:
         held = _holdover_reference(epoch["free_phase_s"], epoch["receiver_predicted_s"], -1)
         return {"loop_reference_s": np.where(implausible, held, np.asarray(epoch["reference_error_s"], dtype=np.float64)),
                 "implausible": implausible,
-                "unresolved_s": self._vouched.step(epoch["usable"], epoch["receiver_unresolved_s"], epoch["weights"],
-                                                   epoch["pps_corrected_s"])}
+                "unresolved_s": self._vouched.step(*_vouch_inputs(epoch))}
 
     def run(self, frame) -> dict:
         implausible = _every_offered_refused(frame, -2)
         held = _holdover_reference(frame["free_phase_s"], frame["receiver_predicted_s"], -2)
         return {"loop_reference_s": np.where(implausible, held, np.asarray(frame["reference_error_s"], dtype=np.float64)),
                 "implausible": implausible,
-                "unresolved_s": self._vouched.run(frame["usable"], frame["receiver_unresolved_s"], frame["weights"],
-                                                  frame["pps_corrected_s"])}
+                "unresolved_s": self._vouched.run(*_vouch_inputs(frame))}

@@ -21,6 +21,10 @@ CLIP_LAG_S = 16
 #: docstring there).
 CLIP_MAX = 10.0
 CLIP_SPACING_S = 64
+#: The shortest refusing horizon (s) after which the loop holds over on the plausibility test's prediction: an
+#: excursion refused only at 64 s or longer was slow enough for the servo to learn its frequency; a faster one
+#: (a step, a pulse train, a fast drag) is refused before it could, and the servo's own holdover is better there.
+PREDICTION_HOLD_W = 64
 
 __all__ = ["fusion_kernel", "states_kernel", "plausibility_kernel"]
 
@@ -237,8 +241,9 @@ def _avar(h0, hm1, hm2, tau):
 def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var, gm_sigma, gm_tau, recent_var,
                         scalars):
     """The drag monitor (:mod:`.plausibility`, :meth:`~.plausibility.DragMonitor.update`) over (series, steps);
-    returns plausible (int8), readmitted (int8), the statistic, the unresolved offset's bound and the holdover
-    prediction while refused (NaN while trusted), each (series, steps)."""
+    returns plausible (int8), readmitted (int8), the statistic, the unresolved offset's bound, the holdover
+    prediction while refused (NaN while trusted) and the bound a series came back from a gap with (NaN but on
+    that second), each (series, steps)."""
     h0, hm1, hm2, drift, k_sigma = scalars[0], scalars[1], scalars[2], scalars[3], scalars[4]
     persist, readmit_s, ms, L = int(scalars[5]), int(scalars[6]), int(scalars[7]), int(scalars[8])
     check_var, readmit_k, recheck_gap, watch_s = scalars[9], scalars[10], int(scalars[11]), int(scalars[12])
@@ -250,6 +255,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
     stat = np.empty((n_series, steps))
     unresolved_out = np.empty((n_series, steps))
     predicted_out = np.empty((n_series, steps))
+    return_out = np.full((n_series, steps), np.nan)
     csum = np.zeros(L)
     tsum = np.zeros(L)
     count = np.zeros(L, dtype=np.int64)
@@ -364,6 +370,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             strayed = False
             first = False
             first_bound = 0.0
+            hidden = 0.0
             readmit_bound = 0.0
             if refused or watched:  # the comparison with the holdover prediction: while refused, or watched
                 bs, ts = _block(csum, tsum, count, start, k, ms, L)
@@ -417,6 +424,9 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                         p_miss = abs(bp - (anchor + anchor_f * hp))
                         first = p_miss < tolerance
                         first_bound = p_miss + tolerance
+                        alone = (2.0 * hp1 * hp1 * _avar(h0, hm1, hm2, hp1) + hp1 * hp1 * _avar(h0, hm1, hm2, wa)
+                                 + ablock + lever * (hp1 / wa) ** 2)
+                        hidden = readmit_k * math.sqrt(max(alone, 0.0)) + drift * max(hp, wa) ** 2
             if watched and strayed:
                 refuse = True
                 watch = -1
@@ -437,6 +447,8 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
                 waited = 0
             if first and waited > 0:
                 unresolved += first_bound
+            elif first:
+                return_out[i, k] = hidden
             if readmit:
                 unresolved += readmit_bound
             if watched and watch == 0 and have and not first:
@@ -456,6 +468,7 @@ def plausibility_kernel(y, admitted, horizons, thresholds, lever_var, block_var,
             readmitted[i, k] = 1 if readmit else 0
             stat[i, k] = worst
             unresolved_out[i, k] = unresolved
-            known = not trusted and anchor_w >= horizons[nh - 1] // 2  # numpy twin: DragMonitor.predicted
+            known = (not trusted and anchor_w >= horizons[nh - 1] // 2  # numpy twin: DragMonitor.predicted
+                     and 4 * anchor_m >= PREDICTION_HOLD_W)
             predicted_out[i, k] = anchor + anchor_f * (k - anchor_t) if known else np.nan
-    return plausible, readmitted, stat, unresolved_out, predicted_out
+    return plausible, readmitted, stat, unresolved_out, predicted_out, return_out

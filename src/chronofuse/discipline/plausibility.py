@@ -72,7 +72,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from chronofuse.discipline.kernels import CLIP_BLOCK_S, CLIP_LAG_S, CLIP_MAX, CLIP_SPACING_S
+from chronofuse.discipline.kernels import CLIP_BLOCK_S, CLIP_LAG_S, CLIP_MAX, CLIP_SPACING_S, PREDICTION_HOLD_W
 from chronofuse.discipline.servo import freeze
 from chronofuse.validation import check_scalar
 
@@ -129,13 +129,16 @@ class PlausibilityRun:
     after a refusal), ``statistic`` (the largest ``|D_W| / threshold(W)`` of the second, NaN without one),
     ``unresolved_s`` (the bound on an offset the series was let back in with, s; module docstring),
     ``predicted_s`` (while refused, the series as the holdover prediction from before the excursion has it,
-    s; NaN while trusted)."""
+    s; NaN while trusted), ``return_bound_s`` (on the second a series back from a gap agrees at once, the
+    tolerance of the prediction itself, its samples' noise left out: what a step in the gap could hide; NaN on
+    every other second)."""
 
     plausible: np.ndarray
     readmitted: np.ndarray
     statistic: np.ndarray
     unresolved_s: np.ndarray | None = None
     predicted_s: np.ndarray | None = None
+    return_bound_s: np.ndarray | None = None
 
     def __post_init__(self):
         freeze(self)
@@ -224,20 +227,22 @@ class DragMonitor:
         """The reference's part of a frequency measured between two blocks ``w`` apart, times ``w^2``."""
         return 2.0 * self.noise.block_var(self.block(int(w), filled=True)) if w > 1 else 0.0
 
-    def _prediction_var_s2(self, h, wa, ma):
+    def _prediction_var_s2(self, h, wa, ma, check: bool = True):
         """Variance of the holdover prediction ``h`` seconds past its anchor (a block of ``ma`` samples, the
         frequency measured over ``wa`` seconds) against the check block: the oscillator's own wander over ``h``
         (``2 h^2 sigma_y^2(h)``), the anchor frequency's error (``h^2 sigma_y^2(wa)``), the two blocks' reference
         noise (their variances added: an upper bound whatever their correlation) and the reference's noise of
-        the frequency estimate levered by ``(h / wa)^2``."""
+        the frequency estimate levered by ``(h / wa)^2``; ``check`` False: the prediction's own, without the
+        check block's noise."""
         h = np.maximum(h, 1.0)
         wa = np.asarray(wa, dtype=np.float64)
         anchor_block = np.vectorize(lambda m: self.noise.block_var(max(1, int(m) // 2)), otypes=[float])(ma)
         lever = np.vectorize(self._lever_var, otypes=[float])(wa)
-        var = (2.0 * h * h * oscillator_avar(self.h0, self.hm1, self.hm2, h)
-               + h * h * oscillator_avar(self.h0, self.hm1, self.hm2, wa)
-               + self.noise.block_var(max(1, self.check_block_s // 2)) + anchor_block + lever * (h / wa) ** 2)
-        return var
+        own = 2.0 * h * h * oscillator_avar(self.h0, self.hm1, self.hm2, h) + h * h * oscillator_avar(self.h0, self.hm1,
+                                                                                                 self.hm2, wa)
+        if not check:
+            return own + anchor_block + lever * (h / wa) ** 2
+        return own + self.noise.block_var(max(1, self.check_block_s // 2)) + anchor_block + lever * (h / wa) ** 2
 
     def kernel_params(self) -> tuple:
         """(horizons, thresholds, lever variance and anchor-block variance per horizon, Gauss-Markov sigmas and
@@ -312,29 +317,34 @@ class DragMonitor:
         if fast:
             flat_y = np.ascontiguousarray(y.reshape(-1, steps))
             flat_a = np.ascontiguousarray(admitted.reshape(-1, steps))
-            p, r, st, u, pr = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
+            p, r, st, u, pr, rb = plausibility_kernel(flat_y, flat_a, *self.kernel_params())
             return PlausibilityRun(p.reshape(y.shape) != 0, r.reshape(y.shape) != 0, st.reshape(y.shape),
-                                   u.reshape(y.shape), pr.reshape(y.shape))
+                                   u.reshape(y.shape), pr.reshape(y.shape), rb.reshape(y.shape))
         state = self.initial_state(shape)
         plausible = np.empty(y.shape, bool)
         readmitted = np.empty(y.shape, bool)
         stat = np.empty(y.shape)
         unresolved = np.empty(y.shape)
         predicted = np.empty(y.shape)
+        returned = np.empty(y.shape)
         for k in range(steps):
             state, plausible[..., k], readmitted[..., k], stat[..., k] = self.update(state, y[..., k], admitted[..., k])
             unresolved[..., k] = state["unresolved"]
             predicted[..., k] = self.predicted(state)
-        return PlausibilityRun(plausible, readmitted, stat, unresolved, predicted)
+            returned[..., k] = state["return_bound"]
+        return PlausibilityRun(plausible, readmitted, stat, unresolved, predicted, returned)
 
     def predicted(self, state: dict) -> np.ndarray:
         """After :meth:`update` of second ``k``: each refused series at ``k`` as the holdover prediction made
         from before its excursion has it (the anchor's block mean and the frequency to it), NaN where trusted
         or where that frequency spans less than half the longest horizon (a history cleared by a re-admission
-        shortly before: a frequency over a few seconds is worse than the servo's own). A refused reference's
-        frequency is the spoofer's; this is the oscillator's own, for holdover."""
+        shortly before: a frequency over a few seconds is worse than the servo's own), or where the excursion
+        was refused at a horizon under :data:`~.kernels.PREDICTION_HOLD_W` (too fast for the servo to have
+        learnt it: a step, a pulse train). A slow drag's frequency is what the servo learnt before the
+        refusal; this is the oscillator's own, for holdover."""
         k = state["k"] - 1
-        known = ~state["trusted"] & (state["anchor_w"] >= self.horizons[-1] // 2)
+        known = (~state["trusted"] & (state["anchor_w"] >= self.horizons[-1] // 2)
+                 & (4 * state["anchor_m"] >= PREDICTION_HOLD_W))
         return np.where(known, state["anchor"] + state["anchor_f"] * (k - state["anchor_t"]), np.nan)
 
     # ---- the per-second core (readable twin of the kernel) ------------------------------------------------
@@ -349,7 +359,7 @@ class DragMonitor:
                 "gap_w": np.ones(shape, np.int64), "clip_run": np.zeros(shape, np.int64),
                 "clip_off": np.zeros(shape, np.int64), "clip_hi": np.full(shape, CLIP_MAX),
                 "clip_lo": np.full(shape, CLIP_MAX), "waited": np.zeros(shape, np.int64),
-                "unresolved": np.zeros(shape)}
+                "unresolved": np.zeros(shape), "return_bound": np.full(shape, np.nan)}
 
     def _recent(self, state, k, m):
         """The mean, mean time and count of the samples in (k - m, k] since the history's ``start``, from one
@@ -498,6 +508,7 @@ class DragMonitor:
         # second of holdover): their mean's own noise in place of the check block's.
         first = np.zeros(y.shape, bool)
         first_bound = np.zeros(y.shape)
+        hidden = np.zeros(y.shape)
         f_miss = f_sd = f_aging = np.full(y.shape, np.nan)
         if (watched | ~trusted).any():  # nothing refused or watched (the usual second): nothing to compare
             bp, tp, n = self._recent(state, k, ms)
@@ -509,6 +520,11 @@ class DragMonitor:
             p_miss = np.abs(bp - (state["anchor"] + state["anchor_f"] * hp))
             first = watched & (watch == 0) & have & (n > 0) & (p_miss < tolerance)
             first_bound = np.where(first, p_miss + tolerance, 0.0)
+            # What a step in the gap could hide in the prediction itself (the samples' noise averages out in
+            # the watch that follows; the prediction's error does not).
+            alone = self._prediction_var_s2(hp, wa, state["anchor_m"], check=False)
+            hidden = (self.readmit_k_sigma * np.sqrt(np.maximum(alone, 0.0))
+                      + self.drift_per_s * np.maximum(hp, wa) ** 2)
             f_miss, f_sd, f_aging = self._frequency_miss(state, k, h, wa)
         strayed = watched & judged & (~(miss < self.k_sigma * sd + aging) | (f_miss > self.k_sigma * f_sd + f_aging))
         refuse = refuse | strayed
@@ -525,6 +541,7 @@ class DragMonitor:
         # seconds back from a gap without agreement): the offset the series may carry is bounded, not resolved.
         waited = np.where(back, 0, state["waited"])
         late = first & (waited > 0)
+        state["return_bound"] = np.where(first & ~late, hidden, np.nan)
         state["unresolved"] = (state["unresolved"] + np.where(late, first_bound, 0.0)
                                + np.where(readmit, miss + self.readmit_k_sigma * sd + aging, 0.0))
         state["waited"] = np.where(watched & (watch == 0) & have & ~first, waited + 1, waited)
