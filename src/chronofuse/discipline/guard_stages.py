@@ -8,7 +8,9 @@ corrected 1PPS error, or against the fused reference.
 * :class:`ReceiverPlausibilityStage` watches every qualified receiver (integrity-excluded or not) and gives
   ``receiver_plausible``; ``fresh`` marks a receiver usable again after any exclusion (integrity or
   plausibility), whose fusion weight is then earned anew; ``receiver_unresolved_s``, the bound on an offset
-  each receiver was let back in with (:attr:`~.plausibility.PlausibilityRun.unresolved_s`).
+  each receiver was let back in with, ``receiver_predicted_s``, each refused receiver as the holdover
+  prediction has it, and ``receiver_return_bound_s``, what a return from a gap could hide
+  (:class:`~.plausibility.PlausibilityRun`).
 * :class:`ReferencePlausibilityStage` watches the fused reference and gives the reference the loop closes on,
   ``loop_reference_s`` (while refused, the free oscillator less the holdover prediction from before the
   excursion: the loop holds over on the oscillator's own frequency, not on what a drag taught it; NaN where
@@ -175,9 +177,11 @@ class _Vouched:
     average (``VOUCH_S``) of its difference from them is within the tolerance (3 sigma of that average for
     two receivers' noise, ``noise``: their :class:`~.plausibility.ReferenceNoise`). The difference is taken
     against the clean receivers less their own measured offsets, so it is each receiver's offset from the
-    timescale the receivers had before any bound; a vouched receiver carries it (its magnitude counts in the
-    fused bound) and vouches in turn only while it is within the tolerance: a ladder of steps each under the
-    tolerance adds up and is refused vouching from its second rung. Receivers stepped alone or two of three
+    timescale the receivers had before any bound; a vouched receiver keeps it and vouches in turn only while
+    it is within the tolerance: a ladder of steps each under the tolerance adds up and is refused vouching from
+    its second rung. What a vouched receiver may still carry, up to the tolerance, is not counted (like any
+    offset of one receiver under the thresholds, fusion dilutes it by its weight; counting the measured offset,
+    mostly the receivers' noise, cost the urban-canyon day 7 % of its LOCKED time). Receivers stepped alone or two of three
     differ from the clean ones by their step; where no usable receiver is clean (a coherent step) nothing
     vouches. A receiver never refused vouches for what it is: an offset under the test's thresholds on every
     receiver is not seen (``drag_check``)."""
