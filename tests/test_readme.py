@@ -74,13 +74,33 @@ def numbers(text: str) -> list[str]:
     return [n.replace(",", "") for n in NUMBER.findall(text)]
 
 
-def is_subsequence(needle: list[str], hay: list[str]) -> tuple[bool, int]:
-    """Whether ``needle`` appears in order in ``hay``; the index of the first of ``needle`` not found."""
+def _same(shown: str, printed: str, rel: float) -> bool:
+    if shown == printed:
+        return True
+    try:
+        a, b = float(shown), float(printed)
+    except ValueError:
+        return False
+    return rel > 0.0 and abs(a - b) <= rel * abs(a)
+
+
+def is_subsequence(needle: list[str], hay: list[str], rel: float = 0.0) -> tuple[bool, int]:
+    """Whether ``needle`` appears in order in ``hay`` (each number as printed, or within ``rel`` of it); the
+    index of the first of ``needle`` not found."""
     it = iter(hay)
     for i, n in enumerate(needle):
-        if not any(n == h for h in it):
+        if not any(_same(n, h, rel) for h in it):
             return False, i
     return True, len(needle)
+
+
+#: The commands that run the GNSSDO chain print the same seed's figures with differences in the fourth digit
+#: from one CPU to another (measured: the demo's peak-to-peak 569.1 against 567.3 ns, its holdover 492.3
+#: against 490.6 ns, a ratio's interval 1.122 against 1.124, the same tree on two machines): the last bits of
+#: vectorised sums differ, and the chain's thresholds (the clip, the refusals, the gates) carry a difference
+#: past one of them on. Their numbers are compared within this.
+CHAIN_REL = 0.01
+CHAIN_COMMANDS = ("chronofuse run", "chronofuse gnssdo")
 
 
 EXAMPLES = examples(README.read_text())
@@ -101,6 +121,10 @@ def test_the_comparison_tells_a_changed_number_apart():
     assert is_subsequence(numbers(shown), numbers(printed))[0]  # a row left out is fine
     assert not is_subsequence(numbers(shown.replace("4.9640", "4.9641")), numbers(printed))[0]
     assert not is_subsequence(numbers("10 then 1"), numbers(printed))[0]  # order counts
+    # Within 1 %: the chain's figures from another CPU pass, a changed figure does not.
+    assert is_subsequence(["569.1", "48477"], ["567.3", "48478"], CHAIN_REL)[0]
+    assert not is_subsequence(["569.1"], ["575.0"], CHAIN_REL)[0]
+    assert not is_subsequence(["0"], ["0.001"], CHAIN_REL)[0] and not is_subsequence(["569.1"], ["567.3"])[0]
 
 
 @pytest.fixture(scope="module")
@@ -122,7 +146,8 @@ def _check(example: Example, cwd: Path) -> None:
     done = _run(example, cwd)
     assert done.returncode == 0, f"README line {example.line}: {example.command}\n{done.stderr[-2000:]}"
     shown, printed = numbers(example.shown), numbers(done.stdout)
-    ok, first_missing = is_subsequence(shown, printed)
+    rel = CHAIN_REL if example.command.startswith(CHAIN_COMMANDS) else 0.0
+    ok, first_missing = is_subsequence(shown, printed, rel)
     assert ok, (f"README line {example.line}: {example.command}: the README shows {shown[first_missing]!r} "
                 f"(number {first_missing + 1} of its output) where the command printed:\n{done.stdout[-4000:]}")
 
