@@ -94,7 +94,7 @@ def is_subsequence(needle: list[str], hay: list[str], rel: float = 0.0) -> tuple
     return True, len(needle)
 
 
-#: The commands that run the GNSSDO chain print the same seed's figures with differences in the fourth digit
+#: The commands that run the GNSSDO chain print figures of one random seed with differences in the fourth digit
 #: from one CPU to another (measured: the demo's peak-to-peak 569.1 against 567.3 ns, its holdover 492.3
 #: against 490.6 ns, a ratio's interval 1.122 against 1.124, the same tree on two machines): the last bits of
 #: vectorised sums differ, and the chain's thresholds (the clip, the refusals, the gates) carry a difference
