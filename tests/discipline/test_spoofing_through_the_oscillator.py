@@ -463,6 +463,18 @@ def test_after_a_refused_drag_the_holdover_keeps_the_oscillators_frequency_not_t
     assert np.abs(run.phase_s[0, k0 + 3600]) < 100e-9  # before: 0.1 ns/s gave 512 ns rms here
 
 
+def test_the_summary_counts_the_seconds_not_claimed_locked_for_an_unresolved_offset():
+    from chronofuse.experiments.gnssdo import unresolved_alarm_seconds
+
+    onset = int(ONSET_S)
+    stepped = _stepped_run(lambda t: np.where(t >= onset, 150e-9, 0.0))
+    alarm = (stepped.states.state[0] == State.ALARM).sum()
+    seconds = unresolved_alarm_seconds(stepped.states)[0]
+    assert 0 < seconds <= alarm and seconds > 0.9 * (stepped.states.state[0, onset:] == State.ALARM).sum()
+    clean = _stepped_run(lambda t: 0.0 * t)  # the negative: no refusal, nothing unresolved
+    assert unresolved_alarm_seconds(clean.states)[0] == 0
+
+
 def test_a_step_that_goes_back_is_locked_again():
     # The negative control: a 150 ns step that goes away after 100 s is refused, and let back in when the
     # receivers agree with the prediction again, with a miss and a tolerance of a few ns: LOCKED again.

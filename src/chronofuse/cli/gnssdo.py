@@ -123,6 +123,10 @@ def gnssdo(
     elif check:
         con.print(f"spoofing: drags from {check['slowest_rate_ns_per_s']:.3g} ns/s are refused before |TE| reaches"
                   f" {check['budget_ns']:g} ns")
+    if summary.get("unresolved_offset_alarm_seconds"):
+        con.print(f"unresolved offset: {summary['unresolved_offset_alarm_seconds']:.0f} s in alarm (per trial): the "
+                  "receivers were let back in after a refusal and may carry an offset the oscillator could not "
+                  "resolve, so the output is not claimed locked")
     if summary.get("no_usable_receiver"):
         con.print("no usable receiver at any second: the oscillator stayed in free-run")
     if out is not None:

@@ -31,6 +31,8 @@ Metrics (all over the trials; SI inside, ns only in the summary's ``*_ns`` keys)
   the outage;
 * ``state_seconds``: seconds per state (mean over trials); ``locked_over_threshold_seconds``: seconds LOCKED
   while the true |TE| is at or above the lock threshold (mean over trials; a LOCKED that lies);
+  ``unresolved_offset_alarm_seconds``: seconds in ALARM entered for an unresolved offset (mean over trials:
+  receivers let back in after a refusal that may carry what the oscillator could not resolve);
   ``holdover_ready_seconds`` and ``predicted_holdover_sigma_ns`` (median over the LOCKED seconds of the
   predicted holdover error's standard deviation after the state machine's horizon, 1 h);
 * ``adev``: overlapping ADEV (mean Allan variance over trials) of the free-running oscillator, of the
@@ -62,7 +64,7 @@ from chronofuse.discipline.pi import max_natural_hz
 from chronofuse.discipline.registry import SERVOS
 from chronofuse.discipline.servo import Servo
 from chronofuse.discipline.stages import LoopStage, StateStage
-from chronofuse.discipline.states import HoldoverModel, State, StateConfig, StateRun
+from chronofuse.discipline.states import HoldoverModel, Reason, State, StateConfig, StateRun
 from chronofuse.estimation.pipeline import Pipeline
 from chronofuse.io.pps_reference import read_pps_reference
 from chronofuse.models.environment import ENVIRONMENTS, ReceiverEnvironment, receiver_environment
@@ -368,6 +370,16 @@ def run_config_threshold_s(sim: dict) -> float:
     return float(state_config(sim["oscillator"]).lock_threshold_s)
 
 
+def unresolved_alarm_seconds(states: StateRun) -> np.ndarray:
+    """Seconds per trial in ALARM entered for an unresolved offset (a reference let back in after a refusal
+    that may carry what the oscillator could not resolve: :mod:`chronofuse.discipline.states`)."""
+    reason = np.asarray(states.reason)
+    steps = np.arange(reason.shape[1])
+    last = np.maximum.accumulate(np.where(reason != 0, steps, 0), axis=1)
+    entered = np.take_along_axis(reason, last, axis=1)
+    return np.sum((states.state == State.ALARM) & (entered == Reason.UNRESOLVED_OFFSET), axis=1)
+
+
 def trial_stats(sim: dict) -> dict:
     """Everything :func:`summarize` needs from :func:`simulate_trials`' result, per trial (arrays (trials, ...)) or
     summed, so that blocks of trials merge (:func:`merge_stats`) without keeping their seconds."""
@@ -389,6 +401,7 @@ def trial_stats(sim: dict) -> dict:
     out.update(state_seconds=np.stack([(states.state == st).sum(axis=1) for st in State], axis=1),
                locked_over=np.sum(locked & (np.abs(run.phase_s) >= run_config_threshold_s(sim)), axis=1),
                ready=states.holdover_ready.sum(axis=1), rail=states.rail_alarm.sum(axis=1),
+               unresolved=unresolved_alarm_seconds(states),
                sigma=np.asarray(sigma[np.isfinite(sigma)]), any_reference=has_ref.any(axis=1),
                changes_first=states.changes(0)[:50] if sim.get("first_trial", 0) == 0 else None,
                adev=adev_avar(sim["noise_phase_s"], run.reference_error_s, run.phase_s))
@@ -405,7 +418,8 @@ def merge_stats(blocks: list[dict]) -> dict:
 
     first = blocks[0]
     out = {"te": {k: cat(lambda b, k=k: b["te"][k]) for k in first["te"]}, "ms_best": cat(lambda b: b["ms_best"])}
-    for key in ("bound_ms", "holdover_err", "state_seconds", "locked_over", "ready", "rail", "sigma", "any_reference"):
+    for key in ("bound_ms", "holdover_err", "state_seconds", "locked_over", "ready", "rail", "unresolved", "sigma",
+                "any_reference"):
         if key in first:
             out[key] = cat(lambda b, key=key: b[key])
     if "holdover_s" in first:
@@ -469,6 +483,7 @@ def summarize(plan: dict, stats: dict) -> dict:
     summary["predicted_holdover_sigma_ns"] = float(np.median(sigma)) * 1e9 if sigma.size else None
     summary["state_changes_trial0"] = stats["changes_first"]
     summary["dac_rail_alarm_seconds"] = float(stats["rail"].sum() / trials)
+    summary["unresolved_offset_alarm_seconds"] = float(stats["unresolved"].sum() / trials)
     summary["no_usable_receiver"] = bool(not stats["any_reference"].any())
     summary["adev"] = pooled_adev(stats["adev"])
     summary["drag_check"] = drag_check(plan["config"].receiver_monitor)
