@@ -142,8 +142,8 @@ def states_kernel(usable, alarm, implausible, near, offset, freq_adj, ref_var, u
                 u_var = 0.0
                 u_f = u
             v = ref_var[i, k]
-            bare = min(limit, threshold - k_sigma * math.sqrt(v)) if math.isfinite(v) and v >= 0.0 else limit
             noise = k_sigma * math.sqrt(v) if math.isfinite(v) and v >= 0.0 else 0.0
+            bare = min(limit, threshold - noise)
             lim = min(bare, threshold - noise - unresolved[i, k])
             te_ok = ok and abs(te_f) < lim
             f_ok = abs(dev) < f_thr

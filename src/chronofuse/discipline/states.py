@@ -200,10 +200,10 @@ def advance(memory: dict, usable, offset_s, config: StateConfig, *, alarm=None, 
     z = np.asarray(offset_s, dtype=np.float64)
     ref_var = np.zeros(n) if reference_variance_s2 is None else np.asarray(reference_variance_s2, dtype=np.float64)
     known = np.isfinite(ref_var) & (ref_var >= 0.0)  # a negative variance is no variance: unknown
-    limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(known, ref_var, 0.0)))
+    noise = k_sigma * np.sqrt(np.where(known, ref_var, 0.0))
     unresolved = np.zeros(n) if unresolved_s is None else np.nan_to_num(np.asarray(unresolved_s, dtype=np.float64))
-    bare = limit  # the limit the unresolved offset leaves out: only that failing is UNRESOLVED_OFFSET
-    limit = np.minimum(limit, threshold - k_sigma * np.sqrt(np.where(known, ref_var, 0.0)) - unresolved)
+    bare = np.minimum(limit, threshold - noise)  # without the unresolved offset: only that failing is UNRESOLVED_OFFSET
+    limit = np.minimum(bare, threshold - noise - unresolved)
     ok = usable & ~alarm & ~implausible & np.isfinite(z)
     # Filters: restarted on the first usable second after a loss (the time error), or the first at all (u).
     # A measured offset more than the threshold from the level, for one second, enters as the threshold (the
