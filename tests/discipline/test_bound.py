@@ -140,7 +140,7 @@ def test_the_clairvoyant_servo_attains_the_bound_in_simulated_open_sky_within_it
 
 
 def test_the_default_controller_is_within_115_percent_of_the_bound_in_open_sky_and_the_gnssdo_papers_pi_is_not():
-    setup = dict(scenario="open-sky", duration_s=43_200, trials=3, seed=3)
+    setup = dict(scenario="open-sky", duration_s=43_200, trials=6, seed=3)  # 3: an interval too wide to tell
     ours = evaluate(simulate_gnssdo(GnssdoSetup(controller=DEFAULT_CONTROLLER, **setup)))
     assert ours["optimal_kind"] == "bound"
     assert ours["ratio_to_optimal_ci"][1] <= 1.15

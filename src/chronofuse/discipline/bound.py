@@ -134,13 +134,20 @@ def clairvoyant_servo(osc: OscillatorModel, env: ReceiverEnvironment, receivers:
     """The optimality yardstick for ``receivers`` equal, independent receivers in ``env``: the true
     oscillator model and the fused reference's noise (white noise at the mean log-normal GDOP gain,
     ``sqrt(E[g^2]) = exp(s^2)``; multipath and wander as Gauss-Markov states; each divided by
-    ``sqrt(receivers)``). ``steer_s`` equal to the interval: unconstrained steering (the bound's)."""
+    ``sqrt(receivers)``). ``steer_s`` equal to the interval: unconstrained steering (the bound's).
+
+    The oscillator's aging is part of the true model: the simulated oscillator ages at exactly
+    ``osc.drift_per_s`` (:func:`chronofuse.models.oscillator.simulate_oscillator`), so the clairvoyant
+    filter starts from that drift, with no uncertainty. With the servos' zero-mean prior of 1e-14/s it
+    learnt the drift from the lock, a few 1e-15/s off after 2 h, ~10 us after a day of holdover: the
+    fitted servo then beat it by 38 % (16 trials), and by 4 % after a day locked (200 trials)."""
     check_scalar(receivers, "receivers", min_val=1, integer=True)
     m = env.model
     white = m.white_sigma_s * math.exp(m.gdop_log_sigma**2) / math.sqrt(receivers)
     gm = ((m.multipath_sigma_s / math.sqrt(receivers), m.multipath_tau_s),
           (m.wander_sigma_s / math.sqrt(receivers), m.wander_tau_s))
-    return ClairvoyantServo(osc.h, white, gauss_markov=gm, dac=dac, steer_s=steer_s)
+    return ClairvoyantServo(osc.h, white, gauss_markov=gm, dac=dac, steer_s=steer_s,
+                            drift0_per_s=osc.drift_per_s, sigma_drift0_per_s=0.0)
 
 
 @dataclass(frozen=True)

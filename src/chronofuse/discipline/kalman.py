@@ -165,6 +165,7 @@ class KalmanServoConfig(Config):
     sigma_phase0_s: float = Field(1e-7, ge=0.0, description="prior standard deviation of the phase after the jam sync (s)")
     sigma_freq0: float = Field(1e-8, ge=0.0, description="prior standard deviation of the frequency (dimensionless)")
     sigma_drift0_per_s: float = Field(1e-14, ge=0.0, description="prior standard deviation of the drift (1/s)")
+    drift0_per_s: float = Field(0.0, description="prior mean of the drift (1/s): the aging known beforehand")
     drift_ar1: float = Field(1.0, gt=0.0, le=1.0, description="AR(1) coefficient of the drift, 1: random walk "
                                                               "(dimensionless)")
     step_threshold_s: float | None = Field(1e-6, ge=0.0,
@@ -199,6 +200,7 @@ class KalmanServo(Servo):
     steer_s : phase steering time constant (s), > 0.
     tau_match_s : where flicker FM is folded (s): near the loop's crossover, where it matters (default 1000 s).
     sigma_phase0_s, sigma_freq0, sigma_drift0_per_s : prior standard deviations (after the jam sync).
+    drift0_per_s : prior mean of the drift (1/s), the aging known beforehand (default 0: none).
     drift_ar1 : AR(1) coefficient of the drift (1 = random walk), in (0, 1].
 
     learn_gauss_markov : Gauss-Markov measurement errors :meth:`fit` learns when nothing is given (0, 1, 2).
@@ -215,7 +217,8 @@ class KalmanServo(Servo):
     def __init__(self, h: PowerLaw | None = None, measurement_sigma_s: float | None = None, *,
                  drift_psd_per_s3: float = 1e-40, gauss_markov: tuple = (), steer_s: float = 300.0,
                  tau_match_s: float = 1000.0, sigma_phase0_s: float = 1e-7, sigma_freq0: float = 1e-8,
-                 sigma_drift0_per_s: float = 1e-14, drift_ar1: float = 1.0, interval_s: float = 1.0,
+                 sigma_drift0_per_s: float = 1e-14, drift0_per_s: float = 0.0, drift_ar1: float = 1.0,
+                 interval_s: float = 1.0,
                  dac: Dac | None = None, step_threshold_s: float | None = 1e-6, fast: bool = True,
                  learn_gauss_markov: int = 0):
         super().__init__(interval_s=interval_s, dac=dac, step_threshold_s=step_threshold_s, fast=fast)
@@ -229,6 +232,7 @@ class KalmanServo(Servo):
         self.sigma_phase0_s = sigma_phase0_s
         self.sigma_freq0 = sigma_freq0
         self.sigma_drift0_per_s = sigma_drift0_per_s
+        self.drift0_per_s = drift0_per_s
         self.drift_ar1 = drift_ar1
 
     # -- the design: given, or learnt ------------------------------------------------------------------------
@@ -297,6 +301,7 @@ class KalmanServo(Servo):
         check_scalar(self.drift_ar1, "drift_ar1", min_val=0.0, max_val=1.0, include_min=False)
         for name in ("sigma_phase0_s", "sigma_freq0", "sigma_drift0_per_s"):
             check_scalar(getattr(self, name), name, min_val=0.0)
+        check_scalar(self.drift0_per_s, "drift0_per_s")
         check_scalar(self.learn_gauss_markov, "learn_gauss_markov", min_val=0, max_val=2, integer=True)
         for sigma_gm, tau in self._gm():
             check_scalar(sigma_gm, "gauss_markov sigma_s", min_val=0.0)
@@ -330,10 +335,17 @@ class KalmanServo(Servo):
             P0[3 + i, 3 + i] = sigma**2
         return P0
 
+    def prior_mean(self) -> np.ndarray:
+        """``x0`` (n,): the prior state after the jam sync; zero but for the drift, :attr:`drift0_per_s`."""
+        x0 = np.zeros(self.prior_covariance().shape[0])
+        x0[2] = self.drift0_per_s
+        return x0
+
     def _initial(self, n_loops):
         F, Q, H = self.model()
         n = F.shape[0]
-        return {"x": np.zeros((n_loops, n)), "P": np.broadcast_to(self.prior_covariance(), (n_loops, n, n)).copy(),
+        return {"x": np.broadcast_to(self.prior_mean(), (n_loops, n)).copy(),
+                "P": np.broadcast_to(self.prior_covariance(), (n_loops, n, n)).copy(),
                 "model": (F, Q, H, self.design()[1] ** 2)}
 
     # -- the compiled backend's constants -------------------------------------------------------------------
@@ -357,6 +369,7 @@ class KalmanServo(Servo):
         P0 = self.prior_covariance()
         n = P0.shape[0]
         state = np.zeros((n_loops, n + n * n + self._variant_state() + scratch_size(n)))
+        state[:, :n] = self.prior_mean()
         state[:, n:n + n * n] = P0.ravel()
         return state
 
