@@ -83,3 +83,68 @@ def test_epochs_off_the_imu_samples_are_refused(tmp_path):
         imu_blocks(log, epochs[:10] + np.arange(10) * 5_000_000)
     with pytest.raises(InputDataError, match="does not hold a sample"):
         imu_blocks(log, epochs - 3_000_000)
+
+
+_HEADER = "gps_ns,gyro_x_rad_per_s,gyro_y_rad_per_s,gyro_z_rad_per_s,accel_x_m_per_s2,accel_y_m_per_s2,accel_z_m_per_s2"
+
+
+def _csv(path, rows, header=_HEADER):
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def _rows(n=5, gyro="0.001", accel="0.1", t0=1_400_000_000_000_000_000):
+    return [f"{t0 + k * 10_000_000},{gyro},0,0,{accel},0,-9.81" for k in range(n)]
+
+
+def _refused(path) -> str:
+    with pytest.raises(InputDataError) as info:
+        read_imu_csv(path)
+    return str(info.value)
+
+
+def test_text_in_a_numeric_column_is_an_input_error_naming_line_and_column(tmp_path):
+    rows = _rows()
+    rows[2] = rows[2].replace(",0.1,", ",abc,")
+    message = _refused(_csv(tmp_path / "t.csv", rows))
+    assert "line 4" in message and "accel_x_m_per_s2" in message and "'abc'" in message
+
+
+def test_a_missing_gps_ns_is_an_error_naming_its_line_without_a_runtime_warning(tmp_path):
+    rows = _rows()
+    rows[3] = "," + rows[3].split(",", 1)[1]
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        message = _refused(_csv(tmp_path / "m.csv", rows))
+    assert "line 5" in message and "no value in column gps_ns" in message
+
+
+def test_a_float_gps_ns_is_refused_as_one(tmp_path):
+    rows = [r.replace("1400000000", "1.4e18,", 1).split(",", 1)[0] + "," + r.split(",", 1)[1] for r in _rows()]
+    message = _refused(_csv(tmp_path / "f.csv", rows))
+    assert "line 2" in message and "must be an integer number of nanoseconds" in message
+
+
+def test_both_units_of_the_gyro_are_refused_and_one_is_read(tmp_path):
+    header = _HEADER + ",gyro_x_deg_per_s,gyro_y_deg_per_s,gyro_z_deg_per_s"
+    rows = [r + ",57.3,0,0" for r in _rows(gyro="0.5")]
+    message = _refused(_csv(tmp_path / "both.csv", rows, header))
+    assert "gyro_x/y/z_rad_per_s and gyro_x/y/z_deg_per_s" in message
+    deg = header.replace("gyro_x_rad_per_s,gyro_y_rad_per_s,gyro_z_rad_per_s,", "")
+    only = [",".join(r.split(",")[:1] + r.split(",")[4:]) for r in rows]
+    log = read_imu_csv(_csv(tmp_path / "deg.csv", only, deg))
+    assert log.gyro_rad_per_s[0, 0] == pytest.approx(math.radians(57.3))
+
+
+@pytest.mark.parametrize("gyro, accel, word", [("1e308", "0.1", "gyro_x_rad_per_s"), ("0.001", "1e300", "accel_x"),
+                                               ("101", "0.1", "100 rad/s"), ("0.001", "2001", "2000 m/s^2")])
+def test_implausible_samples_are_refused_naming_the_limit(tmp_path, gyro, accel, word):
+    message = _refused(_csv(tmp_path / "huge.csv", _rows(gyro=gyro, accel=accel)))
+    assert "line 2" in message and "beyond the plausible" in message and word in message
+
+
+def test_samples_at_the_limits_are_read(tmp_path):
+    log = read_imu_csv(_csv(tmp_path / "edge.csv", _rows(gyro="99.9", accel="1999")))
+    assert log.gyro_rad_per_s[0, 0] == 99.9 and log.accel_m_per_s2[0, 0] == 1999.0

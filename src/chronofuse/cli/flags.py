@@ -80,7 +80,7 @@ FLAGS: dict[str, Flag] = {
                              "number", fields=("integrity_risk",)),
     "--p-md": Flag("missed-detection probability at which the minimum detectable bias is stated", "number",
                    fields=("p_md",)),
-    "--position": Flag("static antenna position, ECEF X,Y,Z", "text", _M, fields=("position_m",)),
+    "--position": Flag("static antenna position, ECEF X,Y,Z", "text", _M, fields=("position_m", "reference_m")),
     "--max-tacc-ns": Flag("UBX epochs whose time accuracy (tAcc) is over this are not tested", "number", "ns",
                           fields=("max_time_acc_s",)),
     "--json-lines": Flag("stream: one JSON line per epoch", "switch"),

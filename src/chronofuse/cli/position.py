@@ -8,6 +8,7 @@ import typer
 from rich.table import Table
 
 from chronofuse.cli.common import (
+    collected_warnings,
     fail,
     human_console,
     print_json,
@@ -22,6 +23,28 @@ from chronofuse.models.environment import signal_environments
 from chronofuse.positioning import MAX_SPEED_M_PER_S, SYSTEMS
 
 ENVIRONMENTS = tuple(signal_environments())
+
+#: Options of the simulated drive only, and of the real files only (--obs): given with the other mode they
+#: would do nothing, so they are refused. The INS options belong to the simulation: there is no IMU input for
+#: real observations yet.
+SIMULATION_ONLY = {"scenario": "--environment", "ins": "--ins", "smooth": "--smooth", "duration": "--duration",
+                   "trials": "--trials", "seed": "--seed", "imu_rate": "--imu-rate", "speed": "--speed"}
+REAL_ONLY = {"reference": "--position", "start": "--start", "end": "--end", "mask_deg": "--elevation-mask-deg",
+             "ionosphere": "--ionosphere", "troposphere": "--troposphere"}
+
+
+def _given(ctx: typer.Context, name: str) -> bool:
+    """Whether option ``name`` was given on the command line (its source's name: typer has its own enum)."""
+    return getattr(ctx.get_parameter_source(name), "name", None) == "COMMANDLINE"
+
+
+def _refuse_other_mode(ctx: typer.Context, real: bool) -> None:
+    table, mode = (SIMULATION_ONLY, "a simulated drive (without --obs)") if real else (REAL_ONLY, "--obs")
+    given = [flag for name, flag in table.items() if _given(ctx, name)]
+    if given:
+        fail(f"{', '.join(given)}: only with {mode}; here {'it does' if len(given) == 1 else 'they do'} nothing"
+             + (" (real observations have no IMU input: GNSS/INS runs on the simulated drive)" if real and
+                {"--ins", "--smooth", "--imu-rate"} & set(given) else ""))
 
 
 def register(app: typer.Typer) -> None:
@@ -49,6 +72,11 @@ def _xyz(text: str) -> list[float]:
     return values
 
 
+def _file(path: Path, option: str) -> None:
+    if path.is_dir():
+        fail(f"{option} {path}: is a directory, not a file (give the file itself)")
+
+
 def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start: float | None, end: float | None,
           mask_deg: float, ionosphere: str, troposphere: str, out: Path | None, json_out: bool) -> None:
     """``position --obs``: single-point fixes from real files."""
@@ -56,12 +84,15 @@ def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start
     from chronofuse.gnss.point_positioning import SppOptions
     from chronofuse.gnss.systems import parse_systems
 
+    from chronofuse.gnss.systems import system_names
+
     if not nav:
         fail("--obs needs at least one --nav (the broadcast navigation files of the same day)")
+    _file(obs, "--obs")
+    for p in nav:
+        _file(p, "--nav")
     reference_m = _xyz(reference) if reference is not None else None
-    if start is not None and end is not None and end < start:
-        fail(f"--end {end:g} is before --start {start:g}")
-    with user_errors():
+    with user_errors(), collected_warnings() as notes:
         letters = parse_systems(systems)
         options = SppOptions(elevation_mask_deg=mask_deg, ionosphere=ionosphere, troposphere=troposphere)
         fixes, summary = position_from_files(obs, nav, letters, options=options, start_s=start, end_s=end,
@@ -76,12 +107,15 @@ def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start
             files = [str(out / "positions.csv"), str(out / "summary.json")]
             summary["csv_rows"] = rows
     summary["files"] = files
+    summary["warnings"] = notes
+    for note in notes:
+        human_console(json_out).print(f"warning: {note}", markup=False, soft_wrap=True)
     if json_out:
         print_json(summary)
         return
     con = human_console(False)
     con.print(f"{obs}: {summary['receiver']}, {summary['fixes']:,} fixes of {summary['epochs']:,} epochs with "
-              f"{'+'.join(systems.split('+'))} ({', '.join(f'{k} {v}' for k, v in summary['codes'].items())}), "
+              f"{system_names(letters)} ({', '.join(f'{k} {v}' for k, v in summary['codes'].items())}), "
               f"{summary['mean_satellites']:.1f} satellites on average, {summary['excluded_measurements']} excluded")
     if "statistics" in summary:
         s = summary["statistics"]
@@ -94,6 +128,7 @@ def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start
 
 
 def position(
+    ctx: typer.Context,
     obs: Path | None = typer.Option(None, "--obs", help="RINEX 2/3 observation file (plain, .gz, Hatanaka .crx/.crx.gz): "
                                     "single-point fixes from it instead of a simulated drive."),
     scenario: str = typer.Option("urban-canyon", "--environment",
@@ -115,7 +150,8 @@ def position(
     start: float | None = typer.Option(None, "--start", help="With --obs: first epoch, after the file's first (s)."),
     end: float | None = typer.Option(None, "--end", help="With --obs: last epoch, after the file's first (s)."),
     mask_deg: float = typer.Option(10.0, "--elevation-mask-deg", help="With --obs: elevation mask (deg)."),
-    ionosphere: str = typer.Option("klobuchar", "--ionosphere", help="With --obs: klobuchar or none."),
+    ionosphere: str = typer.Option("klobuchar", "--ionosphere", help="With --obs: klobuchar (the broadcast GPS "
+                                   "coefficients; a warning when the files have none) or none."),
     troposphere: str = typer.Option("saastamoinen", "--troposphere", help="With --obs: saastamoinen or none."),
     out: Path | None = typer.Option(None, "--out", help="Report folder: summary.json and PNG figures (with --obs: "
                                     "positions.csv and summary.json)."),
@@ -127,6 +163,7 @@ def position(
     quiet_output(quiet)
     from chronofuse.experiments.positioning import PositioningConfig, run_positioning, write_report
 
+    _refuse_other_mode(ctx, obs is not None)
     if obs is not None:
         _real(obs, list(nav or []), systems, reference, start, end, mask_deg, ionosphere, troposphere, out, json_out)
         return

@@ -15,7 +15,8 @@ import numpy as np
 from chronofuse.experiments.real_stations import RealStation
 from chronofuse.gnss.point_positioning import SppOptions, enu_errors_m, point_positions, position_statistics
 
-__all__ = ["COMBINATIONS", "station_comparison", "combinations_for", "position_from_files", "write_positions_csv"]
+__all__ = ["COMBINATIONS", "REFERENCE_HEIGHT_RANGE_M", "REFERENCE_WARNING_DISTANCE_M", "station_comparison",
+           "combinations_for", "check_reference_position", "position_from_files", "write_positions_csv"]
 
 #: The combinations compared, by name: GPS alone, GPS+BDS, Galileo alone, BDS alone, all three.
 COMBINATIONS = {"gps": ("G",), "gps+bds": ("G", "C"), "gal": ("E",), "bds": ("C",), "gps+gal+bds": ("G", "E", "C")}
@@ -69,17 +70,79 @@ def station_comparison(station: RealStation, combinations=None, *, options: SppO
     return out
 
 
+#: Where a reference position may lie: ellipsoidal height (WGS 84) between these (m). The lowest land is
+#: about -430 m and geoid heights stay within about 110 m, so -10 km leaves room for a mine shaft; +100 km is
+#: the edge of space (a static reference antenna is on or near the ground). Outside: not a position on Earth
+#: (0,0,0, a unit slip, a swapped axis).
+REFERENCE_HEIGHT_RANGE_M = (-10_000.0, 100_000.0)
+#: A reference further than this from the mean of the fixes is analysed, with a warning (a reference of
+#: another station, or a wrong datum).
+REFERENCE_WARNING_DISTANCE_M = 1000.0
+
+
+def check_reference_position(reference_m) -> np.ndarray:
+    """``reference_m`` as a finite ECEF point (3,) within :data:`REFERENCE_HEIGHT_RANGE_M` of the WGS 84
+    ellipsoid; raises :class:`~chronofuse.validation.InputError` naming ``{reference_m}`` otherwise."""
+    import pymap3d
+
+    from chronofuse.validation import InputError
+
+    ref = np.asarray(reference_m, dtype=np.float64)
+    if ref.shape != (3,) or not np.isfinite(ref).all():
+        raise InputError(f"{{reference_m}} == {[float(v) for v in np.ravel(ref)]}, must be three finite ECEF coordinates (m)",
+                         fields=("reference_m",))
+    h = float(pymap3d.ecef2geodetic(*ref)[2])
+    lo, hi = REFERENCE_HEIGHT_RANGE_M
+    if not lo <= h <= hi:
+        raise InputError(f"{{reference_m}} == {[float(v) for v in ref]} is {h / 1000:,.1f} km from the WGS 84 "
+                         f"ellipsoid, must be between {lo / 1000:g} and {hi / 1000:g} km (an antenna on Earth)",
+                         fields=("reference_m",))
+    return ref
+
+
+def _check_window(start_s, end_s) -> None:
+    from chronofuse.validation import InputError, check_scalar
+
+    for value, name in ((start_s, "start_s"), (end_s, "end_s")):
+        if value is not None:
+            check_scalar(value, name, min_val=0.0)  # seconds after the file's first epoch
+    if start_s is not None and end_s is not None and end_s < start_s:
+        raise InputError(f"{{end_s}} == {end_s:g} is before {{start_s}} == {start_s:g}", fields=("start_s", "end_s"))
+
+
+def _no_fix_reason(fixes, options: SppOptions) -> str:
+    """Why no epoch gave a fix: too few usable satellites, or the geometry."""
+    usable = np.isfinite(fixes.corrected_m).sum(-1) if fixes.corrected_m is not None else np.zeros(1, dtype=int)
+    from chronofuse.gnss.systems import system_names
+
+    needed = 3 + len(fixes.systems)
+    most = int(usable.max())
+    if most < needed:
+        return (f"no epoch gives a fix: at most {most} usable satellite{'s' if most != 1 else ''} at an epoch (above "
+                f"the elevation mask, with an ephemeris), and {system_names(fixes.systems)} needs {needed}")
+    return f"no epoch gives a fix: GDOP above {options.max_gdop:g} (or the solution failed) at every epoch"
+
+
 def position_from_files(obs_path, nav_paths, systems, *, options: SppOptions | None = None, start_s=None,
                         end_s=None, reference_m=None) -> tuple:
     """Read an observation file (RINEX 2 or 3, plain / gz / Hatanaka) and navigation files, and solve.
 
-    ``systems``: letters; ``start_s``/``end_s``: seconds from the file's first epoch; ``reference_m`` (3,)
-    ECEF: statistics against it. Returns ``(PointPositions, summary dict)``.
+    ``systems``: letters; ``start_s``/``end_s``: seconds from the file's first epoch (>= 0); ``reference_m``
+    (3,) ECEF (:func:`check_reference_position`): statistics against it. Returns ``(PointPositions, summary
+    dict)``. Raises :class:`~chronofuse.validation.InputError` when no epoch gives a fix (naming why), and
+    warns when the reference is more than :data:`REFERENCE_WARNING_DISTANCE_M` from the mean fix.
     """
+    import warnings
+
     from chronofuse.io.rinex_nav import merge_navigation, read_navigation
     from chronofuse.io.rinex_obs import read_any_observations
     from chronofuse.timescale import NS_PER_S
+    from chronofuse.validation import InputDataError, InputError, InputWarning
 
+    opt = options or SppOptions()
+    _check_window(start_s, end_s)
+    if reference_m is not None:
+        reference_m = check_reference_position(reference_m)
     obs = read_any_observations(obs_path, systems=systems)
     first = int(obs.gps_ns[0])
     if start_s is not None or end_s is not None:
@@ -87,13 +150,16 @@ def position_from_files(obs_path, nav_paths, systems, *, options: SppOptions | N
         hi = first + int(round(end_s * NS_PER_S)) if end_s is not None else int(obs.gps_ns[-1])
         rows = (obs.gps_ns >= lo) & (obs.gps_ns <= hi)
         if not rows.any():
-            from chronofuse.validation import InputError
-
-            raise InputError(f"no epoch between {{start_s}} == {start_s} s and {{end_s}} == {end_s} s of the file",
-                             str(obs_path), fields=("start_s", "end_s"))
+            span = (obs.gps_ns[-1] - obs.gps_ns[0]) / NS_PER_S
+            window = (f"{{start_s}} == {start_s or 0.0:g} s to "
+                      + (f"{{end_s}} == {end_s:g} s" if end_s is not None else "the file's end"))
+            raise InputError(f"no epoch in the window {window} (seconds after the file's first epoch; its epochs span "
+                             f"{span:g} s)", str(obs_path), fields=("start_s", "end_s"))
         obs = obs.select(rows)
     nav = merge_navigation([read_navigation(p) for p in nav_paths])
-    fixes = point_positions(obs, nav, systems, options)
+    fixes = point_positions(obs, nav, systems, opt)
+    if not np.isfinite(fixes.position_m[:, 0]).any():
+        raise InputDataError(f"{_no_fix_reason(fixes, opt)} (navigation: {nav.source})", str(obs_path))
     summary = {"obs": str(obs_path), "nav": [str(p) for p in nav_paths], "systems": list(systems),
                "codes": fixes.codes, "receiver": obs.header.receiver, "marker": obs.header.marker,
                "epochs": int(obs.gps_ns.size), "fixes": int(np.isfinite(fixes.position_m[:, 0]).sum()),
@@ -104,6 +170,11 @@ def position_from_files(obs_path, nav_paths, systems, *, options: SppOptions | N
     if ok.any():
         summary["mean_position_m"] = [float(v) for v in fixes.position_m[ok].mean(0)]
     if reference_m is not None:
+        distance = float(np.linalg.norm(np.asarray(summary["mean_position_m"]) - reference_m))
+        if distance > REFERENCE_WARNING_DISTANCE_M:
+            warnings.warn(InputWarning(f"{{reference_m}} is {distance / 1000:,.1f} km from the mean fix: the statistics "
+                                       "measure that distance (another station's coordinate, or a wrong datum?)",
+                                       fields=("reference_m",)), stacklevel=2)
         summary["reference_position_m"] = [float(v) for v in reference_m]
         summary["statistics"] = position_statistics(fixes.position_m, reference_m)
     return fixes, summary

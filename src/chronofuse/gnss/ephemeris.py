@@ -63,7 +63,9 @@ class GpsNavigation:
     ``satellites`` is a list of ``records`` names; ``toc_gps_ns`` (int64, (records,)) is the clock reference
     time as GPS ns since 1980-01-06; ``params`` maps each name of :data:`EPHEMERIS_FIELDS` to a (records,)
     float64 array; ``klobuchar_alpha``/``klobuchar_beta`` are the broadcast ionosphere coefficients (4,)
-    each (RINEX ``ION ALPHA``/``ION BETA``), or None.
+    each (RINEX ``ION ALPHA``/``ION BETA``), or None; ``bds_klobuchar_alpha``/``bds_klobuchar_beta`` the
+    BeiDou ones (``BDSA``/``BDSB``, RINEX 4 ``ION C.. D1D2``) and ``nequick_gal`` Galileo's NeQuick ``ai0,
+    ai1, ai2`` (``GAL``, ``ION E.. IFNV``), each kept when the file has them, else None.
     """
 
     satellites: list[str]
@@ -76,6 +78,9 @@ class GpsNavigation:
     toe_gps_ns: np.ndarray | None = None
     #: Records of systems not read (GLONASS, SBAS ...), counted.
     n_skipped_records: int = 0
+    bds_klobuchar_alpha: np.ndarray | None = None
+    bds_klobuchar_beta: np.ndarray | None = None
+    nequick_gal: np.ndarray | None = None
 
     def toe_from_week(self) -> np.ndarray:
         """``toe`` on GPS time (int64 ns) from ``week`` and ``toe_s`` (GPS and Galileo weeks)."""
@@ -120,12 +125,20 @@ def _week_time(seconds: np.ndarray) -> np.ndarray:
 _VALID_FROM_TOE = ("E", "C")
 _FUTURE_TOLERANCE_S = 900.0
 
+#: How far from its ``toe`` a broadcast record is used, per system (s): RTKLIB 2.4.3's ``MAXDTOE`` (GPS),
+#: ``MAXDTOE_QZS``, ``MAXDTOE_GAL`` and ``MAXDTOE_CMP`` (``ephemeris.c``, ``seleph``), the limits of the
+#: solutions we compare with. GPS and QZSS: 2 h, half the 4 h curve fit interval centred on ``toe``
+#: (IS-GPS-200 20.3.4.4); Galileo 4 h; BeiDou 6 h. A record further away gives no satellite, whatever
+#: else the files hold (a navigation file of the next day covers none of the epochs).
+MAX_DTOE_S = {"G": 7200.0, "J": 7200.0, "E": 14400.0, "C": 21600.0}
 
-def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float = 4 * 3600.0) -> BroadcastEphemeris:
+
+def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float | None = None) -> BroadcastEphemeris:
     """For each epoch (``gps_ns``, int64 (epochs,)) and satellite (names, (sats,)) the healthy record with
-    the nearest ``toe``; not valid when none is within ``max_age_s``. A GPS record's toe is the middle of its
-    4 h fit interval (IS-GPS-200 20.3.4.4); Galileo's and BeiDou's are at the start of their validity, so for
-    them a record whose toe is more than 15 min ahead of the epoch is used only when no other is in reach."""
+    the nearest ``toe``; not valid when none is within ``max_age_s`` (None: the system's
+    :data:`MAX_DTOE_S`, 2 h for GPS). A GPS record's toe is the middle of its 4 h fit interval
+    (IS-GPS-200 20.3.4.4); Galileo's and BeiDou's are at the start of their validity, so for them a record
+    whose toe is more than 15 min ahead of the epoch is used only when no other is in reach."""
     gps_ns = np.asarray(gps_ns, dtype=np.int64)
     epochs, sats = gps_ns.size, len(satellites)
     p = nav.params
@@ -137,15 +150,16 @@ def select_ephemeris(nav: GpsNavigation, satellites, gps_ns, *, max_age_s: float
         rows = np.flatnonzero((names == sat) & healthy)
         if rows.size == 0:
             continue
+        limit_s = MAX_DTOE_S.get(str(sat)[:1], MAX_DTOE_S["G"]) if max_age_s is None else max_age_s
         signed_s = (gps_ns[:, None] - toe_ns[rows][None, :]) / NS_PER_S
         age_s = np.abs(signed_s)
         if str(sat)[:1] in _VALID_FROM_TOE:
             # Galileo and BeiDou records are valid from their toe on: one more than 15 min ahead of the epoch
             # is taken only when no other record is within reach (measured on the ESBC day: 2 h before its
             # toe a Galileo record is 18 m off the precise orbit, against 0.9 m from its toe on)
-            age_s = np.where(signed_s < -_FUTURE_TOLERANCE_S, age_s + 2.0 * max_age_s, age_s)
+            age_s = np.where(signed_s < -_FUTURE_TOLERANCE_S, age_s + 2.0 * limit_s, age_s)
         best = np.argmin(age_s, axis=1)
-        ok = np.abs(signed_s[np.arange(epochs), best]) <= max_age_s
+        ok = np.abs(signed_s[np.arange(epochs), best]) <= limit_s
         index[ok, j] = rows[best[ok]]
     valid = index >= 0
     safe = np.where(valid, index, 0)
@@ -307,4 +321,5 @@ __all__ = [
     "satellite_clock_s",
     "satellite_position_ecef",
     "select_ephemeris",
+    "MAX_DTOE_S",
 ]

@@ -26,6 +26,7 @@ constraint) or at the Earth's centre, where the first passes leave the atmospher
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,10 +39,16 @@ from chronofuse.gnss.ephemeris import GpsNavigation, geometry_from_pseudorange, 
 from chronofuse.gnss.lsq_position import least_squares_position
 from chronofuse.gnss.systems import SYSTEM_CONSTANTS
 from chronofuse.timescale import NS_PER_S, week_tow
-from chronofuse.validation import InputDataError, check_scalar
+from chronofuse.timescale import gps_ns_to_datetime64
+from chronofuse.validation import InputDataError, InputWarning, check_scalar, invalid
 
-__all__ = ["PointPositions", "SppOptions", "point_positions", "enu_errors_m", "position_statistics",
+__all__ = ["IONOSPHERE_MODELS", "TROPOSPHERE_MODELS", "PointPositions", "SppOptions", "point_positions", "enu_errors_m", "position_statistics",
            "pseudoranges_for"]
+
+
+#: The delay models :class:`SppOptions` accepts.
+IONOSPHERE_MODELS = ("klobuchar", "none")
+TROPOSPHERE_MODELS = ("saastamoinen", "none")
 
 
 @dataclass(frozen=True)
@@ -59,10 +66,10 @@ class SppOptions:
         check_scalar(self.elevation_mask_deg, "elevation_mask_deg", min_val=0.0, max_val=90.0)
         check_scalar(self.outlier_probability, "outlier_probability", min_val=0.0, max_val=1.0)
         check_scalar(self.max_exclusions, "max_exclusions", min_val=0, integer=True)
-        if self.ionosphere not in ("klobuchar", "none"):
-            raise ValueError(f"ionosphere == {self.ionosphere!r}, must be 'klobuchar' or 'none'")
-        if self.troposphere not in ("saastamoinen", "none"):
-            raise ValueError(f"troposphere == {self.troposphere!r}, must be 'saastamoinen' or 'none'")
+        if self.ionosphere not in IONOSPHERE_MODELS:
+            raise invalid("ionosphere", self.ionosphere, f"one of {', '.join(IONOSPHERE_MODELS)}")
+        if self.troposphere not in TROPOSPHERE_MODELS:
+            raise invalid("troposphere", self.troposphere, f"one of {', '.join(TROPOSPHERE_MODELS)}")
 
 
 @dataclass(frozen=True)
@@ -149,9 +156,40 @@ def _best_exclusion(satellite_m, corrected_m, sigma_m, usable, sys_index, x0_m) 
     return np.argmin(ssr, axis=-1)
 
 
+def _day(gps_ns) -> str:
+    return str(gps_ns_to_datetime64(np.asarray([gps_ns], dtype=np.int64))[0])[:16].replace("T", " ")
+
+
+def _no_cover_message(nav: GpsNavigation, systems, gps_ns) -> str:
+    """Why no satellite has an ephemeris: the span of the records against that of the epochs."""
+    from chronofuse.gnss.ephemeris import MAX_DTOE_S
+
+    toe = nav.toe_gps_ns if nav.toe_gps_ns is not None else nav.toe_from_week()
+    mine = np.isin(np.asarray([s[:1] for s in nav.satellites]), list(systems))
+    toe = toe[mine] if mine.any() else toe
+    limits = ", ".join(f"{SYSTEM_CONSTANTS[s].name.upper()} {MAX_DTOE_S.get(s, 7200.0) / 3600:g} h" for s in systems)
+    return (f"no ephemeris covers the observation epochs ({_day(gps_ns[0])} to {_day(gps_ns[-1])} GPS time): the "
+            f"records' toe run from {_day(toe.min())} to {_day(toe.max())}, and a record serves within {limits} "
+            "of its toe (a navigation file of another day?)")
+
+
+def _no_klobuchar_warning(nav: GpsNavigation) -> InputWarning:
+    others = [name for name, v in (("BeiDou Klobuchar", nav.bds_klobuchar_alpha), ("Galileo NeQuick", nav.nequick_gal))
+              if v is not None]
+    held = f" (only {' and '.join(others)} coefficients, not used)" if others else ""
+    return InputWarning(f"{nav.source}: no GPS Klobuchar coefficients (header IONOSPHERIC CORR GPSA/GPSB or a RINEX 4 "
+                        f"ION G.. LNAV record){held}: no ionospheric delay removed, although {{ionosphere}} == "
+                        "'klobuchar' (RTKLIB applies its built-in 2004 coefficients instead)", fields=("ionosphere",))
+
+
 def point_positions(obs, nav: GpsNavigation, systems=("G",), options: SppOptions | None = None) -> PointPositions:
     """Single-point fixes of every epoch of ``obs`` (module docstring) with ``nav``'s ephemerides of the
-    systems ``systems`` (letters, the first is the clock reference)."""
+    systems ``systems`` (letters, the first is the clock reference).
+
+    Raises :class:`InputDataError` naming the navigation file(s) when no record is within its system's
+    validity (:data:`chronofuse.gnss.ephemeris.MAX_DTOE_S`) of any epoch; warns
+    (:class:`~chronofuse.validation.InputWarning`) when the Klobuchar model is asked for and ``nav`` has no GPS
+    coefficients (none is then applied)."""
     opt = options or SppOptions()
     systems = tuple(systems)
     missing = [s for s in systems if s not in nav.systems]
@@ -162,6 +200,10 @@ def point_positions(obs, nav: GpsNavigation, systems=("G",), options: SppOptions
     gps_ns = obs.gps_ns
     epochs = gps_ns.size
     eph = select_ephemeris(nav, sats, gps_ns)
+    if not eph.valid.any():
+        raise InputDataError(_no_cover_message(nav, systems, gps_ns), nav.source)
+    if opt.ionosphere == "klobuchar" and nav.klobuchar_alpha is None:
+        warnings.warn(_no_klobuchar_warning(nav), stacklevel=2)
     rho = np.where(eph.valid, rho, np.nan)
     scale = np.array([(SYSTEM_CONSTANTS["G"].frequency_hz / SYSTEM_CONSTANTS[s].frequency_hz) ** 2
                       for s in systems])[sys_index]

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from chronofuse.validation import InputError
 
-__all__ = ["SystemConstants", "SYSTEM_CONSTANTS", "SYSTEM_NAMES", "parse_systems"]
+__all__ = ["SystemConstants", "SYSTEM_CONSTANTS", "SYSTEM_NAMES", "parse_systems", "system_names"]
 
 
 @dataclass(frozen=True)
@@ -47,13 +47,22 @@ SYSTEM_NAMES = {c.name: c.letter for c in SYSTEM_CONSTANTS.values()}
 def parse_systems(text: str) -> tuple[str, ...]:
     """``"gps+bds"`` -> ``("G", "C")``: system names joined by ``+`` (gps, gal, bds, qzss), GPS first when
     present (its clock is the reference). Raises :class:`~chronofuse.validation.InputError` naming the field."""
-    names = [t.strip().lower() for t in str(text).split("+") if t.strip()]
+    names = [t.strip().lower() for t in str(text).split("+")]
     unknown = [n for n in names if n not in SYSTEM_NAMES]
     if unknown or not names:
         raise InputError(f"{{systems}} == {text!r}, must be names among {sorted(SYSTEM_NAMES)} joined by '+'",
                          fields=("systems",))
-    letters = []
-    for n in names:
-        if SYSTEM_NAMES[n] not in letters:
-            letters.append(SYSTEM_NAMES[n])
+    letters = [SYSTEM_NAMES[n] for n in names]
+    twice = sorted({n for n, letter in zip(names, letters) if letters.count(letter) > 1})
+    if twice:
+        raise InputError(f"{{systems}} == {text!r} names {', '.join(twice)} twice: each system once",
+                         fields=("systems",))
     return tuple(sorted(letters, key="GECJ".index))
+
+
+def system_names(letters) -> str:
+    """``("G", "C")`` -> ``"gps+bds"``: the canonical lower-case names :func:`parse_systems` reads."""
+    name_of = {}
+    for name, letter in SYSTEM_NAMES.items():
+        name_of.setdefault(letter, name)
+    return "+".join(name_of[s] for s in letters)

@@ -10,7 +10,13 @@ Columns (a header row; order free, other columns ignored):
   ``accel_z_m_per_s2`` (or ``..._g``, standard gravity 9.80665 m/s^2).
 
 The samples must be at one rate (the median interval; an interval more than 1 % off it, or a time going
-back, is refused naming its line); a missing value is refused naming line and column. :func:`imu_blocks`
+back, is refused naming its line); a missing value, or text where a number belongs, is refused naming line
+and column; ``gps_ns`` must be written as an integer (a float64 such as ``1.4e18`` cannot hold a GPS time
+to the nanosecond). One unit per quantity: a log with both the rad/s and the deg/s gyro columns (or both
+m/s^2 and g) is refused, as the two could disagree. Plausibility: a rate beyond :data:`MAX_GYRO_RAD_PER_S`
+(100 rad/s, 5,730 deg/s, past the full scale of navigation IMUs, 2,000-4,000 deg/s for MEMS parts) or a
+specific force beyond :data:`MAX_ACCEL_M_PER_S2` (2,000 m/s^2, about 200 g) is refused naming its line: it
+is a unit or column mistake, not motion. :func:`imu_blocks`
 cuts the log into the ``(epochs, samples, 3)`` blocks that :class:`chronofuse.positioning.loose.LooselyCoupled`
 and :class:`chronofuse.positioning.tight.TightlyCoupled` take: block ``k`` holds the samples after GNSS
 epoch ``k - 1`` up to epoch ``k``.
@@ -28,8 +34,11 @@ import pandas as pd
 from chronofuse.timescale import NS_PER_S, gps_ns_from_week_tow, seconds_to_ns
 from chronofuse.validation import InputDataError
 
-__all__ = ["ImuLog", "read_imu_csv", "imu_blocks", "write_imu_csv"]
+__all__ = ["ImuLog", "MAX_ACCEL_M_PER_S2", "MAX_GYRO_RAD_PER_S", "read_imu_csv", "imu_blocks", "write_imu_csv"]
 
+#: Plausibility limits of the samples (module docstring): |rate| and |specific force| per axis.
+MAX_GYRO_RAD_PER_S = 100.0
+MAX_ACCEL_M_PER_S2 = 2000.0
 _G0 = 9.80665
 _AXES = ("x", "y", "z")
 
@@ -45,16 +54,52 @@ class ImuLog:
     source: str = ""
 
 
-def _columns(frame: pd.DataFrame, stem: str, units: dict[str, float], source: str) -> np.ndarray:
-    for unit, scale in units.items():
+def _numbers(frame: pd.DataFrame, name: str, source: str) -> np.ndarray:
+    """Column ``name`` as float64; text or a missing value is refused naming its line."""
+    column = frame[name]
+    values = pd.to_numeric(column, errors="coerce").to_numpy(dtype=np.float64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0])
+        text = column.iloc[k]
+        what = "no value" if pd.isna(text) or not str(text).strip() else f"{str(text).strip()!r} is not a finite number"
+        raise InputDataError(f"line {k + 2}: {what} in column {name}", source)
+    return values
+
+
+def _integer_ns(frame: pd.DataFrame, name: str, source: str) -> np.ndarray:
+    """Column ``name`` (read as text) as int64 ns: each value an integer as written, never through a float."""
+    texts = frame[name]
+    out = np.empty(len(texts), dtype=np.int64)
+    for k, text in enumerate(texts):
+        word = "" if pd.isna(text) else str(text).strip()
+        if not word:
+            raise InputDataError(f"line {k + 2}: no value in column {name}", source)
+        if not word.lstrip("+-").isdigit():
+            raise InputDataError(f"line {k + 2}: {name} == {word!r}, must be an integer number of nanoseconds (a "
+                                 "float such as 1.4e18 cannot hold a GPS time to the nanosecond)", source)
+        value = int(word)
+        if not 0 <= value < 2**63:
+            raise InputDataError(f"line {k + 2}: {name} == {word}, out of the int64 range of GPS ns", source)
+        out[k] = value
+    return out
+
+
+def _columns(frame: pd.DataFrame, stem: str, units: dict[str, float], source: str, limit: float,
+             si_unit: str) -> np.ndarray:
+    present = [u for u in units if all(f"{stem}_{a}_{u}" in frame.columns for a in _AXES)]
+    if len(present) > 1:
+        raise InputDataError(f"both {' and '.join(f'{stem}_x/y/z_{u}' for u in present)} columns: keep one unit "
+                             "(the two could disagree)", source)
+    for unit in present:
         names = [f"{stem}_{a}_{unit}" for a in _AXES]
-        if all(n in frame.columns for n in names):
-            block = frame[names].to_numpy(dtype=np.float64)
-            bad = np.argwhere(~np.isfinite(block))
-            if bad.size:
-                row, col = bad[0]
-                raise InputDataError(f"line {row + 2}: no value in column {names[col]}", source)
-            return block * scale
+        block = np.stack([_numbers(frame, n, source) for n in names], axis=1) * units[unit]
+        bad = np.argwhere(np.abs(block) > limit)
+        if bad.size:
+            row, col = bad[0]
+            raise InputDataError(f"line {row + 2}: {names[col]} == {frame[names[col]].iloc[row]}, beyond the "
+                                 f"plausible {limit:g} {si_unit} (a unit or column mistake?)", source)
+        return block
     wanted = " or ".join(f"{stem}_x/y/z_{u}" for u in units)
     raise InputDataError(f"no {wanted} columns (columns: {', '.join(frame.columns)})", source)
 
@@ -66,24 +111,31 @@ def read_imu_csv(path, *, start_gps_ns: int | None = None) -> ImuLog:
     if not path.is_file():
         raise InputDataError("no such file", source)
     try:
-        frame = pd.read_csv(path, comment="#")
-    except (ValueError, pd.errors.ParserError) as exc:
-        raise InputDataError(f"not a readable CSV ({exc})", source) from exc
+        frame = pd.read_csv(path, comment="#", dtype=str, keep_default_na=False)
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise InputDataError(f"not a readable CSV ({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})",
+                             source) from None
     frame.columns = [str(c).strip() for c in frame.columns]
     if "gps_ns" in frame.columns:
-        t = frame["gps_ns"].to_numpy(dtype=np.int64)
+        t = _integer_ns(frame, "gps_ns", source)
     elif {"gps_week", "tow_s"} <= set(frame.columns):
-        t = gps_ns_from_week_tow(frame["gps_week"].to_numpy(dtype=np.int64), seconds_to_ns(frame["tow_s"].to_numpy()))
+        week = _numbers(frame, "gps_week", source)
+        bad = np.flatnonzero((week != np.round(week)) | (week < 0))
+        if bad.size:
+            raise InputDataError(f"line {bad[0] + 2}: gps_week == {frame['gps_week'].iloc[bad[0]]}, must be a whole "
+                                 "week number >= 0", source)
+        t = gps_ns_from_week_tow(week.astype(np.int64), seconds_to_ns(_numbers(frame, "tow_s", source)))
     elif "t_s" in frame.columns:
         if start_gps_ns is None:
             raise InputDataError("a t_s column needs the GPS time of t_s = 0 (start_gps_ns)", source)
-        t = int(start_gps_ns) + seconds_to_ns(frame["t_s"].to_numpy(dtype=np.float64))
+        t = int(start_gps_ns) + seconds_to_ns(_numbers(frame, "t_s", source))
     else:
         raise InputDataError("no time column (gps_ns, gps_week + tow_s, or t_s)", source)
     if t.size < 2:
         raise InputDataError("fewer than two samples", source)
-    gyro = _columns(frame, "gyro", {"rad_per_s": 1.0, "deg_per_s": math.pi / 180.0}, source)
-    accel = _columns(frame, "accel", {"m_per_s2": 1.0, "g": _G0}, source)
+    gyro = _columns(frame, "gyro", {"rad_per_s": 1.0, "deg_per_s": math.pi / 180.0}, source, MAX_GYRO_RAD_PER_S,
+                    "rad/s")
+    accel = _columns(frame, "accel", {"m_per_s2": 1.0, "g": _G0}, source, MAX_ACCEL_M_PER_S2, "m/s^2")
     step = np.diff(t)
     median = float(np.median(step))
     bad = np.flatnonzero((step <= 0) | (np.abs(step - median) > 0.01 * median))

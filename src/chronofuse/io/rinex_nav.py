@@ -1,4 +1,5 @@
-"""Multi-GNSS broadcast navigation files (RINEX 3.0x, plain / gz): GPS, Galileo, BeiDou and QZSS ephemerides.
+"""Multi-GNSS broadcast navigation files (RINEX 3.0x and 4.0x, plain / gz): GPS, Galileo, BeiDou and QZSS
+ephemerides.
 
 Record layouts (RINEX 3.05, Tables A6 GPS, A8 Galileo, A14 BeiDou, A10 QZSS): a first line
 ``Snn yyyy mm dd hh mm ss`` (the clock reference time ``toc`` on the system's own time scale) with
@@ -28,7 +29,17 @@ Group delay applied by a single-frequency user of the code read here: GPS L1 C/A
 positioning uses), BeiDou B1I ``TGD1`` (BDS ICD B1I 5.2.4.10: ``dt_B1I = dt_sv - TGD1``).
 
 The broadcast Klobuchar coefficients of the header (``IONOSPHERIC CORR`` ``GPSA``/``GPSB``) serve every
-system, scaled to each frequency (as RTKLIB does); the BeiDou ones (``BDSA``/``BDSB``) are kept too.
+system, scaled to each frequency (as RTKLIB does); the BeiDou ones (``BDSA``/``BDSB``) and Galileo's NeQuick
+``GAL`` are kept too.
+
+RINEX 4 (4.00, section 5.4 and Tables A30-A33): each record opens with a ``> EPH Snn TYPE`` line; the orbit
+records read are GPS and QZSS ``LNAV``, Galileo ``INAV``/``FNAV`` and BeiDou ``D1``/``D2`` (the layouts
+above); any other message (CNAV, CNV1-3, GLONASS, SBAS, NavIC) is skipped whole and counted. The ionosphere
+moves from the header into ``> ION Snn TYPE`` records: ``G.. LNAV`` (and ``J.. LNAV``) and ``C.. D1D2``
+carry Klobuchar ``alpha0..3, beta0..3`` (a first line ``    yyyy mm dd hh mm ss`` with three ``D19.12``
+fields from column 24, then four, then ``beta3`` and a region code), ``E.. IFNV`` NeQuick ``ai0..2``. The
+first record of each kind serves the whole file (as the header's coefficients do); ``STO`` and ``EOP``
+records are skipped.
 
 RINEX 2 navigation files (GPS only) are read by :func:`chronofuse.io.rinex.read_gps_navigation` (georinex).
 """
@@ -47,6 +58,11 @@ __all__ = ["read_navigation", "merge_navigation", "frequency_scale"]
 
 _KEPLER = ("G", "E", "C", "J")
 _LINES = {"G": 8, "E": 8, "C": 8, "J": 8, "I": 8, "R": 4, "S": 4}
+#: RINEX 4 orbit messages read, per system (others are skipped whole).
+_EPH4 = {"G": ("LNAV",), "J": ("LNAV",), "E": ("INAV", "FNAV"), "C": ("D1", "D2")}
+#: RINEX 4 ION records kept: (system, message) -> the header label of the same coefficients.
+_ION4 = {("G", "LNAV"): ("GPSA", "GPSB"), ("J", "LNAV"): ("QZSA", "QZSB"), ("C", "D1D2"): ("BDSA", "BDSB"),
+         ("E", "IFNV"): ("GAL", None)}
 _BDT_WEEK0_GPS = 1356
 _BDT_LAG_NS = 14 * NS_PER_S
 
@@ -91,6 +107,28 @@ def _header(lines: list[str], source: str):
     raise InputDataError("no END OF HEADER line", source)
 
 
+def _ion_record(block: list[str], key, iono: dict, source: str, line_no: int) -> None:
+    """The coefficients of one RINEX 4 ``> ION`` record (``block``: its lines after the ``>`` line) into
+    ``iono`` under the header's labels, unless the header or an earlier record gave them."""
+    alpha_label, beta_label = key
+    if alpha_label in iono or not block:
+        return
+    try:
+        values = _fields(block[0], True) + [v for b in block[1:] for v in _fields(b, False)]
+    except ValueError as exc:
+        raise InputDataError(f"line {line_no}: ION record not readable ({exc})", source) from None
+    if beta_label is None:
+        iono[alpha_label] = values[:3]
+    elif len(values) >= 8:
+        iono[alpha_label], iono[beta_label] = values[:4], values[4:8]
+    else:
+        raise InputDataError(f"line {line_no}: ION record cut short ({len(values)} of 8 Klobuchar values)", source)
+
+
+def _coefficients(iono: dict, label: str) -> np.ndarray | None:
+    return np.asarray(iono[label], dtype=np.float64) if label in iono else None
+
+
 def read_navigation(path, *, systems=None) -> GpsNavigation:
     """Broadcast ephemerides of a RINEX 3 navigation file (module docstring): every GPS, Galileo, BeiDou and
     QZSS record (``systems``: the letters to keep, None all four).
@@ -116,6 +154,20 @@ def read_navigation(path, *, systems=None) -> GpsNavigation:
     i, n = body, len(lines)
     while i < n:
         line = lines[i]
+        if line.startswith(">"):  # RINEX 4: a record's type line
+            kind, sat, message = (line[1:].split() + ["", "", ""])[:3]
+            end = i + 1
+            while end < n and not lines[end].startswith(">"):
+                end += 1
+            if kind == "EPH" and sat[:1] in keep and message in _EPH4.get(sat[:1], ()):
+                i += 1  # the record itself, read below
+                continue
+            if kind == "EPH":
+                skipped += 1
+            elif kind == "ION" and (sat[:1], message) in _ION4:
+                _ion_record(lines[i + 1:end], _ION4[(sat[:1], message)], iono, source, i + 2)
+            i = end
+            continue
         letter = line[:1]
         if letter not in _LINES or not line[1:3].strip().isdigit():
             i += 1
@@ -159,29 +211,30 @@ def read_navigation(path, *, systems=None) -> GpsNavigation:
     if not rows:
         raise InputDataError(f"no {'/'.join(sorted(keep))} ephemeris record in the file", source)
     params = {k: np.array([r[k] for r in rows], dtype=np.float64) for k in rows[0] if k != "_toe_ns"}
-    alpha = np.asarray(iono["GPSA"], dtype=np.float64) if "GPSA" in iono else None
-    beta = np.asarray(iono["GPSB"], dtype=np.float64) if "GPSB" in iono else None
     return GpsNavigation(satellites=names, toc_gps_ns=np.asarray(tocs, dtype=np.int64), params=params,
-                         klobuchar_alpha=alpha, klobuchar_beta=beta, source=source,
-                         toe_gps_ns=np.array([r["_toe_ns"] for r in rows], dtype=np.int64),
-                         n_skipped_records=skipped)
+                         klobuchar_alpha=_coefficients(iono, "GPSA"), klobuchar_beta=_coefficients(iono, "GPSB"),
+                         source=source, toe_gps_ns=np.array([r["_toe_ns"] for r in rows], dtype=np.int64),
+                         n_skipped_records=skipped, bds_klobuchar_alpha=_coefficients(iono, "BDSA"),
+                         bds_klobuchar_beta=_coefficients(iono, "BDSB"), nequick_gal=_coefficients(iono, "GAL"))
 
 
 def merge_navigation(navs) -> GpsNavigation:
     """One navigation record set from several files (e.g. the GN, EN and CN files of one day): records
-    concatenated; the first file's Klobuchar coefficients that exist are kept."""
+    concatenated; the first file's ionosphere coefficients that exist are kept, per kind."""
     navs = list(navs)
     if len(navs) == 1:
         return navs[0]
     keys = set.intersection(*(set(n.params) for n in navs))
-    alpha = next((n.klobuchar_alpha for n in navs if n.klobuchar_alpha is not None), None)
-    beta = next((n.klobuchar_beta for n in navs if n.klobuchar_beta is not None), None)
+    first = lambda name: next((getattr(n, name) for n in navs if getattr(n, name) is not None), None)  # noqa: E731
     toe = [n.toe_gps_ns if n.toe_gps_ns is not None else n.toe_from_week() for n in navs]
     return GpsNavigation(satellites=[s for n in navs for s in n.satellites],
                          toc_gps_ns=np.concatenate([n.toc_gps_ns for n in navs]),
                          params={k: np.concatenate([n.params[k] for n in navs]) for k in sorted(keys)},
-                         klobuchar_alpha=alpha, klobuchar_beta=beta, source=" + ".join(n.source for n in navs),
-                         toe_gps_ns=np.concatenate(toe), n_skipped_records=sum(n.n_skipped_records for n in navs))
+                         klobuchar_alpha=first("klobuchar_alpha"), klobuchar_beta=first("klobuchar_beta"),
+                         source=" + ".join(n.source for n in navs), toe_gps_ns=np.concatenate(toe),
+                         n_skipped_records=sum(n.n_skipped_records for n in navs),
+                         bds_klobuchar_alpha=first("bds_klobuchar_alpha"), bds_klobuchar_beta=first("bds_klobuchar_beta"),
+                         nequick_gal=first("nequick_gal"))
 
 
 def frequency_scale(letter: str) -> float:
