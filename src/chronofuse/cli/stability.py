@@ -137,9 +137,11 @@ def stability(
             if mask_names:
                 from chronofuse.analysis.masks import MASKS
 
+                asked = [results[m].tau_s for m in ("mtie", "tdev") if m in results]
+                asked_taus = np.concatenate(asked) if asked else None
                 for name in mask_names:
                     say(f"mask {name}")
-                    verdicts.append(MASKS[name].check(x, record.rate_hz, offset=te_offset))
+                    verdicts.append(MASKS[name].check(x, record.rate_hz, offset=te_offset, tau_s=asked_taus))
         if plot is not None:
             from chronofuse.analysis.masks import MASKS
             from chronofuse.report.figures import save_figure  # matplotlib only when a plot is asked for
@@ -191,7 +193,8 @@ def stability(
                           _fmt(res.hi[k]))
         con.print(table)
     for verdict in verdicts:
-        con.print(f"mask {verdict.clock}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} "
+        color = {"pass": "green", "fail": "red"}.get(verdict.status, "yellow")
+        con.print(f"mask {verdict.clock}: [{color}]{verdict_word(verdict.status)}[/{color}] "
                   f"({verdict_details(verdict)})")
     if plot is not None:
         con.print(f"plot -> {plot}, report -> {doc['report']}")
@@ -238,6 +241,11 @@ def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bia
         if "taus" in exc.fields:
             raise
         raise InputError(f"{name}: {exc.message}", str(file), fields=exc.fields) from None
+
+
+def verdict_word(status: str) -> str:
+    """PASS, FAIL, INCOMPLETE or NOT EVALUATED (``ClockVerdict.status`` as printed)."""
+    return status.upper()
 
 
 def verdict_details(verdict) -> str:
