@@ -273,6 +273,7 @@ def read_record(
         raise InputDataError("infinite value", str(path), _line_of(path, layout, int(np.flatnonzero(np.isinf(values))[0])))
     if zero_is_gap:
         values = np.where(values == 0.0, np.nan, values)
+    _warn_outliers(values, path, layout)
     values = to_si(values, choice, nominal_hz, path, layout)
 
     t_ns, grid = None, None
@@ -350,6 +351,36 @@ def read_record(
         jitter_max_s=jitter[1],
         notes=tuple(notes),
     )
+
+
+#: A sample is a gross outlier when it differs from both neighbours (the one it has, at an end) by more than
+#: this many times the record's median absolute difference between neighbours.
+OUTLIER_FACTOR = 1e6
+
+
+def _warn_outliers(values: np.ndarray, path: Path, layout: Layout) -> None:
+    """Warn about gross outliers (:data:`OUTLIER_FACTOR`): a misread or cut-short number (``-2.6950708``
+    among values of 1e-10) is analysed as given, but said. A step (a phase jump) differs from one neighbour
+    only, and is not warned. The median comes from at most a million differences spread over the record."""
+    if values.size < 3:
+        return
+    d = np.abs(np.diff(values))
+    sample = d[:: max(1, d.size // 1_000_000)]
+    sample = sample[np.isfinite(sample)]
+    scale = float(np.median(sample)) if sample.size else 0.0
+    if not scale > 0:
+        return
+    big = d > OUTLIER_FACTOR * scale
+    if not big.any():
+        return
+    flagged = np.concatenate(([big[0]], big[:-1] & big[1:], [big[-1]]))
+    where = np.flatnonzero(flagged)
+    if where.size:
+        k = int(where[0])
+        warnings.warn(InputWarning(
+            f"{path}: {where.size} gross outlier{'s' if where.size > 1 else ''} (a value {values[k]:.6g} at line "
+            f"{_line_of(path, layout, k)}, differing from its neighbours by more than {OUTLIER_FACTOR:g} times the "
+            f"median difference between neighbours, {scale:.3g}): analysed as given; check the file"), stacklevel=3)
 
 
 def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice) -> int | Fraction:
