@@ -72,13 +72,14 @@ class MaskResult:
     @property
     def status(self) -> str:
         """``"fail"`` (an evaluated point over its limit), ``"not evaluated"`` (no point evaluated),
-        ``"incomplete"`` (every evaluated point passes, the record does not reach the table's end) or
-        ``"pass"``."""
+        ``"incomplete"`` (every evaluated point passes, but the record does not reach the table's end or a
+        tau the table covers has no value or was left out) or ``"pass"``."""
         if (self.evaluated & ~self.passed_each).any():
             return "fail"
         if not self.evaluated.any():
             return "not evaluated"
-        return "incomplete" if self.not_covered_above_s is not None else "pass"
+        holes = np.isfinite(self.limit_s) & ~self.evaluated  # a tau the table covers, left unevaluated
+        return "incomplete" if self.not_covered_above_s is not None or holes.any() else "pass"
 
     @property
     def worst_margin_s(self) -> float:

@@ -298,6 +298,10 @@ class ClockMasks:
                 res_tdev = self._check_metric(self.tdev, tdev, wander, rate_hz, tau_s)
                 res_tdev = _blind_tdev(res_tdev, wander, rate_hz, notes)
             for res in (res_mtie, res_tdev):
+                if res is not None and (~np.isfinite(res.value_s) & np.isfinite(res.limit_s)).any():
+                    holes = res.tau_s[~np.isfinite(res.value_s) & np.isfinite(res.limit_s)]
+                    uncovered.append(f"{res.metric.upper()}{label} at tau {', '.join(f'{t:g}' for t in holes)} s: no "
+                                     "term the gap rule keeps")
                 if res is not None and res.not_covered_above_s is not None:
                     uncovered.append(f"tau > {res.not_covered_above_s:g} s for {res.metric.upper()}{label} (the table "
                                      f"goes to {res.required_s:g} s; the record reaches {res.not_covered_above_s:g} s)")

@@ -79,7 +79,7 @@ def mask_reason(verdict: dict) -> str:
         tau, value, limit = worst
         bad = [t for t, ok, used in zip(part["tau"], part["passed_each"], part["evaluated"]) if used and not ok]
         label = metric.upper()
-        if not part["passed"]:
+        if part.get("status", "pass" if part["passed"] else "fail") == "fail":
             failing.append(f"{label} over its limit at {len(bad)} tau ({', '.join(f'{t:g}' for t in bad[:6])}"
                            f"{', ...' if len(bad) > 6 else ''} s), worst at tau {tau:g} s: {ns(value)} against "
                            f"{ns(limit)}, {ns(value - limit)} over")
