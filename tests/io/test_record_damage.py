@@ -18,9 +18,10 @@ def _write(tmp_path, name, lines, end="\n"):
 
 
 def _read(path, **kw):
+    kw.setdefault("rate_hz", 1.0)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        record = read_record(path, rate_hz=1.0, **kw)
+        record = read_record(path, **kw)
     return record, [str(w.message) for w in caught if issubclass(w.category, InputWarning)]
 
 
@@ -73,3 +74,24 @@ def test_a_last_line_cut_short_and_a_gross_outlier_are_warned(tmp_path):
     assert _read(_write(tmp_path, "step.txt", step))[1] == []
     # a clean file: nothing said
     assert _read(_write(tmp_path, "clean.txt", VALUES))[1] == []
+
+
+def test_a_delimiter_at_the_end_of_every_line_is_an_empty_field_not_a_decimal_comma(tmp_path):
+    lines = ["t,phase_s,"] + [f"{k},{v}," for k, v in enumerate(VALUES)]
+    record, said = _read(_write(tmp_path, "tc.csv", lines))
+    np.testing.assert_array_equal(record.values, np.array(VALUES, dtype=float))
+    assert said == [] and record.rate_hz == 1.0
+
+
+@pytest.mark.parametrize("decimals, resolution", [(5, 0.864), (6, 0.0864)])
+def test_mjd_tags_quantised_near_the_step_are_snapped_to_it_not_read_with_invented_gaps(tmp_path, decimals,
+                                                                                        resolution):
+    # 1 s samples tagged in MJD days rounded to 5 (6) decimals: 1e-5 day = 0.864 s, steps of 0.864 and 1.728 s
+    tags = [f"{60000 + k / 86400:.{decimals}f}" for k in range(600)]
+    values = [f"{v:.6e}" for v in 1e-9 * np.cos(np.arange(600) * 0.3)]
+    path = _write(tmp_path, "mjd.txt", [f"{t} {v}" for t, v in zip(tags, values)])
+    record, said = _read(path, rate_hz=None)
+    assert record.rate_hz == 1.0 and record.n_gaps == 0 and record.values.size == 600
+    np.testing.assert_array_equal(record.values, np.array(values, dtype=float))
+    assert any(f"resolution of {resolution:g} s" in s and "read on a 1 s grid" in s for s in said)
+    assert record.jitter_max_s <= resolution  # the rounding, measured from the grid's mean phase

@@ -95,6 +95,8 @@ class Layout:
         Fields are quoted (``"0,5","1,25"``).
     rows : tuple of list of str
         The fields of the first data lines (up to 200) that the sniff read.
+    trailing_empty : bool
+        Every data line ends with the delimiter (``0,1.5,``): an empty last field, not counted in ``width``.
     """
 
     compression: str | None
@@ -109,6 +111,7 @@ class Layout:
     pair: int | None = None
     quoted: bool = False
     rows: tuple = ()
+    trailing_empty: bool = False
 
 
 def _compression(path: Path) -> str | None:
@@ -257,6 +260,10 @@ def sniff(path: Path) -> Layout:
     delimiter = _guess_delimiter([ln.replace('"', "") for _, ln in data])
     quoted = any('"' in ln for _, ln in data)
     tokens = [(lineno, _split(ln, delimiter)) for lineno, ln in data]
+    # a delimiter at the end of every line (a spreadsheet's export): an empty last field, not a column
+    trailing = delimiter in (",", ";", "\t") and all(len(row) > 1 and row[-1] == "" for _, row in tokens)
+    if trailing:
+        tokens = [(lineno, row[:-1]) for lineno, row in tokens]
     decimal_comma = (delimiter in (";", "\t", " ") or (delimiter == "," and quoted)) and any(
         _DECIMAL_COMMA.match(t) for _, row in tokens for t in row)
     width = len(tokens[0][1])
@@ -286,7 +293,7 @@ def sniff(path: Path) -> Layout:
                 or (pair is not None and (is_date(t) or is_clock(t)))):
             raise InputDataError(f"cannot read {t!r} as a number", str(path), data[0][0])
     return Layout(compression, delimiter, decimal_comma, names, header_line, first, width, tuple(preamble),
-                  tuple(comments), pair, quoted, tuple(row for _, row in tokens))
+                  tuple(comments), pair, quoted, tuple(row for _, row in tokens), trailing)
 
 
 def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> None:
@@ -331,7 +338,10 @@ def data_lines(path: Path, layout: Layout, blanks: bool = False):
                 if blanks and not text.strip():
                     yield lineno, []
                 continue
-            yield lineno, _split(line, layout.delimiter)
+            tokens = _split(line, layout.delimiter)
+            if layout.trailing_empty and len(tokens) > 1 and tokens[-1] == "":
+                tokens = tokens[:-1]
+            yield lineno, tokens
 
 
 @dataclass(frozen=True)
@@ -374,7 +384,7 @@ def scan(path: Path, layout: Layout, chunk: int = 1 << 24) -> Scan:
 def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | None) -> pa.Table | None:
     """The chosen columns via pyarrow (simple delimiters) or pandas' C parser (space runs, comments);
     None when the text needs the line-by-line reader."""
-    names = [f"c{i}" for i in range(layout.width)]
+    names = [f"c{i}" for i in range(layout.width + layout.trailing_empty)]
     text_cols = _text_columns(layout, time_col)
     types = {f"c{i}": (pa.string() if i in text_cols else pa.float64()) for i in columns}
     skip = layout.first_data_line - 1

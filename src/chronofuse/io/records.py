@@ -154,6 +154,43 @@ def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layo
     return _Grid(slots, interval, start, rms / 1e9, peak / 1e9)
 
 
+#: Time tags are quantised when their resolution (the largest step dividing every tag's offset) is at least
+#: this fraction of the mean step and the mean step is no whole number of it (MJD with 5 decimals: 0.864 s).
+QUANTISED_FRACTION = 0.05
+
+
+def _quantised_grid(t_ns: np.ndarray, path: Path) -> _Grid | None:
+    """The grid of time tags whose resolution is comparable to their step (MJD days with 5 decimals: 0.864 s
+    steps and 1.728 s steps for a 1 s record, which the median-step grid read as 1.157 Hz with gaps), or None
+    for tags that are not quantised. The interval is the mean step rounded to 3 significant digits, taken
+    (with a warning) when every tag lies within half its resolution of a slot of it and no two share one;
+    quantised tags that fit no such interval are warned, and read by the usual grid."""
+    offsets = t_ns - t_ns[0]
+    quantum = int(np.gcd.reduce(offsets[1:])) if offsets.size > 1 else 0
+    mean = float(offsets[-1]) / (offsets.size - 1)
+    if quantum <= 0 or quantum < QUANTISED_FRACTION * mean:
+        return None
+    ratio = mean / quantum
+    if abs(ratio - round(ratio)) < 0.02:
+        return None  # the steps are whole numbers of the resolution: the usual grid reads them
+    candidate = float(f"{mean:.3g}")
+    slots = np.rint(offsets / candidate).astype(np.int64)
+    resid = offsets - slots * candidate
+    if np.all(np.diff(slots) >= 1) and np.abs(resid).max() <= 0.5 * quantum * (1 + 1e-9):
+        start = float(np.mean(resid))
+        resid = resid - start
+        warnings.warn(InputWarning(
+            f"{path}: the time tags have a resolution of {quantum / 1e9:.6g} s, comparable to their step (mean "
+            f"{mean / 1e9:.6g} s): read on a {candidate / 1e9:.6g} s grid, every tag within half its resolution of "
+            "its slot (give {rate_hz} to set the interval)", fields=("rate_hz",)), stacklevel=3)
+        return _Grid(slots, candidate, start, float(np.sqrt(np.mean(resid**2))) / 1e9, float(np.abs(resid).max()) / 1e9)
+    warnings.warn(InputWarning(
+        f"{path}: the time tags have a resolution of {quantum / 1e9:.6g} s, comparable to their step (mean "
+        f"{mean / 1e9:.6g} s), and fit no regular interval within it: the grid read from them may hold invented "
+        "gaps; give {rate_hz} to take the samples as consecutive", fields=("rate_hz",)), stacklevel=3)
+    return None
+
+
 def _snapped(interval: float, last_slot: int) -> float:
     for candidate in _snap(interval):
         if abs(candidate - interval) * last_slot < 0.01 * interval:
@@ -288,7 +325,7 @@ def read_record(
             t_raw = _time_tags(time_data, choice, per_unit, path, layout)
         del time_data
         if t_raw.size >= 2:
-            grid = _time_grid(t_raw, rate_hz, path, layout)
+            grid = (_quantised_grid(t_raw, path) if rate_hz is None else None) or _time_grid(t_raw, rate_hz, path, layout)
         if grid is not None:
             from chronofuse.io.kernels_time import grid_epochs
 
