@@ -157,6 +157,8 @@ def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layo
 #: Time tags are quantised when their resolution (the largest step dividing every tag's offset) is at least
 #: this fraction of the mean step and the mean step is no whole number of it (MJD with 5 decimals: 0.864 s).
 QUANTISED_FRACTION = 0.05
+#: ... and there are at least this many tags (three tags off a grid are no evidence of a resolution).
+QUANTISED_MIN_TAGS = 16
 
 
 def _quantised_grid(t_ns: np.ndarray, path: Path) -> _Grid | None:
@@ -165,8 +167,10 @@ def _quantised_grid(t_ns: np.ndarray, path: Path) -> _Grid | None:
     for tags that are not quantised. The interval is the mean step rounded to 3 significant digits, taken
     (with a warning) when every tag lies within half its resolution of a slot of it and no two share one;
     quantised tags that fit no such interval are warned, and read by the usual grid."""
+    if t_ns.size < QUANTISED_MIN_TAGS:
+        return None
     offsets = t_ns - t_ns[0]
-    quantum = int(np.gcd.reduce(offsets[1:])) if offsets.size > 1 else 0
+    quantum = int(np.gcd.reduce(offsets[1:]))
     mean = float(offsets[-1]) / (offsets.size - 1)
     if quantum <= 0 or quantum < QUANTISED_FRACTION * mean:
         return None
