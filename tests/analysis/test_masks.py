@@ -70,7 +70,8 @@ def test_observation_intervals_at_or_below_0p1_s_are_not_evaluated():
     assert np.isnan(mask.limit_s([0.05, 0.1])).all()
     res = mask.check([0.1, 1.0], [1e-9, 1e-9])
     assert res.evaluated.tolist() == [False, True]
-    assert res.passed
+    assert res.status == "incomplete" and not res.passed  # a curve that stops at 1 s: the table goes to 273 s
+    assert mask.check([0.1, 1.0], [1e-9, 1e-9], reach_s=273.0).passed
 
 
 def test_check_passes_just_inside_and_fails_just_outside_each_breakpoint():
@@ -100,7 +101,10 @@ def test_check_accepts_a_deviation_and_rejects_the_wrong_metric():
     res_mtie = MASKS["prtc-a"].check(mtie(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "mtie")))
     assert res_mtie.metric == "mtie" and res_mtie.passed
     res_tdev = MASKS["prtc-a"].check(tdev(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "tdev")))
-    assert res_tdev.metric == "tdev" and res_tdev.passed
+    # the octave curve stops at 512 s and the table's rows at 1000 s: not a pass, and it says where
+    assert res_tdev.metric == "tdev" and res_tdev.status == "incomplete" and res_tdev.not_covered_above_s == 512.0
+    taus = np.append(tau_grid("octave", x_s.size, 1.0, "tdev"), 1000.0)
+    assert MASKS["prtc-a"].check(tdev(x_s, 1.0, taus)).passed
     # PRTC-B's 1 ns TDEV is violated by 2 ns white PM at tau = tau0 (TDEV(tau0) = sigma_x = 2 ns).
     assert not MASKS["prtc-b"].check(tdev(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "tdev"))).passed
     with pytest.raises(ValueError, match="statistic"):
@@ -148,10 +152,15 @@ def test_deviation_built_by_hand_is_checked_point_by_point():
 
 def test_a_phase_record_is_checked_for_mtie_tdev_and_max_time_error_at_once():
     rng = np.random.default_rng(8)
-    x_s = 2 * NS * rng.standard_normal(3000)  # white PM, 2 ns rms: MTIE < 25 ns, TDEV(1 s) ~ 2 ns
+    x_s = 2 * NS * rng.standard_normal(4000)  # white PM, 2 ns rms: MTIE < 25 ns, TDEV(1 s) ~ 2 ns
     verdict_a = MASKS["prtc-a"].check(x_s, 1.0)
-    assert verdict_a.passed and verdict_a.time_error.passed
-    np.testing.assert_array_equal(verdict_a.mtie.value_s, mtie(x_s, 1.0, tau_grid("octave", x_s.size, 1.0, "mtie")).dev)
+    assert verdict_a.passed and verdict_a.time_error.passed and verdict_a.status == "pass"
+    np.testing.assert_array_equal(verdict_a.mtie.value_s, mtie(x_s, 1.0, verdict_a.mtie.tau_s).dev)
+    assert {273.0, 2000.0} <= set(verdict_a.mtie.tau_s.tolist())  # the table's breakpoint and the record's reach
+    # 3000 samples: TDEV reaches 750 s of the table's 1000 s, so the same record is no pass
+    short = MASKS["prtc-a"].check(x_s[:3000], 1.0)
+    assert short.status == "incomplete" and not short.passed and short.to_dict()["verdict"] == "INCOMPLETE"
+    assert "not covered: tau > 750 s for TDEV" in short.summary()
     verdict_b = MASKS["prtc-b"].check(x_s, 1.0)
     assert not verdict_b.passed and not verdict_b.tdev.passed and verdict_b.time_error.passed
     shifted = MASKS["prtc-a"].check(x_s + 120 * NS, 1.0)  # a constant offset: only |TE| sees it

@@ -252,7 +252,8 @@ def test_ts2phc_reject_tdev_from_128_s_is_the_quiet_record_because_no_kept_term_
     assert uncovered_samples("tdev", x, 64)[burst].sum() == 82 - 21 and uncovered_samples("tdev", x, 128)[burst].all()
     verdict = MASKS["prtc-a"].check(x, 1.0)
     blind = verdict.tdev.tau_s[~verdict.tdev.evaluated & (verdict.tdev.tau_s >= 128)]
-    assert blind.tolist() == [128.0, 256.0, 512.0, 1024.0]
+    # the octave taus, the table's breakpoint 1000 s (and 1001 s, the first of the next row) and the reach, 1320 s
+    assert blind.tolist() == [128.0, 256.0, 512.0, 1000.0, 1001.0, 1024.0, 1320.0]
     assert "no term the gap rule keeps sees the record's largest |dTE|" in verdict.summary()
     assert not verdict.passed
 

@@ -12,10 +12,21 @@ import numpy as np
 
 from chronofuse.analysis import time_error as te_mod
 
-__all__ = ["MaskResult", "TimeErrorResult", "LimitResult", "ClockVerdict", "limit_result", "REL_TOL"]
+__all__ = ["MaskResult", "TimeErrorResult", "LimitResult", "ClockVerdict", "limit_result", "REL_TOL", "VERDICTS",
+           "verdict_word"]
 
 #: A value equal to a limit passes; this relative tolerance absorbs float rounding of the tables' arithmetic.
 REL_TOL = 1e-12
+#: The verdicts a check gives: every part evaluated passed and the record covers all the limits ask for;
+#: a part failed; nothing failed but part of what the limits ask for is not covered by the record (a
+#: tau range beyond its reach, the cTE averaging window longer than the record, a filter it cannot
+#: take); nothing could be evaluated at all.
+VERDICTS = ("pass", "fail", "incomplete", "not evaluated")
+
+
+def verdict_word(status: str) -> str:
+    """The verdict as printed: ``PASS``, ``FAIL``, ``INCOMPLETE``, ``NOT EVALUATED``."""
+    return status.upper()
 
 
 @dataclass(frozen=True)
@@ -24,8 +35,10 @@ class MaskResult:
 
     ``margin_s = limit_s - value_s`` (positive: inside the mask); ``evaluated`` is false where the mask
     does not cover ``tau_s`` or the value is NaN; ``passed_each`` is true where evaluated and
-    ``value_s <= limit_s``; ``passed`` is true when every evaluated point passes and at least one was
-    evaluated.
+    ``value_s <= limit_s``; ``reach_s`` is the largest observation interval the record gives and
+    ``required_s`` the end of the table's rows (the start of an open-ended last row), ``interval_s`` the
+    sample interval; ``passed`` is true when every evaluated point passes, at least one was evaluated and
+    the record reaches the table's end (``status == "pass"``).
     """
 
     mask: str
@@ -38,6 +51,35 @@ class MaskResult:
     passed_each: np.ndarray
     passed: bool
     sources: tuple[str, ...] = ()
+    reach_s: float = float("inf")
+    required_s: float = 0.0
+    interval_s: float = 0.0
+
+    def __post_init__(self):
+        object.__setattr__(self, "passed", self.status == "pass")
+
+    @property
+    def not_covered_above_s(self) -> float | None:
+        """The largest observation interval the record gives (its reach) when the mask's rows go beyond it,
+        so that part of the table could not be evaluated; None when the record reaches the table's end."""
+        if self.interval_s > 0:  # covered when the next observation interval beyond the reach is past the end
+            if self.reach_s + self.interval_s > self.required_s * (1.0 + REL_TOL):
+                return None
+        elif self.reach_s >= self.required_s * (1.0 - REL_TOL):
+            return None
+        return float(self.reach_s)
+
+    @property
+    def status(self) -> str:
+        """``"fail"`` (an evaluated point over its limit), ``"not evaluated"`` (no point evaluated),
+        ``"incomplete"`` (every evaluated point passes, but the record does not reach the table's end or a
+        tau the table covers has no value or was left out) or ``"pass"``."""
+        if (self.evaluated & ~self.passed_each).any():
+            return "fail"
+        if not self.evaluated.any():
+            return "not evaluated"
+        holes = np.isfinite(self.limit_s) & ~self.evaluated  # a tau the table covers, left unevaluated
+        return "incomplete" if self.not_covered_above_s is not None or holes.any() else "pass"
 
     @property
     def worst_margin_s(self) -> float:
@@ -64,6 +106,10 @@ class MaskResult:
             "passed": self.passed,
             "failing_tau": _clean(self.failing_tau_s),
             "sources": list(self.sources),
+            "status": self.status,
+            "reach": None if not np.isfinite(self.reach_s) else float(self.reach_s),
+            "table_end": float(self.required_s),
+            "not_covered_above": self.not_covered_above_s,
         }
 
 
@@ -122,8 +168,11 @@ class ClockVerdict:
     ``mtie`` and ``tdev`` (None where the recommendation has no such mask, or when not evaluated) are of the
     dynamic time error (dTE_L where ``filtered``); ``time_error`` is max |TE| (None when not specified or
     not evaluated); ``limits`` the scalar limits checked (cTE, max |TE_L|, dTE_H); ``split`` the record's
-    cTE/dTE split; ``not_evaluated`` says what was left out and why. ``passed`` is true when every part
-    evaluated passed and at least one part was evaluated.
+    cTE/dTE split; ``not_evaluated`` says what was left out and why (``not_covered``: the parts the record
+    does not cover, which make the verdict ``"incomplete"``). ``status`` is one of :data:`VERDICTS`:
+    ``"fail"`` when an evaluated part failed, ``"not evaluated"`` when no part was evaluated,
+    ``"incomplete"`` when nothing failed but the record leaves part of what the class asks for
+    uncovered, else ``"pass"``; ``passed`` is true only for ``"pass"``.
     """
 
     clock: str
@@ -136,6 +185,13 @@ class ClockVerdict:
     not_evaluated: tuple[str, ...] = ()
     offset: str = "measured"
     filtered: bool = False
+    not_covered: tuple[str, ...] = ()
+    status: str = ""
+
+    def __post_init__(self):
+        if not self.status:  # derived from the parts when not given
+            object.__setattr__(self, "status", _status(self))
+        object.__setattr__(self, "passed", self.status == "pass")
 
     def summary(self) -> str:
         """One line: each part's verdict, every failing observation interval, and the cTE/dTE split."""
@@ -146,7 +202,8 @@ class ClockVerdict:
             bad = res.failing_tau_s
             where = f" at tau {', '.join(f'{t:g}' for t in bad)} s" if bad.size else ""
             label = f"{res.metric.upper()}{' of dTE_L' if self.filtered else ''}"
-            parts.append(f"{label} {'pass' if res.passed else 'fail'}{where}")
+            word = {"pass": "pass", "fail": "fail", "incomplete": "pass", "not evaluated": "not evaluated"}[res.status]
+            parts.append(f"{label} {word}{where}")
         if self.time_error is not None:
             t = self.time_error
             split = ""
@@ -157,6 +214,8 @@ class ClockVerdict:
         for lim in self.limits:
             label = {"cte": "|cTE| (1000 s)", "max_abs_te_l": "max |TE_L|", "dte_h_pp": "dTE_H p-p"}[lim.quantity]
             parts.append(f"{label} {lim.value_s * 1e9:.1f} ns {'<=' if lim.passed else '>'} {lim.limit_s * 1e9:.0f} ns")
+        for note in self.not_covered:
+            parts.append(f"not covered: {note}")
         for note in self.not_evaluated:
             parts.append(f"not evaluated: {note}")
         return "; ".join(parts)
@@ -173,8 +232,23 @@ class ClockVerdict:
             "offset": self.offset,
             "filtered": self.filtered,
             "not_evaluated": list(self.not_evaluated),
+            "not_covered": list(self.not_covered),
             "passed": self.passed,
+            "verdict": verdict_word(self.status),
             "summary": self.summary(),
         }
 
 
+
+
+def _status(v: ClockVerdict) -> str:
+    """The verdict of :class:`ClockVerdict` from its parts (its docstring)."""
+    masks = [r for r in (v.mtie, v.tdev) if r is not None]
+    scalar = ([v.time_error.passed] if v.time_error is not None else []) + [lim.passed for lim in v.limits]
+    if any(r.status == "fail" for r in masks) or not all(scalar):
+        return "fail"
+    if not scalar and all(r.status == "not evaluated" for r in masks):
+        return "not evaluated"
+    if v.not_covered or any(r.status != "pass" for r in masks):
+        return "incomplete"
+    return "pass"

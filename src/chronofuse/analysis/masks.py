@@ -126,7 +126,50 @@ class Mask:
             out[inside] = seg.value_s(tau[inside])
         return out
 
-    def check(self, deviation_or_values, value_s=None, *, interval_s: float | None = None) -> MaskResult:
+    def table_end_s(self, interval_s: float | None = None) -> float:
+        """Where the table's rows end: the last row's upper end, or the start of an open-ended last row
+        (a record must reach it for the table to be covered)."""
+        last = self.segments[-1]
+        if np.isfinite(last.tau_hi_s):
+            return float(last.tau_hi_s)
+        lo = interval_s if (last.lo_is_interval and interval_s is not None) else last.tau_lo_s
+        return float(lo)
+
+    def evaluation_factors(self, rate_hz: float, max_m: int, tau_s=None) -> np.ndarray:
+        """Averaging factors (k,) to evaluate this mask at, on a record at ``rate_hz`` whose statistic
+        reaches ``max_m``: the octave factors, those of the asked ``tau_s`` (seconds; the ones that are
+        whole multiples of the sample interval and within reach), each row's first and last covered factor
+        (its breakpoints and ends, the last clamped to ``max_m``) and ``max_m`` itself, so that a violation
+        at a table's end is never missed. Only factors some row covers are kept."""
+        interval = 1.0 / rate_hz
+        if max_m < 1:
+            return np.zeros(0, dtype=np.int64)
+        m = set(int(v) for v in 2 ** np.arange(int(np.floor(np.log2(max_m))) + 1))
+        m.add(int(max_m))
+        if tau_s is not None:
+            asked = np.atleast_1d(np.asarray(tau_s, dtype=float))
+            asked = asked[np.isfinite(asked) & (asked > 0)]
+            factors = np.rint(asked * rate_hz)
+            whole = np.abs(factors * interval - asked) <= 1e-9 * asked
+            m.update(int(f) for f in factors[whole] if 1 <= f <= max_m)
+        for seg in self.segments:
+            lo = interval if seg.lo_is_interval else seg.tau_lo_s
+            first = max(int(np.ceil(lo * rate_hz * (1 - _REL_TOL))), 1)
+            for k in (first, first + 1):
+                if k <= max_m and seg.covers(np.array([k * interval]), interval)[0]:
+                    m.add(k)
+                    break
+            if np.isfinite(seg.tau_hi_s):
+                last = min(int(np.floor(seg.tau_hi_s * rate_hz * (1 + _REL_TOL))), int(max_m))
+                for k in (last, last - 1):
+                    if k >= 1 and seg.covers(np.array([k * interval]), interval)[0]:
+                        m.add(k)
+                        break
+        out = np.array(sorted(m), dtype=np.int64)
+        return out[np.isfinite(self.limit_s(out * interval, interval))]
+
+    def check(self, deviation_or_values, value_s=None, *, interval_s: float | None = None,
+              reach_s: float | None = None) -> MaskResult:
         """Check a measured curve against this mask.
 
         Parameters
@@ -138,6 +181,10 @@ class Mask:
             The MTIE or TDEV values in seconds, with ``tau_s`` given first.
         interval_s : float, optional
             The record's sample interval (the tables' ``m``).
+        reach_s : float, optional
+            The largest observation interval the record gives (the statistic's largest factor times the
+            sample interval). A record whose reach stops before the table's end (:meth:`table_end_s`)
+            gives the verdict ``"incomplete"``, not a pass. Default: the largest ``tau_s`` with a value.
         """
         if isinstance(deviation_or_values, Deviation):
             dev = deviation_or_values
@@ -161,7 +208,13 @@ class Mask:
         passed_each = evaluated & (values <= limit * (1.0 + _REL_TOL))
         passed = bool(evaluated.any() and np.all(passed_each[evaluated]))
         sources = tuple(dict.fromkeys(seg.source for seg in self.segments))
-        return MaskResult(self.name, self.metric, tau, values, limit, margin, evaluated, passed_each, passed, sources)
+        if reach_s is None:
+            finite = tau[np.isfinite(values)]
+            reach_s = float(finite.max()) if finite.size else 0.0
+        if interval_s is None:
+            interval_s = 0.0
+        return MaskResult(self.name, self.metric, tau, values, limit, margin, evaluated, passed_each, passed, sources,
+                          float(reach_s), self.table_end_s(interval_s or None), float(interval_s))
 
 
 @dataclass(frozen=True)
@@ -203,14 +256,18 @@ class ClockMasks:
             return np.full(np.atleast_1d(np.asarray(tau_s, dtype=float)).shape, np.nan)
         return found.limit_s(tau_s, interval_s)
 
-    def check(self, deviation_or_phase, rate_hz: float | None = None, *, offset: str = "measured"
-              ) -> MaskResult | ClockVerdict:
+    def check(self, deviation_or_phase, rate_hz: float | None = None, *, offset: str = "measured",
+              tau_s=None) -> MaskResult | ClockVerdict:
         """Check against this clock class.
 
         ``check(deviation)``: an MTIE or TDEV :class:`Deviation` against the matching mask, returns a
-        :class:`MaskResult`. ``check(x_s, rate_hz, offset=...)``: a time-error (phase) record ``x_s`` (N,)
-        in seconds (NaN: missing) at ``rate_hz``, against every limit of the class, returns a
-        :class:`ClockVerdict` (module docstring).
+        :class:`MaskResult`. ``check(x_s, rate_hz, offset=..., tau_s=...)``: a time-error (phase) record
+        ``x_s`` (N,) in seconds (NaN: missing) at ``rate_hz``, against every limit of the class, returns a
+        :class:`ClockVerdict` (module docstring). MTIE and TDEV are computed at the octave observation
+        intervals, the asked ``tau_s`` (seconds, optional) and every row's breakpoints and ends that the
+        record reaches (:meth:`Mask.evaluation_factors`), so a violation at a table's end is never missed;
+        what the record does not reach (a tau range, the cTE averaging window) is named in the verdict's
+        ``not_covered``, and the verdict is then ``"incomplete"``, not a pass.
         """
         if isinstance(deviation_or_phase, Deviation):
             check_choice(deviation_or_phase.statistic, "deviation.statistic", METRICS)
@@ -223,23 +280,31 @@ class ClockMasks:
         interval = 1.0 / rate_hz
         split = te_mod.split_time_error(x, rate_hz)
         notes: list[str] = []
+        uncovered: list[str] = []
         limits: list[LimitResult] = []
         dte = x - split.cte_s
         filter_ok = interval <= te_mod.MAX_FILTER_INTERVAL_S
         if self.filtered and not filter_ok:
-            notes.append(f"the 0.1 Hz measurement filter needs samples {te_mod.MAX_FILTER_INTERVAL_S:g} s apart or "
-                         f"closer (these are {interval:g} s): dTE_L MTIE/TDEV, max |TE_L| and dTE_H")
+            uncovered.append(f"the 0.1 Hz measurement filter needs samples {te_mod.MAX_FILTER_INTERVAL_S:g} s apart "
+                             f"or closer (these are {interval:g} s): dTE_L MTIE/TDEV, max |TE_L| and dTE_H")
         te_l = te_mod.low_pass(x, rate_hz) if self.filtered and filter_ok else None
         wander = (te_l - split.cte_s) if te_l is not None else dte
         res_mtie = res_tdev = None
+        label = " of dTE_L" if self.filtered else ""
         if not self.filtered or filter_ok:
             if self.mtie is not None:
-                res_mtie = self.mtie.check(mtie(wander, rate_hz, tau_grid("octave", x.size, rate_hz, "mtie")),
-                                           interval_s=interval)
+                res_mtie = self._check_metric(self.mtie, mtie, wander, rate_hz, tau_s)
             if self.tdev is not None:
-                res_tdev = self.tdev.check(tdev(wander, rate_hz, tau_grid("octave", x.size, rate_hz, "tdev")),
-                                           interval_s=interval)
+                res_tdev = self._check_metric(self.tdev, tdev, wander, rate_hz, tau_s)
                 res_tdev = _blind_tdev(res_tdev, wander, rate_hz, notes)
+            for res in (res_mtie, res_tdev):
+                if res is not None and (~np.isfinite(res.value_s) & np.isfinite(res.limit_s)).any():
+                    holes = res.tau_s[~np.isfinite(res.value_s) & np.isfinite(res.limit_s)]
+                    uncovered.append(f"{res.metric.upper()}{label} at tau {', '.join(f'{t:g}' for t in holes)} s: no "
+                                     "term the gap rule keeps")
+                if res is not None and res.not_covered_above_s is not None:
+                    uncovered.append(f"tau > {res.not_covered_above_s:g} s for {res.metric.upper()}{label} (the table "
+                                     f"goes to {res.required_s:g} s; the record reaches {res.not_covered_above_s:g} s)")
             if te_l is not None and self.dte_h_pp_s is not None:
                 high = x - te_l
                 limits.append(_limit("dte_h_pp", float(np.nanmax(high) - np.nanmin(high)), self.dte_h_pp_s,
@@ -252,22 +317,37 @@ class ClockMasks:
             else:
                 notes.append("max |TE|: the record's constant offset is arbitrary (offset='arbitrary')")
         if self.cte_s is not None:
-            if absolute:
-                limits.insert(0, _limit("cte", abs(split.cte_worst_s), self.cte_s, self.sources.get("cte", self.reference)))
-            else:
+            span_s = x.size * interval
+            if not absolute:
                 notes.append("cTE: the record's constant offset is arbitrary")
+            elif span_s < te_mod.CTE_WINDOW_S * (1.0 - _REL_TOL):
+                uncovered.append(f"|cTE| is averaged over {te_mod.CTE_WINDOW_S:g} s and the record spans "
+                                 f"{span_s:g} s")
+            else:
+                limits.insert(0, _limit("cte", abs(split.cte_worst_s), self.cte_s, self.sources.get("cte", self.reference)))
         if self.max_abs_te_l_s is not None and te_l is not None:
             if absolute:
                 limits.append(_limit("max_abs_te_l", float(np.nanmax(np.abs(te_l))), self.max_abs_te_l_s,
                                      self.sources.get("max_abs_te_l", self.reference)))
             else:
                 notes.append("max |TE_L|: the record's constant offset is arbitrary")
-        parts = [r.passed for r in (res_mtie, res_tdev) if r is not None]
-        parts += [res_te.passed] if res_te is not None else []
-        parts += [lim.passed for lim in limits]
-        passed = bool(parts) and all(parts)
-        return ClockVerdict(self.name, res_mtie, res_tdev, res_te, passed, split, tuple(limits), tuple(notes),
-                            offset, self.filtered)
+        return ClockVerdict(self.name, res_mtie, res_tdev, res_te, False, split, tuple(limits), tuple(notes),
+                            offset, self.filtered, tuple(uncovered))
+
+    @staticmethod
+    def _check_metric(mask: Mask, statistic, wander: np.ndarray, rate_hz: float, tau_s) -> MaskResult:
+        """``mask`` checked on ``statistic`` (:func:`mtie` or :func:`tdev`) of ``wander`` at the factors of
+        :meth:`Mask.evaluation_factors`, with the record's reach."""
+        from chronofuse.analysis.stability import STATISTICS
+
+        interval = 1.0 / rate_hz
+        max_m = int(STATISTICS[mask.metric].max_m(wander.size))
+        factors = mask.evaluation_factors(rate_hz, max_m, tau_s)
+        reach = max_m * interval if max_m >= 1 else 0.0
+        if factors.size == 0:  # no tau the record gives is in the table
+            empty = np.zeros(0)
+            return mask.check(empty, empty, interval_s=interval, reach_s=reach)
+        return mask.check(statistic(wander, rate_hz, factors * interval), interval_s=interval, reach_s=reach)
 
     def check_time_error(self, te_s) -> TimeErrorResult:
         """Check a time-error record ``te_s`` (N,) in seconds (NaN: missing) against max |TE|."""
@@ -305,8 +385,7 @@ def _blind_tdev(res: MaskResult, wander: np.ndarray, rate_hz: float, notes: list
     notes.append(f"TDEV at tau {taus} s: no term the gap rule keeps sees the record's largest |dTE| "
                  f"({peak / _NS:.4g} ns at sample {where}; {count} samples unseen at tau {res.tau_s[blind[-1]]:g} s), "
                  f"between missing samples closer than 3 tau: TDEV there describes the rest of the record")
-    return replace(res, evaluated=evaluated, passed_each=passed_each,
-                   passed=bool(evaluated.any() and np.all(passed_each[evaluated])))
+    return replace(res, evaluated=evaluated, passed_each=passed_each, passed=False)
 
 
 _ENDS = {"(]": (False, True), "[]": (True, True), "()": (False, False), "[)": (True, False)}

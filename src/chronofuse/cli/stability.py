@@ -11,6 +11,7 @@ from __future__ import annotations
 import importlib
 import os
 import threading
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -28,7 +29,7 @@ from chronofuse.cli.common import (
 )
 from chronofuse.cli.loading import loading
 from chronofuse.io.records import read_record
-from chronofuse.validation import InputError
+from chronofuse.validation import InputError, InputWarning
 
 #: The engine's statistics (``chronofuse.analysis.stability.STATISTICS``) and ITU-T masks
 #: (``chronofuse.analysis.masks.MASKS``), named here for the options' help without importing them.
@@ -88,9 +89,10 @@ def stability(
     gap_rule: str | None = typer.Option(None, "--gap-rule", help="samples (skip a term only when its own samples are "
                                         "missing; default for phase) or span (when any sample it spans is; default and "
                                         "the right rule for frequency input)."),
-    te_offset: str = typer.Option("measured", "--te-offset", help="measured (the record's constant offset is time "
-                                  "error: max |TE| and cTE are checked) or arbitrary (a counter's offset against a "
-                                  "reference that is not the time scale: they are not)."),
+    te_offset: str | None = typer.Option(None, "--te-offset", help="measured (the record's constant offset is time "
+                                         "error: max |TE| and cTE are checked; the default for phase) or arbitrary (a "
+                                         "counter's offset against a reference that is not the time scale, or phase "
+                                         "integrated from frequency: they are not; the default for frequency input)."),
     freq_mean: str = typer.Option("keep", "--freq-mean", help="Frequency input: keep the mean frequency in the "
                                   "integrated phase (TIE rms and MTIE see the offset) or remove it first (allantools' "
                                   "convention)."),
@@ -114,6 +116,7 @@ def stability(
                                    ("--freq-mean", freq_mean, ("keep", "remove"))):
         if value is not None and value not in choices:
             fail(f"{option} {value!r}: choose from {', '.join(choices)}")
+    run_notes: list[str] = []
     with user_errors(), collected_warnings() as notes:
         with progress_reporter("stability") as say:
             say("reading")
@@ -132,14 +135,31 @@ def stability(
             is_freq = record.kind == "freq"
             x = st.frequency_to_phase(record.values, record.rate_hz, freq_mean) if is_freq else record.values
             rule = gap_rule or ("span" if is_freq else "samples")
+            if is_freq and gap_rule == "samples" and record.n_gaps:
+                warnings.warn(InputWarning(
+                    "{gap_rule} samples on frequency input: a phase difference across a missing frequency sample "
+                    "is unknown, so terms that span a gap use the value put in it (the record's mean frequency); "
+                    "span is the rule that depends on no such value", fields=("gap_rule",)))
+            offset = te_offset or ("arbitrary" if is_freq else "measured")
+            if mask_names and is_freq and te_offset is None:
+                run_notes.append("frequency input: the phase integrated from it has no known constant offset, so "
+                                 "max |TE|, cTE and max |TE_L| are not evaluated (--te-offset arbitrary, the default "
+                                 "for frequency input)")
+            elif mask_names and is_freq and te_offset == "measured":
+                warnings.warn(InputWarning("{te_offset} measured on frequency input: the integrated phase starts at 0 "
+                                           "by construction, so max |TE| and cTE judge that arbitrary constant",
+                                           fields=("te_offset",)))
             results = _compute_all(file, names, x, record.rate_hz, taus, ci, not no_bias_correction, rule, say)
+            _warn_blank_taus(results, rule, is_freq)
             verdicts = []
             if mask_names:
                 from chronofuse.analysis.masks import MASKS
 
+                asked = [results[m].tau_s for m in ("mtie", "tdev") if m in results]
+                asked_taus = np.concatenate(asked) if asked else None
                 for name in mask_names:
                     say(f"mask {name}")
-                    verdicts.append(MASKS[name].check(x, record.rate_hz, offset=te_offset))
+                    verdicts.append(MASKS[name].check(x, record.rate_hz, offset=offset, tau_s=asked_taus))
         if plot is not None:
             from chronofuse.analysis.masks import MASKS
             from chronofuse.report.figures import save_figure  # matplotlib only when a plot is asked for
@@ -159,7 +179,8 @@ def stability(
         "frequency_mean": freq_mean if is_freq else None,
         "jitter_rms_s": record.jitter_rms_s,
         "jitter_max_s": record.jitter_max_s,
-        "notes": list(record.notes),
+        "notes": list(record.notes) + run_notes,
+        "te_offset": offset if mask_names else None,
         "deviations": {name: res.to_dict() for name, res in results.items()},
         "mask": verdicts[0].to_dict() if verdicts else None,
         "masks": [v.to_dict() for v in verdicts],
@@ -180,7 +201,7 @@ def stability(
               if record.t_ns is not None else "")
     con.print(f"[bold]{file}[/bold]: {record.values.size:,} {record.kind} points at {record.rate_hz:g} Hz, "
               f"{record.n_gaps} missing{timing}" + (f" (gap rule: {rule})" if record.n_gaps else ""))
-    for note in record.notes:
+    for note in list(record.notes) + run_notes:
         con.print(f"note: {note}", markup=False)
     for note in notes:
         con.print(f"warning: {note}", markup=False)
@@ -191,7 +212,8 @@ def stability(
                           _fmt(res.hi[k]))
         con.print(table)
     for verdict in verdicts:
-        con.print(f"mask {verdict.clock}: {'[green]PASS[/green]' if verdict.passed else '[red]FAIL[/red]'} "
+        color = {"pass": "green", "fail": "red"}.get(verdict.status, "yellow")
+        con.print(f"mask {verdict.clock}: [{color}]{verdict_word(verdict.status)}[/{color}] "
                   f"({verdict_details(verdict)})")
     if plot is not None:
         con.print(f"plot -> {plot}, report -> {doc['report']}")
@@ -238,6 +260,25 @@ def _compute(file: Path, name: str, x, rate_hz: float, taus: str, ci: float, bia
         if "taus" in exc.fields:
             raise
         raise InputError(f"{name}: {exc.message}", str(file), fields=exc.fields) from None
+
+
+def _warn_blank_taus(results: dict, rule: str, is_freq: bool) -> None:
+    """Warn, per statistic, about the asked taus that kept no term (printed ``-``), and why."""
+    for name, res in results.items():
+        blank = np.asarray(res.n) == 0
+        if not blank.any():
+            continue
+        why = ("the span rule skips a term when any sample it spans is missing, and with frequency input every "
+               "integrated phase point after a missing frequency sample is unknown" if rule == "span" and is_freq
+               else f"every term has a missing sample under the {rule} rule")
+        taus = ", ".join(f"{t:g}" for t in np.asarray(res.tau_s)[blank])
+        warnings.warn(InputWarning(f"{name}: {int(blank.sum())} of {blank.size} taus have no term and are left "
+                                   f"blank (tau {taus} s): {why}"))
+
+
+def verdict_word(status: str) -> str:
+    """PASS, FAIL, INCOMPLETE or NOT EVALUATED (``ClockVerdict.status`` as printed)."""
+    return status.upper()
 
 
 def verdict_details(verdict) -> str:

@@ -52,7 +52,7 @@ def stream_numeric_times(path: Path, layout, value_col: int, time_col: int, ns_p
     from chronofuse.io.kernels_time import FRACTION_DIGITS, parse_decimal_ns
 
     ratio = Fraction(ns_per_unit) / 10**FRACTION_DIGITS
-    names = [f"c{i}" for i in range(layout.width)]
+    names = [f"c{i}" for i in range(layout.width + layout.trailing_empty)]
     types = {f"c{value_col}": pa.float64(), f"c{time_col}": pa.string()}
     values, times = [], []
     read_options = pcsv.ReadOptions(skip_rows=layout.first_data_line - 1, column_names=names, block_size=1 << 24)

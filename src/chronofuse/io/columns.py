@@ -36,6 +36,7 @@ import gzip
 import io
 import lzma
 import re
+import warnings
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -47,9 +48,9 @@ import pyarrow.csv as pcsv
 
 from chronofuse.io.column_text import decimal_text_to_ns, float_values, stream_numeric_times
 from chronofuse.io.timestamps import is_clock, is_date, is_date_time
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputWarning
 
-__all__ = ["Layout", "sniff", "read_columns", "decimal_text_to_ns", "data_lines"]
+__all__ = ["Layout", "sniff", "read_columns", "decimal_text_to_ns", "data_lines", "scan", "Scan", "WINDOWS_NAN"]
 
 _SNIFF_BYTES = 1 << 16
 _COMMENT = ("#", ";")
@@ -94,6 +95,8 @@ class Layout:
         Fields are quoted (``"0,5","1,25"``).
     rows : tuple of list of str
         The fields of the first data lines (up to 200) that the sniff read.
+    trailing_empty : bool
+        Every data line ends with the delimiter (``0,1.5,``): an empty last field, not counted in ``width``.
     """
 
     compression: str | None
@@ -108,6 +111,7 @@ class Layout:
     pair: int | None = None
     quoted: bool = False
     rows: tuple = ()
+    trailing_empty: bool = False
 
 
 def _compression(path: Path) -> str | None:
@@ -141,8 +145,22 @@ def _is_number(token: str) -> bool:
     return True
 
 
+#: Windows C runtimes print NaN and infinity as ``1.#QNAN``, ``-1.#IND``, ``1.#INF``: read as a missing sample.
+WINDOWS_NAN = re.compile(r"^[+-]?\d(\.\d*)?#(QNAN|SNAN|IND|INF)\d*$", re.IGNORECASE)
+# A "#" that opens a comment: at the line's start or after white space or a separator; any other "#" is in a field.
+_FIELD_HASH = re.compile(r"[^\s#,;]#")
+
+
+class FieldHashError(ValueError):
+    """A ``#`` inside a field that is no Windows NaN spelling (``1.#QNAN``): neither a comment nor a number."""
+
+
 def _strip_comment(line: str) -> str:
-    """``line`` without a ``;`` comment line or a ``#`` comment (a ``#`` inside quotes is text: "Reading #")."""
+    """``line`` without a ``;`` comment line or a ``#`` comment (a ``#`` inside quotes is text: "Reading #").
+
+    A ``#`` opens a comment at the line's start or after white space or a separator. A field holding a
+    ``#`` is a Windows NaN spelling (:data:`WINDOWS_NAN`, returned as ``nan``) or raises
+    :class:`FieldHashError` (``1.#5`` is no number, and cutting it at the ``#`` would read it as 1)."""
     if line.lstrip().startswith(";"):
         return ""
     if '"' in line and "#" in line:
@@ -153,7 +171,21 @@ def _strip_comment(line: str) -> str:
             elif ch == "#" and not inside:
                 return line[:i].strip()
         return line.strip()
+    if "#" not in line:
+        return line.strip()
+    if _FIELD_HASH.search(line):
+        line = re.sub(r"[^\s,;]*#[^\s,;]*", _windows_nan, line, count=0)
     return line.split("#", 1)[0].strip()
+
+
+def _windows_nan(match: re.Match) -> str:
+    token = match.group(0)
+    if token.startswith("#"):
+        return token  # a comment's first word
+    if WINDOWS_NAN.match(token):
+        return "nan"
+    raise FieldHashError(f"{token!r}: a '#' inside a field is neither a comment (which starts a line or follows "
+                         "white space) nor a number")
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:
@@ -208,7 +240,10 @@ def sniff(path: Path) -> Layout:
         if not first and raw_line.strip().startswith(_COMMENT):
             comments.append((lineno, raw_line.strip()))
             continue
-        line = _strip_comment(raw_line)
+        try:
+            line = _strip_comment(raw_line)
+        except FieldHashError as exc:
+            raise InputDataError(str(exc), str(path), lineno) from None
         if not line:
             continue
         if not first:
@@ -225,6 +260,10 @@ def sniff(path: Path) -> Layout:
     delimiter = _guess_delimiter([ln.replace('"', "") for _, ln in data])
     quoted = any('"' in ln for _, ln in data)
     tokens = [(lineno, _split(ln, delimiter)) for lineno, ln in data]
+    # a delimiter at the end of every line (a spreadsheet's export): an empty last field, not a column
+    trailing = delimiter in (",", ";", "\t") and all(len(row) > 1 and row[-1] == "" for _, row in tokens)
+    if trailing:
+        tokens = [(lineno, row[:-1]) for lineno, row in tokens]
     decimal_comma = (delimiter in (";", "\t", " ") or (delimiter == "," and quoted)) and any(
         _DECIMAL_COMMA.match(t) for _, row in tokens for t in row)
     width = len(tokens[0][1])
@@ -254,7 +293,7 @@ def sniff(path: Path) -> Layout:
                 or (pair is not None and (is_date(t) or is_clock(t)))):
             raise InputDataError(f"cannot read {t!r} as a number", str(path), data[0][0])
     return Layout(compression, delimiter, decimal_comma, names, header_line, first, width, tuple(preamble),
-                  tuple(comments), pair, quoted, tuple(row for _, row in tokens))
+                  tuple(comments), pair, quoted, tuple(row for _, row in tokens), trailing)
 
 
 def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> None:
@@ -283,23 +322,69 @@ def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> 
                 "points, or separate the columns with ';' or a tab", str(path), tokens[k][0])
 
 
-def data_lines(path: Path, layout: Layout):
-    """Yield ``(line number, tokens)`` of every data line (the slow path, used to name a bad line)."""
+def data_lines(path: Path, layout: Layout, blanks: bool = False):
+    """Yield ``(line number, tokens)`` of every data line (the slow path, used to name a bad line);
+    ``blanks``: also ``(line number, [])`` for an empty line (not for a comment line)."""
     with open_binary(path, layout.compression) as raw:
         fh = io.TextIOWrapper(raw, encoding="utf-8-sig", errors="replace", newline=None)
         for lineno, text in enumerate(fh, start=1):
             if lineno < layout.first_data_line:
                 continue
-            line = _strip_comment(text)
+            try:
+                line = _strip_comment(text)
+            except FieldHashError as exc:
+                raise InputDataError(str(exc), str(path), lineno) from None
             if not line:
+                if blanks and not text.strip():
+                    yield lineno, []
                 continue
-            yield lineno, _split(line, layout.delimiter)
+            tokens = _split(line, layout.delimiter)
+            if layout.trailing_empty and len(tokens) > 1 and tokens[-1] == "":
+                tokens = tokens[:-1]
+            yield lineno, tokens
+
+
+@dataclass(frozen=True)
+class Scan:
+    """What one pass over the data lines' bytes found: a ``#`` inside a field (``1.#QNAN``), an empty line
+    among the data, and the file's last line (its text, and whether it ends with a line end)."""
+
+    field_hash: bool
+    blank_line: bool
+    last_line: str
+    last_has_newline: bool
+
+
+def scan(path: Path, layout: Layout, chunk: int = 1 << 24) -> Scan:
+    """One pass over the bytes after the header (memchr-speed searches; a regex only where a ``#`` is)."""
+    field_hash = blank = False
+    tail = b""
+    with open_binary(path, layout.compression) as fh:
+        for _ in range(max(layout.first_data_line - 1, 0)):
+            if not fh.readline():
+                break
+        carry = b"\n"
+        while True:
+            block = fh.read(chunk)
+            if not block:
+                break
+            joined = carry + block
+            if not field_hash and b"#" in joined and re.search(rb"[^\s#,;]#", joined):
+                field_hash = True
+            if not blank:
+                body = joined.rstrip(b" \t\r\n")  # empty lines at the end of the file are no gap
+                blank = b"\n\n" in body or b"\n\r\n" in body or re.search(rb"\n[ \t]+\r?\n", body) is not None
+            carry = joined[-2:]
+            tail = (tail + block)[-4096:]
+    stripped = tail.rstrip(b"\r\n")
+    last = stripped.rsplit(b"\n", 1)[-1].decode("utf-8", errors="replace").strip()
+    return Scan(field_hash, blank, last, tail.endswith(b"\n"))
 
 
 def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | None) -> pa.Table | None:
     """The chosen columns via pyarrow (simple delimiters) or pandas' C parser (space runs, comments);
     None when the text needs the line-by-line reader."""
-    names = [f"c{i}" for i in range(layout.width)]
+    names = [f"c{i}" for i in range(layout.width + layout.trailing_empty)]
     text_cols = _text_columns(layout, time_col)
     types = {f"c{i}": (pa.string() if i in text_cols else pa.float64()) for i in columns}
     skip = layout.first_data_line - 1
@@ -358,6 +443,11 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
     and the clock-time field after it, joined by a space. Raises :class:`InputDataError` naming the line
     for a ragged line or text where a number belongs.
     """
+    found = scan(path, layout)
+    _check_last_line(path, layout, found)
+    blanks_are_gaps = time_col is None and found.blank_line
+    if found.field_hash or blanks_are_gaps:  # the fast readers would cut "1.#QNAN" at the "#" or drop the line
+        return _line_by_line(path, layout, value_col, time_col, blanks_are_gaps)
     if (time_col is not None and time_ns_per_unit is not None and layout.pair is None and layout.delimiter != " "
             and Fraction(time_ns_per_unit).denominator == 1):
         streamed = stream_numeric_times(path, layout, value_col, time_col, int(time_ns_per_unit), open_binary, _NULLS)
@@ -377,8 +467,26 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
         del table
         pa.default_memory_pool().release_unused()  # the parsed text's pages back to the system, not kept for reuse
         return values, times, True
+    return _line_by_line(path, layout, value_col, time_col, False)
+
+
+def _line_by_line(path: Path, layout: Layout, value_col: int, time_col: int | None, blanks_are_gaps: bool):
+    """The slow reader of :func:`read_columns`: every line in Python, naming the line that is wrong. A Windows
+    NaN spelling (``1.#QNAN``) is a missing sample, and with ``blanks_are_gaps`` so is an empty line among
+    the data (both warned, with the first line and the count)."""
+    text_cols = sorted(_text_columns(layout, time_col))
     values_l, times_l = [], []
-    for lineno, tokens in data_lines(path, layout):
+    pending: list[int] = []
+    blank_lines: list[int] = []
+    windows: list[int] = []
+    for lineno, tokens in data_lines(path, layout, blanks=blanks_are_gaps):
+        if not tokens:
+            pending.append(lineno)
+            continue
+        if pending:  # empty lines between samples: one missing sample each
+            values_l.extend([np.nan] * len(pending))
+            blank_lines.extend(pending)
+            pending = []
         if len(tokens) != layout.width:
             raise InputDataError(f"{len(tokens)} values on this line, expected {layout.width}", str(path), lineno)
         try:
@@ -393,7 +501,56 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
             bad = next((t for t in tokens if not _is_number(t.replace(",", ".") if layout.decimal_comma else t)
                         and not is_date_time(t)), tokens[value_col])
             raise InputDataError(f"cannot read {bad!r} as a number", str(path), lineno) from None
+    if blank_lines:
+        warnings.warn(InputWarning(
+            f"{path}: {len(blank_lines)} empty line{'s' if len(blank_lines) > 1 else ''} among the data (the first "
+            f"at line {blank_lines[0]}) read as missing samples, so the samples after {'them' if len(blank_lines) > 1 else 'it'} keep "
+            "their places"), stacklevel=3)
+    windows = _windows_nan_lines(path, layout)
+    if windows:
+        warnings.warn(InputWarning(
+            f"{path}: {len(windows)} Windows NaN spelling{'s' if len(windows) > 1 else ''} (1.#QNAN, -1.#IND; the "
+            f"first at line {windows[0]}) read as missing samples"), stacklevel=3)
     times = None if time_col is None else pa.array(times_l, type=pa.string())
     return np.array(values_l, dtype=np.float64), times, False
+
+
+def _windows_nan_lines(path: Path, layout: Layout) -> list[int]:
+    """The line numbers holding a Windows NaN spelling (a second pass, only for a file with a '#' in a field)."""
+    lines = []
+    with open_binary(path, layout.compression) as raw:
+        fh = io.TextIOWrapper(raw, encoding="utf-8-sig", errors="replace", newline=None)
+        for lineno, text in enumerate(fh, start=1):
+            if lineno >= layout.first_data_line and "#" in text and _WINDOWS_NAN_ANY.search(text):
+                lines.append(lineno)
+    return lines
+
+
+_WINDOWS_NAN_ANY = re.compile(r"\d\.?\d*#(QNAN|SNAN|IND)", re.IGNORECASE)
+#: The last line is warned as cut short when it has fewer than this fraction of the digits of the median
+#: sniffed data line (or, without a line end, fewer digits than it).
+TRUNCATED_DIGITS = 2 / 3
+
+
+def _digits(text: str) -> int:
+    mantissa = re.split(r"[eEdD]", text, maxsplit=1)[0]
+    return sum(ch.isdigit() for ch in mantissa)
+
+
+def _check_last_line(path: Path, layout: Layout, found: Scan) -> None:
+    """Warn when the file's last line looks cut short: no line end, or fewer than :data:`TRUNCATED_DIGITS` of
+    the digits of the median sniffed data line (a write interrupted mid-number reads as a valid, wrong value)."""
+    last = found.last_line
+    if not last or last.startswith(_COMMENT):
+        return
+    typical = sorted(sum(_digits(t) for t in row) for row in layout.rows)
+    median = typical[len(typical) // 2] if typical else 0
+    digits = sum(_digits(t) for t in _split(last, layout.delimiter))
+    short = median >= 6 and digits < TRUNCATED_DIGITS * median
+    unended = not found.last_has_newline and digits < median
+    if short or unended:
+        why = f"{digits} digits where the lines before have {median}" + ("" if found.last_has_newline else ", and no line end")
+        warnings.warn(InputWarning(f"{path}: the last line ({last!r}) looks cut short ({why}): an interrupted "
+                                   "write? It is read as it stands"), stacklevel=4)
 
 

@@ -151,7 +151,9 @@ def check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) ->
     """Fractional frequency from the values (absolute frequency with ``nominal_hz``), see module docstring."""
     if nominal_hz is not None:
         check_scalar(nominal_hz, "nominal_hz", min_val=0, include_min=False)
-        return values / nominal_hz - 1.0
+        y = values / nominal_hz - 1.0
+        check_converted_frequency(y, path, nominal_hz)
+        return y
     finite = values[np.isfinite(values)]
     if finite.size == 0:
         return values
@@ -173,6 +175,18 @@ def check_frequency(values: np.ndarray, path: Path, nominal_hz: float | None) ->
     return values
 
 
+def check_converted_frequency(y: np.ndarray, path: Path, nominal_hz: float) -> None:
+    """Warn when fractional frequency converted from Hz with ``nominal_hz`` is implausible for a clock
+    (|y| > ``PLAUSIBLE_Y``): a wrong nominal frequency (1e7 for a 5 MHz counter reading gives y = -0.5)."""
+    finite = np.abs(y[np.isfinite(y)])
+    if finite.size and float(finite.max()) > PLAUSIBLE_Y:
+        typical = float(np.median(finite))
+        warnings.warn(InputWarning(
+            f"{path}: fractional frequency up to {float(finite.max()):.3g} in magnitude (median {typical:.3g}) after "
+            f"dividing by {{nominal_hz}} {nominal_hz:g} Hz is implausible for a clock (|y| > {PLAUSIBLE_Y:g}): is "
+            "{nominal_hz} the counter's nominal frequency? Analysed as given", fields=("nominal_hz",)), stacklevel=3)
+
+
 def record_notes(layout: Layout, choice: ColumnChoice, facts) -> list[str]:
     """What the reader takes from the file itself, said once in the record."""
     notes = []
@@ -182,6 +196,8 @@ def record_notes(layout: Layout, choice: ColumnChoice, facts) -> list[str]:
                      f"(lines {block[0]}-{block[-1]})")
     if choice.unit is not None and choice.unit_from != "name":
         notes.append(f"values in {choice.unit.text}, from {choice.unit_from}")
+    elif choice.unit is not None:
+        notes.append(f"values in {choice.unit.text}, from the column name {choice.value_name!r}")
     return notes
 
 
@@ -199,7 +215,9 @@ def to_si(values: np.ndarray, choice: ColumnChoice, nominal_hz: float | None, pa
         hz = values * unit.scale
         finite = hz[np.isfinite(hz)]
         absolute = finite.size and abs(float(np.median(finite)) / nominal_hz - 1.0) < 1e-3
-        return hz / nominal_hz - 1.0 if absolute else hz / nominal_hz
+        y = hz / nominal_hz - 1.0 if absolute else hz / nominal_hz
+        check_converted_frequency(y, path, nominal_hz)
+        return y
     return values * unit.scale if unit.scale != 1.0 else values
 
 

@@ -154,6 +154,47 @@ def _time_grid(t_ns: np.ndarray, rate_hz: float | None, path: Path, layout: Layo
     return _Grid(slots, interval, start, rms / 1e9, peak / 1e9)
 
 
+#: Time tags are quantised when their resolution (the largest step dividing every tag's offset) is at least
+#: this fraction of the mean step and the mean step is no whole number of it (MJD with 5 decimals: 0.864 s).
+QUANTISED_FRACTION = 0.05
+#: ... and there are at least this many tags (three tags off a grid are no evidence of a resolution).
+QUANTISED_MIN_TAGS = 16
+
+
+def _quantised_grid(t_ns: np.ndarray, path: Path) -> _Grid | None:
+    """The grid of time tags whose resolution is comparable to their step (MJD days with 5 decimals: 0.864 s
+    steps and 1.728 s steps for a 1 s record, which the median-step grid read as 1.157 Hz with gaps), or None
+    for tags that are not quantised. The interval is the mean step rounded to 3 significant digits, taken
+    (with a warning) when every tag lies within half its resolution of a slot of it and no two share one;
+    quantised tags that fit no such interval are warned, and read by the usual grid."""
+    if t_ns.size < QUANTISED_MIN_TAGS:
+        return None
+    offsets = t_ns - t_ns[0]
+    quantum = int(np.gcd.reduce(offsets[1:]))
+    mean = float(offsets[-1]) / (offsets.size - 1)
+    if quantum <= 0 or quantum < QUANTISED_FRACTION * mean:
+        return None
+    ratio = mean / quantum
+    if abs(ratio - round(ratio)) < 0.02:
+        return None  # the steps are whole numbers of the resolution: the usual grid reads them
+    candidate = float(f"{mean:.3g}")
+    slots = np.rint(offsets / candidate).astype(np.int64)
+    resid = offsets - slots * candidate
+    if np.all(np.diff(slots) >= 1) and np.abs(resid).max() <= 0.5 * quantum * (1 + 1e-9):
+        start = float(np.mean(resid))
+        resid = resid - start
+        warnings.warn(InputWarning(
+            f"{path}: the time tags have a resolution of {quantum / 1e9:.6g} s, comparable to their step (mean "
+            f"{mean / 1e9:.6g} s): read on a {candidate / 1e9:.6g} s grid, every tag within half its resolution of "
+            "its slot (give {rate_hz} to set the interval)", fields=("rate_hz",)), stacklevel=3)
+        return _Grid(slots, candidate, start, float(np.sqrt(np.mean(resid**2))) / 1e9, float(np.abs(resid).max()) / 1e9)
+    warnings.warn(InputWarning(
+        f"{path}: the time tags have a resolution of {quantum / 1e9:.6g} s, comparable to their step (mean "
+        f"{mean / 1e9:.6g} s), and fit no regular interval within it: the grid read from them may hold invented "
+        "gaps; give {rate_hz} to take the samples as consecutive", fields=("rate_hz",)), stacklevel=3)
+    return None
+
+
 def _snapped(interval: float, last_slot: int) -> float:
     for candidate in _snap(interval):
         if abs(candidate - interval) * last_slot < 0.01 * interval:
@@ -273,6 +314,7 @@ def read_record(
         raise InputDataError("infinite value", str(path), _line_of(path, layout, int(np.flatnonzero(np.isinf(values))[0])))
     if zero_is_gap:
         values = np.where(values == 0.0, np.nan, values)
+    _warn_outliers(values, path, layout)
     values = to_si(values, choice, nominal_hz, path, layout)
 
     t_ns, grid = None, None
@@ -287,7 +329,7 @@ def read_record(
             t_raw = _time_tags(time_data, choice, per_unit, path, layout)
         del time_data
         if t_raw.size >= 2:
-            grid = _time_grid(t_raw, rate_hz, path, layout)
+            grid = (_quantised_grid(t_raw, path) if rate_hz is None else None) or _time_grid(t_raw, rate_hz, path, layout)
         if grid is not None:
             from chronofuse.io.kernels_time import grid_epochs
 
@@ -350,6 +392,36 @@ def read_record(
         jitter_max_s=jitter[1],
         notes=tuple(notes),
     )
+
+
+#: A sample is a gross outlier when it differs from both neighbours (the one it has, at an end) by more than
+#: this many times the record's median absolute difference between neighbours.
+OUTLIER_FACTOR = 1e6
+
+
+def _warn_outliers(values: np.ndarray, path: Path, layout: Layout) -> None:
+    """Warn about gross outliers (:data:`OUTLIER_FACTOR`): a misread or cut-short number (``-2.6950708``
+    among values of 1e-10) is analysed as given, but said. A step (a phase jump) differs from one neighbour
+    only, and is not warned. The median comes from at most a million differences spread over the record."""
+    if values.size < 3:
+        return
+    d = np.abs(np.diff(values))
+    sample = d[:: max(1, d.size // 1_000_000)]
+    sample = sample[np.isfinite(sample)]
+    scale = float(np.median(sample)) if sample.size else 0.0
+    if not scale > 0:
+        return
+    big = d > OUTLIER_FACTOR * scale
+    if not big.any():
+        return
+    flagged = np.concatenate(([big[0]], big[:-1] & big[1:], [big[-1]]))
+    where = np.flatnonzero(flagged)
+    if where.size:
+        k = int(where[0])
+        warnings.warn(InputWarning(
+            f"{path}: {where.size} gross outlier{'s' if where.size > 1 else ''} (a value {values[k]:.6g} at line "
+            f"{_line_of(path, layout, k)}, differing from its neighbours by more than {OUTLIER_FACTOR:g} times the "
+            f"median difference between neighbours, {scale:.3g}): analysed as given; check the file"), stacklevel=3)
 
 
 def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice) -> int | Fraction:

@@ -79,7 +79,7 @@ def mask_reason(verdict: dict) -> str:
         tau, value, limit = worst
         bad = [t for t, ok, used in zip(part["tau"], part["passed_each"], part["evaluated"]) if used and not ok]
         label = metric.upper()
-        if not part["passed"]:
+        if part.get("status", "pass" if part["passed"] else "fail") == "fail":
             failing.append(f"{label} over its limit at {len(bad)} tau ({', '.join(f'{t:g}' for t in bad[:6])}"
                            f"{', ...' if len(bad) > 6 else ''} s), worst at tau {tau:g} s: {ns(value)} against "
                            f"{ns(limit)}, {ns(value - limit)} over")
@@ -105,12 +105,19 @@ def mask_reason(verdict: dict) -> str:
         return "; ".join(failing) + tail
     if verdict.get("passed"):
         return ("every limit met" + (f"; {tightest[1]}" if tightest else "")) + tail
-    return "; ".join(verdict.get("not_evaluated") or ["nothing could be evaluated"])
+    uncovered = [f"not covered: {n}" for n in verdict.get("not_covered") or []]
+    return "; ".join(uncovered + list(verdict.get("not_evaluated") or []) or ["nothing could be evaluated"])
 
 
 def mask_verdicts(subject: str, verdicts: dict[str, dict]) -> list[Verdict]:
     """One :class:`Verdict` per clock class: ``verdicts`` maps a mask name to ``ClockVerdict.to_dict()``."""
-    return [Verdict(f"{subject} against {name}", bool(v["passed"]), mask_reason(v)) for name, v in verdicts.items()]
+    return [Verdict(f"{subject} against {name}", _given(v), mask_reason(v)) for name, v in verdicts.items()]
+
+
+def _given(verdict: dict) -> bool | None:
+    """True for PASS, False for FAIL, None for a verdict not given (INCOMPLETE, NOT EVALUATED)."""
+    word = verdict.get("verdict", "PASS" if verdict.get("passed") else "FAIL")
+    return {"PASS": True, "FAIL": False}.get(word)
 
 
 _STYLE = """
@@ -257,7 +264,7 @@ def run_page(summary: dict, out: Path, command: str = "chronofuse run") -> Path:
     verdicts = []
     if summary.get("mask"):
         name = summary["mask"]["name"]
-        verdicts = [Verdict(f"{label} against {name}", bool(v["passed"]), mask_reason(v))
+        verdicts = [Verdict(f"{label} against {name}", _given(v), mask_reason(v))
                     for label, v in summary["mask"]["receivers"].items()]
     notes = [n for n in (_coverage_note(label, rx, scn["duration_s"]) for label, rx in summary["receivers"].items()) if n]
     sections.append(Section("Receivers", verdicts, (["receiver", "1PPS rms (ns)", "peak-to-peak (ns)", "missing",

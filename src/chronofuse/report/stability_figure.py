@@ -127,12 +127,17 @@ def stability_figure(deviations: dict[str, Deviation], *, verdicts=(), masks=(),
     panels = [p for p in (("frequency", frequency), ("time", timing)) if p[1]]
     if not panels:
         raise ValueError("deviations is empty, must hold at least one Deviation to plot")
-    notes = [f"{v.clock}: {'PASS' if v.passed else 'FAIL'} - {v.summary()}" for v in verdicts]
+    notes = [f"{v.clock}: {v.status.upper()} - {v.summary()}" for v in verdicts]
     wrapped = [textwrap.fill(n, 150 if len(panels) > 1 else 90) for n in notes]
     text_lines = sum(w.count("\n") + 1 for w in wrapped)
     fig = Figure(figsize=(6.5 * len(panels), 5.0 + 0.17 * text_lines), layout="constrained")
     FigureCanvasAgg(fig)
-    axes = fig.subplots(1, len(panels), squeeze=False)[0]
+    if wrapped:  # a row under the panels for the verdicts, each line in its verdict's colour
+        grid = fig.add_gridspec(2, len(panels), height_ratios=[5.0, 0.17 * text_lines + 0.05])
+        axes = [fig.add_subplot(grid[0, i]) for i in range(len(panels))]
+        _write_verdicts(fig.add_subplot(grid[1, :]), wrapped, [v.status for v in verdicts], text_lines)
+    else:
+        axes = fig.subplots(1, len(panels), squeeze=False)[0]
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (kind, group) in zip(axes, panels):
         scale = 1e9 if kind == "time" else 1.0
@@ -146,7 +151,18 @@ def stability_figure(deviations: dict[str, Deviation], *, verdicts=(), masks=(),
         _finish(ax, "time statistic (ns)" if kind == "time" else "deviation (dimensionless)")
     if title:
         fig.suptitle(title)
-    if wrapped:
-        fig.supxlabel("\n".join(wrapped), fontsize=7, ha="left", x=0.01,
-                      color="tab:red" if any(not v.passed for v in verdicts) else "tab:green")
     return fig
+
+
+#: The colour of each verdict's line under the plot.
+VERDICT_COLORS = {"pass": "tab:green", "fail": "tab:red", "incomplete": "tab:orange", "not evaluated": "tab:gray"}
+
+
+def _write_verdicts(ax, wrapped: list[str], statuses: list[str], text_lines: int) -> None:
+    """Each verdict's summary in ``ax`` (its axes hidden), one under the other, coloured by verdict."""
+    ax.set_axis_off()
+    line = 0
+    for text, status in zip(wrapped, statuses):
+        ax.text(0.0, 1.0 - line / max(text_lines, 1), text, fontsize=7, ha="left", va="top",
+                color=VERDICT_COLORS.get(status, "tab:orange"), transform=ax.transAxes)
+        line += text.count("\n") + 1
