@@ -8,7 +8,8 @@ receivers give the fused reference (the equal-weight mean of equal receivers) fo
   (:func:`chronofuse.experiments.gnssdo_design.fitted_controller`; ``design="datasheet"``: from the
   presets' figures, :func:`~chronofuse.experiments.gnssdo.make_controller`);
 * the causal optimal predictor: the clairvoyant servo (:func:`chronofuse.discipline.bound.clairvoyant_servo`,
-  the true model with flicker FM as its Gauss-Markov bank) on the same locked data; in holdover its
+  the true model with flicker FM as its Gauss-Markov bank, and the oscillator's aging as a known constant,
+  as the simulation draws it) on the same locked data; in holdover its
   update is skipped and its unconstrained steering follows its own prediction, so its time error after
   ``h`` is its prediction error. Its Riccati covariance at ``t0 + h`` is printed beside it
   (``clairvoyant_predicted_ns``).

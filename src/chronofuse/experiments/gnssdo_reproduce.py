@@ -323,8 +323,9 @@ def _note(s: dict) -> str:
     lines += ["", "Mean ratio to the clairvoyant servo: " + ", ".join(f"{c} {v:.3f}" for c, v in means.items())
               + f". Lowest: `{min(means, key=means.get)}`; the default is `{s['default_controller']}`.", "",
               "## Holdover (OCXO preset, rms over trials)", "",
-              "Ours / the causal optimal predictor (the clairvoyant servo on the same locked data) / the analytic "
-              "floor (random-walk and white FM after entry), ns, with the paired ratio and its 95 % interval. "
+              "Ours / the causal optimal predictor (the clairvoyant servo on the same locked data; it knows the "
+              "oscillator's aging, which ours learns from the lock) / the analytic floor (random-walk and white FM "
+              "after entry), ns, with the paired ratio and its 95 % interval. "
               "The 200-trial figure after a day locked is in [holdover.md](holdover.md).", "",
               "| locked before (h) | trials | 1 h | 4 h | 24 h |", "|---|---|---|---|---|"]
     for h in s["holdover"]:
