@@ -81,6 +81,23 @@ def test_units_written_in_the_header_scale_the_values_and_set_the_kind(tmp_path,
     np.testing.assert_allclose(rec.values, values, rtol=1e-12)
 
 
+@pytest.mark.parametrize(
+    ("header", "scale", "kind"),
+    [("t,y[1e-12]", 1e12, "freq"), ("t,y (1e-12)", 1e12, "freq"), ("t,y[x1e-15]", 1e15, "freq"),
+     ("t,y_ppt", 1e12, "freq"), ("t,x[1e-9]", 1e9, "phase"), ("t,phase (1e-12 s)", 1e12, "phase"),
+     ("t,y [×10^-12]", 1e12, "freq")],
+)
+def test_a_numeric_scale_factor_in_a_header_scales_the_values(tmp_path, tic, header, scale, kind):
+    """``y[1e-12]`` and ``y (1e-12)`` were read 1e12 times too large, with only a plausibility warning."""
+    values = tic[:500] if kind == "phase" else np.diff(tic[:501])
+    path = tmp_path / "factor.csv"
+    path.write_text(header + "\n" + "".join(f"{k},{float(v) * scale!r}\n" for k, v in enumerate(values)))
+    rec = _quietly(path=path)
+    assert rec.kind == kind and rec.rate_hz == 1.0
+    np.testing.assert_allclose(rec.values, values, rtol=1e-12)
+    assert any(header.split(",")[1] in n for n in rec.notes)
+
+
 def test_a_unit_that_contradicts_the_kind_asked_for_is_refused(tmp_path):
     path = tmp_path / "y.csv"
     path.write_text("t,y_ppb\n0,1.5\n1,1.6\n2,1.4\n")
