@@ -101,8 +101,10 @@ def _sniff(numbered) -> str | None:
             kinds.add("interval")
         elif _CHANNEL.match(line) or _CHANNEL_C.match(line):
             kinds.add("channel")
-        elif readings or line[:1].isdigit() or line[:1] in "+-.":
-            return None  # a line of numbers that is no TICC reading: another layout
+        elif readings:
+            break  # a damaged line after readings: the reader names it
+        elif line[:1].isdigit() or line[:1] in "+-.":
+            return None  # a line of numbers before any TICC reading: another layout
         else:
             continue  # a text line before the readings ("No config found.  Writing default...")
         readings += 1
