@@ -51,7 +51,7 @@ def test_frequency_records_with_a_mask_and_a_plot(data_dir, tmp_path):
     ("text", "args", "expected"),
     [
         ("", ("--rate", 1), "bad.txt: no data lines"),
-        ("abc\ndef\n", ("--rate", 1), "bad.txt: no data lines (empty file, or only comments and text lines)"),
+        ("abc\ndef\n", ("--rate", 1), "bad.txt:1: no data lines (only comments and text lines; the first, 'abc', holds no number)"),
         ("1e-9\n2e-9\nabc\n", ("--rate", 1), "bad.txt:3: cannot read 'abc' as a number"),
         ("t,y_ppb\n0,1\n1,2\n2,3\n", ("--kind", "phase"), "bad.txt:1: column 'y_ppb' is in ppb"),
         ("t,f_Hz\n0,1\n1,2\n2,3\n", (), "bad.txt:1: column 'f_Hz' is in Hz: give the nominal frequency"),

@@ -81,6 +81,23 @@ def test_units_written_in_the_header_scale_the_values_and_set_the_kind(tmp_path,
     np.testing.assert_allclose(rec.values, values, rtol=1e-12)
 
 
+@pytest.mark.parametrize(
+    ("header", "scale", "kind"),
+    [("t,y[1e-12]", 1e12, "freq"), ("t,y (1e-12)", 1e12, "freq"), ("t,y[x1e-15]", 1e15, "freq"),
+     ("t,y_ppt", 1e12, "freq"), ("t,x[1e-9]", 1e9, "phase"), ("t,phase (1e-12 s)", 1e12, "phase"),
+     ("t,y [×10^-12]", 1e12, "freq")],
+)
+def test_a_numeric_scale_factor_in_a_header_scales_the_values(tmp_path, tic, header, scale, kind):
+    """``y[1e-12]`` and ``y (1e-12)`` were read 1e12 times too large, with only a plausibility warning."""
+    values = tic[:500] if kind == "phase" else np.diff(tic[:501])
+    path = tmp_path / "factor.csv"
+    path.write_text(header + "\n" + "".join(f"{k},{float(v) * scale!r}\n" for k, v in enumerate(values)))
+    rec = _quietly(path=path)
+    assert rec.kind == kind and rec.rate_hz == 1.0
+    np.testing.assert_allclose(rec.values, values, rtol=1e-12)
+    assert any(header.split(",")[1] in n for n in rec.notes)
+
+
 def test_a_unit_that_contradicts_the_kind_asked_for_is_refused(tmp_path):
     path = tmp_path / "y.csv"
     path.write_text("t,y_ppb\n0,1.5\n1,1.6\n2,1.4\n")
@@ -219,3 +236,38 @@ def test_the_samples_rule_equals_allantools_gap_robust_adev_on_its_own_gap_file(
     _, dev, _, n = allantools.gradev(x, rate=1.0, data_type="phase", taus=taus)
     np.testing.assert_allclose(ours.dev, dev, rtol=1e-12)
     np.testing.assert_array_equal(ours.n, n)
+
+
+@pytest.mark.parametrize(
+    ("stamp", "sep"),
+    [("2023-03-26T00:00:{s:02d},000Z", ";"), ("2023-03-26 00:00:{s:02d} UTC", ","),
+     ("2023-03-26T00:00:{s:02d},250 UTC", ";")],
+)
+def test_iso_stamps_with_a_comma_fraction_or_the_word_utc_are_read(tmp_path, tic, stamp, sep):
+    """Both were refused as "no data lines", naming no line."""
+    path = tmp_path / "stamps.csv"
+    path.write_text(f"time{sep}phase\n" + "".join(f"{stamp.format(s=k)}{sep}{float(v)!r}\n"
+                                                   for k, v in enumerate(tic[:60])))
+    rec = _quietly(path=path)
+    assert rec.rate_hz == 1.0 and rec.values.size == 60
+    np.testing.assert_array_equal(rec.values, tic[:60])
+    start = np.datetime64("2023-03-26T00:00:00", "ns").astype(np.int64)
+    assert rec.t_ns[0] == start + (250_000_000 if ",250" in stamp else 0)
+
+
+def test_fortran_d_exponents_are_read_as_e(tmp_path, tic):
+    path = tmp_path / "d.txt"
+    path.write_text("".join(f"{float(v):.15E}\n".replace("E", "D") for v in tic[:300]))
+    rec = _quietly(path=path, rate_hz=1.0)
+    np.testing.assert_array_equal(rec.values, np.array([float(f"{float(v):.15E}") for v in tic[:300]]))
+    two = tmp_path / "d2.txt"
+    two.write_text("".join(f"{k} {float(v):.15e}\n".replace("e", "d") for k, v in enumerate(tic[:300])))
+    assert _quietly(path=two).values[5] == float(f"{float(tic[5]):.15e}")
+
+
+def test_a_file_with_no_line_of_data_names_the_first_line_that_could_be_and_why(tmp_path):
+    path = tmp_path / "odd.log"
+    path.write_text("# a comment\nsome text\n1.5 apples\n2.5 apples\n")
+    with pytest.raises(InputDataError, match=r"odd.log:3: .*'1.5 apples'.*'apples' is no number") as info:
+        read_record(path, rate_hz=1.0)
+    assert "\n" not in str(info.value) and "no data lines" not in str(info.value)

@@ -57,7 +57,7 @@ def test_a_time_gap_of_whole_intervals_becomes_missing_samples(tmp_path):
     [
         ("", "no data lines", None),
         ("# only a comment\n", "no data lines", None),
-        ("alpha\nbeta\ngamma\n", "no data lines .*only comments and text lines", None),
+        ("alpha\nbeta\ngamma\n", "no data lines .*only comments and text lines; the first, 'alpha'", 1),
         ("1e-9\n2e-9\nabc\n", "cannot read 'abc' as a number", 3),
         ("0 1e-9\n1 2e-9\n1 3e-9\n", "time is not increasing", 3),
         ("0 1e-9\n2 2e-9\n1 3e-9\n", "time is not increasing", 3),

@@ -47,7 +47,7 @@ import pyarrow.compute as pc
 import pyarrow.csv as pcsv
 
 from chronofuse.io.column_text import decimal_text_to_ns, float_values, stream_numeric_times
-from chronofuse.io.timestamps import is_clock, is_date, is_date_time
+from chronofuse.io.timestamps import UTC_WORD, is_clock, is_date, is_date_time
 from chronofuse.validation import InputDataError, InputWarning
 
 __all__ = ["Layout", "sniff", "read_columns", "decimal_text_to_ns", "data_lines", "scan", "Scan", "WINDOWS_NAN"]
@@ -97,6 +97,8 @@ class Layout:
         The fields of the first data lines (up to 200) that the sniff read.
     trailing_empty : bool
         Every data line ends with the delimiter (``0,1.5,``): an empty last field, not counted in ``width``.
+    d_exponent : bool
+        Numbers are written with a Fortran ``D`` exponent (``1.23D-09``), read as ``E``.
     """
 
     compression: str | None
@@ -112,6 +114,7 @@ class Layout:
     quoted: bool = False
     rows: tuple = ()
     trailing_empty: bool = False
+    d_exponent: bool = False
 
 
 def _compression(path: Path) -> str | None:
@@ -137,9 +140,18 @@ def open_binary(path: Path, compression: str | None):
     return open(path, "rb")
 
 
+#: A Fortran ``D`` exponent (``1.23D-09``): read as ``E``.
+_D_EXPONENT = re.compile(r"(?<=[\d.])[dD](?=[+-]?\d)")
+
+
+def d_to_e(token: str) -> str:
+    """``1.23D-09`` -> ``1.23E-09`` (a Fortran double's exponent); other text as it is."""
+    return _D_EXPONENT.sub("E", token) if ("D" in token or "d" in token) else token
+
+
 def _is_number(token: str) -> bool:
     try:
-        float(token)
+        float(d_to_e(token))
     except ValueError:
         return False
     return True
@@ -203,9 +215,21 @@ def _is_value(token: str) -> bool:
 
 def _is_data(line: str) -> bool:
     """A line of numbers (possibly with date-time fields and quotes): every field reads, one is a number."""
-    tokens = [t for t in re.split(r"[,;\s]+", line.replace('"', "")) if t]
+    return _unreadable_token(line) is None
+
+
+def _unreadable_token(line: str) -> str | None:
+    """The first field of ``line`` that is no number, date or clock time ("" when no field is a number);
+    None for a line of numbers. With ``;`` or a tab between the fields a comma is a decimal comma (also in
+    a stamp's seconds: ``2023-03-26T00:00:00,000Z``); a clock time's ``UTC`` word is its zone."""
+    line = UTC_WORD.sub(r"\1Z", line.replace('"', ""))
+    separators = r"[;\t\s]+" if (";" in line or "\t" in line) else r"[,;\s]+"
+    tokens = [t for t in re.split(separators, line) if t]
     values = [t for t in tokens if _is_value(t)]
-    return bool(values) and all(_is_value(t) or is_date_time(t) or is_date(t) or is_clock(t) for t in tokens)
+    bad = next((t for t in tokens if not (_is_value(t) or is_date_time(t) or is_date(t) or is_clock(t))), None)
+    if bad is not None:
+        return bad
+    return None if values else ""
 
 
 def _guess_delimiter(lines: list[str]) -> str | None:
@@ -255,8 +279,18 @@ def sniff(path: Path) -> Layout:
         if len(data) >= 200:
             break
     if not data:
-        what = "only comments and text lines" if preamble else "only comments and a header"
-        raise InputDataError(f"no data lines (empty file, or {what})", str(path))
+        if not preamble:
+            raise InputDataError("no data lines (empty file, or only comments)", str(path))
+        # name the first line that might have been data: the first holding a digit, else the first text line
+        numeric = [(n, ln) for n, ln in preamble if any(ch.isdigit() for ch in ln)]
+        if not numeric:
+            raise InputDataError(f"no data lines (only comments and text lines; the first, {preamble[0][1][:60]!r}, "
+                                 "holds no number)", str(path), preamble[0][0])
+        lineno, line = numeric[0]
+        bad = _unreadable_token(line)
+        why = (f"{bad!r} is no number, date or time" if bad else "no field is a number")
+        raise InputDataError(f"no line of the file reads as data: the first that could be ({line[:60]!r}) cannot "
+                             f"be read ({why})", str(path), lineno)
     delimiter = _guess_delimiter([ln.replace('"', "") for _, ln in data])
     quoted = any('"' in ln for _, ln in data)
     tokens = [(lineno, _split(ln, delimiter)) for lineno, ln in data]
@@ -292,8 +326,9 @@ def sniff(path: Path) -> Layout:
         if not (_is_number(t) or (decimal_comma and _is_number(t.replace(",", "."))) or is_date_time(t)
                 or (pair is not None and (is_date(t) or is_clock(t)))):
             raise InputDataError(f"cannot read {t!r} as a number", str(path), data[0][0])
+    d_exponent = any(_D_EXPONENT.search(t) is not None and _is_number(t) for _, row in tokens for t in row)
     return Layout(compression, delimiter, decimal_comma, names, header_line, first, width, tuple(preamble),
-                  tuple(comments), pair, quoted, tuple(row for _, row in tokens), trailing)
+                  tuple(comments), pair, quoted, tuple(row for _, row in tokens), trailing, d_exponent)
 
 
 def _refuse_ambiguous_comma(path: Path, tokens: list[tuple[int, list[str]]]) -> None:
@@ -386,7 +421,7 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
     None when the text needs the line-by-line reader."""
     names = [f"c{i}" for i in range(layout.width + layout.trailing_empty)]
     text_cols = _text_columns(layout, time_col)
-    types = {f"c{i}": (pa.string() if i in text_cols else pa.float64()) for i in columns}
+    types = {f"c{i}": (pa.string() if i in text_cols or layout.d_exponent else pa.float64()) for i in columns}
     skip = layout.first_data_line - 1
     decimal = "," if layout.decimal_comma else "."
     if layout.delimiter != " ":
@@ -411,7 +446,7 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
         with open_binary(path, layout.compression) as fh:
             frame = pd.read_csv(
                 fh, sep=r"\s+", header=None, skiprows=skip, comment="#",
-                dtype={i: (str if i in text_cols else "float64") for i in range(layout.width)},
+                dtype={i: (str if i in text_cols or layout.d_exponent else "float64") for i in range(layout.width)},
                 decimal=decimal, engine="c", na_values=_NULLS, keep_default_na=False, skip_blank_lines=True,
                 encoding="utf-8-sig",
             )
@@ -424,6 +459,18 @@ def _fast_table(path: Path, layout: Layout, columns: list[int], time_col: int | 
     if layout.width > 1 and frame.isna().to_numpy().any():
         return None  # pandas fills a short line with NaN: let the line reader tell a gap from a ragged line
     return pa.Table.from_pandas(frame, preserve_index=False)
+
+
+def _d_text_to_float(column: pa.ChunkedArray, path: Path, layout: Layout) -> pa.ChunkedArray | None:
+    """A text column of numbers with Fortran ``D`` exponents as float64; None when some text is no number
+    (the line reader names its line)."""
+    text = pc.utf8_trim_whitespace(column.cast(pa.string()))
+    text = pc.replace_substring_regex(text, r"([\d.])[dD]([+-]?\d)", r"\1E\2")
+    text = pc.if_else(pc.is_in(text, pa.array(_NULLS)), pa.scalar("nan"), text)
+    try:
+        return text.cast(pa.float64())
+    except (pa.ArrowInvalid, pa.ArrowNotImplementedError):
+        return None
 
 
 def _text_columns(layout: Layout, time_col: int | None) -> set[int]:
@@ -449,7 +496,7 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
     if found.field_hash or blanks_are_gaps:  # the fast readers would cut "1.#QNAN" at the "#" or drop the line
         return _line_by_line(path, layout, value_col, time_col, blanks_are_gaps)
     if (time_col is not None and time_ns_per_unit is not None and layout.pair is None and layout.delimiter != " "
-            and Fraction(time_ns_per_unit).denominator == 1):
+            and Fraction(time_ns_per_unit).denominator == 1 and not layout.d_exponent):
         streamed = stream_numeric_times(path, layout, value_col, time_col, int(time_ns_per_unit), open_binary, _NULLS)
         if streamed is not None:
             return streamed[0], streamed[1], True
@@ -457,7 +504,12 @@ def read_columns(path: Path, layout: Layout, value_col: int, time_col: int | Non
     columns = [value_col] + text_cols
     table = _fast_table(path, layout, columns, time_col)
     if table is not None and table.num_rows > 0:
-        values = float_values(table.column(f"c{value_col}"))
+        column = table.column(f"c{value_col}")
+        if layout.d_exponent:  # "1.23D-09": the text with E for D, then pyarrow's exact float parse
+            column = _d_text_to_float(column, path, layout)
+            if column is None:
+                return _line_by_line(path, layout, value_col, time_col, False)
+        values = float_values(column)
         times = None
         if time_col is not None:
             times = table.column(f"c{time_col}").combine_chunks()
@@ -491,7 +543,7 @@ def _line_by_line(path: Path, layout: Layout, value_col: int, time_col: int | No
             raise InputDataError(f"{len(tokens)} values on this line, expected {layout.width}", str(path), lineno)
         try:
             text = tokens[value_col].replace(",", ".") if layout.decimal_comma else tokens[value_col]
-            values_l.append(float(text))
+            values_l.append(float(d_to_e(text)))
             if time_col is not None:
                 stamp = " ".join(tokens[i] for i in text_cols)
                 if not (is_date_time(stamp) or len(text_cols) == 2):

@@ -7,7 +7,8 @@
 - The value column: ``column`` (name or 1-based number), else the one column left after the time and the
   sample counts.
 - The kind (phase or fractional frequency) and the scale to SI: from the value column's unit
-  (:func:`chronofuse.io.units.column_unit`: ``(ns)`` is phase, ``_ppb`` frequency), else from a
+  (:func:`chronofuse.io.units.column_unit`: ``(ns)`` is phase, ``_ppb`` frequency; a bare scale factor,
+  ``y[1e-12]``, scales whichever kind the name or the caller gives), else from a
   ``unit:`` line of the header block, else from its name (``phase``/``x``/``te``/``tie``: phase;
   ``freq``/``frequency``/``y``: frequency); a kind the caller gives that contradicts the unit is refused.
 """
@@ -56,7 +57,7 @@ def time_ns_per_unit(name: str) -> int | Fraction | None:
     if lowered == "mjd" or lowered.startswith("mjd_") or base_name(name) == "mjd":
         return SECONDS_PER_DAY * NS_PER_S
     unit = column_unit(name)
-    if unit is not None and unit.quantity == "time":
+    if unit is not None and unit.quantity in ("time", "factor"):
         return Fraction(unit.scale).limit_denominator(10**15) * NS_PER_S
     return None
 
@@ -132,7 +133,7 @@ def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | N
     unit, unit_from = (column_unit(value_name), "name") if header is not None else (None, "")
     if unit is None and facts.unit is not None:
         unit, unit_from = facts.unit, f"header line {facts.unit_line}"
-    by_unit = None if unit is None else ("phase" if unit.quantity == "time" else "freq")
+    by_unit = None if unit is None or unit.quantity == "factor" else ("phase" if unit.quantity == "time" else "freq")
     word = bases[value_idx]
     by_name = "phase" if word in _PHASE_WORDS else "freq" if word in _FREQ_WORDS else None
     if kind is not None and by_unit is not None and kind != by_unit:
@@ -142,6 +143,8 @@ def choose_columns(layout: Layout, path: Path, column: str | None, kind: str | N
                          "another column)", str(path), layout.header_line or facts.unit_line or layout.first_data_line,
                          fields=("kind", "column"))
     resolved = kind or by_unit or by_name or "phase"
+    if unit is not None and unit.quantity == "factor":  # "y[1e-12]": the kind says what the factor scales
+        unit = ColumnUnit("time" if resolved == "phase" else "fraction", unit.scale, unit.text)
     time_name = names[time_idx] if time_idx is not None else ""
     return ColumnChoice(None if time_idx is None else _field(layout, time_idx), _field(layout, value_idx), time_name,
                         value_name, resolved, unit, unit_from)

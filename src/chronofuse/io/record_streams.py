@@ -232,7 +232,7 @@ class TextLines(_Lines):
             raise InputError("one-column stream: give the sample rate ({rate_hz}, Hz)", self.source, number,
                              fields=("rate_hz",))
         unit = column_unit(names[value_idx]) if header is not None else None
-        scale = unit.scale if unit is not None and unit.quantity == "time" else 1.0
+        scale = unit.scale if unit is not None and unit.quantity in ("time", "factor") else 1.0
         per_unit = time_ns_per_unit(names[time_idx]) if (header is not None and time_idx is not None) else None
         unit_ns = 1_000_000_000 if per_unit is None else per_unit
         return time_idx, value_idx, scale, unit_ns, width

@@ -291,6 +291,11 @@ def read_record(
         from chronofuse.io.field_logs import log_record
 
         return log_record(path, kind=kind, rate_hz=rate_hz, column=column, clock=station)
+    from chronofuse.io.ticc import read_ticc, ticc_mode
+
+    mode = ticc_mode(path) if station is None else None
+    if mode is not None:  # a TAPR TICC log: "8.737740891687 chA" or "0.000000100012 TI(A->B)" lines
+        return read_ticc(path, mode, kind=kind, rate_hz=rate_hz, column=column)
     if station is not None:
         raise InputError("{station} picks a station of a RINEX clock product (.clk) or a clock of a field log, "
                          "not a column of a text record", str(path), fields=("station",))

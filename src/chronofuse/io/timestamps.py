@@ -11,7 +11,7 @@ their magnitude, with a warning that says what was assumed:
   a day.
 
 Date-time stamps: ISO 8601 (``2023-01-05T12:34:56.123456789``, a space instead of ``T``, ``/`` instead
-of ``-``, optionally ``Z`` or ``+hh:mm``), ``dd.mm.yyyy hh:mm:ss[.f]``, and a date and a clock time in
+of ``-``, a decimal comma in the seconds, optionally ``Z``, ``+hh:mm`` or the word ``UTC``/``GMT``), ``dd.mm.yyyy hh:mm:ss[.f]``, and a date and a clock time in
 two white-space separated fields. Stamps with a zone are converted to UTC; stamps without are read as
 written (only their differences matter here); a mix of the two is refused, and so is a ``nn/nn/yyyy``
 date, whose day and month order cannot be told. Parsing is pyarrow's (exact to the nanosecond).
@@ -31,11 +31,13 @@ from chronofuse.validation import InputDataError
 
 __all__ = ["is_date_time", "is_date", "is_clock", "date_time_to_ns", "infer_time_unit", "MJD_RANGE"]
 
-_ISO = re.compile(r"^\d{4}[-/]\d{2}[-/]\d{2}(?:[T ]\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?(?:Z|[+-]\d{2}:?\d{2})?$")
+_ISO = re.compile(r"^\d{4}[-/]\d{2}[-/]\d{2}(?:[T ]\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?(?:Z|[+-]\d{2}:?\d{2}| ?UTC| ?GMT)?$")
 _DMY = re.compile(r"^\d{2}\.\d{2}\.\d{4}(?: \d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)?$")
 _AMBIGUOUS = re.compile(r"^\d{1,2}/\d{1,2}/\d{4}")
 _DATE = re.compile(r"^(?:\d{4}[-/]\d{2}[-/]\d{2}|\d{2}\.\d{2}\.\d{4}|\d{1,2}/\d{1,2}/\d{4})$")
-_CLOCK = re.compile(r"^\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?(?:Z|[+-]\d{2}:?\d{2})?$")
+_CLOCK = re.compile(r"^\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?(?:Z|[+-]\d{2}:?\d{2}| ?UTC| ?GMT)?$")
+#: A clock time followed by the word UTC or GMT (``2023-03-26 00:00:00 UTC``): the zone Z.
+UTC_WORD = re.compile(r"(\d{2}:\d{2}(?::\d{2}(?:[.,]\d+)?)?)\s*(?:UTC|GMT)\b")
 
 #: MJD of the Stable32/TimeLab time-tag layout (1968 to 2132).
 MJD_RANGE = (40_000.0, 100_000.0)
@@ -72,6 +74,7 @@ def date_time_to_ns(text: pa.Array, source: str, line_of) -> np.ndarray:
     s = pc.replace_substring_regex(s, r"^(\d{2})\.(\d{2})\.(\d{4})", r"\3-\2-\1")
     s = pc.replace_substring_regex(s, r"^(\d{4})/(\d{2})/(\d{2})", r"\1-\2-\3")
     s = pc.replace_substring_regex(s, r"(:\d{2}),(\d+)", r"\1.\2")  # a decimal comma in the seconds
+    s = pc.replace_substring_regex(s, r"\s*(?:UTC|GMT)$", "Z")  # "2023-03-26 00:00:00 UTC"
     zoned = pc.match_substring_regex(s, r"(Z|[+-]\d{2}:?\d{2})$")
     n_zoned = int(pc.sum(zoned).as_py() or 0)
     if 0 < n_zoned < len(s):

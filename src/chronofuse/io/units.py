@@ -11,7 +11,10 @@ Units and what they scale to (SI: seconds, dimensionless fractional frequency, h
 - fractional frequency: ``ppm`` (1e-6), ``ppb`` (1e-9), ``ppt`` (1e-12), ``ffd``/``1`` (1);
 - frequency in hertz (an offset or an absolute frequency; the nominal frequency is needed to make a
   fractional frequency of it): ``Hz``, ``mHz``, ``uHz``/``µHz``, ``kHz``, ``MHz`` (case matters for the
-  prefixes ``m`` and ``M``; ``hz`` alone is hertz).
+  prefixes ``m`` and ``M``; ``hz`` alone is hertz);
+- a numeric scale factor in brackets, alone or before a unit: ``y[1e-12]``, ``y (1e-12)``, ``x[x1e-15]``,
+  ``phase (1e-9 s)``, ``y [×10^-12]``: a value of 3.2 is 3.2e-12. Alone, it is a ``"factor"`` whose
+  quantity the column's name or the kind decides (phase in seconds, or fractional frequency).
 """
 
 from __future__ import annotations
@@ -40,16 +43,40 @@ _IN_UNIT = re.compile(r"\bin\s+([A-Za-zµμ]+)\s*$", re.IGNORECASE)
 
 @dataclass(frozen=True)
 class ColumnUnit:
-    """A unit read from a name: ``quantity`` is ``"time"`` (seconds), ``"fraction"`` (fractional frequency)
-    or ``"hertz"``; ``scale`` converts the written values to that quantity's SI unit; ``text`` as written."""
+    """A unit read from a name: ``quantity`` is ``"time"`` (seconds), ``"fraction"`` (fractional frequency),
+    ``"hertz"``, or ``"factor"`` (a bare scale factor, ``[1e-12]``: seconds or fractional frequency, as the
+    kind says); ``scale`` converts the written values to that quantity's SI unit; ``text`` as written."""
 
     quantity: str
     scale: float
     text: str
 
 
-def _lookup(token: str) -> ColumnUnit | None:
+# "1e-12", "x1e-15", "×1e-9", "*1E-12", "10^-12", "x10^-9", optionally followed by a unit ("1e-9 s")
+_FACTOR = re.compile(r"^(?:[x×*]\s*)?(?:(\d+(?:\.\d*)?)[eE]([+-]?\d+)|10\s*\^\s*\(?([+-]?\d+)\)?)\s*(.*)$")
+
+
+def _factor(token: str) -> ColumnUnit | None:
+    """A numeric scale factor, alone (quantity ``"factor"``) or before a unit (that unit, scaled)."""
+    match = _FACTOR.match(token)
+    if not match:
+        return None
+    mantissa, exponent, power, rest = match.groups()
+    scale = float(f"{mantissa}e{exponent}") if mantissa is not None else 10.0 ** int(power)
+    if not scale > 0:
+        return None
+    if not rest.strip():
+        return ColumnUnit("factor", scale, f"units of {token}")
+    unit = _lookup(rest, factors=False)
+    return None if unit is None else ColumnUnit(unit.quantity, scale * unit.scale, token)
+
+
+def _lookup(token: str, factors: bool = True) -> ColumnUnit | None:
     token = token.strip()
+    if factors and token[:1] in "0123456789x×*":
+        found = _factor(token)
+        if found is not None:
+            return found
     if token in _HERTZ:
         return ColumnUnit("hertz", _HERTZ[token], token)
     lowered = token.lower()
