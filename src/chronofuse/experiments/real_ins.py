@@ -39,7 +39,7 @@ from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 from chronofuse.validation import InputDataError, InputWarning, invalid
 
 __all__ = ["COUPLINGS", "ALIGNMENT_S", "HEADING_SIGMA_RAD", "AlignedImu", "align_imu", "static_alignment",
-           "ins_positions", "InsSolution"]
+           "ins_positions", "InsSolution", "as_point_positions", "ins_statistics", "ins_from_files"]
 
 #: The couplings :func:`ins_positions` offers.
 COUPLINGS = ("loose", "tight")
@@ -271,3 +271,45 @@ def as_point_positions(fixes, positions_m, solution: InsSolution):
     if solution.clock_m is not None:
         changes.update(clock_m=solution.clock_m, isb_m=solution.isb_m, n_used=solution.n_used)
     return replace(fixes, **changes)
+
+
+def ins_statistics(fixes, solution: InsSolution, reference_m) -> dict:
+    """Statistics (:func:`chronofuse.gnss.point_positioning.position_statistics`) of the single-point fixes,
+    the GNSS/INS and (when smoothed) the smoothed solution against ``reference_m``, on the same epochs: those
+    the GNSS/INS solution covers."""
+    from chronofuse.gnss.point_positioning import position_statistics
+
+    on = np.isfinite(solution.filtered[:, 0])
+    out = {"spp": position_statistics(fixes.position_m[on], reference_m),
+           "ins": position_statistics(solution.filtered[on], reference_m)}
+    if solution.smoothed is not None:
+        out["smoothed"] = position_statistics(solution.smoothed[on], reference_m)
+    return out
+
+
+def ins_from_files(obs_path, nav_paths, imu_path, systems, *, coupling: str = "loose", grade: str = "industrial",
+                   smooth: bool = False, options=None, start_s=None, end_s=None, reference_m=None) -> tuple:
+    """Single-point fixes (:func:`chronofuse.experiments.real_positioning.position_from_files`), then the
+    GNSS/INS solution with the IMU log ``imu_path`` (:func:`chronofuse.io.imu_log.read_imu_csv`, gaps
+    allowed and warned of). Returns ``(fixes, InsSolution, summary)``; the summary is the single-point one
+    with an ``ins`` entry (coupling, grade, the log, its cover and gaps, and with ``reference_m`` the
+    statistics of :func:`ins_statistics`)."""
+    from chronofuse.experiments.real_positioning import position_from_files
+    from chronofuse.io.imu_log import read_imu_csv
+
+    if coupling not in COUPLINGS:
+        raise invalid("coupling", coupling, f"one of {', '.join(COUPLINGS)}")
+    log = read_imu_csv(imu_path, allow_gaps=True)
+    fixes, summary = position_from_files(obs_path, nav_paths, systems, options=options, start_s=start_s,
+                                         end_s=end_s, reference_m=reference_m)
+    solution = ins_positions(fixes, log, coupling=coupling, grade=grade, smooth=smooth, obs_source=str(obs_path))
+    al = solution.aligned
+    entry = {"imu": str(imu_path), "coupling": coupling, "grade": grade, "smooth": bool(smooth),
+             "imu_rate_hz": float(log.rate_hz), "imu_samples": int(log.gps_ns.size),
+             "epochs": int(np.isfinite(solution.filtered[:, 0]).sum()),
+             "gaps": len(al.gaps), "samples_held": int(al.held.sum()),
+             "longest_gap_s": max((g[1] for g in al.gaps), default=0) / log.rate_hz}
+    if reference_m is not None:
+        entry["statistics"] = ins_statistics(fixes, solution, np.asarray(summary["reference_position_m"]))
+    summary["ins"] = entry
+    return fixes, solution, summary
