@@ -25,12 +25,14 @@ from chronofuse.positioning import MAX_SPEED_M_PER_S, SYSTEMS
 ENVIRONMENTS = tuple(signal_environments())
 
 #: Options of the simulated drive only, and of the real files only (--obs): given with the other mode they
-#: would do nothing, so they are refused. The INS options belong to the simulation: there is no IMU input for
-#: real observations yet.
-SIMULATION_ONLY = {"scenario": "--environment", "ins": "--ins", "smooth": "--smooth", "duration": "--duration",
-                   "trials": "--trials", "seed": "--seed", "imu_rate": "--imu-rate", "speed": "--speed"}
+#: would do nothing, so they are refused. With --obs the INS options (--ins, --smooth, --coupling) need an IMU
+#: log (--imu); the simulated IMU's rate is the log's own there.
+SIMULATION_ONLY = {"scenario": "--environment", "duration": "--duration", "trials": "--trials", "seed": "--seed",
+                   "imu_rate": "--imu-rate", "speed": "--speed"}
 REAL_ONLY = {"reference": "--position", "start": "--start", "end": "--end", "mask_deg": "--elevation-mask-deg",
-             "ionosphere": "--ionosphere", "troposphere": "--troposphere"}
+             "ionosphere": "--ionosphere", "troposphere": "--troposphere", "imu": "--imu", "coupling": "--coupling"}
+#: With --obs, the options that need --imu.
+IMU_ONLY = {"ins": "--ins", "smooth": "--smooth", "coupling": "--coupling"}
 
 
 def _given(ctx: typer.Context, name: str) -> bool:
@@ -43,8 +45,12 @@ def _refuse_other_mode(ctx: typer.Context, real: bool) -> None:
     given = [flag for name, flag in table.items() if _given(ctx, name)]
     if given:
         fail(f"{', '.join(given)}: only with {mode}; here {'it does' if len(given) == 1 else 'they do'} nothing"
-             + (" (real observations have no IMU input: GNSS/INS runs on the simulated drive)" if real and
-                {"--ins", "--smooth", "--imu-rate"} & set(given) else ""))
+             + (" (with --obs the IMU's rate is its log's: --imu)" if real and "--imu-rate" in given else ""))
+    if real and not _given(ctx, "imu"):
+        given = [flag for name, flag in IMU_ONLY.items() if _given(ctx, name)]
+        if given:
+            fail(f"{', '.join(given)}: with --obs only together with --imu (an IMU log); here "
+                 f"{'it does' if len(given) == 1 else 'they do'} nothing")
 
 
 def register(app: typer.Typer) -> None:
@@ -78,7 +84,8 @@ def _file(path: Path, option: str) -> None:
 
 
 def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start: float | None, end: float | None,
-          mask_deg: float, ionosphere: str, troposphere: str, out: Path | None, json_out: bool) -> None:
+          mask_deg: float, ionosphere: str, troposphere: str, out: Path | None, json_out: bool,
+          imu: Path | None = None, coupling: str = "loose", ins: str = "industrial", smooth: bool = False) -> None:
     """``position --obs``: single-point fixes from real files."""
     from chronofuse.experiments.real_positioning import position_from_files, write_positions_csv
     from chronofuse.gnss.point_positioning import SppOptions
@@ -91,21 +98,45 @@ def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start
     _file(obs, "--obs")
     for p in nav:
         _file(p, "--nav")
+    if imu is not None:
+        _file(imu, "--imu")
     reference_m = _xyz(reference) if reference is not None else None
     with user_errors(), collected_warnings() as notes:
         letters = parse_systems(systems)
         options = SppOptions(elevation_mask_deg=mask_deg, ionosphere=ionosphere, troposphere=troposphere)
-        fixes, summary = position_from_files(obs, nav, letters, options=options, start_s=start, end_s=end,
-                                             reference_m=reference_m)
+        solution = None
+        if imu is None:
+            fixes, summary = position_from_files(obs, nav, letters, options=options, start_s=start, end_s=end,
+                                                 reference_m=reference_m)
+        else:
+            from chronofuse.experiments.real_ins import ins_from_files
+
+            fixes, solution, summary = ins_from_files(obs, nav, imu, letters, coupling=coupling, grade=ins,
+                                                      smooth=smooth, options=options, start_s=start, end_s=end,
+                                                      reference_m=reference_m)
         files = []
         if out is not None:
             from chronofuse.report.jsonio import dumps
 
             out.mkdir(parents=True, exist_ok=True)
-            rows = write_positions_csv(fixes, out / "positions.csv", reference_m)
-            (out / "summary.json").write_text(dumps(summary) + "\n")
-            files = [str(out / "positions.csv"), str(out / "summary.json")]
+            if solution is None:
+                rows = write_positions_csv(fixes, out / "positions.csv", reference_m)
+                files = [str(out / "positions.csv")]
+            else:
+                from chronofuse.experiments.real_ins import as_point_positions
+
+                # positions.csv: the GNSS/INS solution; the single-point fixes beside it for comparison
+                rows = write_positions_csv(as_point_positions(fixes, solution.filtered, solution),
+                                           out / "positions.csv", reference_m)
+                write_positions_csv(fixes, out / "spp_positions.csv", reference_m)
+                files = [str(out / "positions.csv"), str(out / "spp_positions.csv")]
+                if solution.smoothed is not None:
+                    write_positions_csv(as_point_positions(fixes, solution.smoothed, solution),
+                                        out / "smoothed_positions.csv", reference_m)
+                    files.append(str(out / "smoothed_positions.csv"))
             summary["csv_rows"] = rows
+            (out / "summary.json").write_text(dumps(summary) + "\n")
+            files.append(str(out / "summary.json"))
     summary["files"] = files
     summary["warnings"] = notes
     for note in notes:
@@ -123,6 +154,13 @@ def _real(obs: Path, nav: list[Path], systems: str, reference: str | None, start
                   f"{s['vertical95_m']:.2f} m, CEP50 {s['cep50_m']:.2f} m, CEP95 {s['cep95_m']:.2f} m")
     elif "mean_position_m" in summary:
         con.print("  mean position (ECEF m): " + ", ".join(f"{v:.3f}" for v in summary["mean_position_m"]))
+    if "ins" in summary:
+        e = summary["ins"]
+        con.print(f"  GNSS/INS ({e['coupling']}ly coupled, {e['grade']} IMU at {e['imu_rate_hz']:g} Hz): "
+                  f"{e['epochs']:,} epochs, {e['gaps']} gap{'s' if e['gaps'] != 1 else ''} in the IMU log")
+        for name, st in e.get("statistics", {}).items():
+            con.print(f"    {name}: horizontal 95 % {st['horizontal95_m']:.2f} m, vertical 95 % "
+                      f"{st['vertical95_m']:.2f} m on the same {st['fixes']:,} epochs")
     if files:
         con.print(f"  wrote {', '.join(files)}")
 
@@ -135,8 +173,13 @@ def position(
                                  help=f"Signal environment of the simulated drive, one of {sorted(ENVIRONMENTS)}."),
     systems: str = typer.Option("gps+bds", "--systems", help=f"Simulation: one of {sorted(SYSTEMS)}. With --obs: gps, gal, "
                                 "bds, qzss joined by + (e.g. gps+bds)."),
-    ins: str = typer.Option("industrial", "--ins", help="IMU grade: none, consumer, industrial or tactical."),
+    ins: str = typer.Option("industrial", "--ins", help="IMU grade: none, consumer, industrial or tactical (with "
+                            "--imu: the log's IMU, whose noise the filter assumes)."),
     smooth: bool = typer.Option(False, "--smooth", help="Add the RTS-smoothed GNSS/INS solution."),
+    imu: Path | None = typer.Option(None, "--imu", help="With --obs: an IMU log (CSV, chronofuse.io.imu_log's "
+                                    "columns) on GPS time: the GNSS/INS solution beside the single-point fixes."),
+    coupling: str = typer.Option("loose", "--coupling", help="With --imu: loose (the fixes into the filter) or "
+                                 "tight (the pseudoranges: fewer than four satellites still help)."),
     duration: float = typer.Option(600.0, "--duration", help="Drive length (s; 1 Hz GNSS)."),
     trials: int = typer.Option(10, "--trials", help="Monte Carlo trials."),
     seed: int = typer.Option(0, "--seed", help="Seed of the run."),
@@ -165,7 +208,8 @@ def position(
 
     _refuse_other_mode(ctx, obs is not None)
     if obs is not None:
-        _real(obs, list(nav or []), systems, reference, start, end, mask_deg, ionosphere, troposphere, out, json_out)
+        _real(obs, list(nav or []), systems, reference, start, end, mask_deg, ionosphere, troposphere, out, json_out,
+              imu, coupling, ins, smooth)
         return
     if nav is not None and len(nav) > 1:
         fail("--nav: a simulated drive takes one navigation file (several are for --obs)")

@@ -10,7 +10,7 @@ Columns (a header row; order free, other columns ignored):
   ``accel_z_m_per_s2`` (or ``..._g``, standard gravity 9.80665 m/s^2).
 
 The samples must be at one rate (the median interval; an interval more than 1 % off it, or a time going
-back, is refused naming its line); a missing value, or text where a number belongs, is refused naming line
+back, is refused naming its line; with ``allow_gaps`` a longer interval is kept as a gap); a missing value, or text where a number belongs, is refused naming line
 and column; ``gps_ns`` must be written as an integer (a float64 such as ``1.4e18`` cannot hold a GPS time
 to the nanosecond). One unit per quantity: a log with both the rad/s and the deg/s gyro columns (or both
 m/s^2 and g) is refused, as the two could disagree. Plausibility: a rate beyond :data:`MAX_GYRO_RAD_PER_S`
@@ -104,8 +104,11 @@ def _columns(frame: pd.DataFrame, stem: str, units: dict[str, float], source: st
     raise InputDataError(f"no {wanted} columns (columns: {', '.join(frame.columns)})", source)
 
 
-def read_imu_csv(path, *, start_gps_ns: int | None = None) -> ImuLog:
-    """Read an IMU log (module docstring). ``start_gps_ns``: GPS time of ``t_s = 0`` for a ``t_s`` column."""
+def read_imu_csv(path, *, start_gps_ns: int | None = None, allow_gaps: bool = False) -> ImuLog:
+    """Read an IMU log (module docstring). ``start_gps_ns``: GPS time of ``t_s = 0`` for a ``t_s`` column;
+    ``allow_gaps``: an interval longer than the log's (a gap: samples lost) is kept, for a caller that
+    reports it (:func:`chronofuse.experiments.real_ins.align_imu`); a shorter, repeated or reversed time is
+    refused all the same."""
     path = Path(path)
     source = str(path)
     if not path.is_file():
@@ -138,7 +141,8 @@ def read_imu_csv(path, *, start_gps_ns: int | None = None) -> ImuLog:
     accel = _columns(frame, "accel", {"m_per_s2": 1.0, "g": _G0}, source, MAX_ACCEL_M_PER_S2, "m/s^2")
     step = np.diff(t)
     median = float(np.median(step))
-    bad = np.flatnonzero((step <= 0) | (np.abs(step - median) > 0.01 * median))
+    off = (step - median > 0.01 * median) if not allow_gaps else np.zeros(step.shape, dtype=bool)
+    bad = np.flatnonzero((step <= 0) | (median - step > 0.01 * median) | off)
     if bad.size:
         k = int(bad[0])
         raise InputDataError(f"line {k + 3}: sample interval {step[k] / NS_PER_S:g} s against the log's "

@@ -36,7 +36,7 @@ from chronofuse.positioning.errors import N_STATES, ErrorModel, apply_correction
 from chronofuse.positioning.ins import InsState, propagate
 from chronofuse.validation import check_array, check_scalar
 
-__all__ = ["TightlyCoupled", "TightResult"]
+__all__ = ["TightlyCoupled", "TightResult", "smooth"]
 
 _MISSING_VAR_M2 = 1e12
 
@@ -45,7 +45,10 @@ _MISSING_VAR_M2 = 1e12
 class TightResult(FrozenResult):
     """Arrays (trials, epochs, ...): corrected INS ``lat_lon_h`` (rad, rad, m), ``v_ned_m_per_s``, the clock
     ``clock_m`` and biases ``isb_m``, the number of pseudoranges used ``n_used``, the posterior covariance
-    diagonal ``P_diag``. Read-only."""
+    diagonal ``P_diag``; for :func:`smooth`, as :class:`chronofuse.positioning.loose.CoupledResult` keeps
+    them: the error-state ``x_prior`` (zeros) and ``x``, ``P_prior``, ``P``, the transitions ``phi``
+    (``phi[:, k]`` carries epoch ``k-1`` to ``k``) and the INS before each update ``lat_lon_h_prior``.
+    Read-only."""
 
     lat_lon_h: np.ndarray
     v_ned_m_per_s: np.ndarray
@@ -53,6 +56,12 @@ class TightResult(FrozenResult):
     isb_m: np.ndarray
     n_used: np.ndarray
     P_diag: np.ndarray
+    x_prior: np.ndarray
+    P_prior: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    phi: np.ndarray
+    lat_lon_h_prior: np.ndarray
 
 
 def _ecef(lat_lon_h: np.ndarray) -> np.ndarray:
@@ -184,7 +193,8 @@ class TightlyCoupled:
         isb_new = isb - dx[:, N_STATES + 2:]
         rec = {"lat_lon_h": corrected.lat_lon_h, "v_ned_m_per_s": corrected.v_ned_m_per_s,
                "clock_m": bias, "isb_m": isb_new, "n_used": ok.sum(-1),
-               "P_diag": np.diagonal(post.P, axis1=-2, axis2=-1)}
+               "P_diag": np.diagonal(post.P, axis1=-2, axis2=-1), "x_prior": pred.x, "P_prior": pred.P,
+               "x": dx, "P": post.P, "phi": phi, "lat_lon_h_prior": prior.lat_lon_h}
         return corrected, ba_new, bg_new, clock_new, isb_new, post.P, rec
 
     def reset(self) -> None:
@@ -239,3 +249,19 @@ class TightlyCoupled:
             for name, v in rec.items():
                 out[name][:, k] = v
         return TightResult(**out)
+
+
+def smooth(result: TightResult) -> np.ndarray:
+    """RTS-smoothed positions (trials, epochs, 3) (rad, rad, m) of a :class:`TightResult`: the recursion of
+    :func:`chronofuse.positioning.loose.smooth` over the whole error state (INS, clock, biases), the prior
+    INS position corrected by the smoothed position error."""
+    from chronofuse.estimation.rts import rts_smooth
+
+    smoothed = rts_smooth(result, result.phi)
+    prior = result.lat_lon_h_prior
+    trials, epochs = prior.shape[:2]
+    flat = InsState(prior.reshape(-1, 3), np.zeros((trials * epochs, 3)),
+                    np.broadcast_to(np.eye(3), (trials * epochs, 3, 3)))
+    zeros = np.zeros((trials * epochs, 3))
+    corrected, _, _ = apply_correction(flat, zeros, zeros, smoothed.x[..., :N_STATES].reshape(-1, N_STATES))
+    return corrected.lat_lon_h.reshape(trials, epochs, 3)
