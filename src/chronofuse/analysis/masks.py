@@ -421,12 +421,14 @@ def _refine_mtie(mask: Mask, wander: np.ndarray, rate_hz: float, factors: np.nda
 def _blind_tdev(res: MaskResult, wander: np.ndarray, rate_hz: float, notes: list[str]) -> MaskResult:
     """``res`` with the TDEV taus left unevaluated where no term the gap rule keeps sees the record's largest
     |dTE|: between two silences closer than a term's 3 tau, a time-error burst is in no term, and TDEV
-    there is that of the rest of the record (a pass that says nothing of the burst). ``notes`` gets why."""
+    there is that of the rest of the record (a pass that says nothing of the burst). Only passing taus are left
+    out: the burst could only raise TDEV, so a tau whose rest of the record already exceeds the limit is a
+    valid failure and stays one. ``notes`` gets why."""
     if not np.isnan(wander).any():
         return res
     magnitude = np.abs(wander)
     blind, where, peak, count = [], 0, 0.0, 0
-    for j in np.flatnonzero(res.evaluated):
+    for j in np.flatnonzero(res.evaluated & res.passed_each):
         m = int(round(res.tau_s[j] * rate_hz))
         unseen = uncovered_samples("tdev", wander, m)
         if unseen.any() and np.nanmax(magnitude[unseen]) > np.nanmax(np.where(unseen, np.nan, magnitude), initial=0.0):
