@@ -177,3 +177,41 @@ def test_clock_limit_by_metric_name():
     np.testing.assert_array_equal(MASKS["prtc-b"].limit_s("tdev", [50.0, 600.0]), [1 * NS, 5 * NS])
     with pytest.raises(ValueError, match="metric"):
         MASKS["prtc-b"].limit_s("adev", [1.0])
+
+
+def test_mtie_crossing_between_octave_taus_fails():
+    """G.8272 Table 1 rises 0.275 ns/s from 25 ns: 25.55 ns at 2 s, 25.825 ns at 3 s, 26.1 ns at 4 s. A step
+    of 25.4 ns over 3 samples and 25.9 ns over 4 gives MTIE(2 s) = 25.4, MTIE(3 s) = MTIE(4 s) = 25.9 ns: the
+    octave taus pass, tau 3 s fails, and the verdict must say so."""
+    x = np.zeros(2000)
+    x[1000:] = [0.0, 12.7, 25.4] + [25.9] * 997
+    verdict = MASKS["prtc-a"].check(x * NS, 1.0)
+    assert verdict.mtie.status == "fail"
+    np.testing.assert_array_equal(verdict.mtie.failing_tau_s, [3.0])
+    assert "MTIE fail at tau 3 s" in verdict.summary()
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_mtie_refinement_matches_every_factor(seed, monkeypatch):
+    """Between its octave and breakpoint factors the MTIE check evaluates every factor the bounds
+    MTIE(a) <= MTIE(m) <= MTIE(b) leave undecided: its failing taus and verdict are those of a brute-force
+    MTIE at every factor against the formula of the table, on random walks with drift near the limit."""
+    import chronofuse.analysis.masks as masks_mod
+
+    monkeypatch.setattr(masks_mod, "_REFINE_SETTLED", 10**9)  # every settled failure evaluated too
+    rng = np.random.default_rng(seed)
+    n = 600
+    x = np.cumsum(rng.normal(0.0, (1.0, 2.0, 4.0)[seed % 3], n)) * NS + 0.27 * NS * np.arange(n)
+    if seed % 4 == 3:
+        x[rng.choice(n, 20, replace=False)] = np.nan
+    clock = MASKS["prtc-a"]
+    res = clock._check_metric(clock.mtie, mtie, x, 1.0, None)
+    m_all = np.arange(1, n // 2 + 1)
+    brute = np.asarray(mtie(x, 1.0, m_all.astype(float)).dev)
+    limit = 0.275e-9 * m_all + 25e-9
+    limit[m_all > 273] = 100e-9
+    failing = m_all[brute > limit * (1 + 1e-12)]
+    np.testing.assert_array_equal(res.failing_tau_s, failing.astype(float))
+    assert res.passed == (failing.size == 0)
+    at = np.rint(res.tau_s).astype(int) - 1
+    np.testing.assert_array_equal(res.value_s, brute[at])

@@ -276,3 +276,31 @@ def test_a_burst_between_silences_is_not_a_tdev_pass_and_gaps_away_from_it_chang
     w = MASKS["prtc-a"].check(far, 1.0)
     np.testing.assert_array_equal(w.tdev.evaluated, base.tdev.evaluated)
     assert "largest |dTE|" not in w.summary()
+
+
+def test_a_blind_tdev_tau_that_already_fails_is_a_fail():
+    """One sample between two silences is seen by no TDEV term, so every tau is "blind" to it; but TDEV
+    without it (white PM of 4 ns rms: TDEV(tau0) = sigma, above G.8262 option 1's 3.2 ns) already exceeds
+    the limit at 1 s, and the sample could only raise it: a FAIL at 1 s, the passing blind taus left out."""
+    rng = np.random.default_rng(5)
+    x = 4.0 * NS * rng.standard_normal(5000)
+    x[100], x[102] = np.nan, np.nan
+    x[101] = 20 * NS  # the largest |dTE|, between the silences
+    quiet = x.copy()
+    quiet[101] = np.nan
+    assert tdev(quiet, 1.0, [1.0]).dev[0] > 3.2 * NS  # the oracle: the rest of the record fails at 1 s
+    v = MASKS["g8262-opt1"].check(x, 1.0)
+    assert v.status == "fail" and v.tdev.status == "fail"
+    assert 1.0 in v.tdev.failing_tau_s.tolist()
+    left_out = v.tdev.tau_s[~v.tdev.evaluated & np.isfinite(v.tdev.limit_s)]
+    assert left_out.size and not np.isin(left_out, v.tdev.failing_tau_s).any()
+    assert "TDEV fail at tau 1 s" in v.summary()
+
+
+def test_summary_says_incomplete_for_a_part_the_record_does_not_cover():
+    """A 200 s record of 0.1 ns white PM passes PRTC-A's TDEV where it reaches, but the table goes to
+    1000 s: that part is "incomplete" in the summary, not "pass"."""
+    x = 0.1 * NS * np.random.default_rng(2).standard_normal(200)
+    v = MASKS["prtc-a"].check(x, 1.0)
+    assert v.tdev.status == "incomplete"
+    assert "TDEV incomplete" in v.summary() and "TDEV pass" not in v.summary()

@@ -95,3 +95,13 @@ def test_mjd_tags_quantised_near_the_step_are_snapped_to_it_not_read_with_invent
     np.testing.assert_array_equal(record.values, np.array(values, dtype=float))
     assert any(f"resolution of {resolution:g} s" in s and "read on a 1 s grid" in s for s in said)
     assert record.jitter_max_s <= resolution  # the rounding, measured from the grid's mean phase
+
+
+def test_a_complete_short_last_line_is_a_value_not_a_truncation(tmp_path):
+    """``99999.0,0`` or ``99999.0,1e-9`` after ``%.15e`` lines, with a line end, are values: nothing said;
+    one cut before its exponent is warned."""
+    lines = ["t,x"] + [f"{k}.0,{v}" for k, v in enumerate(VALUES)]
+    for last in ("40.0,0", "40.0,1e-9"):
+        record, said = _read(_write(tmp_path, "ok.csv", lines + [last]))
+        assert not any("cut short" in s for s in said) and record.values[-1] == float(last.split(",")[1])
+    assert any("cut short" in s for s in _read(_write(tmp_path, "f.csv", lines + ["40.0,-2.69507"]))[1])

@@ -202,7 +202,7 @@ class ClockVerdict:
             bad = res.failing_tau_s
             where = f" at tau {', '.join(f'{t:g}' for t in bad)} s" if bad.size else ""
             label = f"{res.metric.upper()}{' of dTE_L' if self.filtered else ''}"
-            word = {"pass": "pass", "fail": "fail", "incomplete": "pass", "not evaluated": "not evaluated"}[res.status]
+            word = {"pass": "pass", "fail": "fail", "incomplete": "incomplete", "not evaluated": "not evaluated"}[res.status]
             parts.append(f"{label} {word}{where}")
         if self.time_error is not None:
             t = self.time_error

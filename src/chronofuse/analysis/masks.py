@@ -347,7 +347,10 @@ class ClockMasks:
         if factors.size == 0:  # no tau the record gives is in the table
             empty = np.zeros(0)
             return mask.check(empty, empty, interval_s=interval, reach_s=reach)
-        return mask.check(statistic(wander, rate_hz, factors * interval), interval_s=interval, reach_s=reach)
+        values = np.asarray(statistic(wander, rate_hz, factors * interval).dev, dtype=float)
+        if mask.metric == "mtie":
+            factors, values = _refine_mtie(mask, wander, rate_hz, factors, values)
+        return mask.check(factors * interval, values, interval_s=interval, reach_s=reach)
 
     def check_time_error(self, te_s) -> TimeErrorResult:
         """Check a time-error record ``te_s`` (N,) in seconds (NaN: missing) against max |TE|."""
@@ -361,15 +364,71 @@ class ClockMasks:
         return TimeErrorResult(self.name, peak, self.max_abs_te_s, margin, bool(peak <= self.max_abs_te_s))
 
 
+#: Factors of one stretch between two evaluated ones whose fate the bounds already settle as a failure,
+#: beyond which only the worst of them (the smallest limit) is evaluated: the verdict is a failure anyway.
+_REFINE_SETTLED = 64
+#: Undecided factors of one stretch evaluated directly; more are halved first.
+_REFINE_DIRECT = 32
+
+
+def _refine_mtie(mask: Mask, wander: np.ndarray, rate_hz: float, factors: np.ndarray,
+                 values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``factors``/``values`` (MTIE at them) with every factor between two evaluated ones added where the mask
+    could be crossed there.
+
+    MTIE never decreases with tau (a window of ``m + 1`` samples lies inside one of ``m + 2``, missing samples
+    ignored inside a window), so between evaluated factors ``a < b``, ``MTIE(a) <= MTIE(m) <= MTIE(b)``: a factor
+    ``m`` whose limit is at least ``MTIE(b)`` passes, one whose limit is below ``MTIE(a)`` fails, and only
+    the others are undecided. Undecided factors are evaluated (directly when few, else the stretch is halved at
+    the middle one and each half bounded again), so a crossing of the mask between the octave and breakpoint
+    factors is never missed and every failing factor is reported; of more than :data:`_REFINE_SETTLED` settled
+    failures in one stretch only the worst is evaluated."""
+    from chronofuse.analysis.stability import mtie
+
+    interval = 1.0 / rate_hz
+    known = {int(f): float(v) for f, v in zip(factors.tolist(), values.tolist())}
+    finite = [f for f in sorted(known) if np.isfinite(known[f])]
+    stretches = [(a, b) for a, b in zip(finite[:-1], finite[1:]) if b - a > 1]
+    while stretches:
+        ask: set[int] = set()
+        halves: list[tuple[int, int, int]] = []
+        for a, b in stretches:
+            inner = np.arange(a + 1, b, dtype=np.int64)
+            limit = mask.limit_s(inner * interval, interval) * (1.0 + _REL_TOL)
+            covered = np.isfinite(limit)
+            undecided = inner[covered & (known[b] > limit) & (known[a] <= limit)]
+            settled = covered & (known[a] > limit)
+            if settled.sum() > _REFINE_SETTLED:
+                ask.add(int(inner[settled][np.argmin(limit[settled])]))
+            else:
+                ask.update(int(m) for m in inner[settled])
+            if undecided.size <= _REFINE_DIRECT:
+                ask.update(int(m) for m in undecided)
+            else:
+                mid = int(undecided[undecided.size // 2])
+                ask.add(mid)
+                halves.append((a, mid, b))
+        ask -= set(known)
+        if ask:
+            m = np.array(sorted(ask), dtype=np.int64)
+            known.update(zip(m.tolist(), np.asarray(mtie(wander, rate_hz, m * interval).dev, dtype=float).tolist()))
+        stretches = [(lo, hi) for a, mid, b in halves for lo, hi in ((a, mid), (mid, b))
+                     if hi - lo > 1 and np.isfinite(known[lo]) and np.isfinite(known[hi])]
+    order = np.array(sorted(known), dtype=np.int64)
+    return order, np.array([known[int(f)] for f in order])
+
+
 def _blind_tdev(res: MaskResult, wander: np.ndarray, rate_hz: float, notes: list[str]) -> MaskResult:
     """``res`` with the TDEV taus left unevaluated where no term the gap rule keeps sees the record's largest
     |dTE|: between two silences closer than a term's 3 tau, a time-error burst is in no term, and TDEV
-    there is that of the rest of the record (a pass that says nothing of the burst). ``notes`` gets why."""
+    there is that of the rest of the record (a pass that says nothing of the burst). Only passing taus are left
+    out: the burst could only raise TDEV, so a tau whose rest of the record already exceeds the limit is a
+    valid failure and stays one. ``notes`` gets why."""
     if not np.isnan(wander).any():
         return res
     magnitude = np.abs(wander)
     blind, where, peak, count = [], 0, 0.0, 0
-    for j in np.flatnonzero(res.evaluated):
+    for j in np.flatnonzero(res.evaluated & res.passed_each):
         m = int(round(res.tau_s[j] * rate_hz))
         unseen = uncovered_samples("tdev", wander, m)
         if unseen.any() and np.nanmax(magnitude[unseen]) > np.nanmax(np.where(unseen, np.nan, magnitude), initial=0.0):

@@ -590,16 +590,36 @@ def _digits(text: str) -> int:
 
 
 def _check_last_line(path: Path, layout: Layout, found: Scan) -> None:
-    """Warn when the file's last line looks cut short: no line end, or fewer than :data:`TRUNCATED_DIGITS` of
-    the digits of the median sniffed data line (a write interrupted mid-number reads as a valid, wrong value)."""
+    """Warn when the file's last line looks cut short (a write interrupted mid-number reads as a valid, wrong
+    value): no line end and fewer digits than the median sniffed data line; a number of fields other than the
+    lines before; a field ending mid-token (``1.5e``, ``-``, ``3.``); or a field without the exponent every
+    sniffed line writes in that column and with fewer than :data:`TRUNCATED_DIGITS` of its digits (``-2.69507``
+    of ``%.15e`` lines). A complete short value on an ended line (``0``, ``1e-9`` after ``%.12e`` lines) is a
+    value, not a truncation."""
     last = found.last_line
     if not last or last.startswith(_COMMENT):
         return
     typical = sorted(sum(_digits(t) for t in row) for row in layout.rows)
     median = typical[len(typical) // 2] if typical else 0
-    digits = sum(_digits(t) for t in _split(last, layout.delimiter))
-    short = median >= 6 and digits < TRUNCATED_DIGITS * median
+    fields = _split(last, layout.delimiter)
+    digits = sum(_digits(t) for t in fields)
     unended = not found.last_has_newline and digits < median
+    before = [list(row) for row in layout.rows if list(row) != fields] or [list(row) for row in layout.rows]
+
+    def width(row) -> int:  # a delimiter ending every line is no field
+        return len(row) - (len(row) > 1 and row[-1] == "")
+
+    widths = {width(row) for row in before}
+    torn = len(widths) == 1 and width(fields) not in widths
+    mid_token = bool(fields) and fields[-1].strip()[-1:] in ("e", "E", "d", "D", "+", "-", ".")
+    lost = False
+    for j, text in enumerate(fields):
+        column = [row[j] for row in before if len(row) > j]
+        if not column or re.search(r"[eEdD]", text) or not all(re.search(r"\d[eEdD][+-]?\d", t) for t in column):
+            continue
+        usual = sorted(_digits(t) for t in column)[len(column) // 2]
+        lost = lost or (_digits(text) > 1 and usual >= 6 and _digits(text) < TRUNCATED_DIGITS * usual)
+    short = lost or torn or mid_token
     if short or unended:
         why = f"{digits} digits where the lines before have {median}" + ("" if found.last_has_newline else ", and no line end")
         warnings.warn(InputWarning(f"{path}: the last line ({last!r}) looks cut short ({why}): an interrupted "

@@ -308,7 +308,7 @@ def read_record(
                                                  or is_date_time(first_row[choice.time_field]))
     per_unit = None
     if choice.time_field is not None and not stamped:
-        per_unit = _numeric_time_unit(path, layout, choice)
+        per_unit = _numeric_time_unit(path, layout, choice, facts)
     try:
         values, time_data, _ = read_columns(path, layout, choice.value_field, choice.time_field, per_unit)
     except (OSError, EOFError) as exc:
@@ -429,18 +429,32 @@ def _warn_outliers(values: np.ndarray, path: Path, layout: Layout) -> None:
             f"median difference between neighbours, {scale:.3g}): analysed as given; check the file"), stacklevel=3)
 
 
-def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice) -> int | Fraction:
-    """ns per unit of a numeric time column: from its name, else from the magnitude of its first 10 001
-    values (:func:`chronofuse.io.timestamps.infer_time_unit`, which warns), else seconds."""
+def _numeric_time_unit(path: Path, layout: Layout, choice: ColumnChoice, facts=None) -> int | Fraction:
+    """ns per unit of a numeric time column: from its name, else from a header's time clause
+    (``# time units: min``), else from the magnitude of its first 10 001 values
+    (:func:`chronofuse.io.timestamps.infer_time_unit`, which warns), else seconds. A unit word in the name
+    that is not understood is warned about, never silently taken for seconds."""
     per_unit = time_ns_per_unit(choice.time_name) if choice.time_name else None
     if per_unit is not None:
         return per_unit
+    if facts is not None and facts.time_unit is not None:
+        return Fraction(facts.time_unit.scale).limit_denominator(10**15) * 1_000_000_000
+    word = re.search(r"[\(\[]\s*([^\)\]]+?)\s*[\)\]]\s*$|_([A-Za-zµμ]+)$", choice.time_name or "")
+    if word and (word.group(1) or word.group(2)).lower() not in _TIME_SCALE_WORDS:
+        warnings.warn(InputWarning(
+            f"{path}: time column {choice.time_name!r}: unit {(word.group(1) or word.group(2))!r} not understood "
+            "(s, ms, us, ns, min, h, d, mjd are): its unit is inferred from the values, else read as seconds"),
+            stacklevel=3)
     head = [row[choice.time_field] for row in layout.rows if len(row) > choice.time_field]  # the sniffed lines
     try:
         inferred = infer_time_unit(pa.array(head, type=pa.string()), choice.time_name, str(path))
     except (pa.ArrowInvalid, ValueError):
         inferred = None  # text that is no number: the exact conversion names it
     return inferred if inferred is not None else NS_PER_S
+
+
+#: Words in a time column's name that say its time scale, not its unit.
+_TIME_SCALE_WORDS = {"utc", "gps", "tai", "tt", "unix", "local", "gpst", "utc+0", "z"}
 
 
 def _time_tags(text, choice: ColumnChoice, per_unit, path: Path, layout: Layout) -> np.ndarray:
