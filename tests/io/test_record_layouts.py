@@ -271,3 +271,34 @@ def test_a_file_with_no_line_of_data_names_the_first_line_that_could_be_and_why(
     with pytest.raises(InputDataError, match=r"odd.log:3: .*'1.5 apples'.*'apples' is no number") as info:
         read_record(path, rate_hz=1.0)
     assert "\n" not in str(info.value) and "no data lines" not in str(info.value)
+
+
+def test_a_header_unit_line_gives_the_values_unit_and_the_time_unit_clause_by_clause(tmp_path, tic):
+    """``# phase units: ns, time units: s`` was read as values in seconds (the last clause), 1e9 off."""
+    values = tic[:500]
+    path = tmp_path / "clauses.csv"
+    path.write_text("# phase units: ns, time units: min\nt,value\n"
+                    + "".join(f"{k},{float(v) * 1e9!r}\n" for k, v in enumerate(values)))
+    rec = _quietly(path=path)
+    np.testing.assert_allclose(rec.values, values, rtol=1e-12)
+    assert rec.rate_hz == pytest.approx(1.0 / 60.0)
+
+
+@pytest.mark.parametrize(("header", "interval_s"), [("Time (min),Phase (ns)", 60.0), ("time_h,phase_ns", 3600.0),
+                                                    ("t[ms],x[ns]", 1e-3)])
+def test_time_columns_in_minutes_hours_or_milliseconds_give_their_interval(tmp_path, tic, header, interval_s):
+    """``Time (min)`` was read as seconds: a 60 s record at 1 Hz, ADEV 7x off at 60 s."""
+    values = tic[:200]
+    path = tmp_path / "minutes.csv"
+    path.write_text(header + "\n" + "".join(f"{k},{float(v) * 1e9!r}\n" for k, v in enumerate(values)))
+    rec = _quietly(path=path)
+    assert rec.rate_hz == pytest.approx(1.0 / interval_s)
+    np.testing.assert_allclose(rec.values, values, rtol=1e-12)
+
+
+def test_a_time_column_in_a_unit_word_the_reader_does_not_know_is_warned_not_taken_as_seconds(tmp_path, tic):
+    path = tmp_path / "fortnights.csv"
+    path.write_text("time (fortnights),phase (ns)\n" + "".join(f"{k},{float(v) * 1e9!r}\n"
+                                                              for k, v in enumerate(tic[:200])))
+    with pytest.warns(Warning, match="fortnights"):
+        read_record(path=path)
