@@ -60,16 +60,22 @@ def test_a_receiver_reporting_leap_17_with_a_clock_step_is_never_usable_while_th
     assert all(any("dissent" in why for why in r["reasons"]) for r in wrong)
     assert all(any("leap-second table" in why for why in r["reasons"]) for r in wrong)
     honest = [r for r in acked if r["receiver"] != "wrong"]
-    assert all(r["usable"] and not r["reasons"] for r in honest)  # the positive control
+    tested = [r for r in honest if r["state"] in ("ok", "alarm")]
+    assert len(tested) > 180 and all(r["usable"] and not r["reasons"] for r in tested)  # the positive control
+    # before the detector's window is full the integrity test has not tested an epoch: not usable, and says so
+    assert all(not r["usable"] and r["reasons"] == ["integrity not tested (no test statistic)"]
+               for r in honest if r not in tested)
 
 
 def test_a_lone_receiver_with_a_wrong_leap_count_is_not_usable_and_the_table_says_why(tmp_path):
     _, acked = _replay(tmp_path, {"alone": ubx_stream(_bias(40, 4), leap_s=17)})
     assert acked and not any(r["usable"] for r in acked)
     assert not any(r["dissent"] for r in acked)  # nobody to dissent from: the table is the referee
-    assert all(r["reasons"] == ["leap 17 s disagrees with the leap-second table (18 s)"] for r in acked)
+    table = "leap 17 s disagrees with the leap-second table (18 s)"
+    assert all(r["reasons"] == [table] for r in acked if r["state"] == "ok")
+    assert all(r["reasons"] == [table, "integrity not tested (no test statistic)"] for r in acked if r["state"] != "ok")
     _, acked = _replay(tmp_path, {"alone": ubx_stream(_bias(40, 4), leap_s=18)})
-    assert all(r["usable"] for r in acked)
+    assert all(r["usable"] == (r["state"] == "ok") for r in acked) and any(r["usable"] for r in acked)
 
 
 def test_a_receiver_whose_alarm_is_latched_is_not_usable_for_as_long_as_it_is_latched(tmp_path):
@@ -130,7 +136,7 @@ def test_usable_exactly_when_every_condition_holds_and_an_unusable_epoch_names_e
     table = int(gps_minus_utc_s(np.int64(epoch["t_ns"])))
     leap_ok = epoch["leap_s"] == table or (epoch["t_ns"] >= LEAP_TABLE_KNOWN_UNTIL_GPS_NS and epoch["leap_s"] == table + 1)
     expected = (epoch["fix_mode"] >= 2 and epoch["time_valid"] and epoch["gdop"] == epoch["gdop"]
-                and epoch["gdop"] < 5.0 and epoch["n_sats"] >= 4 and epoch["state"] != "alarm"
+                and epoch["gdop"] < 5.0 and epoch["n_sats"] >= 4 and epoch["state"] == "ok"
                 and not epoch["dissent"] and not epoch["jump"] and leap_ok)
     assert out["usable"] == expected
     words = reasons(out["unusable_bits"], epoch, gdop_max=5.0, min_sats=4)

@@ -11,7 +11,8 @@ chronyd's ``refclock SOCK PATH`` driver reads datagrams from a Unix socket it cr
     int magic;           /* 0x534f434b, "SOCK" */
 
 For each decided epoch the feed sends one sample made of the receivers that qualify, and only them: a
-receiver whose record is not usable, is in alarm, dissents on UTC or the leap count, is stale, or jumped
+receiver whose record is not usable, was not tested by the integrity test (training, a failed training, no
+clock bias), is in alarm, dissents on UTC or the leap count, is stale, or jumped
 stops feeding (with none left, nothing is sent: chronyd sees the source fall silent and deselects it,
 rather than being handed a time nobody vouches for). From each feeding receiver:
 
@@ -56,10 +57,11 @@ def sock_sample(tv_unix_ns: int, offset_s: float, leap: int = 0, pulse: bool = F
 
 
 def feeding(record: dict, stale: bool = False) -> bool:
-    """Whether a receiver's record may feed the time server: usable, no alarm, no dissent, no jump, not stale."""
-    alarm = record["state"] == "alarm" if "state" in record else record.get("alarm")
-    return (bool(record.get("usable")) and not alarm and not record.get("alarm") and not record.get("dissent")
-            and not record.get("jump") and not stale)
+    """Whether a receiver's record may feed the time server: usable, tested by the integrity test and found
+    without alarm (its latched ``state`` is ``ok``: an epoch of the training stretch, of a failed training or
+    without a clock bias was never checked and never feeds), no dissent, no jump, not stale."""
+    return (bool(record.get("usable")) and record.get("state") == "ok" and not record.get("alarm")
+            and not record.get("dissent") and not record.get("jump") and not stale)
 
 
 def _utc_unix_ns(record: dict) -> int:

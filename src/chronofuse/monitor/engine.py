@@ -308,6 +308,10 @@ class Monitor:
         r["usable"] = bits == 0
         r["reasons"] = reasons(bits, r, gdop_max=self.settings.gdop_max, min_sats=self.settings.min_sats)
 
+    def _training_reasons(self, receiver: str) -> tuple[str, ...]:
+        rx = self.receivers.get(receiver)
+        return () if rx is None else tuple(rx.watch.reasons)
+
     def _where(self, name: str) -> str:
         """A source as the user named it: a recording's path, else its name (``serial port``, host:port)."""
         source = next(s for s in self.sources if s.name == name)
@@ -347,7 +351,7 @@ class Monitor:
                 self._verdict(r)
                 self.decided[r["receiver"]] = r
             records += group
-        notices = list(notices) + self.tracker.records(records, time.time())
+        notices = list(notices) + self.tracker.records(records, time.time(), self._training_reasons)
         if self.log is not None:
             self.log.append(records, notices)
         if records:

@@ -69,6 +69,8 @@ def _cells(entry: dict, name_width: int) -> dict:
     flags = []
     if last.get("state") == "alarm" or last.get("alarm"):
         flags.append("[red]ALARM[/red]")
+    elif last and last.get("state") not in ("ok", "alarm"):
+        flags.append("[yellow]untested[/yellow]")  # never shown as "no alarm": the test has not run
     if last.get("dissent"):
         flags.append("[yellow]dissent[/yellow]")
     if last.get("jump"):
