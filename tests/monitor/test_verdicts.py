@@ -181,3 +181,40 @@ def test_the_log_queries_count_availability_alarms_and_unusable_runs_as_logged(t
     full = avail[avail["epochs"] == 20]
     assert (full["expected"] == 20.0).all()
     np.testing.assert_allclose(full["availability"], full["usable"] / 20.0)
+
+
+def test_a_receiver_that_connects_but_never_gives_an_epoch_is_stale_from_its_link_up(tmp_path):
+    from chronofuse.monitor.alerts import AlertHooks
+    from chronofuse.monitor.metrics import metrics_text
+
+    rx = TcpReceiver()
+    hooked = tmp_path / "hooked.jsonl"
+    hooks = AlertHooks(command=f"cat >> {hooked}; echo >> {hooked}")
+    events = []
+
+    def on_event(event):
+        events.append(event)
+        hooks(event)
+
+    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="garbage")], KNOWN, stale_s=1.0, on_event=on_event)
+    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 4.0}, daemon=True)
+    runner.start()
+    try:
+        rx.wait_client()
+        fresh = status_document(mon)["receivers"][0]
+        assert not fresh["stale"]  # not before the stale time has passed
+        for _ in range(12):  # bytes that never make an epoch
+            rx.send(bytes(range(256)) * 4)
+            time.sleep(0.2)
+        doc = status_document(mon)
+        entry = doc["receivers"][0]
+        assert entry["link"] == "up" and entry["stale"] is True and entry["usable"] is None  # was never stale
+        assert any(why.startswith("stale: no epoch in") for why in entry["reasons"])
+        assert 'chronofuse_receiver_stale{receiver="garbage"} 1.0' in metrics_text(doc).decode()
+        stale = [e for e in events if e.kind == "stale"]
+        assert len(stale) == 1 and "since the link came up" in stale[0].detail
+    finally:
+        runner.join(10)
+        rx.close()
+        hooks.close()
+    assert '"kind": "stale"' in hooked.read_text()

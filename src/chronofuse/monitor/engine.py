@@ -13,7 +13,8 @@ starts, so the chunk that closes epoch k is the one in which epoch k+1 began; a 
 own receipt time, its TOFF report). An epoch the decoder's reorder buffer holds (:mod:`chronofuse.io.arrival`)
 keeps that arrival and is released after at most :data:`~chronofuse.io.arrival.REORDER_HOLD_S` of wall time
 since it closed. A receiver whose last epoch is older than ``stale_s`` is stale (an
-event, and a reason in its verdict) until epochs come again.
+event, and a reason in its verdict) until epochs come again; one whose link is up but that has not given a
+first epoch (garbage bytes, a silent port) is stale ``stale_s`` after its link came up.
 
 Sources that cannot be had: a source that has not come up within ``connect_timeout_s`` of the start
 (0: at its first failure; a missing file, a serial port that does not exist, a refused connection), or
@@ -94,6 +95,7 @@ class Monitor:
         self._epoch_start_ns: dict[str, int] = {}  # receiver -> arrival (UNIX ns) of the epoch in progress
         self._chunk_wall: dict[str, dict[int, int]] = defaultdict(dict)  # source -> decoder chunk -> UNIX ns
         self._last_arrival_s: dict[str, float] = {}  # receiver -> monotonic arrival of its last epoch
+        self._up_since_s: dict[str, float] = {}  # source -> monotonic time its link (last) came up
         self._started_s = time.monotonic()
         self._last_checks_s = self._last_flush_s = 0.0
         self.check_s = 0.1  # freshness and retry checks, s
@@ -105,6 +107,15 @@ class Monitor:
         """Seconds since the receiver's last epoch arrived (None: none yet)."""
         last = self._last_arrival_s.get(receiver)
         return None if last is None else (time.monotonic() if now_s is None else now_s) - last
+
+    def silent_s(self, receiver: str, now_s: float | None = None) -> float | None:
+        """Seconds without an epoch: since its last epoch, or, before its first, since its link came up (a
+        receiver that connects and sends nothing decodable is silent too); None: no epoch and no link."""
+        age = self.age_s(receiver, now_s)
+        if age is not None:
+            return age
+        up = self._up_since_s.get(receiver)
+        return None if up is None else (time.monotonic() if now_s is None else now_s) - up
 
     def is_stale(self, receiver: str) -> bool:
         return self.tracker.is_stale(receiver)
@@ -155,7 +166,9 @@ class Monitor:
                 for each in self._of_source(ev.source):
                     each.connected = True
                 self._ever_up.add(ev.source)
+                self._up_since_s[ev.source] = ev.time_s or time.monotonic()
             elif ev.kind in ("down", "end"):
+                self._up_since_s.pop(ev.source, None)
                 if rx.connected and ev.kind == "down":
                     rx.outages += 1
                 for each in self._of_source(ev.source):
@@ -267,7 +280,8 @@ class Monitor:
         for name in self.receivers:
             if self._source_of[name] in self._ended:
                 continue  # a recording read to its end is not silent
-            out += self.tracker.freshness(name, self.age_s(name, now), self.stale_s, wall_s)
+            out += self.tracker.freshness(name, self.silent_s(name, now), self.stale_s, wall_s,
+                                          first=self.age_s(name, now) is None)
         return out
 
     def _check_connect(self, name: str, reason: str, final: bool) -> None:

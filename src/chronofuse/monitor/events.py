@@ -106,15 +106,17 @@ class EventTracker:
         st = self._state(receiver)
         return None if st.down_since_s is None else wall_s - st.down_since_s
 
-    def freshness(self, receiver: str, age_s: float | None, stale_s: float, wall_s: float) -> list[MonitorEvent]:
-        """The receiver's last epoch is ``age_s`` old (None: none yet): ``stale`` once it passes
-        ``stale_s``, ``fresh`` when epochs come again."""
+    def freshness(self, receiver: str, age_s: float | None, stale_s: float, wall_s: float,
+                  first: bool = False) -> list[MonitorEvent]:
+        """The receiver's last epoch is ``age_s`` old (None: none yet and no link; ``first``: none yet, its
+        link up for ``age_s``): ``stale`` once it passes ``stale_s``, ``fresh`` when epochs come again."""
         st = self._state(receiver)
         if age_s is None or st.link == "ended":
             return []
         if age_s > stale_s and st.stale_since_s is None:
             st.stale_since_s = wall_s - age_s
-            return [MonitorEvent(receiver, "stale", wall_s, f"no epoch for {age_s:.1f} s (stale after {stale_s:g} s)")]
+            what = f"no epoch in {age_s:.1f} s since the link came up" if first else f"no epoch for {age_s:.1f} s"
+            return [MonitorEvent(receiver, "stale", wall_s, f"{what} (stale after {stale_s:g} s)")]
         if age_s <= stale_s and st.stale_since_s is not None:
             silent = wall_s - age_s - st.stale_since_s
             st.stale_since_s = None
