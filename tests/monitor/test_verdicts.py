@@ -218,3 +218,57 @@ def test_a_receiver_that_connects_but_never_gives_an_epoch_is_stale_from_its_lin
         rx.close()
         hooks.close()
     assert '"kind": "stale"' in hooked.read_text()
+
+
+def _gps_ns(utc: str) -> int:
+    from chronofuse.timescale import utc_to_gps_ns
+
+    return int(utc_to_gps_ns(np.datetime64(utc, "ns")))
+
+
+def test_a_pending_leap_second_is_checked_against_the_calendar_and_the_table():
+    from chronofuse.discipline.verdict import pending_leap_why
+
+    assert pending_leap_why(_gps_ns("2016-12-31T12:00:00"), 17, +1) is None  # the leap second of 2016
+    assert "end of June or December" in pending_leap_why(_gps_ns("2024-02-05T03:46:40"), 18, +1)
+    assert "end of June or December" in pending_leap_why(_gps_ns("2016-12-20T12:00:00"), 17, +1)  # days too early
+    assert "not in the leap-second table" in pending_leap_why(_gps_ns("2015-12-31T12:00:00"), 17, +1)
+    assert "not in the leap-second table" in pending_leap_why(_gps_ns("2016-12-31T12:00:00"), 17, -1)
+    assert "not in the leap-second table" in pending_leap_why(_gps_ns("2025-12-31T12:00:00"), 18, +1)  # Bulletin C 70
+    assert pending_leap_why(_gps_ns("2026-06-30T12:00:00"), 18, +1) is None  # one the table cannot know yet
+    assert pending_leap_why(_gps_ns("2024-02-05T03:46:40"), 18, 0) is None
+    common = dict(fix_mode=3, time_valid=True, gdop=1.5, n_sats=9, alarm=False, dissent=False, jump=False,
+                  gdop_max=5.0, min_sats=4, leap_s=18)
+    t = np.array([_gps_ns("2024-02-05T03:46:40"), _gps_ns("2026-06-30T12:00:00")])
+    assert verdict_bits(t_ns=t, leap_pending=np.array([1, 1]), **common).tolist()[1] == 0
+    assert verdict_bits(t_ns=t, leap_pending=np.array([1, 1]), **common).tolist()[0] != 0
+
+
+def test_a_bogus_pending_leap_is_not_usable_and_never_sent_to_chronyd(tmp_path):
+    from pyubx2 import GET, UBXMessage
+
+    from chronofuse.monitor.chrony import ChronySockFeed
+
+    epochs = ubx_epochs(_bias(40, 8))
+    timels = [UBXMessage("NAV", "NAV-TIMELS", GET, iTOW=(100_000 + k) * 1000, version=0, srcOfCurrLs=2, currLs=18,
+                         srcOfLsChange=2, lsChange=1, timeToLsEvent=50_000, dateOfLsGpsWn=WEEK, dateOfLsGpsDn=5,
+                         validCurrLs=1, validTimeToLsEvent=1).serialize() for k in range(40)]
+    streams = {"bogus": b"".join(ls + e for ls, e in zip(timels, epochs)), "honest1": ubx_stream(_bias(40, 9)),
+               "honest2": ubx_stream(_bias(40, 10))}
+    _, acked = _replay(tmp_path, streams)
+    bogus = [r for r in acked if r["receiver"] == "bogus"]
+    assert len(bogus) == 40 and all(r["leap_pending"] == 1 for r in bogus)  # February 2024: it cannot be
+    assert not any(r["usable"] for r in bogus)  # was fed to chronyd as leap=1
+    assert all(any("a leap second comes only at the end of June or December" in why for why in r["reasons"])
+               for r in bogus)
+    feed = ChronySockFeed(str(tmp_path / "none.sock"))
+    by_epoch = {}
+    for r in acked:
+        by_epoch.setdefault(r["gps_ns"], []).append(r)
+    samples = [feed.sample(group) for group in by_epoch.values()]
+    assert any(s is not None for s in samples)  # the honest ones feed
+    assert all(s[2] == 0 and "bogus" not in s[3] for s in samples if s is not None)
+    # two feeding receivers, one announcing: no majority, no leap sent
+    pair = [dict(r, leap_pending=p) for r, p in zip(by_epoch[bogus[-1]["gps_ns"]][1:], (1, 0))]
+    pair = [dict(r, usable=True, state="ok", dissent=False, jump=False) for r in pair]
+    assert feed.sample(pair)[2] == 0

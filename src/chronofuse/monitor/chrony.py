@@ -25,7 +25,9 @@ rather than being handed a time nobody vouches for). From each feeding receiver:
 
 Fusion: receivers with a PPS edge outrank those without (microseconds against milliseconds); among the
 best kind, the sample of the median offset is sent (a lone outlier cannot move it). The leap status sent
-is the feeding receivers' announced pending leap (majority), 0 when none.
+is the feeding receivers' announced pending leap when a strict majority of them announce it, else 0; a
+receiver announcing a leap second that cannot be (outside the last days of June or December, or one the
+leap-second table does not have while it is known complete) is not usable, so it does not feed.
 
 A replayed recording is years away from the system clock; ``shift_to_now`` moves its UTC labels by a
 whole number of seconds, chosen at the first sample, so that chronyd sees the replay's own timing as a
@@ -123,7 +125,8 @@ class ChronySockFeed:
         offsets = sorted(((_utc_unix_ns(r) + self.shift_ns - tv) / NS_PER_S, tv, r) for tv, r in chosen)
         offset_s, tv, _ = offsets[(len(offsets) - 1) // 2]
         votes = Counter(int(r.get("leap_pending", 0)) for _, r in chosen)
-        leap = _LEAP.get(votes.most_common(1)[0][0], 0)
+        pending, n = votes.most_common(1)[0]
+        leap = _LEAP.get(pending, 0) if 2 * n > len(chosen) else 0  # a leap only a strict majority announces
         return tv, offset_s, leap, sorted(r["receiver"] for _, r in chosen)
 
     def _send(self, tv_ns: int, offset_s: float, leap: int, names: list[str]) -> bool:

@@ -317,7 +317,8 @@ class Monitor:
         bits = self._verdict_stage.step({"t_ns": r["gps_ns"], "fix_mode": r["fix_mode"], "time_valid": r["time_valid"],
                                          "gdop": r["gdop"], "n_sats": r["n_sats"], "leap_s": r["leap_s"],
                                          "state": r.get("state", "alarm" if r.get("alarm") else "ok"),
-                                         "dissent": r["dissent"], "jump": r["jump"]})["unusable_bits"]
+                                         "dissent": r["dissent"], "jump": r["jump"],
+                                         "leap_pending": r.get("leap_pending", 0)})["unusable_bits"]
         r["qualified"] = bool(r["usable"])
         r["usable"] = bits == 0
         r["reasons"] = reasons(bits, r, gdop_max=self.settings.gdop_max, min_sats=self.settings.min_sats)
