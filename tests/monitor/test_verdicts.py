@@ -272,3 +272,17 @@ def test_a_bogus_pending_leap_is_not_usable_and_never_sent_to_chronyd(tmp_path):
     pair = [dict(r, leap_pending=p) for r, p in zip(by_epoch[bogus[-1]["gps_ns"]][1:], (1, 0))]
     pair = [dict(r, usable=True, state="ok", dissent=False, jump=False) for r in pair]
     assert feed.sample(pair)[2] == 0
+
+
+def test_a_receiver_labelling_its_time_a_whole_second_off_dissents_on_arrival(tmp_path):
+    # no epoch of it shares a GPS time with the others' as it arrives: the GPS-time vote never saw it
+    streams = {"honest1": ubx_stream(_bias(60, 11)), "honest2": ubx_stream(_bias(60, 12)),
+               "late": ubx_stream(_bias(60, 13), start_tow_s=100_001)}
+    _, acked = _replay(tmp_path, streams)
+    late = [r for r in acked if r["receiver"] == "late"]
+    assert len(late) == 60 and all(r["dissent"] and r["dissent_s"] == 1 for r in late)  # was dissent 0
+    assert not any(r["usable"] for r in late)
+    assert all("time dissent: labelled +1 s from the other receivers' time (on arrival)" in r["reasons"] for r in late)
+    honest = [r for r in acked if r["receiver"] != "late"]
+    assert len(honest) == 120 and not any(r["dissent"] for r in honest)  # the positive control
+    assert any(r["usable"] for r in honest)

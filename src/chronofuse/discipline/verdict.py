@@ -114,10 +114,11 @@ def pending_leap_why(t_ns: int, leap_s: int, pending: int) -> str | None:
 def _pending_wrong(t_ns, leap_s, leap_pending) -> np.ndarray:
     t_ns, leap_s, pend = np.broadcast_arrays(np.asarray(t_ns, dtype=np.int64), np.asarray(leap_s, dtype=np.int64),
                                              np.asarray(leap_pending, dtype=np.int64))
-    out = np.zeros(t_ns.shape, dtype=bool)
-    for k in zip(*np.nonzero(pend)):
-        out[k] = pending_leap_why(int(t_ns[k]), int(leap_s[k]), int(pend[k])) is not None
-    return out
+    t, lp, pd = t_ns.reshape(-1), leap_s.reshape(-1), pend.reshape(-1)
+    out = np.zeros(t.shape, dtype=bool)
+    for k in np.flatnonzero(pd):
+        out[k] = pending_leap_why(int(t[k]), int(lp[k]), int(pd[k])) is not None
+    return out.reshape(t_ns.shape)
 
 
 def verdict_bits_one(fix_mode, time_valid, gdop, n_sats, leap_s, t_ns, alarm, dissent, jump, untested=False,
@@ -179,7 +180,11 @@ def reasons(bits: int, epoch: dict, *, gdop_max: float, min_sats: int, stale_s: 
     if bits & ALARM:
         out.append("integrity alarm (latched)")
     if bits & DISSENT:
-        out.append(f"UTC/leap dissent: leap {int(epoch['leap_s'])} s against the other receivers")
+        off = int(epoch.get("dissent_s") or 0)
+        if off:
+            out.append(f"time dissent: labelled {off:+d} s from the other receivers' time (on arrival)")
+        else:
+            out.append(f"UTC/leap dissent: leap {int(epoch['leap_s'])} s against the other receivers")
     if bits & LEAP_TABLE:
         table = int(gps_minus_utc_s(np.int64(epoch["gps_ns"] if "gps_ns" in epoch else epoch["t_ns"])))
         out.append(f"leap {int(epoch['leap_s'])} s disagrees with the leap-second table ({table} s)")

@@ -227,8 +227,12 @@ class SourceGroup:
 
     def start(self) -> SourceGroup:
         for source in self.sources:
-            def emit(kind, data=b"", _name=source.name):
-                event = SourceEvent(_name, kind, data, time.monotonic(), time.time_ns())
+            def emit(kind, data=b"", at_s=None, _name=source.name):
+                # ``at_s``: the monotonic instant the data is due (a replay's schedule), stamped as its arrival
+                mono, wall = time.monotonic(), time.time_ns()
+                if at_s is not None and at_s < mono:
+                    mono, wall = at_s, wall - int(round((mono - at_s) * 1e9))
+                event = SourceEvent(_name, kind, data, mono, wall)
                 while not self._stop.is_set():  # a full queue waits for the consumer, not past a stop
                     try:
                         self.events.put(event, timeout=0.1)

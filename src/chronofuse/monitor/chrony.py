@@ -122,7 +122,8 @@ class ChronySockFeed:
         if self.shift_ns is None:
             tv, r = chosen[0]
             self.shift_ns = round((tv - _utc_unix_ns(r)) / NS_PER_S) * NS_PER_S
-        offsets = sorted(((_utc_unix_ns(r) + self.shift_ns - tv) / NS_PER_S, tv, r) for tv, r in chosen)
+        offsets = sorted((((_utc_unix_ns(r) + self.shift_ns - tv) / NS_PER_S, tv, r) for tv, r in chosen),
+                         key=lambda item: item[:2])  # two equal samples: never compare the records
         offset_s, tv, _ = offsets[(len(offsets) - 1) // 2]
         votes = Counter(int(r.get("leap_pending", 0)) for _, r in chosen)
         pending, n = votes.most_common(1)[0]

@@ -16,6 +16,13 @@ since it closed. A receiver whose last epoch is older than ``stale_s`` is stale 
 event, and a reason in its verdict) until epochs come again; one whose link is up but that has not given a
 first epoch (garbage bytes, a silent port) is stale ``stale_s`` after its link came up.
 
+Time dissent on arrival: the UTC/leap consensus compares the receivers' epochs of one GPS time; a receiver
+labelling every epoch whole seconds off has no epoch at the others' GPS times to be compared with. So each
+receiver's UTC label is also compared with its epochs' arrival: live receivers on the system clock, replays
+sharing a start on their schedule (times their speed); one whose label minus arrival is more than
+:data:`TIME_DISSENT_S` from the others' (the median of all, or the other one's when there are two) dissents
+(``dissent_s``: by how many seconds). A file read as fast as it can be has no arrival to compare.
+
 Sources that cannot be had: a source that has not come up within ``connect_timeout_s`` of the start
 (0: at its first failure; a missing file, a serial port that does not exist, a refused connection), or
 whose link has been down for longer than ``reconnect_timeout_s`` (None: retried for ever, with backoff),
@@ -26,8 +33,9 @@ Every outage is one ``link_down`` event with its reason and one ``link_up`` with
 
 from __future__ import annotations
 
+import statistics
 import time
-from collections import defaultdict
+from collections import defaultdict, deque
 from datetime import datetime, timedelta
 
 from chronofuse.discipline.verdict import ReceiverVerdict, reasons
@@ -47,6 +55,25 @@ class SourceUnavailable(InputDataError):
 
 
 _GPS_EPOCH = datetime(1980, 1, 6)
+#: A receiver whose labelled time, against its epochs' arrival, is this far from the others' dissents (s):
+#: whole seconds apart less the receivers' different output latencies (well under half a second).
+TIME_DISSENT_S = 0.5
+#: Other receivers' epochs compared with one are those that arrived within this much wall time of it (s).
+_COMPARE_WITHIN_S = 10.0
+
+
+def _timeline(source):
+    """Which receivers' arrivals can be compared: live ones on the system clock (speed 1); replays sharing a
+    start on their schedule (times their speed); a file read as fast as it can be: none (None)."""
+    from chronofuse.io.replay import ReplaySource
+    from chronofuse.io.sources import FileSource
+
+    if isinstance(source, ReplaySource):
+        start = source.start_at
+        return ("replay", id(start) if start is not None else source.name), source.speed
+    if isinstance(source, FileSource):
+        return None if source.rate_bytes_s is None else (("file", source.name), 1.0)
+    return ("live",), 1.0
 
 
 def _utc_label(gps_ns: int, leap_s: int) -> str:
@@ -96,6 +123,9 @@ class Monitor:
         self._chunk_wall: dict[str, dict[int, int]] = defaultdict(dict)  # source -> decoder chunk -> UNIX ns
         self._last_arrival_s: dict[str, float] = {}  # receiver -> monotonic arrival of its last epoch
         self._up_since_s: dict[str, float] = {}  # source -> monotonic time its link (last) came up
+        self._timelines = {s.name: _timeline(s) for s in self.sources}
+        self._origins: dict = {}  # timeline -> its first arrival (UNIX ns)
+        self._label_offsets: dict[str, deque] = {}  # receiver -> recent (arrival ns, label - arrival ns)
         self._started_s = time.monotonic()
         self._last_checks_s = self._last_flush_s = 0.0
         self.check_s = 0.1  # freshness and retry checks, s
@@ -340,8 +370,48 @@ class Monitor:
         pps = self._arrivals.pop(key + ("pps",), None)
         if pps is not None:
             record["pps_unix_ns"] = pps
+        self._note_label(record)
         self._pending[record["gps_ns"]].append(record)
         self._pending_since.setdefault(record["gps_ns"], time.monotonic())
+
+    def _note_label(self, record: dict) -> None:
+        """The receiver's UTC label against its epoch's arrival, on its timeline (see :func:`_timeline`)."""
+        timeline = self._timelines.get(self._source_of.get(record["receiver"], record["receiver"]))
+        arrival = record.get("received_unix_ns")
+        if timeline is None or arrival is None:
+            return
+        key, speed = timeline
+        origin = self._origins.setdefault(key, int(arrival))
+        label = int(record["gps_ns"]) - int(record["leap_s"]) * 1_000_000_000
+        offsets = self._label_offsets.setdefault(record["receiver"], deque(maxlen=5))
+        offsets.append((int(arrival), label - int(round((int(arrival) - origin) * speed))))
+
+    def _time_dissent(self, r: dict) -> None:
+        """Compare ``r``'s labelled time with the other receivers' on arrival (module docstring): a receiver
+        whose labels are whole seconds from the others' dissents, though no epoch of it shares a GPS time
+        with theirs."""
+        name = r["receiver"]
+        timeline = self._timelines.get(self._source_of.get(name, name))
+        mine = self._label_offsets.get(name)
+        if timeline is None or not mine or r.get("received_unix_ns") is None:
+            return
+        arrival = int(r["received_unix_ns"])
+        within = int(_COMPARE_WITHIN_S * 1e9)
+        own = statistics.median(d for _, d in mine)
+        others = []
+        for other, offsets in self._label_offsets.items():
+            if other == name or not offsets or \
+                    self._timelines.get(self._source_of.get(other, other)) != timeline:
+                continue
+            if abs(offsets[-1][0] - arrival) <= within:
+                others.append(statistics.median(d for _, d in offsets))
+        if not others:
+            return
+        ref = others[0] if len(others) == 1 else statistics.median(others + [own])
+        off_s = (own - ref) / 1e9
+        if abs(off_s) > TIME_DISSENT_S:
+            r["dissent"] = True
+            r["dissent_s"] = int(round(off_s)) or (1 if off_s > 0 else -1)
 
     def _flush(self, final: bool, notices: list[MonitorEvent] = ()) -> None:
         now = time.monotonic()
@@ -363,6 +433,7 @@ class Monitor:
             self._pending_since.pop(gps_ns)
             decide_second(group, self.settings.jump_s, self._previous_bias)
             for r in group:
+                self._time_dissent(r)
                 self._verdict(r)
                 self.decided[r["receiver"]] = r
             records += group

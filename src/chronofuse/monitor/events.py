@@ -173,4 +173,7 @@ def _alarm_detail(r: dict) -> str:
 
 
 def _dissent_detail(r: dict) -> str:
+    off = int(r.get("dissent_s") or 0)
+    if off:
+        return f"at {r.get('utc', r['gps_ns'])}, its time {off:+d} s from the other receivers' (on arrival)"
     return f"at {r.get('utc', r['gps_ns'])}, its leap count {r.get('leap_s')} s"
