@@ -21,17 +21,25 @@ def register(app: typer.Typer) -> None:
     app.command("monitor")(monitor)
 
 
-def _replay_source(path: Path, speed: float, index: int, start_at):
-    """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
-    from chronofuse.io.replay import ReplaySource
-
+def _check_recording(path: Path) -> None:
+    """Refuse a file that is not a receiver recording (empty, garbage, a clock-bias text file): it would be
+    read as no epochs at all, and the run would end at once, silently."""
     from chronofuse.io.formats import CAPTURE_FORMATS, capture_format
 
     if not path.is_file():
         fail(f"{path}: no such file")
-    if capture_format(path) is None:  # a clock-bias text file would replay as no epochs at all
+    if path.stat().st_size == 0:
+        fail(f"{path}: empty, not a receiver recording")
+    if capture_format(path) is None:
         fail(f"{path}: not a receiver recording ({', '.join(CAPTURE_FORMATS)}); detect FILE or detect - read "
              "clock-bias text files")
+
+
+def _replay_source(path: Path, speed: float, index: int, start_at):
+    """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
+    from chronofuse.io.replay import ReplaySource
+
+    _check_recording(path)
     return ReplaySource(path, name=f"{path.name}#{index}", speed=speed, start_at=start_at)
 
 
@@ -99,6 +107,8 @@ def monitor(
             path = getattr(source, "path", None)
             if path is not None and not path.exists():
                 fail(f"{path}: no such file (a source is serial:PORT, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file)")
+            if path is not None:
+                _check_recording(path)
         from chronofuse.io.replay import SharedStart
 
         start_at = SharedStart()  # the replays' first epochs together (GPS-locked receivers are)
