@@ -138,7 +138,10 @@ def monitor(
     outputs = LiveOutputs(json_lines=json_lines, lines_file=lines_file, http_address=address, on_alarm=on_alarm,
                           webhook=webhook, chrony_sock=chrony_sock, replayed=bool(replay),
                           table=err_console.is_terminal and not (json_out or no_table or quiet), console=err_console)
+    with user_errors():
+        outputs.listen()  # --http: a port in use or an address not on this host, refused before the run
     from chronofuse.monitor.engine import Monitor, SourceUnavailable
+    from chronofuse.monitor.live_outputs import OutputClosed
 
     mon = Monitor(chosen, settings, log=log, on_ack=outputs.records, on_event=outputs.event, stale_s=stale_s,
                   connect_timeout_s=connect, reconnect_timeout_s=reconnect)
@@ -149,7 +152,7 @@ def monitor(
             mon.run(duration, on_tick=outputs.tick)
     except SourceUnavailable as err:
         gave_up = str(err)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, OutputClosed):  # Ctrl-C, or the reader of --json-lines went away: quietly
         pass
     finally:
         if log is not None:

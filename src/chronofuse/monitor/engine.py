@@ -58,6 +58,8 @@ _GPS_EPOCH = datetime(1980, 1, 6)
 #: A receiver whose labelled time, against its epochs' arrival, is this far from the others' dissents (s):
 #: whole seconds apart less the receivers' different output latencies (well under half a second).
 TIME_DISSENT_S = 0.5
+#: Dropped frames are reported at most this often per source (s).
+_DROPPED_EVERY_S = 10.0
 #: Other receivers' epochs compared with one are those that arrived within this much wall time of it (s).
 _COMPARE_WITHIN_S = 10.0
 
@@ -126,6 +128,8 @@ class Monitor:
         self._timelines = {s.name: _timeline(s) for s in self.sources}
         self._origins: dict = {}  # timeline -> its first arrival (UNIX ns)
         self._label_offsets: dict[str, deque] = {}  # receiver -> recent (arrival ns, label - arrival ns)
+        self._dropped_seen: dict[str, int] = {}  # source -> frames its decoder dropped, reported
+        self._dropped_at: dict[str, float] = {}  # source -> when that was last reported (UNIX s)
         self._started_s = time.monotonic()
         self._last_checks_s = self._last_flush_s = 0.0
         self.check_s = 0.1  # freshness and retry checks, s
@@ -190,6 +194,7 @@ class Monitor:
                 parts = self.decoders[ev.source].decode(ev.data)
                 self._received(ev.source, parts, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
                 self._take(ev.source, parts)
+                notices += self._dropped_frames(ev.source, wall_s)
                 continue
             reason = ev.data if isinstance(ev.data, str) else ""
             if ev.kind == "up":
@@ -223,6 +228,21 @@ class Monitor:
         if notices or now - self._last_flush_s >= self.flush_s:  # one commit per flush interval, not per chunk
             self._last_flush_s = now
             self._flush(final=False, notices=notices)
+
+    def _dropped_frames(self, source: str, wall_s: float) -> list[MonitorEvent]:
+        """A ``frame_dropped`` event when the source's decoder dropped frames it could not read (a corrupt
+        week or date, a payload pyubx2 refuses): at most one every :data:`_DROPPED_EVERY_S`, with the count
+        since the last and the latest reason; the other frames, and the other receivers, go on."""
+        stats = getattr(self.decoders[source], "ubx_stats", None)
+        if stats is None or stats.parse_errors <= self._dropped_seen.get(source, 0):
+            return []
+        last = self._dropped_at.get(source)
+        if last is not None and wall_s - last < _DROPPED_EVERY_S:
+            return []
+        n = stats.parse_errors - self._dropped_seen.get(source, 0)
+        self._dropped_seen[source], self._dropped_at[source] = stats.parse_errors, wall_s
+        why = stats.errors[-1][1] if stats.errors else "unreadable frame"
+        return [MonitorEvent(source, "frame_dropped", wall_s, f"{n} frame(s) dropped, the latest: {why}")]
 
     def _of_source(self, source: str) -> list[ReceiverMonitor]:
         return [rx for name, rx in self.receivers.items() if self._source_of[name] == source]

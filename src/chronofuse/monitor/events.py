@@ -11,6 +11,7 @@ duration and the number of attempts), not twenty. Kinds:
 ``alarm_raised`` / ``alarm_cleared``   the integrity alarm of the receiver's clock bias
 ``dissent`` / ``dissent_cleared``      its UTC label or leap count disagrees with the others (or the table)
 ``jump``                      a clock-bias jump of its own (instantaneous)
+``frame_dropped``             frames its decoder could not read (a corrupt week or date): dropped, counted
 ``training_failed``           the integrity test could not be trained (too few valid epochs in the training
                               stretch): its epochs stay untested, never usable, until the grid starts again
 
@@ -27,7 +28,7 @@ from dataclasses import asdict, dataclass, field
 __all__ = ["MonitorEvent", "EventTracker", "EVENT_KINDS", "ALARM_KINDS"]
 
 EVENT_KINDS = ("link_down", "link_up", "ended", "stale", "fresh", "alarm_raised", "alarm_cleared", "dissent",
-               "dissent_cleared", "jump", "training_failed")
+               "dissent_cleared", "jump", "training_failed", "frame_dropped")
 #: The events an alert hook fires on: a new problem with a receiver (its clearing is not an alert).
 ALARM_KINDS = ("alarm_raised", "dissent", "stale", "link_down", "jump", "training_failed")
 
