@@ -95,6 +95,16 @@ def monitor(
         fail(f"--stale-s {stale_s}: must be > 0 s")
     if window < 1:
         fail(f"--window {window}: must be >= 1")
+    if duration is not None and not duration > 0:
+        fail(f"--duration {duration:g}: must be > 0 s")
+    if not jump_ns > 0:
+        fail(f"--jump-ns {jump_ns:g}: must be > 0 ns")
+    if webhook is not None:
+        from urllib.parse import urlsplit
+
+        url = urlsplit(webhook)
+        if url.scheme not in ("http", "https") or not url.hostname:
+            fail(f"--webhook {webhook!r}: not an http:// or https:// URL with a host")
     if not 0.0 < pfa < 1.0:
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     connect = _timeout(connect_timeout_s, "--connect-timeout-s")
