@@ -159,6 +159,11 @@ class ReceiverMonitor:
         self.watch.close()
         return self._release(final=True)
 
+    def flush(self) -> list[dict]:
+        """Every epoch still held, with the verdicts decided so far (the link went down: they are not held
+        through the outage); the grid and the watch go on with the epochs after it."""
+        return self._release(final=True)
+
     def decide(self, epoch: dict) -> dict:
         """One decoded epoch (a dict of ``gps_ns`` and the receiver fields): its record, ``usable`` set at once,
         the integrity fields once decided (released by :meth:`take`, :meth:`close`)."""

@@ -161,14 +161,18 @@ class Monitor:
         group = SourceGroup(self.sources).start()
         start = last_tick = self._started_s = time.monotonic()
         try:
-            while len(self._ended) < len(self.sources):
-                if duration_s is not None and time.monotonic() - start >= duration_s:
-                    break
-                self.step(group, timeout_s=min(tick_s, 0.25))
-                if on_tick is not None and time.monotonic() - last_tick >= tick_s:
-                    on_tick(self)
-                    last_tick = time.monotonic()
-            self._flush(final=True)
+            try:
+                while len(self._ended) < len(self.sources):
+                    if duration_s is not None and time.monotonic() - start >= duration_s:
+                        break
+                    self.step(group, timeout_s=min(tick_s, 0.25))
+                    if on_tick is not None and time.monotonic() - last_tick >= tick_s:
+                        on_tick(self)
+                        last_tick = time.monotonic()
+            except KeyboardInterrupt:
+                self._finish()
+                raise
+            self._finish()
         except SourceUnavailable:
             self._flush(final=True)
             raise
@@ -176,6 +180,14 @@ class Monitor:
             group.stop()
             if on_tick is not None:
                 on_tick(self)
+
+    def _finish(self) -> None:
+        """The end of the run (every source ended, ``duration_s`` passed, Ctrl-C): the epochs still in a
+        decoder or held for a verdict are decided and logged, not dropped."""
+        for source in self.sources_by_name:
+            if source not in self._ended:
+                self._drain(source, time.time_ns(), time.monotonic(), close=True)
+        self._flush(final=True)
 
     def step(self, group: SourceGroup, timeout_s: float = 0.25, max_events: int = 256) -> None:
         """One pass: drain up to ``max_events`` source events, decide and commit what is ready."""
@@ -206,6 +218,8 @@ class Monitor:
                 self._up_since_s.pop(ev.source, None)
                 if rx.connected and ev.kind == "down":
                     rx.outages += 1
+                    self._drain(ev.source, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic(),
+                                close=False)
                 for each in self._of_source(ev.source):
                     each.connected = False
                 if ev.kind == "end":
@@ -243,6 +257,18 @@ class Monitor:
         self._dropped_seen[source], self._dropped_at[source] = stats.parse_errors, wall_s
         why = stats.errors[-1][1] if stats.errors else "unreadable frame"
         return [MonitorEvent(source, "frame_dropped", wall_s, f"{n} frame(s) dropped, the latest: {why}")]
+
+    def _drain(self, source: str, wall_ns: int, mono_s: float, close: bool) -> None:
+        """Everything of ``source`` received but not yet handed on, handed on now: the epoch its decoder has
+        in progress and the epochs its receivers hold for their verdicts (a link that went down, the end of
+        the run). ``close``: the end (the grid closed, its last verdicts given); else the link is down and
+        the grid goes on after it, the epochs released without a verdict not yet decided (untested)."""
+        parts = self.decoders[source].finish()
+        self._received(source, parts, wall_ns, mono_s)
+        self._take(source, parts)
+        for each in self._of_source(source):
+            for record in (each.close() if close else each.flush()):
+                self._add(record)
 
     def _of_source(self, source: str) -> list[ReceiverMonitor]:
         return [rx for name, rx in self.receivers.items() if self._source_of[name] == source]
