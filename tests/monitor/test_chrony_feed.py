@@ -113,7 +113,7 @@ def test_with_an_injected_alarm_the_samples_to_chronyd_stop(tmp_path):
     try:
         before = _wait_for(chrony, lambda s: s["samples"] >= 1, 60)
         assert before["last_rx_s"] <= 16  # samples arrive every second, chrony takes them every 4 s
-        proc.wait_for_stderr(r"stepped\.ubx#0 alarm_raised", 40)
+        proc.wait_for_stderr(r"stepped\.ubx alarm_raised", 40)
         raised = time.monotonic()
         at_alarm = chrony.source()
         time.sleep(9.5)

@@ -35,12 +35,20 @@ def _check_recording(path: Path) -> None:
              "clock-bias text files")
 
 
-def _replay_source(path: Path, speed: float, index: int, start_at):
+def _replay_source(path: Path, speed: float, name: str, start_at):
     """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
     from chronofuse.io.replay import ReplaySource
 
     _check_recording(path)
-    return ReplaySource(path, name=f"{path.name}#{index}", speed=speed, start_at=start_at)
+    return ReplaySource(path, name=name, speed=speed, start_at=start_at)
+
+
+def _replay_names(paths: list[Path]) -> list[str]:
+    """A replayed receiver is named by its file, whatever the order of the options (so one recording
+    replayed into one log twice, in any order, keys the same rows); ``#N`` (its place among the replays)
+    only tells apart two replays of files of one name in one run."""
+    names = [p.name for p in paths]
+    return [f"{n}#{i}" if names.count(n) > 1 else n for i, n in enumerate(names)]
 
 
 def _timeout(value: float | None, name: str) -> float | None:
@@ -122,7 +130,7 @@ def monitor(
         from chronofuse.io.replay import SharedStart
 
         start_at = SharedStart()  # the replays' first epochs together (GPS-locked receivers are)
-        chosen += [_replay_source(p, replay_speed, i, start_at) for i, p in enumerate(replay or [])]
+        chosen += [_replay_source(p, replay_speed, n, start_at) for p, n in zip(replay or [], _replay_names(replay or []))]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
         if not train > 0:
