@@ -44,3 +44,29 @@ def test_one_file_given_twice_in_one_run_is_two_receivers(tmp_path):
     con = sqlite3.connect(db)
     rows = dict(con.execute("SELECT receiver, COUNT(*) FROM epochs GROUP BY receiver").fetchall())
     assert rows == {"a.ubx#0": 20, "a.ubx#1": 20}
+
+
+def test_the_table_keeps_names_that_differ_in_their_middle_distinct_and_the_reasons_readable_at_60(tmp_path):
+    from rich.console import Console
+
+    from chronofuse.io.sources import FileSource
+    from chronofuse.monitor.decisions import MonitorSettings
+    from chronofuse.monitor.engine import Monitor
+    from chronofuse.monitor.table import receiver_table
+
+    sources = []
+    for serial in ("SN1111", "SN2222"):  # udev by-id names: only the serial number tells them apart
+        name = f"usb-u-blox_AG_GNSS_receiver_{serial}-if00-port0"
+        path = tmp_path / f"{name}.ubx"
+        path.write_bytes(ubx_stream(np.zeros(12)))
+        sources.append(FileSource(path, name=name))
+    mon = Monitor(sources, MonitorSettings())
+    mon.run(duration_s=20)
+    for width in (60, 80, 100):
+        console = Console(record=True, width=width, force_terminal=False)
+        console.print(receiver_table(mon, width=width))
+        text = console.export_text()
+        assert max(len(line) for line in text.splitlines()) <= width, text
+        assert "SN1111" in text and "SN2222" in text, text  # were both `usb-u-b…0-port0`
+        if width == 60:
+            assert "integrity not tested" in text, text  # the reasons had 4 columns
