@@ -78,7 +78,7 @@ def test_json_lines_reach_a_file_and_stdout_while_the_live_table_is_drawn_on_a_t
     assert from_file == from_stdout
     text = screen.decode(errors="replace")
     assert "chronofuse monitor: 1 receiver(s)" in text  # the table was drawn on the terminal
-    assert "u-blox-m8t-time.log#0" in text  # the whole name, not three letters
+    assert "u-blox-m8t-time.log" in text  # the whole name, not three letters
     assert "link_up" in text and "ended" in text  # event lines above it
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import sqlite3
 import threading
+import time
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
@@ -106,7 +107,7 @@ def test_the_alarm_command_and_the_webhook_fire_once_per_alarm_event(tmp_path):
     assert {kind for kind, _ in _Hook.received} == {"application/json"}
     # the events are lines on stderr too
     lines = [line for line in proc.stderr().splitlines() if " alarm_raised" in line]
-    assert len(lines) == 2 and all("stepped.ubx#0" in line for line in lines)
+    assert len(lines) == 2 and all("stepped.ubx" in line for line in lines)
 
 
 def test_the_table_fits_80_and_100_columns_and_keeps_names_and_utc_readable(tmp_path):
@@ -130,3 +131,33 @@ def test_the_table_fits_80_and_100_columns_and_keeps_names_and_utc_readable(tmp_
             assert last["utc"][11:19] in text  # the UTC time of day whole
     assert "utc_time" in layout_for(100) and "utc_time" not in layout_for(80)
     assert np.all([c in layout_for(80) for c in ("receiver", "ok", "bias", "why")])
+
+
+def test_hooks_fire_concurrently_so_a_hanging_command_neither_delays_nor_drops_a_webhook(tmp_path):
+    from chronofuse.monitor.alerts import AlertHooks
+    from chronofuse.monitor.events import MonitorEvent
+
+    _Hook.received = []
+    server = ThreadingHTTPServer(("127.0.0.1", 0), _Hook)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    failures = []
+    hooks = AlertHooks(command="sleep 1000", webhook=f"http://127.0.0.1:{server.server_address[1]}/hook",
+                       timeout_s=2.0, on_error=lambda ev, why: failures.append((ev.receiver, why)))
+    start = time.monotonic()
+    try:
+        for k in range(6):  # six stale events at once
+            hooks(MonitorEvent(f"rx{k}", "stale", 1_700_000_000.0 + k, "no epoch for 6.0 s"))
+        deadline = time.monotonic() + 5
+        while len(_Hook.received) < 6 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        posted_s = time.monotonic() - start
+        assert len(_Hook.received) == 6 and posted_s < 1.5, posted_s  # were 20 s late, 4 of 6 never posted
+        hooks.close()  # waits for the commands' own time limit, not one after another
+        closed_s = time.monotonic() - start
+        assert closed_s < 2.0 + 2.5, closed_s  # was 6 x 10 s in series
+        assert sorted(r for r, why in failures) == [f"rx{k}" for k in range(6)]
+        assert all("timed out after 2 s" in why for _, why in failures)
+        assert hooks.fired == 6 and hooks.failed == 6
+    finally:
+        server.shutdown()
+        server.server_close()

@@ -60,16 +60,22 @@ def test_a_receiver_reporting_leap_17_with_a_clock_step_is_never_usable_while_th
     assert all(any("dissent" in why for why in r["reasons"]) for r in wrong)
     assert all(any("leap-second table" in why for why in r["reasons"]) for r in wrong)
     honest = [r for r in acked if r["receiver"] != "wrong"]
-    assert all(r["usable"] and not r["reasons"] for r in honest)  # the positive control
+    tested = [r for r in honest if r["state"] in ("ok", "alarm")]
+    assert len(tested) > 180 and all(r["usable"] and not r["reasons"] for r in tested)  # the positive control
+    # before the detector's window is full the integrity test has not tested an epoch: not usable, and says so
+    assert all(not r["usable"] and r["reasons"] == ["integrity not tested (no test statistic)"]
+               for r in honest if r not in tested)
 
 
 def test_a_lone_receiver_with_a_wrong_leap_count_is_not_usable_and_the_table_says_why(tmp_path):
     _, acked = _replay(tmp_path, {"alone": ubx_stream(_bias(40, 4), leap_s=17)})
     assert acked and not any(r["usable"] for r in acked)
     assert not any(r["dissent"] for r in acked)  # nobody to dissent from: the table is the referee
-    assert all(r["reasons"] == ["leap 17 s disagrees with the leap-second table (18 s)"] for r in acked)
+    table = "leap 17 s disagrees with the leap-second table (18 s)"
+    assert all(r["reasons"] == [table] for r in acked if r["state"] == "ok")
+    assert all(r["reasons"] == [table, "integrity not tested (no test statistic)"] for r in acked if r["state"] != "ok")
     _, acked = _replay(tmp_path, {"alone": ubx_stream(_bias(40, 4), leap_s=18)})
-    assert all(r["usable"] for r in acked)
+    assert all(r["usable"] == (r["state"] == "ok") for r in acked) and any(r["usable"] for r in acked)
 
 
 def test_a_receiver_whose_alarm_is_latched_is_not_usable_for_as_long_as_it_is_latched(tmp_path):
@@ -130,7 +136,7 @@ def test_usable_exactly_when_every_condition_holds_and_an_unusable_epoch_names_e
     table = int(gps_minus_utc_s(np.int64(epoch["t_ns"])))
     leap_ok = epoch["leap_s"] == table or (epoch["t_ns"] >= LEAP_TABLE_KNOWN_UNTIL_GPS_NS and epoch["leap_s"] == table + 1)
     expected = (epoch["fix_mode"] >= 2 and epoch["time_valid"] and epoch["gdop"] == epoch["gdop"]
-                and epoch["gdop"] < 5.0 and epoch["n_sats"] >= 4 and epoch["state"] != "alarm"
+                and epoch["gdop"] < 5.0 and epoch["n_sats"] >= 4 and epoch["state"] == "ok"
                 and not epoch["dissent"] and not epoch["jump"] and leap_ok)
     assert out["usable"] == expected
     words = reasons(out["unusable_bits"], epoch, gdop_max=5.0, min_sats=4)
@@ -175,3 +181,147 @@ def test_the_log_queries_count_availability_alarms_and_unusable_runs_as_logged(t
     full = avail[avail["epochs"] == 20]
     assert (full["expected"] == 20.0).all()
     np.testing.assert_allclose(full["availability"], full["usable"] / 20.0)
+
+
+def test_a_receiver_that_connects_but_never_gives_an_epoch_is_stale_from_its_link_up(tmp_path):
+    from chronofuse.monitor.alerts import AlertHooks
+    from chronofuse.monitor.metrics import metrics_text
+
+    rx = TcpReceiver()
+    hooked = tmp_path / "hooked.jsonl"
+    hooks = AlertHooks(command=f"cat >> {hooked}; echo >> {hooked}")
+    events = []
+
+    def on_event(event):
+        events.append(event)
+        hooks(event)
+
+    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="garbage")], KNOWN, stale_s=1.0, on_event=on_event)
+    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 4.0}, daemon=True)
+    runner.start()
+    try:
+        rx.wait_client()
+        fresh = status_document(mon)["receivers"][0]
+        assert not fresh["stale"]  # not before the stale time has passed
+        for _ in range(12):  # bytes that never make an epoch
+            rx.send(bytes(range(256)) * 4)
+            time.sleep(0.2)
+        doc = status_document(mon)
+        entry = doc["receivers"][0]
+        assert entry["link"] == "up" and entry["stale"] is True and entry["usable"] is None  # was never stale
+        assert any(why.startswith("stale: no epoch in") for why in entry["reasons"])
+        assert 'chronofuse_receiver_stale{receiver="garbage"} 1.0' in metrics_text(doc).decode()
+        stale = [e for e in events if e.kind == "stale"]
+        assert len(stale) == 1 and "since the link came up" in stale[0].detail
+    finally:
+        runner.join(10)
+        rx.close()
+        hooks.close()
+    assert '"kind": "stale"' in hooked.read_text()
+
+
+def _gps_ns(utc: str) -> int:
+    from chronofuse.timescale import utc_to_gps_ns
+
+    return int(utc_to_gps_ns(np.datetime64(utc, "ns")))
+
+
+def test_a_pending_leap_second_is_checked_against_the_calendar_and_the_table():
+    from chronofuse.discipline.verdict import pending_leap_why
+
+    assert pending_leap_why(_gps_ns("2016-12-31T12:00:00"), 17, +1) is None  # the leap second of 2016
+    assert "end of June or December" in pending_leap_why(_gps_ns("2024-02-05T03:46:40"), 18, +1)
+    assert "end of June or December" in pending_leap_why(_gps_ns("2016-12-20T12:00:00"), 17, +1)  # days too early
+    assert "not in the leap-second table" in pending_leap_why(_gps_ns("2015-12-31T12:00:00"), 17, +1)
+    assert "not in the leap-second table" in pending_leap_why(_gps_ns("2016-12-31T12:00:00"), 17, -1)
+    assert "not in the leap-second table" in pending_leap_why(_gps_ns("2025-12-31T12:00:00"), 18, +1)  # Bulletin C 70
+    assert pending_leap_why(_gps_ns("2026-06-30T12:00:00"), 18, +1) is None  # one the table cannot know yet
+    assert pending_leap_why(_gps_ns("2024-02-05T03:46:40"), 18, 0) is None
+    common = dict(fix_mode=3, time_valid=True, gdop=1.5, n_sats=9, alarm=False, dissent=False, jump=False,
+                  gdop_max=5.0, min_sats=4, leap_s=18)
+    t = np.array([_gps_ns("2024-02-05T03:46:40"), _gps_ns("2026-06-30T12:00:00")])
+    assert verdict_bits(t_ns=t, leap_pending=np.array([1, 1]), **common).tolist()[1] == 0
+    assert verdict_bits(t_ns=t, leap_pending=np.array([1, 1]), **common).tolist()[0] != 0
+
+
+def test_a_bogus_pending_leap_is_not_usable_and_never_sent_to_chronyd(tmp_path):
+    from pyubx2 import GET, UBXMessage
+
+    from chronofuse.monitor.chrony import ChronySockFeed
+
+    epochs = ubx_epochs(_bias(40, 8))
+    timels = [UBXMessage("NAV", "NAV-TIMELS", GET, iTOW=(100_000 + k) * 1000, version=0, srcOfCurrLs=2, currLs=18,
+                         srcOfLsChange=2, lsChange=1, timeToLsEvent=50_000, dateOfLsGpsWn=WEEK, dateOfLsGpsDn=5,
+                         validCurrLs=1, validTimeToLsEvent=1).serialize() for k in range(40)]
+    streams = {"bogus": b"".join(ls + e for ls, e in zip(timels, epochs)), "honest1": ubx_stream(_bias(40, 9)),
+               "honest2": ubx_stream(_bias(40, 10))}
+    _, acked = _replay(tmp_path, streams)
+    bogus = [r for r in acked if r["receiver"] == "bogus"]
+    assert len(bogus) == 40 and all(r["leap_pending"] == 1 for r in bogus)  # February 2024: it cannot be
+    assert not any(r["usable"] for r in bogus)  # was fed to chronyd as leap=1
+    assert all(any("a leap second comes only at the end of June or December" in why for why in r["reasons"])
+               for r in bogus)
+    feed = ChronySockFeed(str(tmp_path / "none.sock"))
+    by_epoch = {}
+    for r in acked:
+        by_epoch.setdefault(r["gps_ns"], []).append(r)
+    samples = [feed.sample(group) for group in by_epoch.values()]
+    assert any(s is not None for s in samples)  # the honest ones feed
+    assert all(s[2] == 0 and "bogus" not in s[3] for s in samples if s is not None)
+    # two feeding receivers, one announcing: no majority, no leap sent
+    pair = [dict(r, leap_pending=p) for r, p in zip(by_epoch[bogus[-1]["gps_ns"]][1:], (1, 0))]
+    pair = [dict(r, usable=True, state="ok", dissent=False, jump=False) for r in pair]
+    assert feed.sample(pair)[2] == 0
+
+
+def test_a_receiver_labelling_its_time_a_whole_second_off_dissents_on_arrival(tmp_path):
+    # no epoch of it shares a GPS time with the others' as it arrives: the GPS-time vote never saw it
+    streams = {"honest1": ubx_stream(_bias(60, 11)), "honest2": ubx_stream(_bias(60, 12)),
+               "late": ubx_stream(_bias(60, 13), start_tow_s=100_001)}
+    _, acked = _replay(tmp_path, streams)
+    late = [r for r in acked if r["receiver"] == "late"]
+    assert len(late) == 60 and all(r["dissent"] and r["dissent_s"] == 1 for r in late)  # was dissent 0
+    assert not any(r["usable"] for r in late)
+    assert all("time dissent: labelled +1 s from the other receivers' time (on arrival)" in r["reasons"] for r in late)
+    honest = [r for r in acked if r["receiver"] != "late"]
+    assert len(honest) == 120 and not any(r["dissent"] for r in honest)  # the positive control
+    assert any(r["usable"] for r in honest)
+
+
+def test_epochs_held_for_a_verdict_are_logged_when_the_link_goes_down_and_when_the_run_ends():
+    # 4 epochs, then the receiver hangs up: its grid never learnt its interval (9 epochs), so they were held
+    rx = TcpReceiver()
+    acked: list[dict] = []
+    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="brief")], KNOWN, on_ack=acked.extend)
+    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 4.0}, daemon=True)
+    runner.start()
+    try:
+        rx.wait_client()
+        for data in ubx_epochs(_bias(4, 14), start_tow_s=200_000):
+            rx.send(data)
+            time.sleep(0.1)
+        time.sleep(0.5)
+        rx.drop()
+        deadline = time.monotonic() + 3
+        while len(acked) < 4 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert len(acked) == 4, len(acked)  # was 0: held until the end, then dropped
+        assert not any(r["usable"] for r in acked)  # never tested: not usable, and says so
+    finally:
+        runner.join(10)
+        rx.close()
+    # a receiver still talking when --duration ends: its last epoch (closed by nothing after it) is logged
+    rx = TcpReceiver()
+    acked = []
+    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="talking")], KNOWN, on_ack=acked.extend)
+    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 3.0}, daemon=True)
+    runner.start()
+    try:
+        rx.wait_client()
+        for data in ubx_epochs(_bias(12, 15), start_tow_s=200_000):
+            rx.send(data)
+            time.sleep(0.1)
+        runner.join(10)
+        assert len(acked) == 12 and acked[-1]["gps_ns"] - acked[0]["gps_ns"] == 11 * NS_PER_S  # was 11
+    finally:
+        rx.close()

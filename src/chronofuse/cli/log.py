@@ -74,7 +74,7 @@ def epochs_cmd(db: Path = _DB, start: str | None = _FROM, end: str | None = _TO,
 
 
 @log_app.command("availability")
-def availability_cmd(db: Path = _DB, interval_s: float = typer.Option(3600.0, "--bin", help="Length of each row's time bin (s)."),
+def availability_cmd(db: Path = _DB, bin_s: float = typer.Option(3600.0, "--bin", help="Length of each row's time bin (s)."),
                      start: str | None = _FROM, end: str | None = _TO, receiver: str | None = _RECEIVER,
                      export: Path | None = _EXPORT, json_out: bool = _JSON, quiet: bool = _QUIET) -> None:
     """Per receiver and time bin: epochs logged, usable, expected at its epoch rate, and usable / expected."""
@@ -82,7 +82,7 @@ def availability_cmd(db: Path = _DB, interval_s: float = typer.Option(3600.0, "-
     from chronofuse.monitor.logquery import availability
 
     with user_errors():
-        frame = availability(db, interval_s, receiver, *_range(start, end))
+        frame = availability(db, bin_s, receiver, *_range(start, end))
     _emit(frame, export, json_out, "availability")
 
 
@@ -133,8 +133,12 @@ def summary_cmd(db: Path = _DB, start: str | None = _FROM, end: str | None = _TO
     rows = []
     for name, mine in frame.groupby("receiver", sort=True):
         theirs = drops[drops["receiver"] == name]
+        latched = (mine["state"] == "alarm") if mine["state"].notna().any() else mine["alarm"]
         rows.append({"receiver": name, "epochs": len(mine), "usable": int(mine["usable"].sum()),
-                     "alarm_epochs": int(mine["alarm"].sum()), "dissent_epochs": int(mine["dissent"].sum()),
+                     # in alarm as the verdict and 'log alarms' count it: the latched state; the epochs whose
+                     # statistic was over the threshold beside it
+                     "alarm_epochs_latched": int(latched.sum()), "detections": int(mine["alarm"].sum()),
+                     "dissent_epochs": int(mine["dissent"].sum()),
                      "jumps": int(mine["jump"].sum()), "outages": len(theirs),
                      "outage_s": float(theirs["duration_s"].sum(skipna=True)),
                      "first_utc": mine["utc"].iloc[0], "last_utc": mine["utc"].iloc[-1]})

@@ -21,18 +21,34 @@ def register(app: typer.Typer) -> None:
     app.command("monitor")(monitor)
 
 
-def _replay_source(path: Path, speed: float, index: int, start_at):
-    """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
-    from chronofuse.io.replay import ReplaySource
-
+def _check_recording(path: Path) -> None:
+    """Refuse a file that is not a receiver recording (empty, garbage, a clock-bias text file): it would be
+    read as no epochs at all, and the run would end at once, silently."""
     from chronofuse.io.formats import CAPTURE_FORMATS, capture_format
 
     if not path.is_file():
         fail(f"{path}: no such file")
-    if capture_format(path) is None:  # a clock-bias text file would replay as no epochs at all
+    if path.stat().st_size == 0:
+        fail(f"{path}: empty, not a receiver recording")
+    if capture_format(path) is None:
         fail(f"{path}: not a receiver recording ({', '.join(CAPTURE_FORMATS)}); detect FILE or detect - read "
              "clock-bias text files")
-    return ReplaySource(path, name=f"{path.name}#{index}", speed=speed, start_at=start_at)
+
+
+def _replay_source(path: Path, speed: float, name: str, start_at):
+    """A recording replayed burst by burst at ``speed`` x its own epochs' pace, its first epoch at ``start_at``."""
+    from chronofuse.io.replay import ReplaySource
+
+    _check_recording(path)
+    return ReplaySource(path, name=name, speed=speed, start_at=start_at)
+
+
+def _replay_names(paths: list[Path]) -> list[str]:
+    """A replayed receiver is named by its file, whatever the order of the options (so one recording
+    replayed into one log twice, in any order, keys the same rows); ``#N`` (its place among the replays)
+    only tells apart two replays of files of one name in one run."""
+    names = [p.name for p in paths]
+    return [f"{n}#{i}" if names.count(n) > 1 else n for i, n in enumerate(names)]
 
 
 def _timeout(value: float | None, name: str) -> float | None:
@@ -87,6 +103,16 @@ def monitor(
         fail(f"--stale-s {stale_s}: must be > 0 s")
     if window < 1:
         fail(f"--window {window}: must be >= 1")
+    if duration is not None and not duration > 0:
+        fail(f"--duration {duration:g}: must be > 0 s")
+    if not jump_ns > 0:
+        fail(f"--jump-ns {jump_ns:g}: must be > 0 ns")
+    if webhook is not None:
+        from urllib.parse import urlsplit
+
+        url = urlsplit(webhook)
+        if url.scheme not in ("http", "https") or not url.hostname:
+            fail(f"--webhook {webhook!r}: not an http:// or https:// URL with a host")
     if not 0.0 < pfa < 1.0:
         fail(f"--pfa {pfa:g}: must be in (0, 1)")
     connect = _timeout(connect_timeout_s, "--connect-timeout-s")
@@ -99,10 +125,12 @@ def monitor(
             path = getattr(source, "path", None)
             if path is not None and not path.exists():
                 fail(f"{path}: no such file (a source is serial:PORT, tcp:HOST:PORT, gpsd:HOST[:PORT] or a file)")
+            if path is not None:
+                _check_recording(path)
         from chronofuse.io.replay import SharedStart
 
         start_at = SharedStart()  # the replays' first epochs together (GPS-locked receivers are)
-        chosen += [_replay_source(p, replay_speed, i, start_at) for i, p in enumerate(replay or [])]
+        chosen += [_replay_source(p, replay_speed, n, start_at) for p, n in zip(replay or [], _replay_names(replay or []))]
         if not chosen:
             fail("no source: give SOURCE arguments or --replay FILE")
         if not train > 0:
@@ -128,7 +156,10 @@ def monitor(
     outputs = LiveOutputs(json_lines=json_lines, lines_file=lines_file, http_address=address, on_alarm=on_alarm,
                           webhook=webhook, chrony_sock=chrony_sock, replayed=bool(replay),
                           table=err_console.is_terminal and not (json_out or no_table or quiet), console=err_console)
+    with user_errors():
+        outputs.listen()  # --http: a port in use or an address not on this host, refused before the run
     from chronofuse.monitor.engine import Monitor, SourceUnavailable
+    from chronofuse.monitor.live_outputs import OutputClosed
 
     mon = Monitor(chosen, settings, log=log, on_ack=outputs.records, on_event=outputs.event, stale_s=stale_s,
                   connect_timeout_s=connect, reconnect_timeout_s=reconnect)
@@ -139,7 +170,7 @@ def monitor(
             mon.run(duration, on_tick=outputs.tick)
     except SourceUnavailable as err:
         gave_up = str(err)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, OutputClosed):  # Ctrl-C, or the reader of --json-lines went away: quietly
         pass
     finally:
         if log is not None:

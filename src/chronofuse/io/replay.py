@@ -142,6 +142,6 @@ class ReplaySource(FileSource):
             wait = start + due / self.speed - time.monotonic()
             if wait > 0 and stop.wait(wait):
                 break
-            if following > offset:
-                emit("data", data[offset:following])
+            if following > offset:  # stamped with its due instant: replays sharing a start arrive together
+                emit("data", data[offset:following], start + due / self.speed)
         emit("end")

@@ -164,7 +164,7 @@ class SerialSource(_Reconnecting):
 
         try:
             return serial.Serial(self.port, self.baudrate, timeout=0.2)
-        except serial.SerialException as err:
+        except (serial.SerialException, ValueError) as err:  # ValueError: a setting the port refuses
             raise OSError(str(err)) from err
 
     def read(self, conn):
@@ -227,8 +227,12 @@ class SourceGroup:
 
     def start(self) -> SourceGroup:
         for source in self.sources:
-            def emit(kind, data=b"", _name=source.name):
-                event = SourceEvent(_name, kind, data, time.monotonic(), time.time_ns())
+            def emit(kind, data=b"", at_s=None, _name=source.name):
+                # ``at_s``: the monotonic instant the data is due (a replay's schedule), stamped as its arrival
+                mono, wall = time.monotonic(), time.time_ns()
+                if at_s is not None and at_s < mono:
+                    mono, wall = at_s, wall - int(round((mono - at_s) * 1e9))
+                event = SourceEvent(_name, kind, data, mono, wall)
                 while not self._stop.is_set():  # a full queue waits for the consumer, not past a stop
                     try:
                         self.events.put(event, timeout=0.1)
@@ -261,21 +265,38 @@ class SourceGroup:
         self.stop()
 
 
+def _port(text: str, spec: str) -> int:
+    port = int(text)
+    if not 0 < port < 65536:
+        raise InputError(f"source {spec!r}: port {port}, must be 1 to 65535")
+    return port
+
+
 def parse_source(spec: str):
-    """A source from its command-line spec (see the module docstring); raises ValueError naming it."""
+    """A source from its command-line spec (see the module docstring); raises InputError naming it (a baud
+    rate that is not a positive whole number, a port outside 1-65535, no host)."""
     kind, _, rest = spec.partition(":")
     try:
         if kind == "serial":
             port, _, baud = rest.partition("@")
-            return SerialSource(port, int(baud) if baud else 9600)
+            if not port:
+                raise InputError(f"source {spec!r}: no serial port (serial:/dev/ttyUSB0@9600)")
+            rate = int(baud) if baud else 9600
+            if rate <= 0:
+                raise InputError(f"source {spec!r}: baud rate {rate}, must be > 0")
+            return SerialSource(port, rate)
         if kind == "tcp":
             host, _, port = rest.rpartition(":")
-            return TcpSource(host, int(port))
+            if not host:
+                raise InputError(f"source {spec!r}: no host (tcp:HOST:PORT)")
+            return TcpSource(host, _port(port, spec))
         if kind == "gpsd":
             host, _, port = rest.rpartition(":") if rest.count(":") else (rest, "", "2947")
-            return GpsdSource(host or "127.0.0.1", int(port or 2947))
+            return GpsdSource(host or "127.0.0.1", _port(port or "2947", spec))
         if kind == "file":
             return FileSource(rest)
+    except InputError:
+        raise
     except ValueError as err:
         raise InputError(f"source {spec!r}: {err}") from err
     return FileSource(spec)

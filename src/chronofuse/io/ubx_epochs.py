@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass, field
+from datetime import date
 
 import numpy as np
 from pyubx2 import UBXReader
@@ -57,6 +58,12 @@ UBX_TYPES = frozenset({"NAV-PVT", "NAV-SOL", "NAV-STATUS", "NAV-TIMEGPS", "NAV-T
 GPSD_FIX_MODE = {0: 1, 1: 2, 2: 2, 3: 3, 4: 3, 5: 3}
 _RAW_TOL_MS = 25
 _NEAR_EPOCHS = 16  # how far back a late message may still find its epoch
+
+
+#: The latest time a frame may carry (int64 nanoseconds on the GPS scale end in 2262): a later week or
+#: date is a corrupt frame, dropped.
+MAX_YEAR = 2200
+MAX_WEEK = (date(MAX_YEAR, 1, 1) - date(1980, 1, 6)).days // 7
 
 
 @dataclass
@@ -147,6 +154,14 @@ class UbxEpochBuilder:
         self._epoch(int.from_bytes(raw[6:10], "little")).n_used_sat = used
 
     def push(self, name: str, m) -> None:
+        """One decoded message into its epoch; raises ValueError (the frame is dropped and counted, see
+        :func:`decode_ubx`) for a week or a date beyond :data:`MAX_WEEK` / :data:`MAX_YEAR`: a corrupt frame
+        whose time the nanosecond scale cannot hold."""
+        week = getattr(m, "wnR" if name == "TIM-TM2" else "week", None)
+        if week is not None and int(week) > MAX_WEEK:
+            raise ValueError(f"GPS week {int(week)} is beyond week {MAX_WEEK} (year {MAX_YEAR}): a corrupt frame")
+        if name in ("NAV-PVT", "NAV-TIMEUTC") and int(m.year) > MAX_YEAR:
+            raise ValueError(f"UTC year {int(m.year)} is beyond {MAX_YEAR}: a corrupt frame")
         if name == "TIM-TP":
             qerr = math.nan if getattr(m, "qErrInvalid", 0) else m.qErr * 1e-12
             self._pulses.append((int(m.week), int(m.towMS), int(m.timeBase), qerr))

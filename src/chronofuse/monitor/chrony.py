@@ -11,7 +11,8 @@ chronyd's ``refclock SOCK PATH`` driver reads datagrams from a Unix socket it cr
     int magic;           /* 0x534f434b, "SOCK" */
 
 For each decided epoch the feed sends one sample made of the receivers that qualify, and only them: a
-receiver whose record is not usable, is in alarm, dissents on UTC or the leap count, is stale, or jumped
+receiver whose record is not usable, was not tested by the integrity test (training, a failed training, no
+clock bias), is in alarm, dissents on UTC or the leap count, is stale, or jumped
 stops feeding (with none left, nothing is sent: chronyd sees the source fall silent and deselects it,
 rather than being handed a time nobody vouches for). From each feeding receiver:
 
@@ -24,7 +25,9 @@ rather than being handed a time nobody vouches for). From each feeding receiver:
 
 Fusion: receivers with a PPS edge outrank those without (microseconds against milliseconds); among the
 best kind, the sample of the median offset is sent (a lone outlier cannot move it). The leap status sent
-is the feeding receivers' announced pending leap (majority), 0 when none.
+is the feeding receivers' announced pending leap when a strict majority of them announce it, else 0; a
+receiver announcing a leap second that cannot be (outside the last days of June or December, or one the
+leap-second table does not have while it is known complete) is not usable, so it does not feed.
 
 A replayed recording is years away from the system clock; ``shift_to_now`` moves its UTC labels by a
 whole number of seconds, chosen at the first sample, so that chronyd sees the replay's own timing as a
@@ -56,10 +59,11 @@ def sock_sample(tv_unix_ns: int, offset_s: float, leap: int = 0, pulse: bool = F
 
 
 def feeding(record: dict, stale: bool = False) -> bool:
-    """Whether a receiver's record may feed the time server: usable, no alarm, no dissent, no jump, not stale."""
-    alarm = record["state"] == "alarm" if "state" in record else record.get("alarm")
-    return (bool(record.get("usable")) and not alarm and not record.get("alarm") and not record.get("dissent")
-            and not record.get("jump") and not stale)
+    """Whether a receiver's record may feed the time server: usable, tested by the integrity test and found
+    without alarm (its latched ``state`` is ``ok``: an epoch of the training stretch, of a failed training or
+    without a clock bias was never checked and never feeds), no dissent, no jump, not stale."""
+    return (bool(record.get("usable")) and record.get("state") == "ok" and not record.get("alarm")
+            and not record.get("dissent") and not record.get("jump") and not stale)
 
 
 def _utc_unix_ns(record: dict) -> int:
@@ -118,10 +122,12 @@ class ChronySockFeed:
         if self.shift_ns is None:
             tv, r = chosen[0]
             self.shift_ns = round((tv - _utc_unix_ns(r)) / NS_PER_S) * NS_PER_S
-        offsets = sorted(((_utc_unix_ns(r) + self.shift_ns - tv) / NS_PER_S, tv, r) for tv, r in chosen)
+        offsets = sorted((((_utc_unix_ns(r) + self.shift_ns - tv) / NS_PER_S, tv, r) for tv, r in chosen),
+                         key=lambda item: item[:2])  # two equal samples: never compare the records
         offset_s, tv, _ = offsets[(len(offsets) - 1) // 2]
         votes = Counter(int(r.get("leap_pending", 0)) for _, r in chosen)
-        leap = _LEAP.get(votes.most_common(1)[0][0], 0)
+        pending, n = votes.most_common(1)[0]
+        leap = _LEAP.get(pending, 0) if 2 * n > len(chosen) else 0  # a leap only a strict majority announces
         return tv, offset_s, leap, sorted(r["receiver"] for _, r in chosen)
 
     def _send(self, tv_ns: int, offset_s: float, leap: int, names: list[str]) -> bool:

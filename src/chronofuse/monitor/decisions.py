@@ -29,7 +29,7 @@ from chronofuse.integrity.watch import ClockWatch, DetectionSettings
 from chronofuse.io.capture_series import clock_epochs, clock_grid
 from chronofuse.io.sources_decode import dicts_record, record_rows
 from chronofuse.timescale import NS_PER_S
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 __all__ = ["MonitorSettings", "ReceiverMonitor", "decide_second"]
 
@@ -65,6 +65,12 @@ class MonitorSettings:
         Qualification(self.gdop_max, self.min_sats)
         detection = self.detection()
         detection.make_detector(1.0)
+        need = self.window + 3
+        if detection.train_s is not None and detection.train_s < need:
+            raise InputError(f"{{train_s}} == {self.train_s:g} s is too short: the detector's training needs at least "
+                             f"{{window}} + 3 = {need} valid epochs, {need} s at 1 Hz; give {{train_s}} >= {need} s "
+                             "(or the whole noise model: {h0}, {hm2} and {sigma_rho_m})",
+                             fields=("train_s", "window", "h0", "hm2", "sigma_rho_m"))
 
 
 #: An epoch is held for its verdict while at most this many later epochs of the receiver have been decoded: a
@@ -151,6 +157,11 @@ class ReceiverMonitor:
             gridded = None
         self._note(gridded, self.watch.push(gridded))
         self.watch.close()
+        return self._release(final=True)
+
+    def flush(self) -> list[dict]:
+        """Every epoch still held, with the verdicts decided so far (the link went down: they are not held
+        through the outage); the grid and the watch go on with the epochs after it."""
         return self._release(final=True)
 
     def decide(self, epoch: dict) -> dict:

@@ -13,7 +13,15 @@ starts, so the chunk that closes epoch k is the one in which epoch k+1 began; a 
 own receipt time, its TOFF report). An epoch the decoder's reorder buffer holds (:mod:`chronofuse.io.arrival`)
 keeps that arrival and is released after at most :data:`~chronofuse.io.arrival.REORDER_HOLD_S` of wall time
 since it closed. A receiver whose last epoch is older than ``stale_s`` is stale (an
-event, and a reason in its verdict) until epochs come again.
+event, and a reason in its verdict) until epochs come again; one whose link is up but that has not given a
+first epoch (garbage bytes, a silent port) is stale ``stale_s`` after its link came up.
+
+Time dissent on arrival: the UTC/leap consensus compares the receivers' epochs of one GPS time; a receiver
+labelling every epoch whole seconds off has no epoch at the others' GPS times to be compared with. So each
+receiver's UTC label is also compared with its epochs' arrival: live receivers on the system clock, replays
+sharing a start on their schedule (times their speed); one whose label minus arrival is more than
+:data:`TIME_DISSENT_S` from the others' (the median of all, or the other one's when there are two) dissents
+(``dissent_s``: by how many seconds). A file read as fast as it can be has no arrival to compare.
 
 Sources that cannot be had: a source that has not come up within ``connect_timeout_s`` of the start
 (0: at its first failure; a missing file, a serial port that does not exist, a refused connection), or
@@ -25,8 +33,9 @@ Every outage is one ``link_down`` event with its reason and one ``link_up`` with
 
 from __future__ import annotations
 
+import statistics
 import time
-from collections import defaultdict
+from collections import defaultdict, deque
 from datetime import datetime, timedelta
 
 from chronofuse.discipline.verdict import ReceiverVerdict, reasons
@@ -46,6 +55,27 @@ class SourceUnavailable(InputDataError):
 
 
 _GPS_EPOCH = datetime(1980, 1, 6)
+#: A receiver whose labelled time, against its epochs' arrival, is this far from the others' dissents (s):
+#: whole seconds apart less the receivers' different output latencies (well under half a second).
+TIME_DISSENT_S = 0.5
+#: Dropped frames are reported at most this often per source (s).
+_DROPPED_EVERY_S = 10.0
+#: Other receivers' epochs compared with one are those that arrived within this much wall time of it (s).
+_COMPARE_WITHIN_S = 10.0
+
+
+def _timeline(source):
+    """Which receivers' arrivals can be compared: live ones on the system clock (speed 1); replays sharing a
+    start on their schedule (times their speed); a file read as fast as it can be: none (None)."""
+    from chronofuse.io.replay import ReplaySource
+    from chronofuse.io.sources import FileSource
+
+    if isinstance(source, ReplaySource):
+        start = source.start_at
+        return ("replay", id(start) if start is not None else source.name), source.speed
+    if isinstance(source, FileSource):
+        return None if source.rate_bytes_s is None else (("file", source.name), 1.0)
+    return ("live",), 1.0
 
 
 def _utc_label(gps_ns: int, leap_s: int) -> str:
@@ -94,6 +124,12 @@ class Monitor:
         self._epoch_start_ns: dict[str, int] = {}  # receiver -> arrival (UNIX ns) of the epoch in progress
         self._chunk_wall: dict[str, dict[int, int]] = defaultdict(dict)  # source -> decoder chunk -> UNIX ns
         self._last_arrival_s: dict[str, float] = {}  # receiver -> monotonic arrival of its last epoch
+        self._up_since_s: dict[str, float] = {}  # source -> monotonic time its link (last) came up
+        self._timelines = {s.name: _timeline(s) for s in self.sources}
+        self._origins: dict = {}  # timeline -> its first arrival (UNIX ns)
+        self._label_offsets: dict[str, deque] = {}  # receiver -> recent (arrival ns, label - arrival ns)
+        self._dropped_seen: dict[str, int] = {}  # source -> frames its decoder dropped, reported
+        self._dropped_at: dict[str, float] = {}  # source -> when that was last reported (UNIX s)
         self._started_s = time.monotonic()
         self._last_checks_s = self._last_flush_s = 0.0
         self.check_s = 0.1  # freshness and retry checks, s
@@ -106,6 +142,15 @@ class Monitor:
         last = self._last_arrival_s.get(receiver)
         return None if last is None else (time.monotonic() if now_s is None else now_s) - last
 
+    def silent_s(self, receiver: str, now_s: float | None = None) -> float | None:
+        """Seconds without an epoch: since its last epoch, or, before its first, since its link came up (a
+        receiver that connects and sends nothing decodable is silent too); None: no epoch and no link."""
+        age = self.age_s(receiver, now_s)
+        if age is not None:
+            return age
+        up = self._up_since_s.get(receiver)
+        return None if up is None else (time.monotonic() if now_s is None else now_s) - up
+
     def is_stale(self, receiver: str) -> bool:
         return self.tracker.is_stale(receiver)
 
@@ -116,14 +161,18 @@ class Monitor:
         group = SourceGroup(self.sources).start()
         start = last_tick = self._started_s = time.monotonic()
         try:
-            while len(self._ended) < len(self.sources):
-                if duration_s is not None and time.monotonic() - start >= duration_s:
-                    break
-                self.step(group, timeout_s=min(tick_s, 0.25))
-                if on_tick is not None and time.monotonic() - last_tick >= tick_s:
-                    on_tick(self)
-                    last_tick = time.monotonic()
-            self._flush(final=True)
+            try:
+                while len(self._ended) < len(self.sources):
+                    if duration_s is not None and time.monotonic() - start >= duration_s:
+                        break
+                    self.step(group, timeout_s=min(tick_s, 0.25))
+                    if on_tick is not None and time.monotonic() - last_tick >= tick_s:
+                        on_tick(self)
+                        last_tick = time.monotonic()
+            except KeyboardInterrupt:
+                self._finish()
+                raise
+            self._finish()
         except SourceUnavailable:
             self._flush(final=True)
             raise
@@ -131,6 +180,14 @@ class Monitor:
             group.stop()
             if on_tick is not None:
                 on_tick(self)
+
+    def _finish(self) -> None:
+        """The end of the run (every source ended, ``duration_s`` passed, Ctrl-C): the epochs still in a
+        decoder or held for a verdict are decided and logged, not dropped."""
+        for source in self.sources_by_name:
+            if source not in self._ended:
+                self._drain(source, time.time_ns(), time.monotonic(), close=True)
+        self._flush(final=True)
 
     def step(self, group: SourceGroup, timeout_s: float = 0.25, max_events: int = 256) -> None:
         """One pass: drain up to ``max_events`` source events, decide and commit what is ready."""
@@ -149,15 +206,20 @@ class Monitor:
                 parts = self.decoders[ev.source].decode(ev.data)
                 self._received(ev.source, parts, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic())
                 self._take(ev.source, parts)
+                notices += self._dropped_frames(ev.source, wall_s)
                 continue
             reason = ev.data if isinstance(ev.data, str) else ""
             if ev.kind == "up":
                 for each in self._of_source(ev.source):
                     each.connected = True
                 self._ever_up.add(ev.source)
+                self._up_since_s[ev.source] = ev.time_s or time.monotonic()
             elif ev.kind in ("down", "end"):
+                self._up_since_s.pop(ev.source, None)
                 if rx.connected and ev.kind == "down":
                     rx.outages += 1
+                    self._drain(ev.source, ev.wall_ns or time.time_ns(), ev.time_s or time.monotonic(),
+                                close=False)
                 for each in self._of_source(ev.source):
                     each.connected = False
                 if ev.kind == "end":
@@ -180,6 +242,33 @@ class Monitor:
         if notices or now - self._last_flush_s >= self.flush_s:  # one commit per flush interval, not per chunk
             self._last_flush_s = now
             self._flush(final=False, notices=notices)
+
+    def _dropped_frames(self, source: str, wall_s: float) -> list[MonitorEvent]:
+        """A ``frame_dropped`` event when the source's decoder dropped frames it could not read (a corrupt
+        week or date, a payload pyubx2 refuses): at most one every :data:`_DROPPED_EVERY_S`, with the count
+        since the last and the latest reason; the other frames, and the other receivers, go on."""
+        stats = getattr(self.decoders[source], "ubx_stats", None)
+        if stats is None or stats.parse_errors <= self._dropped_seen.get(source, 0):
+            return []
+        last = self._dropped_at.get(source)
+        if last is not None and wall_s - last < _DROPPED_EVERY_S:
+            return []
+        n = stats.parse_errors - self._dropped_seen.get(source, 0)
+        self._dropped_seen[source], self._dropped_at[source] = stats.parse_errors, wall_s
+        why = stats.errors[-1][1] if stats.errors else "unreadable frame"
+        return [MonitorEvent(source, "frame_dropped", wall_s, f"{n} frame(s) dropped, the latest: {why}")]
+
+    def _drain(self, source: str, wall_ns: int, mono_s: float, close: bool) -> None:
+        """Everything of ``source`` received but not yet handed on, handed on now: the epoch its decoder has
+        in progress and the epochs its receivers hold for their verdicts (a link that went down, the end of
+        the run). ``close``: the end (the grid closed, its last verdicts given); else the link is down and
+        the grid goes on after it, the epochs released without a verdict not yet decided (untested)."""
+        parts = self.decoders[source].finish()
+        self._received(source, parts, wall_ns, mono_s)
+        self._take(source, parts)
+        for each in self._of_source(source):
+            for record in (each.close() if close else each.flush()):
+                self._add(record)
 
     def _of_source(self, source: str) -> list[ReceiverMonitor]:
         return [rx for name, rx in self.receivers.items() if self._source_of[name] == source]
@@ -267,7 +356,8 @@ class Monitor:
         for name in self.receivers:
             if self._source_of[name] in self._ended:
                 continue  # a recording read to its end is not silent
-            out += self.tracker.freshness(name, self.age_s(name, now), self.stale_s, wall_s)
+            out += self.tracker.freshness(name, self.silent_s(name, now), self.stale_s, wall_s,
+                                          first=self.age_s(name, now) is None)
         return out
 
     def _check_connect(self, name: str, reason: str, final: bool) -> None:
@@ -303,10 +393,15 @@ class Monitor:
         bits = self._verdict_stage.step({"t_ns": r["gps_ns"], "fix_mode": r["fix_mode"], "time_valid": r["time_valid"],
                                          "gdop": r["gdop"], "n_sats": r["n_sats"], "leap_s": r["leap_s"],
                                          "state": r.get("state", "alarm" if r.get("alarm") else "ok"),
-                                         "dissent": r["dissent"], "jump": r["jump"]})["unusable_bits"]
+                                         "dissent": r["dissent"], "jump": r["jump"],
+                                         "leap_pending": r.get("leap_pending", 0)})["unusable_bits"]
         r["qualified"] = bool(r["usable"])
         r["usable"] = bits == 0
         r["reasons"] = reasons(bits, r, gdop_max=self.settings.gdop_max, min_sats=self.settings.min_sats)
+
+    def _training_reasons(self, receiver: str) -> tuple[str, ...]:
+        rx = self.receivers.get(receiver)
+        return () if rx is None else tuple(rx.watch.reasons)
 
     def _where(self, name: str) -> str:
         """A source as the user named it: a recording's path, else its name (``serial port``, host:port)."""
@@ -321,8 +416,48 @@ class Monitor:
         pps = self._arrivals.pop(key + ("pps",), None)
         if pps is not None:
             record["pps_unix_ns"] = pps
+        self._note_label(record)
         self._pending[record["gps_ns"]].append(record)
         self._pending_since.setdefault(record["gps_ns"], time.monotonic())
+
+    def _note_label(self, record: dict) -> None:
+        """The receiver's UTC label against its epoch's arrival, on its timeline (see :func:`_timeline`)."""
+        timeline = self._timelines.get(self._source_of.get(record["receiver"], record["receiver"]))
+        arrival = record.get("received_unix_ns")
+        if timeline is None or arrival is None:
+            return
+        key, speed = timeline
+        origin = self._origins.setdefault(key, int(arrival))
+        label = int(record["gps_ns"]) - int(record["leap_s"]) * 1_000_000_000
+        offsets = self._label_offsets.setdefault(record["receiver"], deque(maxlen=5))
+        offsets.append((int(arrival), label - int(round((int(arrival) - origin) * speed))))
+
+    def _time_dissent(self, r: dict) -> None:
+        """Compare ``r``'s labelled time with the other receivers' on arrival (module docstring): a receiver
+        whose labels are whole seconds from the others' dissents, though no epoch of it shares a GPS time
+        with theirs."""
+        name = r["receiver"]
+        timeline = self._timelines.get(self._source_of.get(name, name))
+        mine = self._label_offsets.get(name)
+        if timeline is None or not mine or r.get("received_unix_ns") is None:
+            return
+        arrival = int(r["received_unix_ns"])
+        within = int(_COMPARE_WITHIN_S * 1e9)
+        own = statistics.median(d for _, d in mine)
+        others = []
+        for other, offsets in self._label_offsets.items():
+            if other == name or not offsets or \
+                    self._timelines.get(self._source_of.get(other, other)) != timeline:
+                continue
+            if abs(offsets[-1][0] - arrival) <= within:
+                others.append(statistics.median(d for _, d in offsets))
+        if not others:
+            return
+        ref = others[0] if len(others) == 1 else statistics.median(others + [own])
+        off_s = (own - ref) / 1e9
+        if abs(off_s) > TIME_DISSENT_S:
+            r["dissent"] = True
+            r["dissent_s"] = int(round(off_s)) or (1 if off_s > 0 else -1)
 
     def _flush(self, final: bool, notices: list[MonitorEvent] = ()) -> None:
         now = time.monotonic()
@@ -344,10 +479,11 @@ class Monitor:
             self._pending_since.pop(gps_ns)
             decide_second(group, self.settings.jump_s, self._previous_bias)
             for r in group:
+                self._time_dissent(r)
                 self._verdict(r)
                 self.decided[r["receiver"]] = r
             records += group
-        notices = list(notices) + self.tracker.records(records, time.time())
+        notices = list(notices) + self.tracker.records(records, time.time(), self._training_reasons)
         if self.log is not None:
             self.log.append(records, notices)
         if records:

@@ -11,6 +11,9 @@ duration and the number of attempts), not twenty. Kinds:
 ``alarm_raised`` / ``alarm_cleared``   the integrity alarm of the receiver's clock bias
 ``dissent`` / ``dissent_cleared``      its UTC label or leap count disagrees with the others (or the table)
 ``jump``                      a clock-bias jump of its own (instantaneous)
+``frame_dropped``             frames its decoder could not read (a corrupt week or date): dropped, counted
+``training_failed``           the integrity test could not be trained (too few valid epochs in the training
+                              stretch): its epochs stay untested, never usable, until the grid starts again
 
 The :class:`EventTracker` turns connection reports, decided records and freshness checks into
 :class:`MonitorEvent` s; the monitor hands them to the log, stderr, the alert hooks and the web page.
@@ -25,9 +28,9 @@ from dataclasses import asdict, dataclass, field
 __all__ = ["MonitorEvent", "EventTracker", "EVENT_KINDS", "ALARM_KINDS"]
 
 EVENT_KINDS = ("link_down", "link_up", "ended", "stale", "fresh", "alarm_raised", "alarm_cleared", "dissent",
-               "dissent_cleared", "jump")
+               "dissent_cleared", "jump", "training_failed", "frame_dropped")
 #: The events an alert hook fires on: a new problem with a receiver (its clearing is not an alert).
-ALARM_KINDS = ("alarm_raised", "dissent", "stale", "link_down", "jump")
+ALARM_KINDS = ("alarm_raised", "dissent", "stale", "link_down", "jump", "training_failed")
 
 
 @dataclass(frozen=True)
@@ -66,6 +69,7 @@ class _State:
     stale_since_s: float | None = None
     alarm_since: tuple | None = None  # (wall s, gps_ns)
     dissent_since: tuple | None = None
+    training_failed: bool = False
 
 
 @dataclass
@@ -103,15 +107,17 @@ class EventTracker:
         st = self._state(receiver)
         return None if st.down_since_s is None else wall_s - st.down_since_s
 
-    def freshness(self, receiver: str, age_s: float | None, stale_s: float, wall_s: float) -> list[MonitorEvent]:
-        """The receiver's last epoch is ``age_s`` old (None: none yet): ``stale`` once it passes
-        ``stale_s``, ``fresh`` when epochs come again."""
+    def freshness(self, receiver: str, age_s: float | None, stale_s: float, wall_s: float,
+                  first: bool = False) -> list[MonitorEvent]:
+        """The receiver's last epoch is ``age_s`` old (None: none yet and no link; ``first``: none yet, its
+        link up for ``age_s``): ``stale`` once it passes ``stale_s``, ``fresh`` when epochs come again."""
         st = self._state(receiver)
         if age_s is None or st.link == "ended":
             return []
         if age_s > stale_s and st.stale_since_s is None:
             st.stale_since_s = wall_s - age_s
-            return [MonitorEvent(receiver, "stale", wall_s, f"no epoch for {age_s:.1f} s (stale after {stale_s:g} s)")]
+            what = f"no epoch in {age_s:.1f} s since the link came up" if first else f"no epoch for {age_s:.1f} s"
+            return [MonitorEvent(receiver, "stale", wall_s, f"{what} (stale after {stale_s:g} s)")]
         if age_s <= stale_s and st.stale_since_s is not None:
             silent = wall_s - age_s - st.stale_since_s
             st.stale_since_s = None
@@ -121,12 +127,21 @@ class EventTracker:
     def is_stale(self, receiver: str) -> bool:
         return self._state(receiver).stale_since_s is not None
 
-    def records(self, records: list[dict], wall_s: float) -> list[MonitorEvent]:
-        """Alarm and dissent edges, and jumps, of decided records (in time order)."""
+    def records(self, records: list[dict], wall_s: float, training_reasons=lambda receiver: ()) -> list[MonitorEvent]:
+        """Alarm and dissent edges, jumps and a failed training, of decided records (in time order);
+        ``training_reasons(receiver)``: why its training failed, in words."""
         out = []
         for r in records:
             st = self._state(r["receiver"])
             gps_ns = int(r["gps_ns"])
+            events = tuple(r.get("events") or ())
+            if "training" in events:
+                st.training_failed = False  # a grid started again trains again
+            elif "training failed" in events and not st.training_failed:
+                st.training_failed = True
+                why = "; ".join(training_reasons(r["receiver"])) or "training failed"
+                out.append(MonitorEvent(r["receiver"], "training_failed", wall_s,
+                                        f"{why}: its epochs are not tested, not usable", gps_ns))
             flags = {"alarm": _alarmed(r), "dissent": bool(r.get("dissent"))}
             for flag, since_name, up, down, why in (
                     ("alarm", "alarm_since", "alarm_raised", "alarm_cleared", _alarm_detail),
@@ -159,4 +174,7 @@ def _alarm_detail(r: dict) -> str:
 
 
 def _dissent_detail(r: dict) -> str:
+    off = int(r.get("dissent_s") or 0)
+    if off:
+        return f"at {r.get('utc', r['gps_ns'])}, its time {off:+d} s from the other receivers' (on arrival)"
     return f"at {r.get('utc', r['gps_ns'])}, its leap count {r.get('leap_s')} s"

@@ -12,12 +12,18 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from contextlib import contextmanager
 
 from chronofuse.monitor.status import RecentEvents, status_document
+from chronofuse.validation import InputError
 
-__all__ = ["LiveOutputs"]
+__all__ = ["LiveOutputs", "OutputClosed"]
+
+
+class OutputClosed(Exception):
+    """The reader of the JSON lines on stdout went away (``| head -1``): the run stops, quietly."""
 
 
 def _line(record: dict) -> str:
@@ -71,8 +77,17 @@ class LiveOutputs:
         if self.json_lines or self.lines_file is not None:
             text = "".join(_line(r) + "\n" for r in records)
             if self.json_lines:
-                sys.stdout.write(text)
-                sys.stdout.flush()
+                try:
+                    sys.stdout.write(text)
+                    sys.stdout.flush()
+                except BrokenPipeError:
+                    # as a Unix tool does: stop, say nothing; stdout to /dev/null so that the interpreter's
+                    # last flush does not complain
+                    self.json_lines = False
+                    devnull = os.open(os.devnull, os.O_WRONLY)
+                    os.dup2(devnull, sys.stdout.fileno())
+                    os.close(devnull)
+                    raise OutputClosed() from None
             if self.lines_file is not None:
                 self.lines_file.write(text)
                 self.lines_file.flush()
@@ -105,14 +120,26 @@ class LiveOutputs:
     def alert_counts(self) -> dict | None:
         return None if self.alerts is None else {"fired": self.alerts.fired, "failed": self.alerts.failed}
 
+    def listen(self) -> None:
+        """Bind the web server (before the run, so that an address that cannot be had is refused first):
+        raises :class:`InputError` naming the ``http`` field (a port in use, an address not on this host)."""
+        if self.http_address is None or self.server is not None:
+            return
+        from chronofuse.monitor.web import StatusServer
+
+        host, port = self.http_address
+        try:
+            self.server = StatusServer(host, port).start()
+        except OSError as err:
+            raise InputError(f"{{http}} {host}:{port}: cannot listen there ({err.strerror or err})",
+                             fields=("http",)) from err
+
     @contextmanager
     def running(self):
         """Start the web server and the live table for the run; stop them (and the hooks) after it."""
         try:
             if self.http_address is not None:
-                from chronofuse.monitor.web import StatusServer
-
-                self.server = StatusServer(*self.http_address).start()
+                self.listen()
                 self.say(f"dashboard at {self.server.url} (/api/status, /metrics)")
                 if self.monitor is not None:
                     self.server.publish(self.status())

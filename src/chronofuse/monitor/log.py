@@ -18,7 +18,7 @@ from __future__ import annotations
 import sqlite3
 from pathlib import Path
 
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 __all__ = ["EpochLog", "RECORD_COLUMNS", "EVENT_COLUMNS"]
 
@@ -44,7 +44,8 @@ class EpochLog:
 
     def __init__(self, path) -> None:
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+        if not self.path.parent.is_dir():  # never made up: a mistyped folder would be created silently
+            raise InputError(f"{{db}} {self.path}: no such folder {self.path.parent}", fields=("db",))
         try:
             self._db = sqlite3.connect(str(self.path), isolation_level=None, check_same_thread=False)
             self._db.execute("PRAGMA journal_mode=WAL")

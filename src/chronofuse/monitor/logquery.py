@@ -6,10 +6,10 @@ Every query opens the SQLite file read-only and answers with a :class:`pandas.Da
 - :func:`epochs`: the logged rows, ordered by receiver and epoch, the columns of
   :data:`~chronofuse.monitor.log.RECORD_COLUMNS` (what an export writes, row for row);
 - :func:`outages`: one row per outage, from its ``link_down`` event to the ``link_up`` that ended it
-  (``end_unix_s`` NaN while it lasted to the end of the log), with the reason and the attempts made;
+  (ISO 8601 UTC; ``end_utc`` None while it lasted to the end of the log), with the reason and the attempts;
 - :func:`intervals`: runs of consecutive epochs of one receiver with a flag set (``alarm``: the latched
   state, ``dissent``, ``jump``, or unusable): start and end epoch, UTC labels, epochs, duration;
-- :func:`availability`: per receiver and interval of ``interval_s`` (on the GPS time scale, aligned to
+- :func:`availability`: per receiver and bin of ``bin_s`` (on the GPS time scale, aligned to
   whole intervals since the GPS epoch), the epochs logged, the usable ones, the epochs expected at the
   receiver's own epoch interval (the median step), and usable / expected.
 
@@ -27,7 +27,7 @@ import pandas as pd
 
 from chronofuse.monitor.log import RECORD_COLUMNS
 from chronofuse.timescale import NS_PER_S, utc_to_gps_ns
-from chronofuse.validation import InputDataError
+from chronofuse.validation import InputDataError, InputError
 
 __all__ = ["connect", "epochs", "outages", "intervals", "availability", "parse_utc", "export", "FLAGS"]
 
@@ -61,6 +61,27 @@ def parse_utc(text: str, name: str = "time") -> int:
     return int(utc_to_gps_ns(stamp))
 
 
+def _check_query(db, path, receiver, start_gps_ns=None, end_gps_ns=None) -> None:
+    """Refuse a receiver the log does not hold (naming those it does) and an empty time span."""
+    if start_gps_ns is not None and end_gps_ns is not None and start_gps_ns >= end_gps_ns:
+        raise InputError("{start_gps_ns} is not before {end_gps_ns}: the time span is empty", str(path),
+                         fields=("start_gps_ns", "end_gps_ns"))
+    if receiver is None:
+        return
+    names = [r[0] for r in db.execute("SELECT DISTINCT receiver FROM epochs ORDER BY receiver")]
+    if receiver not in names:
+        held = ", ".join(names) if names else "none"
+        raise InputError(f"{{station}} {receiver!r}: no such receiver in the log (it holds: {held})", str(path),
+                         fields=("station",))
+
+
+def _utc_of_unix(seconds: float) -> str | None:
+    """UNIX seconds (the events' wall time) as ISO 8601 UTC to the millisecond, like the epochs' labels."""
+    if seconds is None or seconds != seconds:
+        return None
+    return str(np.datetime64(int(round(seconds * 1000)), "ms")) + "Z"
+
+
 def _where(receiver, start_gps_ns, end_gps_ns) -> tuple[str, list]:
     clauses, args = [], []
     if receiver is not None:
@@ -80,6 +101,7 @@ def epochs(path, receiver: str | None = None, start_gps_ns: int | None = None,
     """The logged epochs (optionally of one receiver, in a time range), by receiver then epoch."""
     db = connect(path)
     try:
+        _check_query(db, path, receiver, start_gps_ns, end_gps_ns)
         have = {r[1] for r in db.execute("PRAGMA table_info(epochs)")}
         cols = ", ".join(c if c in have else f"NULL AS {c}" for c in _COLUMNS)
         where, args = _where(receiver, start_gps_ns, end_gps_ns)
@@ -119,9 +141,16 @@ def _events(path, kinds: tuple[str, ...], receiver: str | None) -> list[tuple]:
         db.close()
 
 
-def outages(path, receiver: str | None = None) -> pd.DataFrame:
-    """One row per outage: ``receiver``, ``start_unix_s``, ``end_unix_s`` (NaN: not over when the log
-    ends), ``duration_s``, ``reason`` (the first failure's), ``attempts`` (failed reconnections)."""
+def outages(path, receiver: str | None = None, unix: bool = False) -> pd.DataFrame:
+    """One row per outage: ``receiver``, ``start_utc``, ``end_utc`` (ISO 8601 UTC of the system clock; None:
+    not over when the log ends), ``duration_s``, ``reason`` (the first failure's), ``attempts`` (failed
+    reconnections); with ``unix`` also ``start_unix_s`` and ``end_unix_s``."""
+    if receiver is not None:
+        db = connect(path)
+        try:
+            _check_query(db, path, receiver)
+        finally:
+            db.close()
     rows, open_ = [], {}
     for who, wall_s, kind, detail, _ in _events(path, ("link_down", "link_up"), receiver):
         if kind == "link_down" and who not in open_:
@@ -133,7 +162,10 @@ def outages(path, receiver: str | None = None) -> pd.DataFrame:
     for who, (start, reason) in open_.items():
         rows.append((who, start, np.nan, np.nan, reason, 0))
     frame = pd.DataFrame(rows, columns=["receiver", "start_unix_s", "end_unix_s", "duration_s", "reason", "attempts"])
-    return frame.sort_values(["receiver", "start_unix_s"], kind="stable").reset_index(drop=True)
+    frame = frame.sort_values(["receiver", "start_unix_s"], kind="stable").reset_index(drop=True)
+    frame.insert(1, "start_utc", [_utc_of_unix(v) for v in frame["start_unix_s"]])
+    frame.insert(2, "end_utc", [_utc_of_unix(v) for v in frame["end_unix_s"]])
+    return frame if unix else frame.drop(columns=["start_unix_s", "end_unix_s"])
 
 
 def intervals(path, flag: str, receiver: str | None = None, start_gps_ns: int | None = None,
@@ -164,23 +196,25 @@ def intervals(path, flag: str, receiver: str | None = None, start_gps_ns: int | 
                                        "duration_s", "reasons"])
 
 
-def availability(path, interval_s: float, receiver: str | None = None, start_gps_ns: int | None = None,
+def availability(path, bin_s: float, receiver: str | None = None, start_gps_ns: int | None = None,
                  end_gps_ns: int | None = None) -> pd.DataFrame:
-    """Per receiver and interval: ``interval_start_gps_ns``, ``epochs``, ``usable``, ``expected``
-    (``interval_s`` over the receiver's median epoch interval), ``availability`` = usable / expected."""
-    if not interval_s > 0:
-        raise InputDataError(f"interval == {interval_s}, must be > 0 s", "interval_s")
-    width = int(round(interval_s * NS_PER_S))
+    """Per receiver and bin of ``bin_s``: ``interval_start_gps_ns``, ``epochs``, ``usable``, ``expected``
+    (the bin's time from the receiver's first epoch on over its median epoch interval: the time before its
+    first epoch is not counted against it), ``availability`` = usable / expected."""
+    if not bin_s > 0:
+        raise InputError(f"{{bin_s}} == {bin_s:g}, must be > 0 s", fields=("bin_s",))
+    width = int(round(bin_s * NS_PER_S))
     frame = epochs(path, receiver, start_gps_ns, end_gps_ns)
     rows = []
     for name, mine in frame.groupby("receiver", sort=True):
         gps = mine["gps_ns"].to_numpy()
         step = int(np.median(np.diff(gps))) if gps.size > 1 else NS_PER_S
-        expected = width / step
         bins = gps // width
         usable = mine["usable"].to_numpy()
         for b in np.unique(bins):
             sel = bins == b
+            covered = width - max(int(gps[0]) - int(b * width), 0)  # the first bin: from its first epoch
+            expected = max(covered / step, 1.0)
             rows.append((name, int(b * width), int(sel.sum()), int(usable[sel].sum()), expected,
                          min(float(usable[sel].sum()) / expected, 1.0)))
     return pd.DataFrame(rows, columns=["receiver", "interval_start_gps_ns", "epochs", "usable", "expected",

@@ -2,7 +2,7 @@
 prometheus_client (one series per receiver and quantity, label ``receiver``).
 
 Gauges per receiver: link up, usable, stale, age of the last epoch (s), fix mode, satellites, GDOP,
-clock bias (s), clock drift (s/s), qErr (s), GPS - UTC (s), alarm, dissent; counters per receiver:
+clock bias (s), clock drift (s/s), qErr (s), GPS - UTC (s), alarm (no sample while untested), integrity tested, dissent; counters per receiver:
 epochs, alarm epochs, outages; and the monitor's acknowledged epochs and time-server samples. A quantity
 a receiver has not reported (NaN, or one its kind of source cannot give) has no sample: an absent series
 is "unknown", never a made-up zero.
@@ -33,8 +33,9 @@ GAUGES = (
      lambda r: _last(r, "clock_drift_s_per_s")),
     ("chronofuse_receiver_qerr_seconds", "quantization error of the coming 1PPS edge", lambda r: _last(r, "qerr_s")),
     ("chronofuse_receiver_gps_minus_utc_seconds", "GPS - UTC the receiver announces", lambda r: _last(r, "leap_s")),
-    ("chronofuse_receiver_alarm", "1 while the clock-bias integrity alarm is raised (latched)",
-     lambda r: None if r["last"] is None else float(r["last"].get("state") == "alarm" or bool(r["last"].get("alarm")))),
+    ("chronofuse_receiver_alarm", "1 while the clock-bias integrity alarm is raised (latched); no sample while "
+     "the test has not tested the receiver's epochs (training, training failed, no clock bias)", lambda r: _alarm(r)),
+    ("chronofuse_receiver_integrity_tested", "1 when the integrity test tested its last epoch", lambda r: _tested(r)),
     ("chronofuse_receiver_dissent", "1 while its UTC or leap count disagrees", lambda r: _last(r, "dissent")),
 )
 COUNTERS = (
@@ -44,6 +45,21 @@ COUNTERS = (
     ("chronofuse_receiver_reordered_epochs", "epochs put back in time order", lambda r: r["reordered"]),
     ("chronofuse_receiver_late_epochs", "epochs that came too late, left out", lambda r: r["late"]),
 )
+
+
+def _tested(entry: dict):
+    last = entry["last"]
+    return None if last is None else float(last.get("state") in ("ok", "alarm"))
+
+
+def _alarm(entry: dict):
+    """1 in alarm, 0 only when tested and found without one: an untested epoch is not "no alarm"."""
+    last = entry["last"]
+    if last is None:
+        return None
+    if last.get("state") == "alarm" or last.get("alarm"):
+        return 1.0
+    return 0.0 if last.get("state") == "ok" else None
 
 
 def _last(entry: dict, key: str, minimum: float | None = None):

@@ -57,6 +57,9 @@ def verdict(record: dict | None, *, stale: bool, link: str, age_s: float | None,
     receiver is stale, down or ended (each a reason). ``usable`` is None before any epoch."""
     if record is None:
         reasons = ["no epoch yet"] + ([f"link {link}"] if link in ("down", "ended") else [])
+        if stale:
+            reasons.append(f"stale: no epoch in {age_s:.1f} s since the link came up (> {stale_s:g} s)"
+                           if age_s is not None else "stale")
         return None, reasons
     reasons = [str(r) for r in (record.get("reasons") or [])]
     if not record.get("usable") and not reasons:
@@ -89,7 +92,9 @@ def status_document(monitor, events=(), chrony=None, now_s: float | None = None)
         age = monitor.age_s(name, mono)
         stale = monitor.is_stale(name)
         last = monitor.decided.get(name)  # decided: its verdict is known (a record may wait for it)
-        usable, reasons = verdict(last, stale=stale, link=link, age_s=age, stale_s=monitor.stale_s)
+        silent = monitor.silent_s(name, mono) if hasattr(monitor, "silent_s") else age
+        usable, reasons = verdict(last, stale=stale, link=link, age_s=age if last is not None else silent,
+                                  stale_s=monitor.stale_s)
         reordered, late = arrival_counts(monitor, name)
         receivers.append({
             "receiver": name,

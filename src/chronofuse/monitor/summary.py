@@ -53,7 +53,7 @@ def read_session(db_path) -> list[ReceiverSession]:
     from chronofuse.monitor.logquery import epochs, outages
 
     frame = epochs(db_path)
-    drops = outages(db_path)
+    drops = outages(db_path, unix=True)
     out = []
     for name, mine in frame.groupby("receiver", sort=True):
         gps = mine["gps_ns"].to_numpy(np.int64)

@@ -3,10 +3,11 @@ laid out for the terminal's width.
 
 It draws the status document (:mod:`chronofuse.monitor.status`), so the table, ``/api/status`` and the
 web page give one verdict. Layouts by width (columns kept whole; a receiver's name is shortened in the
-middle, never cut to three letters):
+middle, never cut to three letters; names that would shorten alike show where they differ):
 
 - 80 columns: receiver, link, age, fix, satellites, GDOP, ok (usable), bias, alarms, and why not usable;
 - 100 columns: adds the UTC time of day, the leap count and qErr;
+- under 80 columns: receiver, link, ok, alarms and why (the reasons kept readable);
 - 140 and more: the whole record (date and time, drift, flags, outages); the flags say ``late N`` when N epochs
   came too late to be put back in order and were left out.
 
@@ -17,6 +18,7 @@ one it has not sent ``-``.
 from __future__ import annotations
 
 import math
+import os
 
 from rich.table import Table
 from rich.text import Text
@@ -30,7 +32,8 @@ _LAYOUTS = (
            "alarms", "outages", "flags", "why")),
     (100, ("receiver", "link", "age", "fix", "sats", "gdop", "ok", "utc_time", "leap", "bias", "qerr", "alarms",
            "why")),
-    (0, ("receiver", "link", "age", "fix", "sats", "gdop", "ok", "bias", "alarms", "why")),
+    (80, ("receiver", "link", "age", "fix", "sats", "gdop", "ok", "bias", "alarms", "why")),
+    (0, ("receiver", "link", "ok", "alarms", "why")),  # narrower: the verdict and why, readable
 )
 _HEADERS = {"receiver": "receiver", "link": "link", "age": "age s", "fix": "fix", "sats": "sv", "gdop": "GDOP",
             "ok": "ok", "utc_full": "UTC", "utc_time": "UTC", "leap": "leap", "bias": "bias ns",
@@ -58,7 +61,29 @@ def _short(name: str, width: int) -> str:
     return name[: (keep + 1) // 2] + "…" + name[len(name) - keep // 2:]
 
 
-def _cells(entry: dict, name_width: int) -> dict:
+def _distinct(names: list[str], width: int) -> dict[str, str]:
+    """Each name shortened within ``width`` (:func:`_short`); names whose shortenings would be equal (udev
+    by-id names differing only in a serial number in their middle) show the part where they differ."""
+    out = {n: _short(n, width) for n in names}
+    groups: dict[str, list[str]] = {}
+    for n in names:
+        groups.setdefault(out[n], []).append(n)
+    for group in groups.values():
+        if len(set(group)) < 2:
+            continue
+        prefix = len(os.path.commonprefix(group))
+        suffix = len(os.path.commonprefix([n[::-1] for n in group]))
+        for n in group:
+            end = max(len(n) - suffix, prefix + 1)
+            room = width - 2
+            begin = max(0, min(prefix - max((room - (end - prefix)) // 2, 0), len(n) - room))
+            piece = n[begin:begin + room]
+            out[n] = ("…" if begin > 0 else "") + piece + ("…" if begin + room < len(n) else "")
+            out[n] = out[n][:width]
+    return out
+
+
+def _cells(entry: dict, name_width: int, shown: str | None = None) -> dict:
     last = entry["last"] or {}
     missing = set(entry["unavailable"])
 
@@ -69,6 +94,8 @@ def _cells(entry: dict, name_width: int) -> dict:
     flags = []
     if last.get("state") == "alarm" or last.get("alarm"):
         flags.append("[red]ALARM[/red]")
+    elif last and last.get("state") not in ("ok", "alarm"):
+        flags.append("[yellow]untested[/yellow]")  # never shown as "no alarm": the test has not run
     if last.get("dissent"):
         flags.append("[yellow]dissent[/yellow]")
     if last.get("jump"):
@@ -81,7 +108,7 @@ def _cells(entry: dict, name_width: int) -> dict:
     pending = last.get("leap_pending") or 0
     link = {"up": "[green]up[/green]", "down": "[red]down[/red]"}.get(entry["link"], entry["link"])
     return {
-        "receiver": _short(entry["receiver"], name_width),
+        "receiver": shown if shown is not None else _short(entry["receiver"], name_width),
         "link": link,
         "age": _num(entry["age_s"], 1.0, "{:.1f}"),
         "fix": _MODES.get(last.get("fix_mode", 0), "?"),
@@ -117,7 +144,8 @@ def receiver_table(monitor, width: int | None = None, doc: dict | None = None) -
         table.add_column(_HEADERS[col], justify="left" if col in _LEFT else "right", no_wrap=not wrap,
                          overflow="fold" if wrap else "ellipsis", ratio=1 if wrap else None,
                          min_width=12 if wrap else None)
+    shown = _distinct([e["receiver"] for e in doc["receivers"]], name_width)
     for entry in doc["receivers"]:
-        cells = _cells(entry, name_width)
+        cells = _cells(entry, name_width, shown[entry["receiver"]])
         table.add_row(*(Text.from_markup(cells[c]) if c not in ("receiver", "why") else Text(cells[c]) for c in cols))
     return table
