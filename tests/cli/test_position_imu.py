@@ -163,3 +163,66 @@ def test_the_ins_options_need_the_imu_log_with_obs(esbc):
     del args[i:i + 2]
     line = _one_error_line(runner.invoke(app, args + ["--coupling", "tight"]))
     assert "--coupling" in line and "--imu" in line
+
+
+def _moved(log_path, tmp_path, name, first_s, change):
+    """The log with ``change(frame, rows)`` applied to its samples from the first epoch for ``first_s`` s."""
+    frame = pd.read_csv(log_path, dtype={"gps_ns": "int64"})
+    t0 = int(frame["gps_ns"].iloc[0]) + 60 * NS_PER_S  # the first epoch: the INS start
+    rows = (frame["gps_ns"] >= t0) & (frame["gps_ns"] < t0 + int(first_s * NS_PER_S))
+    change(frame, rows)
+    out = tmp_path / name
+    frame.to_csv(out, index=False, float_format="%.10g")
+    return out
+
+
+def _roll(rate):
+    def change(frame, rows):
+        k = np.arange(int(rows.sum())) / RATE_HZ
+        # rolling at ``rate`` about x: the measured rate, and gravity turning in the body's y-z plane
+        frame.loc[rows, "gyro_x_rad_per_s"] += rate
+        a = rate * k
+        y, z = frame.loc[rows, "accel_y_m_per_s2"].to_numpy(), frame.loc[rows, "accel_z_m_per_s2"].to_numpy()
+        frame.loc[rows, "accel_y_m_per_s2"] = np.cos(a) * y + np.sin(a) * z
+        frame.loc[rows, "accel_z_m_per_s2"] = -np.sin(a) * y + np.cos(a) * z
+    return change
+
+
+def _move(frame, rows):
+    k = np.arange(int(rows.sum())) / RATE_HZ
+    frame.loc[rows, "gyro_z_rad_per_s"] += 0.3
+    frame.loc[rows, "accel_x_m_per_s2"] += 1.5 * np.sin(k)
+
+
+def _in_g(frame, rows):
+    for ax in "xyz":
+        frame[f"accel_{ax}_m_per_s2"] /= 9.80665
+
+
+@pytest.mark.parametrize("name, change, said", [
+    ("rolling.csv", _roll(0.05), "mean angular rate"), ("rolling_slowly.csv", _roll(0.005), "varies by"),
+    ("moving.csv", _move, "mean angular rate"), ("in_g.csv", _in_g, "in g under _m_per_s2 columns?"),
+])
+def test_a_log_not_at_rest_at_the_ins_start_is_refused_naming_it(esbc, log_path, tmp_path, name, change, said):
+    moved = _moved(log_path, tmp_path, name, 20, change)
+    line = _one_error_line(runner.invoke(app, _args(esbc, moved, end=300)))
+    assert name in line and said in line and "at rest" in line and "NaN" not in line
+
+
+def test_a_log_moving_before_the_ins_start_only_is_accepted(esbc, log_path, tmp_path):
+    """The window is the INS start's, not the log's first seconds (here a minute before the first epoch)."""
+    frame = pd.read_csv(log_path, dtype={"gps_ns": "int64"})
+    early = frame["gps_ns"] < int(frame["gps_ns"].iloc[0]) + 30 * NS_PER_S
+    _move(frame, early)
+    out = tmp_path / "moved_early.csv"
+    frame.to_csv(out, index=False, float_format="%.10g")
+    result = runner.invoke(app, _args(esbc, out, end=300) + ["--json"])
+    assert result.exit_code == 0, result.output
+
+
+def test_a_log_below_ten_hertz_is_refused_naming_it_and_its_rate(esbc, log_path, tmp_path):
+    frame = pd.read_csv(log_path, dtype={"gps_ns": "int64"})
+    slow = tmp_path / "one_hertz.csv"
+    frame.iloc[::10].to_csv(slow, index=False, float_format="%.10g")
+    line = _one_error_line(runner.invoke(app, _args(esbc, slow, end=300)))
+    assert "one_hertz.csv" in line and "1 Hz" in line and "--imu-rate" not in line

@@ -16,14 +16,20 @@ within ``dt / 2`` of it. Samples the log lacks (a gap) are held from the last sa
 another receiver) is refused naming it.
 
 Start (a coarse static alignment): position and receiver clock from the first single-point fix on the
-covered span, velocity zero, roll and pitch from the mean specific force of the log's first
-:data:`ALIGNMENT_S` seconds, heading by gyrocompassing from the mean angular rate over the same samples
+covered span, velocity zero, roll and pitch from the mean specific force of the :data:`ALIGNMENT_S` seconds
+of the log from that fix's epoch (the INS start), heading by gyrocompassing from the mean angular rate over
+the same samples
 (meaningful only when the gyro biases are well below the Earth rate; the heading's initial 1-sigma is
 :data:`HEADING_SIGMA_RAD`); the gyro biases are taken as the mean rate less the Earth rate in that attitude
 (left: at most the Earth rate, 7.3e-5 rad/s, where an industrial gyro's turn-on bias is 3.5e-3 rad/s), the
 accelerometer bias along the vertical as the mean specific force less normal gravity (left: the local
 gravity anomaly, about 0.1 mg); both are removed from the samples and the filters estimate the rest. The
-antenna must be at rest over those seconds.
+antenna must be at rest over those seconds: :func:`check_at_rest` refuses, naming the log, a window whose
+mean rate exceeds the Earth rate by more than 3 gyro turn-on biases of the grade (at least 1e-4 rad/s; for
+industrial about 0.01 rad/s), whose mean specific force is more than 0.5 m/s^2 (or 5 accelerometer turn-on
+biases) from normal gravity (a moving body, or accelerometers in g), or whose samples scatter by more than
+10 times the grade's white noise (at least 1e-3 rad/s and 0.05 m/s^2). A log below :data:`MIN_RATE_HZ` is
+refused naming it and its rate.
 """
 
 from __future__ import annotations
@@ -38,7 +44,7 @@ import pymap3d
 from chronofuse.timescale import NS_PER_S, gps_ns_to_datetime64
 from chronofuse.validation import InputDataError, InputWarning, invalid
 
-__all__ = ["COUPLINGS", "ALIGNMENT_S", "HEADING_SIGMA_RAD", "AlignedImu", "align_imu", "static_alignment",
+__all__ = ["COUPLINGS", "ALIGNMENT_S", "HEADING_SIGMA_RAD", "MIN_RATE_HZ", "alignment_window", "check_at_rest", "AlignedImu", "align_imu", "static_alignment",
            "ins_positions", "InsSolution", "as_point_positions", "ins_statistics", "ins_from_files"]
 
 #: The couplings :func:`ins_positions` offers.
@@ -128,17 +134,76 @@ def align_imu(log, epochs_gps_ns, obs_source: str = "") -> AlignedImu:
                       held=(~found).sum(-1), gaps=gaps)
 
 
-def static_alignment(log, lat_rad: float, height_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(c_bn, gyro_bias, accel_bias)`` of a body at rest over the log's first :data:`ALIGNMENT_S` s: roll and
+#: The lowest IMU rate the filters integrate (Hz).
+MIN_RATE_HZ = 10.0
+#: At-rest test of the alignment window (:func:`check_at_rest`): the mean rate may exceed the Earth rate by
+#: this many times the grade's gyro turn-on bias (1-sigma), and by at least :data:`REST_RATE_FLOOR_RAD_PER_S`.
+REST_BIAS_SIGMAS = 3.0
+REST_RATE_FLOOR_RAD_PER_S = 1e-4
+#: ... the mean specific force's magnitude may differ from normal gravity by this (m/s^2), or by 5 times the
+#: grade's accelerometer turn-on bias where that is more.
+REST_GRAVITY_M_PER_S2 = 0.5
+#: ... and the samples' standard deviation (each axis) may reach this many times the grade's white noise at
+#: the log's rate, and at least the floors (a rate, rad/s; a specific force, m/s^2).
+REST_NOISE_TIMES = 10.0
+REST_STD_FLOORS = (1e-3, 0.05)
+
+
+def alignment_window(log, start_ns=None) -> slice:
+    """The samples of the static alignment: :data:`ALIGNMENT_S` s of ``log`` from ``start_ns`` (the INS
+    start; None: the log's first sample)."""
+    first = 0 if start_ns is None else int(np.searchsorted(log.gps_ns, int(start_ns) - int(NS_PER_S / log.rate_hz) // 2))
+    first = min(first, log.gps_ns.size - 1)
+    n = max(1, int(round(ALIGNMENT_S * log.rate_hz)))
+    return slice(first, min(log.gps_ns.size, first + n))
+
+
+def check_at_rest(log, imu, lat_rad: float, height_m: float, start_ns=None) -> None:
+    """Raise :class:`InputDataError` naming the log when its alignment window (:func:`alignment_window`) is
+    not at rest for an IMU of model ``imu``: a mean rate beyond the Earth rate plus :data:`REST_BIAS_SIGMAS`
+    turn-on biases (a turning body), a mean specific force whose magnitude is not normal gravity (a moving
+    body, or accelerometers in g), or samples scattered beyond the noise (a rolling or vibrating body)."""
+    from chronofuse.positioning.earth import OMEGA_IE_RAD_PER_S, normal_gravity_m_per_s2
+
+    win = alignment_window(log, start_ns)
+    w, f = log.gyro_rad_per_s[win], log.accel_m_per_s2[win]
+    when = f"the {ALIGNMENT_S:g} s from {_when(log.gps_ns[win.start])} GPS"
+    rest = "the INS start needs the IMU at rest"
+    rate = float(np.linalg.norm(w.mean(0)))
+    rate_limit = OMEGA_IE_RAD_PER_S + max(REST_BIAS_SIGMAS * imu.gyro.turn_on_bias, REST_RATE_FLOOR_RAD_PER_S)
+    if not rate <= rate_limit:
+        raise InputDataError(f"mean angular rate {rate:.3g} rad/s over {when}, beyond the {rate_limit:.3g} rad/s of "
+                             f"a body at rest for the grade's gyro bias: {rest}", log.source)
+    g = normal_gravity_m_per_s2(lat_rad, height_m)
+    force = float(np.linalg.norm(f.mean(0)))
+    g_limit = max(REST_GRAVITY_M_PER_S2, 5.0 * imu.accel.turn_on_bias)
+    if not abs(force - g) <= g_limit:
+        hint = " (accelerometers in g under _m_per_s2 columns?)" if 0.5 < force < 1.5 else ""
+        raise InputDataError(f"mean specific force {force:.4g} m/s^2 over {when}, not normal gravity {g:.4g} "
+                             f"+- {g_limit:g} m/s^2{hint}: {rest}", log.source)
+    for name, x, sensor, floor, unit in (("angular rate", w, imu.gyro, REST_STD_FLOORS[0], "rad/s"),
+                                         ("specific force", f, imu.accel, REST_STD_FLOORS[1], "m/s^2")):
+        std = float(x.std(0).max()) if x.shape[0] > 1 else 0.0
+        limit = max(REST_NOISE_TIMES * sensor.white_density * math.sqrt(log.rate_hz), floor)
+        if not std <= limit:
+            raise InputDataError(f"the {name} varies by {std:.3g} {unit} (standard deviation) over {when}, beyond "
+                                 f"the {limit:.3g} {unit} of the grade's noise: {rest} (rolling or moving?)",
+                                 log.source)
+
+
+def static_alignment(log, lat_rad: float, height_m: float,
+                     start_ns=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(c_bn, gyro_bias, accel_bias)`` of a body at rest over :data:`ALIGNMENT_S` s of the log from
+    ``start_ns`` (None: its first sample; :func:`alignment_window`): roll and
     pitch from the mean specific force, heading from the mean angular rate (gyrocompassing), the gyro biases
     as the mean rate less the Earth rate in that attitude, the accelerometer bias along the vertical as the
     mean specific force's magnitude less normal gravity (the horizontal ones are absorbed by the levelling)."""
     from chronofuse.positioning.earth import earth_rate_ned, normal_gravity_m_per_s2
     from chronofuse.positioning.ins import euler_to_dcm
 
-    n = max(1, min(log.gps_ns.size, int(round(ALIGNMENT_S * log.rate_hz))))
-    f = log.accel_m_per_s2[:n].mean(0)
-    w = log.gyro_rad_per_s[:n].mean(0)
+    win = alignment_window(log, start_ns)
+    f = log.accel_m_per_s2[win].mean(0)
+    w = log.gyro_rad_per_s[win].mean(0)
     roll = math.atan2(-f[1], -f[2])
     pitch = math.atan2(f[0], math.hypot(f[1], f[2]))
     level = euler_to_dcm(roll, pitch, 0.0)  # body to a level frame of heading 0
@@ -198,6 +263,9 @@ def ins_positions(fixes, log, *, coupling: str = "loose", grade: str = "industri
     if grade not in IMU_GRADES:
         raise invalid("ins", grade, f"one of {', '.join(IMU_GRADES)}")
     imu = imu_grade(grade)
+    if not log.rate_hz >= MIN_RATE_HZ:
+        raise InputDataError(f"the IMU log's rate is {log.rate_hz:g} Hz: the INS needs at least {MIN_RATE_HZ:g} Hz",
+                             log.source)
     al = align_imu(log, fixes.gps_ns, obs_source)
     rows = np.where(al.observed >= 0, al.observed, 0)
     have = (al.observed >= 0) & np.isfinite(fixes.position_m[rows, 0])
@@ -211,7 +279,8 @@ def ins_positions(fixes, log, *, coupling: str = "loose", grade: str = "industri
     x0 = fixes.position_m[start_row]
     lat, lon, h = pymap3d.ecef2geodetic(*x0, deg=False)
     start = np.array([lat, lon, h])
-    c_bn, bg0, ba0 = static_alignment(log, lat, h)
+    check_at_rest(log, imu, lat, h, grid[0])
+    c_bn, bg0, ba0 = static_alignment(log, lat, h, grid[0])
     # the filters estimate what is left of the biases
     gyro, accel = (al.gyro[a + 1:] - bg0)[None], (al.accel[a + 1:] - ba0)[None]
     epochs = grid.size - 1
