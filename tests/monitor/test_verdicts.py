@@ -288,18 +288,25 @@ def test_a_receiver_labelling_its_time_a_whole_second_off_dissents_on_arrival(tm
     assert any(r["usable"] for r in honest)
 
 
-def test_epochs_held_for_a_verdict_are_logged_when_the_link_goes_down_and_when_the_run_ends():
-    # 4 epochs, then the receiver hangs up: its grid never learnt its interval (9 epochs), so they were held
+def _feed(name: str, duration_s: float, epochs: int, seed: int):
+    """A monitor of one TCP receiver run for ``duration_s`` on a thread, sent ``epochs`` epochs 0.1 s apart:
+    ``(receiver, acknowledged records, the monitor's thread)``."""
     rx = TcpReceiver()
     acked: list[dict] = []
-    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="brief")], KNOWN, on_ack=acked.extend)
-    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 4.0}, daemon=True)
+    mon = Monitor([TcpSource("127.0.0.1", rx.port, name=name)], KNOWN, on_ack=acked.extend)
+    runner = threading.Thread(target=mon.run, kwargs={"duration_s": duration_s}, daemon=True)
     runner.start()
+    rx.wait_client()
+    for data in ubx_epochs(_bias(epochs, seed), start_tow_s=200_000):
+        rx.send(data)
+        time.sleep(0.1)
+    return rx, acked, runner
+
+
+def test_epochs_held_for_a_verdict_are_logged_when_the_link_goes_down_and_when_the_run_ends():
+    # 4 epochs, then the receiver hangs up: its grid never learnt its interval (9 epochs), so they were held
+    rx, acked, runner = _feed("brief", 4.0, 4, 14)
     try:
-        rx.wait_client()
-        for data in ubx_epochs(_bias(4, 14), start_tow_s=200_000):
-            rx.send(data)
-            time.sleep(0.1)
         time.sleep(0.5)
         rx.drop()
         deadline = time.monotonic() + 3
@@ -311,16 +318,8 @@ def test_epochs_held_for_a_verdict_are_logged_when_the_link_goes_down_and_when_t
         runner.join(10)
         rx.close()
     # a receiver still talking when --duration ends: its last epoch (closed by nothing after it) is logged
-    rx = TcpReceiver()
-    acked = []
-    mon = Monitor([TcpSource("127.0.0.1", rx.port, name="talking")], KNOWN, on_ack=acked.extend)
-    runner = threading.Thread(target=mon.run, kwargs={"duration_s": 3.0}, daemon=True)
-    runner.start()
+    rx, acked, runner = _feed("talking", 3.0, 12, 15)
     try:
-        rx.wait_client()
-        for data in ubx_epochs(_bias(12, 15), start_tow_s=200_000):
-            rx.send(data)
-            time.sleep(0.1)
         runner.join(10)
         assert len(acked) == 12 and acked[-1]["gps_ns"] - acked[0]["gps_ns"] == 11 * NS_PER_S  # was 11
     finally:
