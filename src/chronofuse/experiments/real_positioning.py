@@ -123,6 +123,37 @@ def _no_fix_reason(fixes, options: SppOptions) -> str:
     return f"no epoch gives a fix: GDOP above {options.max_gdop:g} (or the solution failed) at every epoch"
 
 
+#: Fewer fixes than this share of the observation epochs is analysed, with a warning naming the span fixed (a
+#: navigation file covering part of the day gives fixes only there, and its statistics describe that part).
+FIX_SHARE_WARNING = 0.5
+
+
+def _warn_unused_systems(fixes, ok, systems, nav_source: str) -> None:
+    """Warn when a system asked for gave no satellite to any fix (its records serve none of the epochs: another
+    day's file, say, so a comparison with and without it compares the same fixes), and when fewer than
+    :data:`FIX_SHARE_WARNING` of the epochs have a fix."""
+    import warnings
+
+    from chronofuse.gnss.systems import system_names
+    from chronofuse.timescale import gps_ns_to_utc
+    from chronofuse.validation import InputWarning
+
+    used = np.isfinite(fixes.residual_m[ok])
+    for letter in systems:
+        cols = [k for k, name in enumerate(fixes.satellites) if name[:1] == letter]
+        if not used[:, cols].any():
+            warnings.warn(InputWarning(f"{system_names((letter,))} gave no satellite to any fix: none of its broadcast "
+                                       f"records in the navigation ({nav_source}) serves the observation epochs; the "
+                                       "fixes are the other systems' alone", fields=("nav",)), stacklevel=3)
+    share = float(ok.mean()) if ok.size else 0.0
+    if ok.any() and share < FIX_SHARE_WARNING:
+        fixed = fixes.gps_ns[ok]
+        warnings.warn(InputWarning(f"{int(ok.sum())} of {ok.size} epochs have a fix ({share:.0%}), from "
+                                   f"{str(gps_ns_to_utc(fixed[0]))[:19]} to {str(gps_ns_to_utc(fixed[-1]))[:19]} UTC: the "
+                                   f"statistics describe that span (does the navigation, {nav_source}, cover the "
+                                   "observations?)", fields=("nav",)), stacklevel=3)
+
+
 def position_from_files(obs_path, nav_paths, systems, *, options: SppOptions | None = None, start_s=None,
                         end_s=None, reference_m=None) -> tuple:
     """Read an observation file (RINEX 2 or 3, plain / gz / Hatanaka) and navigation files, and solve.
@@ -167,6 +198,7 @@ def position_from_files(obs_path, nav_paths, systems, *, options: SppOptions | N
                "mean_satellites": float(fixes.n_used[fixes.n_used > 0].mean()) if (fixes.n_used > 0).any() else 0.0,
                "unreadable_epochs": int(obs.n_unreadable_epochs)}
     ok = np.isfinite(fixes.position_m[:, 0])
+    _warn_unused_systems(fixes, ok, systems, nav.source)
     if ok.any():
         summary["mean_position_m"] = [float(v) for v in fixes.position_m[ok].mean(0)]
     if reference_m is not None:
