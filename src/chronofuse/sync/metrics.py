@@ -166,6 +166,8 @@ def time_error_statistics(te_s, rate_hz: float, mask: str | None = "prtc-b") -> 
     if mask is not None:
         clock = MASKS[mask]
         rm, rt = clock.mtie.check(m), clock.tdev.check(t)
+        # passed: a complete PASS; status also tells "incomplete" (taus the record does not cover) from "fail"
         out["mask"] = {"name": mask, "mtie_passed": bool(rm.passed), "tdev_passed": bool(rt.passed),
+                       "mtie_status": rm.status, "tdev_status": rt.status,
                        "evaluated": bool(rm.evaluated.any() or rt.evaluated.any())}
     return out
